@@ -1,0 +1,8 @@
+//! `shipcast deck`: placeholder, being written.
+
+#[derive(clap::Args, Debug)]
+pub struct Args {}
+
+pub fn run(_args: Args) -> anyhow::Result<()> {
+    anyhow::bail!("'shipcast deck' is not implemented yet")
+}

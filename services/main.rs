@@ -1,0 +1,74 @@
+//! The `shipcast` binary: argument parsing and dispatch to one module per service.
+//! Every service is thin wiring over the `shipcast` library.
+
+use clap::{Parser, Subcommand};
+use std::process::ExitCode;
+
+mod bench;
+mod crane;
+mod deck;
+mod eval;
+mod logging;
+mod paper;
+mod predictor;
+mod producer;
+mod run;
+mod simulate;
+mod train;
+
+/// Ship-motion prediction middleware: simulate, evaluate and forecast 6-DOF ship motion.
+#[derive(Parser, Debug)]
+#[command(name = "shipcast", version, about, propagate_version = true)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Simulate 6-DOF motion of a ship in irregular seas and write a motion CSV.
+    Simulate(simulate::Args),
+    /// Evaluate predictors on a motion CSV with the fixed protocol (DESIGN.md section 4).
+    Eval(eval::Args),
+    /// Fit per-DOF models for the predictor service and write them to a model file.
+    Train(train::Args),
+    /// Regenerate the paper's tables and figures (section 4 of Zhao, Xu, Kwan).
+    Paper(paper::Args),
+    /// Start the whole pipeline (producer, predictor, deck, crane) as separate processes.
+    Run(run::Args),
+    /// Publish motion samples over iceoryx2 (simulator or CSV replay).
+    Producer(producer::Args),
+    /// Subscribe to motion, forecast all six DOF, publish over iceoryx2 and zenoh.
+    Predictor(predictor::Args),
+    /// Helideck landing advisory from forecasts (co-located, iceoryx2).
+    Deck(deck::Args),
+    /// Crane-tip motion forecast (remote, zenoh).
+    Crane(crane::Args),
+    /// Benchmarks of the running system (latency).
+    Bench(bench::Args),
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    logging::init();
+    let result = match cli.command {
+        Command::Simulate(a) => simulate::run(a),
+        Command::Eval(a) => eval::run(a),
+        Command::Train(a) => train::run(a),
+        Command::Paper(a) => paper::run(a),
+        Command::Run(a) => run::run(a),
+        Command::Producer(a) => producer::run(a),
+        Command::Predictor(a) => predictor::run(a),
+        Command::Deck(a) => deck::run(a),
+        Command::Crane(a) => crane::run(a),
+        Command::Bench(a) => bench::run(a),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            // One line, no backtrace: the chain of causes joined by ": ".
+            eprintln!("error: {e:#}");
+            ExitCode::from(2)
+        }
+    }
+}

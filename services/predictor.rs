@@ -1,0 +1,8 @@
+//! `shipcast predictor`: placeholder, being written.
+
+#[derive(clap::Args, Debug)]
+pub struct Args {}
+
+pub fn run(_args: Args) -> anyhow::Result<()> {
+    anyhow::bail!("'shipcast predictor' is not implemented yet")
+}

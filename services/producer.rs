@@ -1,0 +1,8 @@
+//! `shipcast producer`: placeholder, being written.
+
+#[derive(clap::Args, Debug)]
+pub struct Args {}
+
+pub fn run(_args: Args) -> anyhow::Result<()> {
+    anyhow::bail!("'shipcast producer' is not implemented yet")
+}

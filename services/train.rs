@@ -1,0 +1,8 @@
+//! `shipcast train`: placeholder, being written.
+
+#[derive(clap::Args, Debug)]
+pub struct Args {}
+
+pub fn run(_args: Args) -> anyhow::Result<()> {
+    anyhow::bail!("'shipcast train' is not implemented yet")
+}

@@ -1,0 +1,23 @@
+//! shipcast: predicts the six motions of a ship 5 to 25 seconds ahead and delivers the forecasts
+//! over iceoryx2 (local, zero-copy) and zenoh (remote).
+//!
+//! The library holds everything; the `shipcast` binary (in `services/`) is thin wiring.
+//! - [`dof`]: the six degrees of freedom and their names.
+//! - [`motion_csv`]: the motion CSV format (DESIGN.md 2.3).
+//! - [`signal`]: resampling (anti-alias low-pass, decimation).
+//! - [`predict`]: the [`predict::Predictor`] trait and MCA, Wiener, AR-LMS, MLP and baselines.
+//! - [`eval`]: the evaluation protocol (DESIGN.md 4).
+//! - [`sim`]: the ship-motion simulator (sea spectra, RAOs, time series).
+//! - [`payload`]: the wire payloads `MotionSample` and `Forecast`.
+//! - [`transport`]: service names, iceoryx2 and zenoh plumbing.
+
+pub mod dof;
+pub mod eval;
+pub mod motion_csv;
+pub mod payload;
+pub mod predict;
+pub mod signal;
+pub mod sim;
+pub mod transport;
+
+pub use dof::Dof;

@@ -1,0 +1,1 @@
+//! Placeholder: motion CSV reader/writer (issue 2).

@@ -1,0 +1,1 @@
+//! Placeholder: wire payloads (issue 5).

@@ -1,0 +1,1 @@
+//! Placeholder: Levinson-Durbin solver (issue 2).

@@ -1,0 +1,1 @@
+//! Placeholder: shared test suite every predictor passes (issue 2).
