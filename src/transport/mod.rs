@@ -1,1 +1,12 @@
-//! Placeholder module, being written.
+//! Transports: service and key naming, iceoryx2 (local, zero-copy) and zenoh (remote) plumbing,
+//! message counters and the monotonic clock used for latency stamps.
+
+pub mod clock;
+pub mod counters;
+pub mod iox;
+pub mod naming;
+pub mod zenoh;
+
+pub use clock::monotonic_ns;
+pub use counters::{Counters, SeqCheck, SeqTracker};
+pub use naming::Names;
