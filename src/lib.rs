@@ -8,12 +8,15 @@
 //! - [`predict`]: the [`predict::Predictor`] trait and MCA, Wiener, AR-LMS, MLP and baselines.
 //! - [`eval`]: the evaluation protocol (DESIGN.md 4).
 //! - [`sim`]: the ship-motion simulator (sea spectra, RAOs, time series).
+//! - [`paper`]: the paper study (`shipcast paper`).
 //! - [`payload`]: the wire payloads `MotionSample` and `Forecast`.
 //! - [`transport`]: service names, iceoryx2 and zenoh plumbing.
 
+pub mod bench;
 pub mod dof;
 pub mod eval;
 pub mod motion_csv;
+pub mod paper;
 pub mod payload;
 pub mod predict;
 pub mod signal;

@@ -1,0 +1,14 @@
+//! The paper study behind `shipcast paper`: regenerates Tables 1-3 and the figures of Zhao, Xu
+//! and Kwan on the simulated destroyer, with the context the paper lacks (skill against
+//! persistence and zero, the optimal linear predictor from the exact autocorrelation as a bound,
+//! a line-spectrum sea against a realistic dense sea).
+//!
+//! - [`paper_values`]: the paper's published numbers.
+//! - [`tables`]: Markdown tables and number formats.
+//! - [`figures`]: SVG line charts.
+//! - [`bound`]: the optimal linear predictor from the exact autocorrelation.
+
+pub mod bound;
+pub mod figures;
+pub mod paper_values;
+pub mod tables;
