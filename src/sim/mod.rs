@@ -1,1 +1,48 @@
-//! Placeholder module, being written.
+//! The ship-motion simulator: irregular seas from wave spectra, ship responses from RAOs, and
+//! streaming 6-DOF time series with their exact statistics.
+//!
+//! - [`spectrum`]: JONSWAP (DNV) and ITTC spectra.
+//! - [`spreading`]: cos^2 or long-crested seas.
+//! - [`sea`]: the wave components drawn from a seed.
+//! - [`hull`], [`rao`], [`rao_table`]: closed-form RAOs of a hull, or a loaded RAO table.
+//! - [`scenario`]: the `paper` and ss3..ss6 presets and [`SimConfig`].
+//! - [`motion`]: [`ShipMotion`], sampled at any instant or streamed at a fixed rate.
+//! - [`autocorr`]: exact variance, autocorrelation and encounter spectra of the record.
+//! - [`plot`]: an SVG figure of the spectra and the first minute of motion.
+//!
+//! Axes and signs are those of [`rao`] (x forward, y starboard, z down); wave elevation is
+//! positive up.
+
+pub mod autocorr;
+pub mod hull;
+pub mod motion;
+pub mod rao;
+pub mod rao_table;
+pub mod scenario;
+pub mod sea;
+pub mod spectrum;
+pub mod spreading;
+
+pub use autocorr::Channel;
+pub use hull::Hull;
+pub use motion::{build_rao, MotionPoint, MotionStream, ShipMotion};
+pub use rao::{encounter_omega, ClosedFormRao, Rao, Response};
+pub use rao_table::{RaoTable, ScaledRaoTable};
+pub use scenario::{RaoSpec, Scenario, SimConfig, KNOT_MPS};
+pub use sea::{Components, WaveComponent};
+pub use spectrum::{Spectrum, SpectrumKind};
+pub use spreading::Spreading;
+
+/// Acceleration of gravity [m/s^2].
+pub const G: f64 = 9.81;
+
+/// Why a simulation could not be set up.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum SimError {
+    /// A parameter is out of its physical range or unknown.
+    #[error("invalid simulation setting: {0}")]
+    Config(String),
+    /// An RAO table could not be read or is malformed.
+    #[error("RAO table: {0}")]
+    Table(String),
+}

@@ -1,0 +1,153 @@
+//! Named scenarios and the simulator's configuration.
+//!
+//! Sea-state presets are the Bales (1983) North Atlantic means (Hs) and most probable peak
+//! periods (Tp). The `paper` scenario is the study of Zhao, Xu and Kwan: their "sea state 3,
+//! about 10 ft" is inconsistent (10 ft = 3.05 m is sea state 5), so it uses Hs 3.05 m with the
+//! SS5 peak period 9.7 s, a DDG-51-like hull at 11 kn with waves 15 deg off the bow.
+//! Every preset uses the same ship operation (11 kn, heading 165 deg) unless overridden.
+
+use super::{Hull, SimError, SpectrumKind, Spreading};
+use serde::{Deserialize, Serialize};
+use std::path::PathBuf;
+
+/// Metres per second in one knot.
+pub const KNOT_MPS: f64 = 1852.0 / 3600.0;
+
+/// A named starting point for a simulation.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Scenario {
+    Paper,
+    Ss3,
+    Ss4,
+    Ss5,
+    Ss6,
+}
+
+impl std::str::FromStr for Scenario {
+    type Err = SimError;
+    fn from_str(s: &str) -> Result<Self, SimError> {
+        match s.trim().to_ascii_lowercase().as_str() {
+            "paper" => Ok(Scenario::Paper),
+            "ss3" => Ok(Scenario::Ss3),
+            "ss4" => Ok(Scenario::Ss4),
+            "ss5" => Ok(Scenario::Ss5),
+            "ss6" => Ok(Scenario::Ss6),
+            other => Err(SimError::Config(format!(
+                "unknown scenario '{other}' (expected paper, ss3, ss4, ss5 or ss6)"
+            ))),
+        }
+    }
+}
+
+impl Scenario {
+    /// (Hs [m], Tp [s]).
+    pub fn sea_state(self) -> (f64, f64) {
+        match self {
+            Scenario::Paper => (3.05, 9.7),
+            Scenario::Ss3 => (0.88, 7.5),
+            Scenario::Ss4 => (1.88, 8.8),
+            Scenario::Ss5 => (3.25, 9.7),
+            Scenario::Ss6 => (5.0, 12.4),
+        }
+    }
+}
+
+/// Where the RAOs come from.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum RaoSpec {
+    /// Closed-form RAOs of a hull given by its main particulars.
+    ClosedForm { hull: Hull },
+    /// A CSV table; with both lengths given it is Froude-scaled from `table_length_m` to
+    /// `hull_length_m`.
+    Table {
+        path: PathBuf,
+        table_length_m: Option<f64>,
+        hull_length_m: Option<f64>,
+    },
+}
+
+/// Everything that defines a simulated record (the record rate is chosen when streaming).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SimConfig {
+    pub spectrum: SpectrumKind,
+    pub hs_m: f64,
+    pub tp_s: f64,
+    /// JONSWAP peak enhancement; None = DNV value from Tp / sqrt(Hs).
+    pub gamma: Option<f64>,
+    pub speed_kn: f64,
+    /// Mean wave direction relative to the ship [deg], 180 = head seas.
+    pub heading_deg: f64,
+    pub spreading: Spreading,
+    /// Some(N): a line spectrum of N components on a fixed frequency grid.
+    pub components: Option<usize>,
+    pub seed: u64,
+    pub rao: RaoSpec,
+}
+
+impl Default for SimConfig {
+    fn default() -> Self {
+        SimConfig::scenario(Scenario::Paper)
+    }
+}
+
+impl SimConfig {
+    /// The configuration of a named scenario with the default DTMB 5415 hull.
+    pub fn scenario(scenario: Scenario) -> Self {
+        let (hs_m, tp_s) = scenario.sea_state();
+        SimConfig {
+            spectrum: SpectrumKind::Jonswap,
+            hs_m,
+            tp_s,
+            gamma: None,
+            speed_kn: 11.0,
+            heading_deg: 165.0,
+            spreading: Spreading::Cos2,
+            components: None,
+            seed: 1,
+            rao: RaoSpec::ClosedForm {
+                hull: Hull::dtmb5415(),
+            },
+        }
+    }
+
+    /// Ship speed [m/s].
+    pub fn speed_mps(&self) -> f64 {
+        self.speed_kn * KNOT_MPS
+    }
+
+    /// Checks the ship operation (the sea is checked when the spectrum is built).
+    pub fn validate(&self) -> Result<(), SimError> {
+        if !(self.speed_kn.is_finite() && self.speed_kn >= 0.0) {
+            return Err(SimError::Config(format!(
+                "speed must be >= 0 kn, got {}",
+                self.speed_kn
+            )));
+        }
+        if !self.heading_deg.is_finite() {
+            return Err(SimError::Config(
+                "heading must be a finite number of degrees".into(),
+            ));
+        }
+        if let RaoSpec::ClosedForm { hull } = &self.rao {
+            hull.validate()?;
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn scenarios_parse_and_paper_is_ten_feet() {
+        let c = SimConfig::scenario("PAPER".parse().unwrap());
+        assert!((c.hs_m - 10.0 * 0.3048).abs() < 0.01);
+        assert_eq!("ss6".parse::<Scenario>().unwrap().sea_state(), (5.0, 12.4));
+        let e = "ss9".parse::<Scenario>().unwrap_err().to_string();
+        assert!(e.contains("unknown scenario 'ss9'"), "{e}");
+        assert!((SimConfig::default().speed_mps() - 5.659).abs() < 0.001);
+    }
+}
