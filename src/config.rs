@@ -1,0 +1,423 @@
+//! The pipeline configuration (`--config FILE.toml`) shared by `shipcast run` and every service.
+//!
+//! Every key has a default, so an empty file (or none) is a working pipeline; an unknown key is
+//! an error that names it. Command-line flags override the file.
+
+use crate::predict::{Method, PredictorConfig};
+use crate::sim::Scenario;
+use crate::transport::naming::{NameError, Names, DEFAULT_VESSEL};
+use crate::transport::zenoh::ZenohSettings;
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+
+/// zenoh endpoint the predictor listens on by default and the consumers connect to. Loopback
+/// and an uncommon port: a fresh clone runs without touching the network or a local zenohd.
+pub const DEFAULT_ZENOH_ENDPOINT: &str = "tcp/127.0.0.1:17447";
+
+/// Why a configuration could not be loaded.
+#[derive(Debug, thiserror::Error)]
+pub enum ConfigError {
+    #[error("config {path}: {source}")]
+    Read {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+    #[error("config {path}: {message}")]
+    Parse { path: PathBuf, message: String },
+    #[error("config: {0}")]
+    Invalid(String),
+    #[error("config: {0}")]
+    Name(#[from] NameError),
+}
+
+/// The whole pipeline.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct PipelineConfig {
+    /// Optional prefix of every service name and key, keeping parallel pipelines apart.
+    pub instance: Option<String>,
+    /// Vessel name in service names and keys.
+    pub vessel: String,
+    pub zenoh: ZenohConfig,
+    pub producer: ProducerConfig,
+    pub predictor: PredictorServiceConfig,
+    pub deck: DeckConfig,
+    pub crane: CraneConfig,
+}
+
+impl Default for PipelineConfig {
+    fn default() -> Self {
+        Self {
+            instance: None,
+            vessel: DEFAULT_VESSEL.to_string(),
+            zenoh: ZenohConfig::default(),
+            producer: ProducerConfig::default(),
+            predictor: PredictorServiceConfig::default(),
+            deck: DeckConfig::default(),
+            crane: CraneConfig::default(),
+        }
+    }
+}
+
+/// zenoh endpoints: the predictor listens, consumers connect.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ZenohConfig {
+    /// Endpoints the publishing side (predictor) listens on.
+    pub listen: Vec<String>,
+    /// Extra endpoints every process connects to (a router or remote peer).
+    pub connect: Vec<String>,
+    /// UDP multicast scouting (off by default: explicit endpoints only).
+    pub multicast_scouting: bool,
+}
+
+impl Default for ZenohConfig {
+    fn default() -> Self {
+        Self {
+            listen: vec![DEFAULT_ZENOH_ENDPOINT.to_string()],
+            connect: Vec::new(),
+            multicast_scouting: false,
+        }
+    }
+}
+
+impl ZenohConfig {
+    /// Settings of the process that publishes (listens on `listen`).
+    pub fn publisher_side(&self) -> ZenohSettings {
+        ZenohSettings {
+            listen: self.listen.clone(),
+            connect: self.connect.clone(),
+            multicast_scouting: self.multicast_scouting,
+        }
+    }
+
+    /// Settings of a consumer: connects to the publisher's listen endpoints and the extra ones.
+    pub fn consumer_side(&self) -> ZenohSettings {
+        let mut connect = self.listen.clone();
+        connect.extend(self.connect.iter().cloned());
+        ZenohSettings {
+            listen: Vec::new(),
+            connect,
+            multicast_scouting: self.multicast_scouting,
+        }
+    }
+}
+
+/// Where motion comes from and how fast it is published.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ProducerConfig {
+    /// Replay this motion CSV instead of simulating.
+    pub input: Option<PathBuf>,
+    /// Simulated sea and ship.
+    pub scenario: Scenario,
+    pub seed: u64,
+    /// Sample rate of the simulator [Hz].
+    pub rate_hz: f64,
+    /// Pacing: 1 = real time, 100 = a hundred times faster, 0 = as fast as possible.
+    pub speed: f64,
+    /// Stop after this much record time [s]; none = endless (simulator) or end of file.
+    pub duration_s: Option<f64>,
+}
+
+impl Default for ProducerConfig {
+    fn default() -> Self {
+        Self {
+            input: None,
+            scenario: Scenario::Paper,
+            seed: 1,
+            rate_hz: 8.0,
+            speed: 1.0,
+            duration_s: None,
+        }
+    }
+}
+
+/// The forecasting service.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct PredictorServiceConfig {
+    pub method: Method,
+    /// Past values per forecast (MCA window length n, of which n - horizon are past values).
+    pub order: usize,
+    /// Forecast steps (at most 128).
+    pub horizon: usize,
+    /// Rate the motion is decimated to before forecasting [Hz]; must divide the input rate.
+    pub sample_rate_hz: f64,
+    /// Start from this model file (`shipcast train`) instead of training on simulated history.
+    pub model: Option<PathBuf>,
+    /// Simulated history used for the start-up model [s of record time].
+    pub warmup_s: f64,
+    /// Retrain from live data every this many seconds of record time (0 = never).
+    pub retrain_every_s: f64,
+    /// Live history kept for retraining [values at sample_rate_hz]; its last `holdout`
+    /// values measure sigma and are not trained on.
+    pub retrain_window: usize,
+    pub holdout: usize,
+    /// Report the producer as stale after this much record time without samples [s].
+    pub stale_after_s: f64,
+    /// Spin on the subscriber instead of sleeping until woken (lowest latency, one core busy).
+    pub busy_poll: bool,
+    /// Further predictor settings (MCA shift and energy, LMS gain ...); order and horizon
+    /// above take precedence.
+    pub tuning: PredictorConfig,
+}
+
+impl Default for PredictorServiceConfig {
+    fn default() -> Self {
+        Self {
+            method: Method::Mca,
+            order: 200,
+            horizon: 50,
+            sample_rate_hz: 2.0,
+            model: None,
+            warmup_s: 3000.0,
+            retrain_every_s: 600.0,
+            retrain_window: 4000,
+            holdout: 600,
+            stale_after_s: 2.0,
+            busy_poll: false,
+            tuning: PredictorConfig::default(),
+        }
+    }
+}
+
+impl PredictorServiceConfig {
+    /// The predictor settings with this section's order and horizon.
+    pub fn predictor_config(&self) -> PredictorConfig {
+        PredictorConfig {
+            order: self.order,
+            horizon: self.horizon,
+            ..self.tuning.clone()
+        }
+    }
+}
+
+/// Helideck landing advisory.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct DeckConfig {
+    /// Helideck point from the centre of gravity [m], ship axes x forward, y starboard, z down.
+    pub point_m: [f64; 3],
+    pub roll_limit_deg: f64,
+    pub pitch_limit_deg: f64,
+    /// Limit of the deck point's vertical velocity [m/s].
+    pub vertical_velocity_limit_mps: f64,
+    /// Shortest window worth reporting [s].
+    pub min_window_s: f64,
+    /// Publish the advisory on zenoh `.../advisory/deck`.
+    pub publish: bool,
+}
+
+impl Default for DeckConfig {
+    fn default() -> Self {
+        Self {
+            // Flight deck of a DDG-51: near the stern, on the centre line, about 5 m above CG.
+            point_m: [-62.0, 0.0, -5.0],
+            roll_limit_deg: 2.5,
+            pitch_limit_deg: 1.5,
+            vertical_velocity_limit_mps: 1.0,
+            min_window_s: 2.0,
+            publish: true,
+        }
+    }
+}
+
+/// Crane-tip forecast.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct CraneConfig {
+    /// Crane tip from the centre of gravity [m], ship axes x forward, y starboard, z down.
+    pub tip_m: [f64; 3],
+    /// Print one line every this many forecasts.
+    pub print_every: u64,
+}
+
+impl Default for CraneConfig {
+    fn default() -> Self {
+        Self {
+            // An alongside transfer rig: amidships, 15 m outboard to starboard, 20 m up.
+            tip_m: [10.0, 15.0, -20.0],
+            print_every: 1,
+        }
+    }
+}
+
+impl PipelineConfig {
+    /// Parse TOML text; `origin` names the source in errors.
+    pub fn from_toml(text: &str, origin: &Path) -> Result<Self, ConfigError> {
+        let config: PipelineConfig = toml::from_str(text).map_err(|e| ConfigError::Parse {
+            path: origin.to_path_buf(),
+            // toml's message spans several lines with a source excerpt; keep it on one line.
+            message: e.message().trim().replace('\n', " "),
+        })?;
+        config.validate()?;
+        Ok(config)
+    }
+
+    /// Load `path`, or the defaults when none is given.
+    pub fn load(path: Option<&Path>) -> Result<Self, ConfigError> {
+        match path {
+            None => Ok(Self::default()),
+            Some(p) => {
+                let text = std::fs::read_to_string(p).map_err(|source| ConfigError::Read {
+                    path: p.to_path_buf(),
+                    source,
+                })?;
+                Self::from_toml(&text, p)
+            }
+        }
+    }
+
+    /// The service names and keys of this pipeline.
+    pub fn names(&self) -> Result<Names, ConfigError> {
+        Ok(Names::new(self.instance.as_deref(), &self.vessel)?)
+    }
+
+    /// Check values that parse but cannot work.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        self.names()?;
+        let bad = |m: String| Err(ConfigError::Invalid(m));
+        let p = &self.producer;
+        if !(p.rate_hz.is_finite() && p.rate_hz > 0.0) {
+            return bad(format!(
+                "producer.rate_hz must be positive, got {}",
+                p.rate_hz
+            ));
+        }
+        if !(p.speed.is_finite() && p.speed >= 0.0) {
+            return bad(format!(
+                "producer.speed must be >= 0 (0 = as fast as possible), got {}",
+                p.speed
+            ));
+        }
+        let q = &self.predictor;
+        if q.horizon == 0 || q.horizon > crate::payload::MAX_STEPS {
+            return bad(format!(
+                "predictor.horizon must be 1..={}, got {}",
+                crate::payload::MAX_STEPS,
+                q.horizon
+            ));
+        }
+        if q.order == 0 {
+            return bad("predictor.order must be at least 1".into());
+        }
+        if !(q.sample_rate_hz.is_finite() && q.sample_rate_hz > 0.0) {
+            return bad(format!(
+                "predictor.sample_rate_hz must be positive, got {}",
+                q.sample_rate_hz
+            ));
+        }
+        if !(q.stale_after_s.is_finite() && q.stale_after_s > 0.0) {
+            return bad(format!(
+                "predictor.stale_after_s must be positive, got {}",
+                q.stale_after_s
+            ));
+        }
+        if q.holdout <= q.horizon || q.retrain_window < q.holdout + 2 * q.order {
+            return bad(format!(
+                "predictor.retrain_window ({}) must hold 2 * order ({}) + holdout ({}), and holdout must exceed horizon ({})",
+                q.retrain_window, q.order, q.holdout, q.horizon
+            ));
+        }
+        let d = &self.deck;
+        for (name, v) in [
+            ("deck.roll_limit_deg", d.roll_limit_deg),
+            ("deck.pitch_limit_deg", d.pitch_limit_deg),
+            (
+                "deck.vertical_velocity_limit_mps",
+                d.vertical_velocity_limit_mps,
+            ),
+        ] {
+            if !(v.is_finite() && v > 0.0) {
+                return bad(format!("{name} must be positive, got {v}"));
+            }
+        }
+        Ok(())
+    }
+
+    /// Decimation factor from the producer rate to the predictor rate.
+    pub fn decimation_factor(&self) -> Result<usize, ConfigError> {
+        decimation_factor(self.producer.rate_hz, self.predictor.sample_rate_hz)
+    }
+}
+
+/// Integer ratio of two rates, or an error naming them.
+pub fn decimation_factor(input_hz: f64, output_hz: f64) -> Result<usize, ConfigError> {
+    let ratio = input_hz / output_hz;
+    let factor = ratio.round();
+    if !(factor >= 1.0 && (ratio - factor).abs() < 1e-9) {
+        return Err(ConfigError::Invalid(format!(
+            "input rate {input_hz} Hz is not an integer multiple of the forecast rate {output_hz} Hz"
+        )));
+    }
+    Ok(factor as usize)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn empty_file_gives_the_defaults() {
+        let c = PipelineConfig::from_toml("", Path::new("x.toml")).unwrap();
+        assert_eq!(c, PipelineConfig::default());
+        assert_eq!(c.names().unwrap().forecast(), "shipcast/ddg51/forecast");
+        assert_eq!(c.decimation_factor().unwrap(), 4);
+    }
+
+    #[test]
+    fn keys_override_defaults() {
+        let text = r#"
+            instance = "t7"
+            vessel = "s175"
+            [producer]
+            speed = 100.0
+            [predictor]
+            order = 100
+            busy_poll = true
+            [predictor.tuning]
+            mca_energy = 0.02
+            [zenoh]
+            listen = ["tcp/127.0.0.1:7000"]
+        "#;
+        let c = PipelineConfig::from_toml(text, Path::new("x.toml")).unwrap();
+        assert_eq!(c.names().unwrap().motion(), "t7/shipcast/s175/motion");
+        assert_eq!(c.producer.speed, 100.0);
+        let pc = c.predictor.predictor_config();
+        assert_eq!((pc.order, pc.horizon, pc.mca_energy), (100, 50, 0.02));
+        assert!(c.predictor.busy_poll);
+        assert_eq!(c.zenoh.consumer_side().connect, vec!["tcp/127.0.0.1:7000"]);
+        assert!(c.zenoh.consumer_side().listen.is_empty());
+    }
+
+    #[test]
+    fn unknown_key_is_an_error_naming_it() {
+        let err = PipelineConfig::from_toml("[deck]\nroll_limt_deg = 3", Path::new("p.toml"))
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("roll_limt_deg"), "{err}");
+        assert!(err.starts_with("config p.toml"), "{err}");
+        assert!(!err.contains('\n'), "{err}");
+        let err = PipelineConfig::from_toml("colour = 1", Path::new("p.toml"))
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("colour"), "{err}");
+    }
+
+    #[test]
+    fn impossible_values_are_refused() {
+        for (text, needle) in [
+            ("[predictor]\nhorizon = 200", "horizon"),
+            ("[producer]\nspeed = -1.0", "speed"),
+            ("vessel = \"a/b\"", "vessel"),
+            ("[predictor]\nsample_rate_hz = 3.0", "multiple"),
+        ] {
+            let r = PipelineConfig::from_toml(text, Path::new("p.toml"))
+                .and_then(|c| c.decimation_factor().map(|_| c));
+            let err = r.unwrap_err().to_string();
+            assert!(err.contains(needle), "{text}: {err}");
+        }
+        assert!(PipelineConfig::load(Some(Path::new("/nonexistent/x.toml"))).is_err());
+    }
+}
