@@ -11,8 +11,13 @@
 //! - [`paper`]: the paper study (`shipcast paper`).
 //! - [`payload`]: the wire payloads `MotionSample` and `Forecast`.
 //! - [`transport`]: service names, iceoryx2 and zenoh plumbing.
+//! - [`config`]: the pipeline TOML configuration.
+//! - [`deck`], [`crane`]: ship-point geometry, landing advisory, crane-tip forecast.
 
 pub mod bench;
+pub mod config;
+pub mod crane;
+pub mod deck;
 pub mod dof;
 pub mod eval;
 pub mod motion_csv;
