@@ -6,9 +6,13 @@
 //! - [`paper_values`]: the paper's published numbers.
 //! - [`tables`]: Markdown tables and number formats.
 //! - [`figures`]: SVG line charts.
+//! - [`plan`]: the sizes of a full or quick run.
+//! - [`seas`]: the simulated seas at 2 Hz with their exact autocorrelation.
 //! - [`bound`]: the optimal linear predictor from the exact autocorrelation.
 
 pub mod bound;
 pub mod figures;
 pub mod paper_values;
+pub mod plan;
+pub mod seas;
 pub mod tables;
