@@ -1,1 +1,24 @@
-//! Placeholder module, being written.
+//! The evaluation protocol of DESIGN.md section 4, exactly: fit on the training segment
+//! `x[0..T)`, forecast from `x[o - order .. o)` at origins `o = T + order, T + order + stride, ...`
+//! while `o + H <= len`, RMS error per step, normalised by the standard deviation of the test
+//! segment, next to persistence at the same origins.
+//!
+//! - [`protocol`]: the scoring loop (also gives the held-out sigma for model files).
+//! - [`run`]: one [`Entry`] per (dof, method), with noise and the JSON record.
+//! - [`noise`]: seeded Gaussian measurement noise.
+//! - [`report`]: the human-readable table.
+
+pub mod noise;
+pub mod protocol;
+pub mod report;
+pub mod run;
+
+pub use noise::add_noise;
+pub use protocol::{forecast_sigma, origins, score_forecasts, EvalError, Scores};
+pub use run::{
+    evaluate_method, evaluate_record, origin_count, prepare_series, std_dev, Entry, EvalFailure,
+    EvalResult, EvalSettings, PreparedSeries, RecordError,
+};
+
+#[cfg(test)]
+mod tests;

@@ -1,1 +1,14 @@
-//! Placeholder module, being written.
+//! Resampling motion records to the evaluation rate (DESIGN.md section 4): a causal anti-alias
+//! FIR low-pass filter followed by decimation by an integer factor.
+//!
+//! The same filter runs offline ([`decimate`], [`resample_motion`]) and live, sample by sample
+//! ([`Decimator`], used by the predictor service for 8 -> 2 Hz), and the batch functions are the
+//! streaming decimator run over the series, so evaluation and service see identical values.
+//! The filter, its delay and its attenuation are documented on [`fir::design_lowpass`].
+
+pub mod decimator;
+pub mod fir;
+pub mod resample;
+
+pub use decimator::{decimate, Decimator};
+pub use resample::{decimation_factor, resample_motion, sample_rate, ResampleError};

@@ -1,0 +1,198 @@
+//! Bringing a motion record to the evaluation rate: estimate its rate from `time_s`, check that
+//! the target divides it, filter and decimate every column.
+
+use super::decimator::decimate;
+use super::fir::delay_samples;
+use crate::motion_csv::{Column, MotionData};
+
+/// Largest relative deviation of one time step from the mean step still called regular (time
+/// stamps printed with few decimals jitter a little).
+const STEP_TOLERANCE: f64 = 0.01;
+/// Largest relative deviation of input rate / target rate from an integer.
+const RATIO_TOLERANCE: f64 = 1e-3;
+
+/// Why a record could not be resampled.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ResampleError {
+    #[error("decimation factor must be at least 1")]
+    ZeroFactor,
+    #[error("need at least two samples to estimate the sample rate, got {0}")]
+    TooFewForRate(usize),
+    #[error("irregular sampling: time step {index} is {step} s, the typical step is {median} s")]
+    Irregular {
+        index: usize,
+        step: f64,
+        median: f64,
+    },
+    #[error("target sample rate {0} Hz must be positive and finite")]
+    BadTarget(f64),
+    #[error("input rate {input} Hz is not an integer multiple of the target rate {target} Hz")]
+    NotMultiple { input: f64, target: f64 },
+    #[error("{samples} samples at {input} Hz are too few to decimate to {target} Hz: the filter needs {needed}")]
+    TooShort {
+        samples: usize,
+        input: f64,
+        target: f64,
+        needed: usize,
+    },
+}
+
+/// Sample rate [Hz] of regularly sampled times: 1 / mean step. Every step must be within 1 % of
+/// the median step (the typical one, unmoved by a single gap), otherwise the sampling is
+/// irregular and no rate is returned.
+pub fn sample_rate(time: &[f64]) -> Result<f64, ResampleError> {
+    if time.len() < 2 {
+        return Err(ResampleError::TooFewForRate(time.len()));
+    }
+    let steps: Vec<f64> = time.windows(2).map(|p| p[1] - p[0]).collect();
+    let mut sorted = steps.clone();
+    sorted.sort_by(f64::total_cmp);
+    let median = sorted[sorted.len() / 2];
+    for (index, &step) in steps.iter().enumerate() {
+        if !(step > 0.0) || ((step - median) / median).abs() > STEP_TOLERANCE {
+            return Err(ResampleError::Irregular {
+                index: index + 1,
+                step,
+                median,
+            });
+        }
+    }
+    let mean = (time[time.len() - 1] - time[0]) / (time.len() - 1) as f64;
+    Ok(1.0 / mean)
+}
+
+/// Integer factor taking `input` Hz to `target` Hz (1 when they are equal), or an error naming
+/// both rates.
+pub fn decimation_factor(input: f64, target: f64) -> Result<usize, ResampleError> {
+    if !(target > 0.0 && target.is_finite()) {
+        return Err(ResampleError::BadTarget(target));
+    }
+    let ratio = input / target;
+    let factor = ratio.round();
+    if factor < 1.0 || ((ratio - factor) / ratio).abs() > RATIO_TOLERANCE {
+        return Err(ResampleError::NotMultiple { input, target });
+    }
+    Ok(factor as usize)
+}
+
+/// The record at `target` Hz. A record already at that rate is returned unchanged; otherwise
+/// every column goes through the same [`super::Decimator`] filter and each output is labelled
+/// with the time of the input sample it represents (the filter's delay before the newest input
+/// used), so times stay on the input clock and the columns stay aligned.
+pub fn resample_motion(data: &MotionData, target: f64) -> Result<MotionData, ResampleError> {
+    let input = sample_rate(&data.time)?;
+    let factor = decimation_factor(input, target)?;
+    if factor == 1 {
+        return Ok(data.clone());
+    }
+    let needed = 4 * factor + 1;
+    if data.len() < needed {
+        return Err(ResampleError::TooShort {
+            samples: data.len(),
+            input,
+            target,
+            needed,
+        });
+    }
+    let delay = delay_samples(factor);
+    let outputs = (data.len() - needed) / factor + 1;
+    let time = (0..outputs)
+        .map(|j| data.time[j * factor + delay])
+        .collect();
+    let columns = data
+        .columns
+        .iter()
+        .map(|c| {
+            Ok(Column {
+                name: c.name.clone(),
+                values: decimate(&c.values, factor)?,
+            })
+        })
+        .collect::<Result<_, ResampleError>>()?;
+    Ok(MotionData { time, columns })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn record(rate: f64, n: usize) -> MotionData {
+        let time: Vec<f64> = (0..n).map(|i| 10.0 + i as f64 / rate).collect();
+        let heave = time.iter().map(|t| (0.6 * t).sin()).collect();
+        let wave = time.iter().map(|t| (0.5 * t).cos()).collect();
+        MotionData {
+            time,
+            columns: vec![
+                Column {
+                    name: "heave_m".into(),
+                    values: heave,
+                },
+                Column {
+                    name: "wave_m".into(),
+                    values: wave,
+                },
+            ],
+        }
+    }
+
+    #[test]
+    fn estimates_rate_and_rejects_irregular_sampling() {
+        let t: Vec<f64> = (0..100).map(|i| i as f64 * 0.125).collect();
+        assert!((sample_rate(&t).unwrap() - 8.0).abs() < 1e-12);
+        // Rounded time stamps (3 decimals at 3 Hz) are still regular.
+        let rounded: Vec<f64> = (0..100)
+            .map(|i| (i as f64 / 3.0 * 1000.0).round() / 1000.0)
+            .collect();
+        assert!((sample_rate(&rounded).unwrap() - 3.0).abs() < 1e-3);
+        let mut gap = t.clone();
+        gap.iter_mut().skip(50).for_each(|v| *v += 0.125);
+        let message = sample_rate(&gap).unwrap_err().to_string();
+        assert!(
+            message.contains("irregular sampling: time step 50 is 0.25 s"),
+            "{message}"
+        );
+        assert!(matches!(
+            sample_rate(&[1.0]),
+            Err(ResampleError::TooFewForRate(1))
+        ));
+    }
+
+    #[test]
+    fn factor_must_be_an_integer_multiple() {
+        assert_eq!(decimation_factor(8.0, 2.0).unwrap(), 4);
+        assert_eq!(decimation_factor(2.0, 2.0).unwrap(), 1);
+        assert_eq!(decimation_factor(8.0000001, 2.0).unwrap(), 4);
+        let message = decimation_factor(5.0, 2.0).unwrap_err().to_string();
+        assert!(
+            message.contains("5 Hz") && message.contains("2 Hz"),
+            "{message}"
+        );
+        assert!(decimation_factor(1.0, 2.0).is_err());
+        assert!(decimation_factor(8.0, 0.0).is_err());
+        assert!(decimation_factor(8.0, f64::NAN).is_err());
+    }
+
+    #[test]
+    fn resampled_record_is_aligned_and_labelled_by_represented_time() {
+        let data = record(8.0, 800);
+        let same = resample_motion(&data, 8.0).unwrap();
+        assert_eq!(same, data);
+        let low = resample_motion(&data, 2.0).unwrap();
+        assert_eq!(low.len(), (800 - 17) / 4 + 1);
+        assert!((sample_rate(&low.time).unwrap() - 2.0).abs() < 1e-9);
+        // Labelled at the represented time, each value is the slow motion at that time.
+        assert_eq!(low.time[0], data.time[8]);
+        for (i, t) in low.time.iter().enumerate() {
+            assert!((low.column("heave_m").unwrap()[i] - (0.6 * t).sin()).abs() < 0.005);
+            assert!((low.column("wave_m").unwrap()[i] - (0.5 * t).cos()).abs() < 0.005);
+        }
+        assert_eq!(
+            low.column("heave_m").unwrap(),
+            decimate(data.column("heave_m").unwrap(), 4).unwrap()
+        );
+        assert!(matches!(
+            resample_motion(&record(8.0, 16), 2.0),
+            Err(ResampleError::TooShort { needed: 17, .. })
+        ));
+    }
+}
