@@ -1,8 +1,74 @@
-//! `shipcast bench`: placeholder, being written.
+//! `shipcast bench`: benchmarks of the running system. `bench latency` measures shipcast's
+//! paths and the raw transport floors one way on two pinned cores (issue 6).
+
+use anyhow::Context;
+use shipcast::bench::latency::{self, FORECAST_BYTES, MOTION_BYTES};
+use shipcast::bench::plan::parse_cores;
+use shipcast::bench::{ModeSelect, Plan};
+use std::path::PathBuf;
 
 #[derive(clap::Args, Debug)]
-pub struct Args {}
+pub struct Args {
+    #[command(subcommand)]
+    command: Command,
+}
 
-pub fn run(_args: Args) -> anyhow::Result<()> {
-    anyhow::bail!("'shipcast bench' is not implemented yet")
+#[derive(clap::Subcommand, Debug)]
+enum Command {
+    /// One-way latency of shipcast's paths and of raw iceoryx2 and zenoh, on two pinned cores.
+    Latency(LatencyArgs),
+}
+
+#[derive(clap::Args, Debug)]
+struct LatencyArgs {
+    /// Measured samples (and ping-pong exchanges) per path and mode.
+    #[arg(long, default_value_t = 5000)]
+    samples: u64,
+    /// Send rate in Hz (8 is the realistic sensor rate; thousands stress the path).
+    #[arg(long, default_value_t = 1000.0)]
+    rate: f64,
+    /// Receive mode: event (blocking wait, woken by notify), poll (busy polling) or both.
+    #[arg(long, default_value = "both", value_parser = |s: &str| s.parse::<ModeSelect>())]
+    mode: ModeSelect,
+    /// Print the rows as a JSON array on stdout (the conditions go to stderr).
+    #[arg(long)]
+    json: bool,
+    /// Write an SVG of the latency distributions to this file.
+    #[arg(long)]
+    svg: Option<PathBuf>,
+    /// Cores of the sender/producer and the receiver/predictor, as A,B.
+    #[arg(long, default_value = "0,1", value_parser = |s: &str| parse_cores(s))]
+    cores: (usize, usize),
+    /// Unsent warm-up samples before measuring (default: 10 % of --samples, at most 200).
+    #[arg(long)]
+    warmup: Option<u64>,
+}
+
+pub fn run(args: Args) -> anyhow::Result<()> {
+    match args.command {
+        Command::Latency(a) => run_latency(a),
+    }
+}
+
+fn run_latency(a: LatencyArgs) -> anyhow::Result<()> {
+    let plan = Plan {
+        samples: a.samples,
+        warmup: a.warmup.unwrap_or((a.samples / 10).clamp(1, 200)),
+        rate_hz: a.rate,
+        cores: a.cores,
+        instance: Plan::unique_instance("latency"),
+    };
+    let report = latency::run(&plan, a.mode.modes())?;
+    let targets = report.targets(MOTION_BYTES, FORECAST_BYTES, latency::forecast_json_bytes());
+    if a.json {
+        eprint!("{}{}", report.header(), targets);
+        println!("{}", report.json().context("encode JSON")?);
+    } else {
+        print!("{}\n{}\n{}", report.header(), report.table(), targets);
+    }
+    if let Some(svg) = &a.svg {
+        report.write_svg(svg)?;
+        eprintln!("wrote {}", svg.display());
+    }
+    Ok(())
 }

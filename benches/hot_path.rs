@@ -1,0 +1,179 @@
+//! Criterion benchmarks of the pieces on the sample -> forecast hot path: the decimation step
+//! (six DOF, 8 -> 2 Hz), the six-DOF MCA-800 forecast, writing the Forecast payload (and sending
+//! it over iceoryx2), and encoding a forecast as zenoh JSON.
+//!
+//! Run: `cargo bench --bench hot_path`.
+
+use criterion::{criterion_group, criterion_main, Criterion};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use shipcast::payload::{Forecast, MotionSample, MAX_STEPS, NUM_DOF};
+use shipcast::predict::{McaPredictor, Predictor, PredictorConfig};
+use shipcast::signal::decimator::Decimator;
+use shipcast::transport::iox::{self, IoxPublisher, IoxSubscriber, Sizing, WaitMode};
+use shipcast::transport::Names;
+use std::hint::black_box;
+
+/// A ship-motion-like test series: a few incommensurate swell components plus noise, so the MCA
+/// training matrix is well conditioned.
+fn series(len: usize, seed: u64) -> Vec<f64> {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let comps: Vec<(f64, f64, f64)> = (0..12)
+        .map(|_| {
+            (
+                rng.random_range(0.3..1.2),
+                rng.random_range(0.1..1.0),
+                rng.random_range(0.0..std::f64::consts::TAU),
+            )
+        })
+        .collect();
+    (0..len)
+        .map(|i| {
+            let t = i as f64 * 0.5;
+            let swell: f64 = comps.iter().map(|(w, a, p)| a * (w * t + p).sin()).sum();
+            swell + 0.01 * rng.random_range(-1.0..1.0)
+        })
+        .collect()
+}
+
+fn decimation_step(c: &mut Criterion) {
+    let mut decimators: Vec<Decimator> = (0..NUM_DOF)
+        .map(|_| Decimator::new(4).expect("factor 4 is valid"))
+        .collect();
+    let input = series(4096, 1);
+    let mut i = 0usize;
+    c.bench_function("decimation_step/six_dof_one_sample_8_to_2_hz", |b| {
+        b.iter(|| {
+            let x = input[i % input.len()];
+            i += 1;
+            for d in decimators.iter_mut() {
+                black_box(d.push(black_box(x)));
+            }
+        })
+    });
+}
+
+fn six_dof_forecast(c: &mut Criterion) {
+    let config = PredictorConfig::default(); // order 800, horizon 50: the paper's setting
+    let train = series(3000, 2);
+    let mut models: Vec<McaPredictor> = (0..NUM_DOF)
+        .map(|d| {
+            let mut m = McaPredictor::new(&config).expect("default MCA config is feasible");
+            m.fit(&series(3000, 10 + d as u64))
+                .expect("MCA fits the test series");
+            m
+        })
+        .collect();
+    let past = &train[train.len() - config.order..];
+    let mut out = vec![0.0; config.horizon];
+    let mut group = c.benchmark_group("six_dof_forecast");
+    group.bench_function("mca800_h50_f64", |b| {
+        b.iter(|| {
+            for m in models.iter_mut() {
+                m.forecast(black_box(past), &mut out)
+                    .expect("buffers sized");
+            }
+            black_box(&out);
+        })
+    });
+    group.bench_function("mca800_h50_f32", |b| {
+        b.iter(|| {
+            for m in models.iter_mut() {
+                m.forecast_f32(black_box(past), &mut out)
+                    .expect("buffers sized");
+            }
+            black_box(&out);
+        })
+    });
+    group.finish();
+}
+
+fn filled_forecast(steps: usize) -> Forecast {
+    let mut f = Forecast {
+        steps: steps as u32,
+        dt_s: 0.5,
+        ..Forecast::default()
+    };
+    for d in 0..NUM_DOF {
+        for k in 0..steps {
+            f.mean[d][k] = (0.1 * (d * MAX_STEPS + k) as f32).sin();
+            f.sigma[d][k] = 0.05 + 0.001 * k as f32;
+        }
+    }
+    f
+}
+
+fn payload_write(c: &mut Criterion) {
+    let steps = PredictorConfig::default().horizon;
+    let predictions: Vec<Vec<f64>> = (0..NUM_DOF).map(|d| series(steps, 20 + d as u64)).collect();
+    let mut forecast = Forecast::default();
+    let mut group = c.benchmark_group("payload_write");
+    group.bench_function("fill_forecast_six_dof", |b| {
+        b.iter(|| {
+            forecast.seq += 1;
+            forecast.steps = steps as u32;
+            for (row, pred) in forecast.mean.iter_mut().zip(&predictions) {
+                for (dst, src) in row.iter_mut().zip(black_box(pred)) {
+                    *dst = *src as f32;
+                }
+            }
+            black_box(&forecast);
+        })
+    });
+    let instance = format!("bench-hot-{}", std::process::id());
+    let names = Names::new(Some(&instance), "bench").expect("valid bench names");
+    let node = iox::node(&names, "hot-path").expect("iceoryx2 node");
+    let publisher = IoxPublisher::<Forecast>::new(&node, &names.forecast(), Sizing::FORECAST)
+        .expect("forecast publisher");
+    let subscriber = IoxSubscriber::<Forecast>::new(
+        &node,
+        &names.forecast(),
+        Sizing::FORECAST,
+        WaitMode::BusyPoll,
+    )
+    .expect("forecast subscriber");
+    let f = filled_forecast(steps);
+    group.bench_function("iox_send_and_receive_forecast", |b| {
+        b.iter(|| {
+            publisher.send(black_box(&f)).expect("send");
+            black_box(subscriber.receive().expect("receive"));
+        })
+    });
+    let mpub = IoxPublisher::<MotionSample>::new(&node, &names.motion(), Sizing::MOTION)
+        .expect("motion publisher");
+    let msub = IoxSubscriber::<MotionSample>::new(
+        &node,
+        &names.motion(),
+        Sizing::MOTION,
+        WaitMode::BusyPoll,
+    )
+    .expect("motion subscriber");
+    let m = MotionSample::default();
+    group.bench_function("iox_send_and_receive_motion", |b| {
+        b.iter(|| {
+            mpub.send(black_box(&m)).expect("send");
+            black_box(msub.receive().expect("receive"));
+        })
+    });
+    group.finish();
+}
+
+fn json_encoding(c: &mut Criterion) {
+    let f = filled_forecast(PredictorConfig::default().horizon);
+    let mut buf = Vec::with_capacity(16 * 1024);
+    c.bench_function("json_encoding/forecast_50_steps", |b| {
+        b.iter(|| {
+            black_box(&f).write_json(&mut buf).expect("encode");
+            black_box(buf.len());
+        })
+    });
+}
+
+criterion_group!(
+    benches,
+    decimation_step,
+    six_dof_forecast,
+    payload_write,
+    json_encoding
+);
+criterion_main!(benches);

@@ -1,0 +1,153 @@
+//! `shipcast bench latency`: runs every measurement of one report in sequence (so they never
+//! compete for the two cores) and collects the rows.
+
+use super::histogram::LatencyRecorder;
+use super::machine::Machine;
+use super::pingpong::PingPongOutcome;
+use super::plan::{Mode, Path, Plan};
+use super::report::{Curve, LatencyReport};
+use super::{pingpong_iox, pingpong_zenoh};
+use crate::payload::{Forecast, MotionSample, MAX_STEPS, NUM_DOF};
+use crate::predict::PredictorConfig;
+
+/// Points per percentile curve in the SVG.
+const CURVE_POINTS: usize = 60;
+
+/// Size of the iceoryx2 motion payload.
+pub const MOTION_BYTES: usize = std::mem::size_of::<MotionSample>();
+/// Size of the iceoryx2 forecast payload.
+pub const FORECAST_BYTES: usize = std::mem::size_of::<Forecast>();
+
+/// Size of the zenoh JSON of a forecast with the predictor's default number of steps and
+/// realistic values: the payload of the raw zenoh floor that the zenoh path is compared with.
+pub fn forecast_json_bytes() -> usize {
+    let steps = PredictorConfig::default().horizon.min(MAX_STEPS);
+    let mut f = Forecast {
+        seq: 123_456,
+        source_seq: 987_654,
+        source_stamp_ns: 1_234_567_890_123,
+        issued_stamp_ns: 1_234_567_990_123,
+        time_s: 12_345.625,
+        dt_s: 0.5,
+        steps: steps as u32,
+        model_version: 3,
+        ..Forecast::default()
+    };
+    for d in 0..NUM_DOF {
+        for k in 0..steps {
+            let x = (d * MAX_STEPS + k) as f32;
+            f.mean[d][k] = 1.7 * (0.37 * x).sin();
+            f.sigma[d][k] = 0.05 + 0.003 * k as f32;
+        }
+    }
+    let mut out = Vec::new();
+    // Serialising plain numbers into a Vec cannot fail; an error would only shrink the figure.
+    let _ = f.write_json(&mut out);
+    out.len()
+}
+
+/// Collects the rows and curves of one run.
+pub struct ReportBuilder {
+    report: LatencyReport,
+}
+
+impl ReportBuilder {
+    pub fn new(plan: &Plan, modes: &[Mode]) -> Self {
+        Self {
+            report: LatencyReport {
+                machine: Machine::detect(),
+                cores: plan.cores,
+                rate_hz: plan.rate_hz,
+                samples: plan.samples,
+                warmup: plan.warmup,
+                modes: modes.iter().map(|m| m.name()).collect(),
+                pins: Vec::new(),
+                rows: Vec::new(),
+                not_measured: Vec::new(),
+                curves: Vec::new(),
+            },
+        }
+    }
+
+    /// Add the row (and curve) of one path and mode.
+    pub fn add(
+        &mut self,
+        path: Path,
+        mode: Mode,
+        recorder: &LatencyRecorder,
+        expected: u64,
+        payload_bytes: usize,
+    ) {
+        let stats = recorder.stats(path, mode, expected, payload_bytes);
+        tracing::info!(
+            path = stats.path,
+            mode = stats.mode,
+            count = stats.count,
+            lost = stats.lost,
+            p50_us = stats.p50_us,
+            p99_us = stats.p99_us,
+            "measured"
+        );
+        self.report.rows.push(stats);
+        self.report.curves.push(Curve {
+            label: format!("{path} {mode} {payload_bytes} B"),
+            points: recorder.curve(3.0, CURVE_POINTS),
+        });
+    }
+
+    fn add_pingpong(&mut self, path: Path, mode: Mode, out: PingPongOutcome, bytes: usize) {
+        self.add(path, mode, &out.recorder, out.expected, bytes);
+        self.report.pins.extend(out.pins);
+    }
+
+    pub fn pins(&mut self) -> &mut Vec<super::pinning::PinOutcome> {
+        &mut self.report.pins
+    }
+
+    pub fn not_measured(&mut self, what: String) {
+        tracing::warn!("not measured: {what}");
+        self.report.not_measured.push(what);
+    }
+
+    pub fn finish(self) -> LatencyReport {
+        self.report
+    }
+}
+
+/// Measure the raw transport floors in `mode`: iceoryx2 with both payload types, zenoh with the
+/// motion size and the forecast JSON size.
+pub fn measure_raw(plan: &Plan, mode: Mode, out: &mut ReportBuilder) -> anyhow::Result<()> {
+    let iox_motion = pingpong_iox::run::<MotionSample>(plan, mode)?;
+    out.add_pingpong(Path::Iceoryx2Raw, mode, iox_motion, MOTION_BYTES);
+    let iox_forecast = pingpong_iox::run::<Forecast>(plan, mode)?;
+    out.add_pingpong(Path::Iceoryx2Raw, mode, iox_forecast, FORECAST_BYTES);
+    for bytes in [MOTION_BYTES, forecast_json_bytes()] {
+        let z = pingpong_zenoh::run(plan, mode, bytes)?;
+        out.add_pingpong(Path::ZenohRaw, mode, z, bytes);
+    }
+    Ok(())
+}
+
+/// The whole benchmark: for each mode, shipcast's paths and the raw floors.
+pub fn run(plan: &Plan, modes: &[Mode]) -> anyhow::Result<LatencyReport> {
+    plan.validate().map_err(anyhow::Error::msg)?;
+    let mut out = ReportBuilder::new(plan, modes);
+    for &mode in modes {
+        measure_raw(plan, mode, &mut out)?;
+    }
+    Ok(out.finish())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn payload_sizes_match_the_wire_contract() {
+        assert_eq!(MOTION_BYTES, 72);
+        assert_eq!(FORECAST_BYTES, 56 + 2 * 6 * 128 * 4);
+        // 600 floats of a few characters each, plus the header fields.
+        let json = forecast_json_bytes();
+        assert!((3000..12_000).contains(&json), "{json}");
+    }
+}

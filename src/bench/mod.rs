@@ -1,0 +1,22 @@
+//! Latency benchmark harness (`shipcast bench latency`, issue 6).
+//!
+//! Measures one way, from the stamps carried in the payloads, on two pinned cores:
+//! - the raw transport floors: an iceoryx2 ping-pong ([`pingpong_iox`]) and a zenoh ping-pong
+//!   ([`pingpong_zenoh`]) driven by the same protocol ([`pingpong`]);
+//! - shipcast's own paths ([`pipeline`]) when the middleware is available.
+//!
+//! Everything is recorded into HDR histograms ([`histogram`]) and reported as a table, JSON rows
+//! and an SVG of the latency distributions ([`report`]).
+
+pub mod histogram;
+pub mod latency;
+pub mod machine;
+pub mod pingpong;
+pub mod pingpong_iox;
+pub mod pingpong_zenoh;
+pub mod pinning;
+pub mod plan;
+pub mod report;
+
+pub use histogram::{LatencyRecorder, PathStats};
+pub use plan::{Mode, ModeSelect, Path, Plan};

@@ -1,0 +1,321 @@
+//! The report of a latency run: a table for people, JSON rows for tools, an SVG of the
+//! distributions, and the comparison with the targets of issue 6.
+
+use super::histogram::PathStats;
+use super::machine::Machine;
+use super::pinning::PinOutcome;
+use super::plan::{Mode, Path};
+use plotters::prelude::*;
+use serde::Serialize;
+use std::fmt::Write as _;
+
+/// The percentile curve of one row, for the SVG.
+#[derive(Debug, Clone)]
+pub struct Curve {
+    pub label: String,
+    /// (number of nines of the quantile, latency in µs); the max is the last point.
+    pub points: Vec<(f64, f64)>,
+}
+
+/// Everything one `shipcast bench latency` run measured, with the conditions it ran under.
+#[derive(Debug, Clone, Serialize)]
+pub struct LatencyReport {
+    pub machine: Machine,
+    pub cores: (usize, usize),
+    pub rate_hz: f64,
+    pub samples: u64,
+    pub warmup: u64,
+    pub modes: Vec<&'static str>,
+    pub pins: Vec<PinOutcome>,
+    pub rows: Vec<PathStats>,
+    /// Paths that were not measured in this run, with the reason.
+    pub not_measured: Vec<String>,
+    #[serde(skip)]
+    pub curves: Vec<Curve>,
+}
+
+impl LatencyReport {
+    /// The row of `path` in `mode`; for raw paths, the one with the given payload size.
+    pub fn row(&self, path: Path, mode: Mode, payload_bytes: Option<usize>) -> Option<&PathStats> {
+        self.rows.iter().find(|r| {
+            r.path == path.name()
+                && r.mode == mode.name()
+                && payload_bytes.is_none_or(|b| r.payload_bytes == b)
+        })
+    }
+
+    /// The conditions of the run, one line each.
+    pub fn header(&self) -> String {
+        let m = &self.machine;
+        let unpinned: Vec<&str> = self
+            .pins
+            .iter()
+            .filter(|p| !p.pinned)
+            .map(|p| p.role.as_str())
+            .collect();
+        let mut s = String::new();
+        let _ = writeln!(
+            s,
+            "machine: {} ({} logical cores, Linux {})",
+            m.cpu_model, m.logical_cores, m.kernel
+        );
+        let _ = writeln!(
+            s,
+            "cores: sender/producer {}, receiver/predictor {}; pinning {}",
+            self.cores.0,
+            self.cores.1,
+            if unpinned.is_empty() {
+                "ok".to_string()
+            } else {
+                format!("FAILED for {}", unpinned.join(", "))
+            }
+        );
+        let _ = writeln!(
+            s,
+            "modes: {} (event = blocking wait woken by notify, poll = busy polling); rate {} Hz; {} samples after {} warm-up; latencies one way from payload stamps, in µs",
+            self.modes.join(", "),
+            self.rate_hz,
+            self.samples,
+            self.warmup
+        );
+        s
+    }
+
+    /// The table: one line per path, mode and payload size.
+    pub fn table(&self) -> String {
+        let mut s = format!(
+            "{:<30} {:<6} {:>6} {:>7} {:>5} {:>9} {:>9} {:>9} {:>9} {:>9}\n",
+            "path", "mode", "bytes", "count", "lost", "p50", "p90", "p99", "p99.9", "max"
+        );
+        for r in &self.rows {
+            let _ = writeln!(
+                s,
+                "{:<30} {:<6} {:>6} {:>7} {:>5} {:>9.1} {:>9.1} {:>9.1} {:>9.1} {:>9.1}",
+                r.path,
+                r.mode,
+                r.payload_bytes,
+                r.count,
+                r.lost,
+                r.p50_us,
+                r.p90_us,
+                r.p99_us,
+                r.p999_us,
+                r.max_us
+            );
+        }
+        for missing in &self.not_measured {
+            let _ = writeln!(s, "not measured: {missing}");
+        }
+        s
+    }
+
+    /// The targets of issue 6 that this run can judge, as ratios of p99 values.
+    pub fn targets(&self, motion_bytes: usize, forecast_bytes: usize, json_bytes: usize) -> String {
+        let mut s = String::new();
+        let local = |mode| self.row(Path::SampleToForecastLocal, mode, None);
+        if let Some(r) = local(Mode::Poll) {
+            let _ = writeln!(
+                s,
+                "target poll: sample-to-forecast-local p99 {:.1} µs vs 30 µs: {}",
+                r.p99_us,
+                verdict(r.p99_us <= 30.0)
+            );
+        }
+        if let (Some(r), Some(m), Some(f)) = (
+            local(Mode::Event),
+            self.row(Path::Iceoryx2Raw, Mode::Event, Some(motion_bytes)),
+            self.row(Path::Iceoryx2Raw, Mode::Event, Some(forecast_bytes)),
+        ) {
+            let floor = m.p99_us + f.p99_us;
+            let _ = writeln!(
+                s,
+                "target event: sample-to-forecast-local p99 {:.1} µs vs two raw iceoryx2 wake-ups (motion + forecast p99) {:.1} µs: ratio {:.2} (target <= 1.5): {}",
+                r.p99_us,
+                floor,
+                r.p99_us / floor,
+                verdict(r.p99_us <= 1.5 * floor)
+            );
+        }
+        for mode in [Mode::Event, Mode::Poll] {
+            if let (Some(r), Some(z)) = (
+                self.row(Path::SampleToForecastZenoh, mode, None),
+                self.row(Path::ZenohRaw, mode, Some(json_bytes)),
+            ) {
+                let _ = writeln!(
+                    s,
+                    "target zenoh {mode}: sample-to-forecast-zenoh p99 {:.1} µs vs raw zenoh p99 {:.1} µs ({} B): ratio {:.2} (target <= 1.5): {}",
+                    r.p99_us,
+                    z.p99_us,
+                    json_bytes,
+                    r.p99_us / z.p99_us,
+                    verdict(r.p99_us <= 1.5 * z.p99_us)
+                );
+            }
+        }
+        if s.is_empty() {
+            s.push_str("targets: not judged (shipcast paths not measured in this run)\n");
+        }
+        s
+    }
+
+    /// The rows as the JSON array of the `--json` contract.
+    pub fn json(&self) -> serde_json::Result<String> {
+        serde_json::to_string_pretty(&self.rows)
+    }
+
+    /// Draw the percentile curves (log latency against quantile) into an SVG file.
+    pub fn write_svg(&self, path: &std::path::Path) -> anyhow::Result<()> {
+        let points = self.curves.iter().flat_map(|c| c.points.iter());
+        let (lo, hi) = points.fold((f64::INFINITY, 0f64), |(lo, hi), &(_, y)| {
+            (lo.min(y), hi.max(y))
+        });
+        if self.curves.is_empty() || !lo.is_finite() {
+            anyhow::bail!("no latencies recorded: nothing to plot");
+        }
+        let (lo, hi) = ((lo * 0.8).max(0.01), (hi * 1.25).max(lo * 2.0));
+        let root = SVGBackend::new(path, (1000, 640)).into_drawing_area();
+        draw(&root, &self.curves, lo, hi, &self.header())
+            .map_err(|e| anyhow::anyhow!("draw {}: {e}", path.display()))?;
+        root.present()
+            .map_err(|e| anyhow::anyhow!("write {}: {e}", path.display()))
+    }
+}
+
+fn verdict(met: bool) -> &'static str {
+    if met {
+        "met"
+    } else {
+        "NOT met"
+    }
+}
+
+type DrawResult = Result<(), DrawingAreaErrorKind<std::io::Error>>;
+
+fn draw(
+    root: &DrawingArea<SVGBackend<'_>, plotters::coord::Shift>,
+    curves: &[Curve],
+    lo: f64,
+    hi: f64,
+    header: &str,
+) -> DrawResult {
+    root.fill(&WHITE)?;
+    let title = header.lines().next().unwrap_or("latency");
+    let mut chart = ChartBuilder::on(root)
+        .caption(format!("one-way latency, {title}"), ("sans-serif", 16))
+        .margin(12)
+        .x_label_area_size(40)
+        .y_label_area_size(60)
+        .build_cartesian_2d(0f64..3.6f64, (lo..hi).log_scale())?;
+    chart
+        .configure_mesh()
+        .x_desc("quantile")
+        .y_desc("latency [µs]")
+        .x_labels(8)
+        .x_label_formatter(&|x| nines_label(*x))
+        .draw()?;
+    for (i, c) in curves.iter().enumerate() {
+        let color = Palette99::pick(i).to_rgba();
+        chart
+            .draw_series(LineSeries::new(
+                c.points.iter().copied(),
+                color.stroke_width(2),
+            ))?
+            .label(c.label.clone())
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], color));
+    }
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::UpperLeft)
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .draw()?;
+    Ok(())
+}
+
+/// Axis label of a quantile given as its number of nines (2 -> p99); past 3.4, the max.
+fn nines_label(nines: f64) -> String {
+    if nines > 3.4 {
+        return "max".into();
+    }
+    let q = 100.0 * (1.0 - 10f64.powf(-nines));
+    format!("p{}", (q * 100.0).round() / 100.0)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::bench::histogram::LatencyRecorder;
+
+    fn report() -> LatencyReport {
+        let mut rows = Vec::new();
+        let mut curves = Vec::new();
+        for (path, mode, bytes, base) in [
+            (Path::SampleToForecastLocal, Mode::Poll, 6248, 10_000),
+            (Path::SampleToForecastLocal, Mode::Event, 6248, 100_000),
+            (Path::Iceoryx2Raw, Mode::Event, 72, 40_000),
+            (Path::Iceoryx2Raw, Mode::Event, 6248, 40_000),
+        ] {
+            let mut r = LatencyRecorder::new();
+            for i in 0..100 {
+                r.record_ns(base + i * 100);
+            }
+            rows.push(r.stats(path, mode, 100, bytes));
+            curves.push(Curve {
+                label: format!("{path} {mode}"),
+                points: r.curve(3.0, 30),
+            });
+        }
+        LatencyReport {
+            machine: Machine::detect(),
+            cores: (0, 1),
+            rate_hz: 100.0,
+            samples: 100,
+            warmup: 10,
+            modes: vec!["event", "poll"],
+            pins: vec![PinOutcome {
+                role: "ping".into(),
+                core: 0,
+                pinned: false,
+            }],
+            rows,
+            not_measured: vec!["sample-to-forecast-zenoh: no zenoh".into()],
+            curves,
+        }
+    }
+
+    #[test]
+    fn table_json_and_targets_state_what_was_measured() {
+        let rep = report();
+        let table = rep.table();
+        assert_eq!(table.lines().count(), 1 + 4 + 1);
+        assert!(table.contains("not measured: sample-to-forecast-zenoh"));
+        assert!(rep.header().contains("FAILED for ping"));
+        let json: serde_json::Value = serde_json::from_str(&rep.json().unwrap()).unwrap();
+        let rows = json.as_array().unwrap();
+        assert_eq!(rows.len(), 4);
+        for key in [
+            "path", "mode", "count", "lost", "p50_us", "p90_us", "p99_us", "p999_us", "max_us",
+        ] {
+            assert!(rows[0].get(key).is_some(), "missing {key}");
+        }
+        let targets = rep.targets(72, 6248, 3000);
+        // Poll p99 is about 19.9 µs (met); event p99 about 110 µs against 2 x 49.9 µs: ratio 1.1.
+        assert!(targets.contains("vs 30 µs: met"), "{targets}");
+        assert!(targets.contains("ratio 1.1"), "{targets}");
+        assert!(!targets.contains("zenoh"), "{targets}");
+    }
+
+    #[test]
+    fn svg_is_written_and_empty_reports_are_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let file = dir.path().join("lat.svg");
+        let mut rep = report();
+        rep.write_svg(&file).unwrap();
+        let svg = std::fs::read_to_string(&file).unwrap();
+        assert!(svg.starts_with("<svg") && svg.contains("sample-to-forecast-local poll"));
+        rep.curves.clear();
+        assert!(rep.write_svg(&file).is_err());
+        assert_eq!(nines_label(2.0), "p99");
+        assert_eq!(nines_label(3.5), "max");
+    }
+}
