@@ -16,6 +16,7 @@
 pub mod autocorr;
 pub mod hull;
 pub mod motion;
+pub mod plot;
 pub mod rao;
 pub mod rao_table;
 pub mod scenario;
@@ -45,4 +46,28 @@ pub enum SimError {
     /// An RAO table could not be read or is malformed.
     #[error("RAO table: {0}")]
     Table(String),
+    /// A figure could not be drawn or written.
+    #[error("plot: {0}")]
+    Plot(String),
+}
+
+/// Parses one of a fixed set of lower-case names (CLI and config values).
+pub(crate) fn parse_named<T: Copy>(
+    text: &str,
+    what: &str,
+    names: &[(&str, T)],
+) -> Result<T, SimError> {
+    let lower = text.trim().to_ascii_lowercase();
+    names
+        .iter()
+        .find(|(n, _)| *n == lower)
+        .map(|(_, v)| *v)
+        .ok_or_else(|| {
+            let all: Vec<&str> = names.iter().map(|(n, _)| *n).collect();
+            SimError::Config(format!(
+                "unknown {what} '{}' (expected {})",
+                text.trim(),
+                all.join(", ")
+            ))
+        })
 }

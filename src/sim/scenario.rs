@@ -27,16 +27,17 @@ pub enum Scenario {
 impl std::str::FromStr for Scenario {
     type Err = SimError;
     fn from_str(s: &str) -> Result<Self, SimError> {
-        match s.trim().to_ascii_lowercase().as_str() {
-            "paper" => Ok(Scenario::Paper),
-            "ss3" => Ok(Scenario::Ss3),
-            "ss4" => Ok(Scenario::Ss4),
-            "ss5" => Ok(Scenario::Ss5),
-            "ss6" => Ok(Scenario::Ss6),
-            other => Err(SimError::Config(format!(
-                "unknown scenario '{other}' (expected paper, ss3, ss4, ss5 or ss6)"
-            ))),
-        }
+        super::parse_named(
+            s,
+            "scenario",
+            &[
+                ("paper", Scenario::Paper),
+                ("ss3", Scenario::Ss3),
+                ("ss4", Scenario::Ss4),
+                ("ss5", Scenario::Ss5),
+                ("ss6", Scenario::Ss6),
+            ],
+        )
     }
 }
 

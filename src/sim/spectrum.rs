@@ -20,13 +20,14 @@ pub enum SpectrumKind {
 impl std::str::FromStr for SpectrumKind {
     type Err = SimError;
     fn from_str(s: &str) -> Result<Self, SimError> {
-        match s.trim().to_ascii_lowercase().as_str() {
-            "jonswap" => Ok(SpectrumKind::Jonswap),
-            "ittc" => Ok(SpectrumKind::Ittc),
-            other => Err(SimError::Config(format!(
-                "unknown spectrum '{other}' (expected jonswap or ittc)"
-            ))),
-        }
+        super::parse_named(
+            s,
+            "spectrum",
+            &[
+                ("jonswap", SpectrumKind::Jonswap),
+                ("ittc", SpectrumKind::Ittc),
+            ],
+        )
     }
 }
 

@@ -19,13 +19,11 @@ pub enum Spreading {
 impl std::str::FromStr for Spreading {
     type Err = SimError;
     fn from_str(s: &str) -> Result<Self, SimError> {
-        match s.trim().to_ascii_lowercase().as_str() {
-            "none" => Ok(Spreading::None),
-            "cos2" => Ok(Spreading::Cos2),
-            other => Err(SimError::Config(format!(
-                "unknown spreading '{other}' (expected cos2 or none)"
-            ))),
-        }
+        super::parse_named(
+            s,
+            "spreading",
+            &[("cos2", Spreading::Cos2), ("none", Spreading::None)],
+        )
     }
 }
 
