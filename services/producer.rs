@@ -1,8 +1,280 @@
-//! `shipcast producer`: placeholder, being written.
+//! `shipcast producer`: publishes MotionSample over iceoryx2 from the simulator or a motion CSV,
+//! paced in real time, faster by `--speed F`, or as fast as possible (`--speed 0`).
+
+use anyhow::Context;
+use shipcast::config::{CommonArgs, ProducerConfig};
+use shipcast::motion_csv::MotionData;
+use shipcast::payload::MotionSample;
+use shipcast::sim::{MotionStream, Scenario, ShipMotion, SimConfig};
+use shipcast::transport::iox::{self, IoxPublisher, Sizing};
+use shipcast::transport::{monotonic_ns, shutdown, Counters};
+use shipcast::Dof;
+use std::path::PathBuf;
+use std::time::{Duration, Instant};
 
 #[derive(clap::Args, Debug)]
-pub struct Args {}
+pub struct Args {
+    #[command(flatten)]
+    pub common: CommonArgs,
+    /// Replay this motion CSV instead of simulating.
+    #[arg(long, value_name = "FILE.csv")]
+    pub input: Option<PathBuf>,
+    /// Simulated sea state.
+    #[arg(long)]
+    pub scenario: Option<Scenario>,
+    /// Seed of the simulated sea.
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// Simulator sample rate [Hz].
+    #[arg(long, value_name = "HZ")]
+    pub rate: Option<f64>,
+    /// Stop after this much record time [s].
+    #[arg(long, value_name = "S")]
+    pub record_s: Option<f64>,
+    /// Publish the first S seconds of record at the backfill speed (see the config).
+    #[arg(long, value_name = "S")]
+    pub backfill_s: Option<f64>,
+    /// Wait up to S seconds for a subscriber before publishing the first sample.
+    #[arg(long, value_name = "S", default_value_t = 0.0)]
+    pub wait_subscriber_s: f64,
+    /// Fault injection (tests): every N-th sample carries a NaN heave.
+    #[arg(long, value_name = "N")]
+    pub fault_nan_every: Option<u64>,
+    /// Fault injection (tests): every N-th sample is followed by a repeat of the one before it.
+    #[arg(long, value_name = "N")]
+    pub fault_reorder_every: Option<u64>,
+}
 
-pub fn run(_args: Args) -> anyhow::Result<()> {
-    anyhow::bail!("'shipcast producer' is not implemented yet")
+/// Where motion comes from: one (record time, six DOF) per call, `None` at the end.
+trait MotionSource {
+    fn next_motion(&mut self) -> Option<(f64, [f64; 6])>;
+}
+
+/// The simulator, endless.
+struct SimSource<'a> {
+    stream: MotionStream<'a>,
+}
+
+impl MotionSource for SimSource<'_> {
+    fn next_motion(&mut self) -> Option<(f64, [f64; 6])> {
+        self.stream.next().map(|p| (p.time_s, p.dof))
+    }
+}
+
+/// A motion CSV, row by row. DOF columns missing from the file are sent as 0.
+struct CsvSource {
+    data: MotionData,
+    columns: [Option<usize>; 6],
+    row: usize,
+}
+
+impl CsvSource {
+    fn open(path: &std::path::Path) -> anyhow::Result<Self> {
+        let data =
+            MotionData::read_path(path).with_context(|| format!("reading {}", path.display()))?;
+        let columns = Dof::ALL.map(|d| data.columns.iter().position(|c| c.name == d.csv_column()));
+        let missing: Vec<&str> = Dof::ALL
+            .iter()
+            .zip(&columns)
+            .filter(|(_, c)| c.is_none())
+            .map(|(d, _)| d.csv_column())
+            .collect();
+        if missing.len() == 6 {
+            anyhow::bail!(
+                "{}: no motion column (expected e.g. heave_m)",
+                path.display()
+            );
+        }
+        if !missing.is_empty() {
+            tracing::warn!("{}: columns {missing:?} missing, sent as 0", path.display());
+        }
+        Ok(Self {
+            data,
+            columns,
+            row: 0,
+        })
+    }
+}
+
+impl MotionSource for CsvSource {
+    fn next_motion(&mut self) -> Option<(f64, [f64; 6])> {
+        let t = *self.data.time.get(self.row)?;
+        let dof = self
+            .columns
+            .map(|c| c.map_or(0.0, |i| self.data.columns[i].values[self.row]));
+        self.row += 1;
+        Some((t, dof))
+    }
+}
+
+/// Wall-clock schedule of record times: `backfill_s` of record at `backfill_speed`, then
+/// `speed`; a speed of 0 means no pacing.
+struct Pacer {
+    start: Instant,
+    t0: Option<f64>,
+    backfill_s: f64,
+    backfill_speed: f64,
+    speed: f64,
+}
+
+impl Pacer {
+    fn new(config: &ProducerConfig) -> Self {
+        Self {
+            start: Instant::now(),
+            t0: None,
+            backfill_s: config.backfill_s.max(0.0),
+            backfill_speed: config.backfill_speed,
+            speed: config.speed,
+        }
+    }
+
+    /// Wall-clock offset at which the sample of record time `t` is due, None if unpaced.
+    fn due(&mut self, t: f64) -> Option<Duration> {
+        let elapsed = t - *self.t0.get_or_insert(t);
+        let fast = elapsed.min(self.backfill_s);
+        let slow = elapsed - fast;
+        let wall = |record: f64, speed: f64| if speed > 0.0 { record / speed } else { 0.0 };
+        if self.speed <= 0.0 && slow > 0.0 {
+            return None;
+        }
+        Some(Duration::from_secs_f64(
+            wall(fast, self.backfill_speed) + wall(slow, self.speed),
+        ))
+    }
+
+    /// Sleep until the sample at record time `t` is due (in short naps, to notice a stop).
+    fn wait(&mut self, t: f64) {
+        let Some(due) = self.due(t) else { return };
+        let deadline = self.start + due;
+        loop {
+            let now = Instant::now();
+            if now >= deadline || shutdown::stop_requested() {
+                return;
+            }
+            std::thread::sleep((deadline - now).min(Duration::from_millis(100)));
+        }
+    }
+}
+
+pub fn run(args: Args) -> anyhow::Result<()> {
+    let mut config = args.common.load()?;
+    let p = &mut config.producer;
+    if let Some(i) = &args.input {
+        p.input = Some(i.clone());
+    }
+    if let Some(s) = args.scenario {
+        p.scenario = s;
+    }
+    if let Some(s) = args.seed {
+        p.seed = s;
+    }
+    if let Some(r) = args.rate {
+        p.rate_hz = r;
+    }
+    if let Some(r) = args.record_s {
+        p.record_s = Some(r);
+    }
+    if let Some(b) = args.backfill_s {
+        p.backfill_s = b;
+    }
+    config.validate()?;
+    let limit = args.common.duration()?;
+    let names = config.names()?;
+    let node = iox::node(&names, "producer")?;
+    let publisher = IoxPublisher::<MotionSample>::new(&node, &names.motion(), Sizing::MOTION)?;
+    shutdown::stop_flag();
+
+    let wait_until = Instant::now() + Duration::from_secs_f64(args.wait_subscriber_s.max(0.0));
+    while publisher.subscribers() == 0 && Instant::now() < wait_until {
+        if shutdown::stop_requested() {
+            return Ok(());
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    }
+
+    let faults = Faults {
+        nan_every: args.fault_nan_every.filter(|&n| n > 0),
+        reorder_every: args.fault_reorder_every.filter(|&n| n > 0),
+    };
+    let p = config.producer.clone();
+    match &p.input {
+        Some(path) => {
+            let mut source = CsvSource::open(path)?;
+            tracing::info!(input = %path.display(), rows = source.data.len(), "producer: replaying CSV on {}", names.motion());
+            publish_all(&mut source, &publisher, &p, limit, faults)
+        }
+        None => {
+            let mut sim = SimConfig::scenario(p.scenario);
+            sim.seed = p.seed;
+            let motion = ShipMotion::new(&sim)?;
+            let mut source = SimSource {
+                stream: motion.stream(p.rate_hz, 0.0)?,
+            };
+            tracing::info!(scenario = ?p.scenario, seed = p.seed, rate_hz = p.rate_hz, speed = p.speed, "producer: simulating on {}", names.motion());
+            publish_all(&mut source, &publisher, &p, limit, faults)
+        }
+    }
+}
+
+#[derive(Debug, Clone, Copy)]
+struct Faults {
+    nan_every: Option<u64>,
+    reorder_every: Option<u64>,
+}
+
+fn publish_all(
+    source: &mut dyn MotionSource,
+    publisher: &IoxPublisher<MotionSample>,
+    config: &ProducerConfig,
+    limit: Option<Duration>,
+    faults: Faults,
+) -> anyhow::Result<()> {
+    let started = Instant::now();
+    let mut pacer = Pacer::new(config);
+    let mut counters = Counters::default();
+    let mut last_log = Instant::now();
+    let mut previous: Option<MotionSample> = None;
+    let mut seq = 0u64;
+    let mut t_first = None;
+    while let Some((time_s, dof)) = source.next_motion() {
+        let t0 = *t_first.get_or_insert(time_s);
+        if config.record_s.is_some_and(|r| time_s - t0 >= r) {
+            break;
+        }
+        if shutdown::stop_requested() || limit.is_some_and(|l| started.elapsed() >= l) {
+            break;
+        }
+        pacer.wait(time_s);
+        let mut sample = MotionSample {
+            seq,
+            stamp_ns: monotonic_ns(),
+            time_s,
+            dof,
+        };
+        if faults.nan_every.is_some_and(|n| seq > 0 && seq % n == 0) {
+            sample.dof[Dof::Heave.index()] = f64::NAN;
+        }
+        publisher.send(&sample)?;
+        counters.published += 1;
+        if let Some(prev) = previous.filter(|_| {
+            faults
+                .reorder_every
+                .is_some_and(|n| seq > 0 && seq % n == 0)
+        }) {
+            // A stale sample arriving late: same seq and time as one already sent.
+            publisher.send(&prev)?;
+            counters.published += 1;
+        }
+        previous = Some(sample);
+        seq += 1;
+        if last_log.elapsed() >= Duration::from_secs(10) {
+            tracing::info!("producer: t={time_s:.1}s {}", counters.summary());
+            last_log = Instant::now();
+        }
+    }
+    tracing::info!(
+        "producer: stopped after {seq} samples; {}",
+        counters.summary()
+    );
+    Ok(())
 }

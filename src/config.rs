@@ -117,7 +117,12 @@ pub struct ProducerConfig {
     /// Pacing: 1 = real time, 100 = a hundred times faster, 0 = as fast as possible.
     pub speed: f64,
     /// Stop after this much record time [s]; none = endless (simulator) or end of file.
-    pub duration_s: Option<f64>,
+    pub record_s: Option<f64>,
+    /// Publish the first this-many seconds of record at `backfill_speed` before pacing at
+    /// `speed`: a sensor handing over its recent log, so forecasts can start without waiting
+    /// for `order` values of history in real time.
+    pub backfill_s: f64,
+    pub backfill_speed: f64,
 }
 
 impl Default for ProducerConfig {
@@ -128,7 +133,9 @@ impl Default for ProducerConfig {
             seed: 1,
             rate_hz: 8.0,
             speed: 1.0,
-            duration_s: None,
+            record_s: None,
+            backfill_s: 0.0,
+            backfill_speed: 50.0,
         }
     }
 }
@@ -354,6 +361,74 @@ pub fn decimation_factor(input_hz: f64, output_hz: f64) -> Result<usize, ConfigE
     Ok(factor as usize)
 }
 
+/// Flags every pipeline subcommand accepts; they override the config file.
+#[derive(clap::Args, Debug, Clone, Default)]
+pub struct CommonArgs {
+    /// Pipeline configuration (TOML); every key has a default.
+    #[arg(long, value_name = "FILE.toml")]
+    pub config: Option<PathBuf>,
+    /// Prefix of every service name and zenoh key (keeps parallel pipelines apart).
+    #[arg(long, value_name = "NAME")]
+    pub instance: Option<String>,
+    /// Vessel name in service names and keys.
+    #[arg(long, value_name = "NAME")]
+    pub vessel: Option<String>,
+    /// zenoh endpoint the predictor listens on (repeatable; replaces the configured ones).
+    #[arg(long, value_name = "ENDPOINT")]
+    pub zenoh_listen: Vec<String>,
+    /// zenoh endpoint to connect to (repeatable; replaces the configured ones).
+    #[arg(long, value_name = "ENDPOINT")]
+    pub zenoh_connect: Vec<String>,
+    /// Pacing of the producer: 1 = real time, 0 = as fast as possible.
+    #[arg(long, value_name = "F")]
+    pub speed: Option<f64>,
+    /// Stop after this many seconds of wall-clock time.
+    #[arg(long, value_name = "S")]
+    pub duration: Option<f64>,
+}
+
+impl CommonArgs {
+    /// The config file (or the defaults) with the flags applied, validated.
+    pub fn load(&self) -> Result<PipelineConfig, ConfigError> {
+        let mut config = PipelineConfig::load(self.config.as_deref())?;
+        if let Some(i) = &self.instance {
+            config.instance = Some(i.clone());
+        }
+        if let Some(v) = &self.vessel {
+            config.vessel = v.clone();
+        }
+        if !self.zenoh_listen.is_empty() {
+            config.zenoh.listen = self.zenoh_listen.clone();
+        }
+        if !self.zenoh_connect.is_empty() {
+            config.zenoh.connect = self.zenoh_connect.clone();
+        }
+        if let Some(s) = self.speed {
+            config.producer.speed = s;
+        }
+        config.validate()?;
+        Ok(config)
+    }
+
+    /// Wall-clock limit, if any.
+    pub fn duration(&self) -> Result<Option<std::time::Duration>, ConfigError> {
+        match self.duration {
+            None => Ok(None),
+            Some(s) if s.is_finite() && s > 0.0 => Ok(Some(std::time::Duration::from_secs_f64(s))),
+            Some(s) => Err(ConfigError::Invalid(format!(
+                "--duration must be a positive number of seconds, got {s}"
+            ))),
+        }
+    }
+}
+
+impl PipelineConfig {
+    /// The configuration as TOML, as `shipcast run` hands it to its children.
+    pub fn to_toml(&self) -> Result<String, ConfigError> {
+        toml::to_string(self).map_err(|e| ConfigError::Invalid(format!("serialise: {e}")))
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -403,6 +478,41 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(err.contains("colour"), "{err}");
+    }
+
+    #[test]
+    fn toml_round_trip_and_flags_override_the_file() {
+        let mut c = PipelineConfig::default();
+        c.instance = Some("abc".into());
+        c.producer.input = Some("/tmp/x.csv".into());
+        c.predictor.model = Some("/tmp/m.json".into());
+        let text = c.to_toml().unwrap();
+        assert_eq!(PipelineConfig::from_toml(&text, Path::new("t")).unwrap(), c);
+
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("p.toml");
+        std::fs::write(&path, "vessel = \"s175\"\n[producer]\nspeed = 5.0\n").unwrap();
+        let args = CommonArgs {
+            config: Some(path),
+            instance: Some("i1".into()),
+            zenoh_listen: vec!["tcp/127.0.0.1:9".into()],
+            speed: Some(100.0),
+            ..CommonArgs::default()
+        };
+        let c = args.load().unwrap();
+        assert_eq!(c.vessel, "s175");
+        assert_eq!(c.instance.as_deref(), Some("i1"));
+        assert_eq!(c.producer.speed, 100.0);
+        assert_eq!(c.zenoh.listen, vec!["tcp/127.0.0.1:9"]);
+        let bad = CommonArgs {
+            duration: Some(-1.0),
+            ..CommonArgs::default()
+        };
+        assert!(bad
+            .duration()
+            .unwrap_err()
+            .to_string()
+            .contains("--duration"));
     }
 
     #[test]

@@ -137,7 +137,7 @@ fn open_pubsub<T: Debug + ZeroCopySend + 'static>(
 pub struct IoxPublisher<T: Debug + ZeroCopySend + 'static> {
     publisher: Publisher<Ipc, T, ()>,
     notifier: Notifier<Ipc>,
-    _services: (PubSubFactory<T>, EventFactory),
+    services: (PubSubFactory<T>, EventFactory),
 }
 
 impl<T: Debug + ZeroCopySend + Copy + 'static> IoxPublisher<T> {
@@ -154,8 +154,13 @@ impl<T: Debug + ZeroCopySend + Copy + 'static> IoxPublisher<T> {
         Ok(Self {
             publisher,
             notifier,
-            _services: (pubsub, event),
+            services: (pubsub, event),
         })
+    }
+
+    /// Subscribers currently connected to the service (any process).
+    pub fn subscribers(&self) -> usize {
+        self.services.0.dynamic_config().number_of_subscribers()
     }
 
     /// Send a copy of `value` and wake the subscribers. Returns the number of subscribers

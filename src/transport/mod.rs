@@ -5,6 +5,7 @@ pub mod clock;
 pub mod counters;
 pub mod iox;
 pub mod naming;
+pub mod shutdown;
 pub mod zenoh;
 
 pub use clock::monotonic_ns;
