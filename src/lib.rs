@@ -7,6 +7,7 @@
 //! - [`signal`]: resampling (anti-alias low-pass, decimation).
 //! - [`predict`]: the [`predict::Predictor`] trait and MCA, Wiener, AR-LMS, MLP and baselines.
 //! - [`eval`]: the evaluation protocol (DESIGN.md 4).
+//! - [`model`]: model files (per-DOF fitted predictors and held-out sigma).
 //! - [`sim`]: the ship-motion simulator (sea spectra, RAOs, time series).
 //! - [`paper`]: the paper study (`shipcast paper`).
 //! - [`payload`]: the wire payloads `MotionSample` and `Forecast`.
@@ -20,6 +21,7 @@ pub mod crane;
 pub mod deck;
 pub mod dof;
 pub mod eval;
+pub mod model;
 pub mod motion_csv;
 pub mod paper;
 pub mod payload;
