@@ -1,21 +1,305 @@
-//! Placeholder: being written (see issue 2).
+//! Minor Component Analysis predictor (Zhao, Xu, Kwan; DESIGN.md section 4).
+//!
+//! Windows of n = order consecutive values of the training segment, taken every `shift` values,
+//! span (almost) a subspace of R^n. The eigenvectors of R = sum X X^T with the smallest
+//! eigenvalues, the minor components B, are (almost) orthogonal to every window: B x ~ 0.
+//! Splitting a window into its n1 = n - H past values x1 and H future values x2, the future is
+//! the least-squares solution of B1 x1 + B2 x2 = 0, so x2 = P x1 with
+//! P = -(B2^T B2)^-1 B2^T B1, computed once at fit time. A forecast is one H x n1 product.
 
-use super::{Method, PredictError, Predictor, PredictorConfig};
+use super::linear_map::LinearMap;
+use super::{
+    check_forecast_buffers, check_training, Diagnostics, Method, PredictError, Predictor,
+    PredictorConfig,
+};
+use faer::linalg::matmul::matmul;
+use faer::linalg::solvers::Solve;
+use faer::{get_global_parallelism, Accum, Mat, MatRef, Side};
 use serde::{Deserialize, Serialize};
 
+/// Energy thresholds tried when `mca_validate_energy` is on: from "only the null space" to
+/// "a tenth of the signal".
+pub const ENERGY_GRID: [f64; 8] = [0.001, 0.002, 0.005, 0.01, 0.015, 0.02, 0.05, 0.1];
+
+/// Fraction of the training segment held out at its end to choose the energy threshold.
+const VALIDATION_FRACTION_INV: usize = 5;
+
+/// MCA predictor for one degree of freedom.
 #[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct McaPredictor {
     order: usize,
     horizon: usize,
+    shift: usize,
+    energy: f64,
+    ridge: f64,
+    validate_energy: bool,
+    /// `None` until fitted.
+    model: Option<McaModel>,
+}
+
+/// What `fit` learns.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct McaModel {
+    /// P, H x n1.
+    prediction: LinearMap,
+    minor_components: usize,
+    energy: f64,
 }
 
 impl McaPredictor {
+    /// An unfitted MCA predictor. Horizon >= order (no past values left in the window), a zero
+    /// shift, an energy outside [0, 1) or a negative ridge are infeasible.
     pub fn new(config: &PredictorConfig) -> Result<Self, PredictError> {
+        let (order, horizon) = (config.order, config.horizon);
+        if horizon == 0 || horizon >= order {
+            return Err(PredictError::Infeasible(format!(
+                "MCA needs 1 <= horizon < order (the window of order values splits into \
+                 order - horizon past and horizon future values), got order {order}, horizon {horizon}"
+            )));
+        }
+        if config.mca_shift == 0 {
+            return Err(PredictError::Infeasible(
+                "MCA window shift must be at least 1".into(),
+            ));
+        }
+        if !(0.0..1.0).contains(&config.mca_energy) {
+            return Err(PredictError::Infeasible(format!(
+                "MCA energy threshold must be in [0, 1), got {}",
+                config.mca_energy
+            )));
+        }
+        if !(config.mca_ridge >= 0.0 && config.mca_ridge.is_finite()) {
+            return Err(PredictError::Infeasible(format!(
+                "MCA ridge must be finite and non-negative, got {}",
+                config.mca_ridge
+            )));
+        }
         Ok(Self {
-            order: config.order,
-            horizon: config.horizon,
+            order,
+            horizon,
+            shift: config.mca_shift,
+            energy: config.mca_energy,
+            ridge: config.mca_ridge,
+            validate_energy: config.mca_validate_energy,
+            model: None,
         })
     }
+
+    /// Number of past values the prediction matrix multiplies (n1 = order - horizon).
+    pub fn past_len(&self) -> usize {
+        self.order - self.horizon
+    }
+
+    /// The prediction matrix P (horizon x past_len, row-major), once fitted.
+    pub fn prediction_matrix(&self) -> Option<&LinearMap> {
+        self.model.as_ref().map(|m| &m.prediction)
+    }
+
+    /// Like `forecast`, with the f32 copy of P: about half the memory traffic, relative error
+    /// around 1e-6. Never allocates.
+    pub fn forecast_f32(&mut self, past: &[f64], out: &mut [f64]) -> Result<(), PredictError> {
+        check_forecast_buffers(self.order, self.horizon, past, out)?;
+        let n1 = self.past_len();
+        let model = self
+            .model
+            .as_mut()
+            .ok_or(PredictError::NotFitted(Method::Mca))?;
+        model.prediction.apply_f32(&past[past.len() - n1..], out);
+        Ok(())
+    }
+
+    fn fit_with_energy(&self, train: &[f64], energy: f64) -> Result<McaModel, PredictError> {
+        let spectrum = Spectrum::of_windows(train, self.order, self.shift)?;
+        spectrum.model(energy, self.horizon, self.ridge)
+    }
+
+    /// Choose the energy threshold on the last fifth of the training segment (fit on the rest,
+    /// forecast every `shift` values, lowest RMS over all steps wins), then refit on all of it.
+    fn fit_validated(&self, train: &[f64]) -> Result<McaModel, PredictError> {
+        let needed = validation_needed(self.order, self.horizon);
+        if train.len() < needed {
+            return Err(PredictError::TooShort {
+                method: Method::Mca,
+                order: self.order,
+                needed,
+                got: train.len(),
+            });
+        }
+        let cut = train.len() - train.len() / VALIDATION_FRACTION_INV;
+        let spectrum = Spectrum::of_windows(&train[..cut], self.order, self.shift)?;
+        let mut forecast = vec![0.0; self.horizon];
+        let mut best: Option<(f64, f64)> = None;
+        for energy in ENERGY_GRID {
+            let model = match spectrum.model(energy, self.horizon, self.ridge) {
+                Ok(m) => m,
+                Err(e) => {
+                    tracing::debug!(energy, error = %e, "MCA energy candidate rejected");
+                    continue;
+                }
+            };
+            let rms = validation_rms(&model.prediction, train, cut, self.shift, &mut forecast);
+            tracing::debug!(
+                energy,
+                rms,
+                minor_components = model.minor_components,
+                "MCA energy candidate"
+            );
+            if rms.is_finite() && best.is_none_or(|(_, b)| rms < b) {
+                best = Some((energy, rms));
+            }
+        }
+        let (energy, rms) = best.ok_or_else(|| {
+            PredictError::Numerical("MCA: no energy threshold gave a usable predictor".into())
+        })?;
+        tracing::info!(energy, validation_rms = rms, "MCA energy threshold chosen");
+        self.fit_with_energy(train, energy)
+    }
+}
+
+/// Smallest training length for which validation leaves at least one window to fit on
+/// (`order` values) and one forecast to score (`horizon` values).
+fn validation_needed(order: usize, horizon: usize) -> usize {
+    let mut t = order.max(VALIDATION_FRACTION_INV * horizon);
+    while t - t / VALIDATION_FRACTION_INV < order {
+        t += 1;
+    }
+    t
+}
+
+/// RMS error of the forecasts issued at origins `cut, cut + stride, ...` of `series`.
+fn validation_rms(
+    map: &LinearMap,
+    series: &[f64],
+    cut: usize,
+    stride: usize,
+    forecast: &mut [f64],
+) -> f64 {
+    let (h, n1) = (map.rows(), map.cols());
+    let (mut sum, mut count) = (0.0, 0usize);
+    let mut origin = cut;
+    while origin + h <= series.len() {
+        map.apply(&series[origin - n1..origin], forecast);
+        for (p, x) in forecast.iter().zip(&series[origin..origin + h]) {
+            sum += (p - x) * (p - x);
+        }
+        count += h;
+        origin += stride;
+    }
+    (sum / count.max(1) as f64).sqrt()
+}
+
+/// Eigen-decomposition of the window correlation matrix R = sum X X^T.
+struct Spectrum {
+    /// Ascending.
+    eigenvalues: Vec<f64>,
+    /// Column i belongs to eigenvalue i.
+    eigenvectors: Mat<f64>,
+}
+
+impl Spectrum {
+    /// Windows of length `n` starting at 0, shift, 2 shift, ... of `series`
+    /// (at least one window: callers check `series.len() >= n`).
+    fn of_windows(series: &[f64], n: usize, shift: usize) -> Result<Self, PredictError> {
+        let windows = (series.len() - n) / shift + 1;
+        let x = Mat::from_fn(n, windows, |i, j| series[j * shift + i]);
+        let mut r = Mat::<f64>::zeros(n, n);
+        matmul(
+            r.as_mut(),
+            Accum::Replace,
+            x.as_ref(),
+            x.transpose(),
+            1.0,
+            get_global_parallelism(),
+        );
+        let evd = r
+            .self_adjoint_eigen(Side::Lower)
+            .map_err(|e| PredictError::Numerical(format!("MCA eigen-decomposition: {e:?}")))?;
+        let eigenvalues = evd.S().column_vector().iter().copied().collect();
+        Ok(Self {
+            eigenvalues,
+            eigenvectors: evd.U().to_owned(),
+        })
+    }
+
+    /// Number of minor components for `energy`: the smallest eigenvalues whose sum is at most
+    /// `energy` of the trace, and at least `horizon` of them.
+    fn minor_count(&self, energy: f64, horizon: usize) -> usize {
+        let trace: f64 = self.eigenvalues.iter().sum();
+        let budget = energy * trace;
+        let mut cumulative = 0.0;
+        let mut count = 0;
+        for &lambda in &self.eigenvalues {
+            if cumulative + lambda > budget {
+                break;
+            }
+            cumulative += lambda;
+            count += 1;
+        }
+        count.max(horizon).min(self.eigenvalues.len())
+    }
+
+    fn model(&self, energy: f64, horizon: usize, ridge: f64) -> Result<McaModel, PredictError> {
+        let k = self.minor_count(energy, horizon);
+        let prediction =
+            prediction_matrix(self.eigenvectors.as_ref().subcols(0, k), horizon, ridge)?;
+        Ok(McaModel {
+            prediction,
+            minor_components: k,
+            energy,
+        })
+    }
+}
+
+/// P = -(B2^T B2 + ridge)^-1 B2^T B1 from the minor eigenvectors (the columns of `minor`,
+/// n x k; B = minor^T, so B1^T = the first n1 rows and B2^T = the last `horizon` rows).
+fn prediction_matrix(
+    minor: MatRef<'_, f64>,
+    horizon: usize,
+    ridge: f64,
+) -> Result<LinearMap, PredictError> {
+    let n = minor.nrows();
+    let n1 = n - horizon;
+    let past = minor.subrows(0, n1);
+    let future = minor.subrows(n1, horizon);
+    let par = get_global_parallelism();
+    let mut gram = Mat::<f64>::zeros(horizon, horizon);
+    matmul(
+        gram.as_mut(),
+        Accum::Replace,
+        future,
+        future.transpose(),
+        1.0,
+        par,
+    );
+    if ridge > 0.0 {
+        let mean_diag = (0..horizon).map(|i| gram[(i, i)]).sum::<f64>() / horizon as f64;
+        for i in 0..horizon {
+            gram[(i, i)] += ridge * mean_diag;
+        }
+    }
+    let mut rhs = Mat::<f64>::zeros(horizon, n1);
+    matmul(
+        rhs.as_mut(),
+        Accum::Replace,
+        future,
+        past.transpose(),
+        -1.0,
+        par,
+    );
+    let llt = gram.llt(Side::Lower).map_err(|e| {
+        PredictError::Numerical(format!(
+            "MCA: B2^T B2 is not positive definite ({e}); more minor components or mca_ridge > 0 may help"
+        ))
+    })?;
+    llt.solve_in_place(rhs.as_mut());
+    let mut coef = Vec::with_capacity(horizon * n1);
+    for h in 0..horizon {
+        coef.extend((0..n1).map(|j| rhs[(h, j)]));
+    }
+    LinearMap::from_row_major(horizon, n1, coef)
+        .map_err(|e| PredictError::Numerical(format!("MCA prediction matrix: {e}")))
 }
 
 impl Predictor for McaPredictor {
@@ -28,10 +312,44 @@ impl Predictor for McaPredictor {
     fn horizon(&self) -> usize {
         self.horizon
     }
-    fn fit(&mut self, _train: &[f64]) -> Result<(), PredictError> {
-        Err(PredictError::Infeasible("not implemented yet".into()))
+
+    fn fit(&mut self, train: &[f64]) -> Result<(), PredictError> {
+        check_training(Method::Mca, self.order, self.order, train)?;
+        let model = if self.validate_energy {
+            self.fit_validated(train)?
+        } else {
+            self.fit_with_energy(train, self.energy)?
+        };
+        tracing::debug!(
+            order = self.order,
+            horizon = self.horizon,
+            minor_components = model.minor_components,
+            energy = model.energy,
+            "MCA fitted"
+        );
+        self.model = Some(model);
+        Ok(())
     }
-    fn forecast(&mut self, _past: &[f64], _out: &mut [f64]) -> Result<(), PredictError> {
-        Err(PredictError::NotFitted(Method::Mca))
+
+    fn forecast(&mut self, past: &[f64], out: &mut [f64]) -> Result<(), PredictError> {
+        let model = self
+            .model
+            .as_ref()
+            .ok_or(PredictError::NotFitted(Method::Mca))?;
+        check_forecast_buffers(self.order, self.horizon, past, out)?;
+        let n1 = self.order - self.horizon;
+        model.prediction.apply(&past[past.len() - n1..], out);
+        Ok(())
+    }
+
+    fn diagnostics(&self) -> Diagnostics {
+        Diagnostics {
+            minor_components: self.model.as_ref().map(|m| m.minor_components),
+            energy: self.model.as_ref().map(|m| m.energy),
+        }
     }
 }
+
+#[cfg(test)]
+#[path = "mca_tests.rs"]
+mod tests;

@@ -15,6 +15,7 @@ use std::str::FromStr;
 pub mod ar_lms;
 pub mod baseline;
 pub mod levinson;
+pub mod linear_map;
 pub mod mca;
 pub mod mlp;
 pub mod wiener;
@@ -165,7 +166,7 @@ impl Default for PredictorConfig {
 pub struct Diagnostics {
     /// MCA: number of minor components used.
     pub minor_components: Option<usize>,
-    /// MCA with validated energy: the threshold chosen.
+    /// MCA: the energy threshold used (the one chosen when validation is on).
     pub energy: Option<f64>,
 }
 
@@ -312,6 +313,28 @@ pub(crate) fn check_forecast_buffers(
             "forecast writes {horizon} steps, output buffer holds {}",
             out.len()
         )));
+    }
+    Ok(())
+}
+
+/// Check a training series before fitting: at least `needed` values, all finite. Shared by
+/// every implementation so the error messages agree.
+pub(crate) fn check_training(
+    method: Method,
+    order: usize,
+    needed: usize,
+    train: &[f64],
+) -> Result<(), PredictError> {
+    if train.len() < needed {
+        return Err(PredictError::TooShort {
+            method,
+            order,
+            needed,
+            got: train.len(),
+        });
+    }
+    if train.iter().any(|v| !v.is_finite()) {
+        return Err(PredictError::NonFinite("training series"));
     }
     Ok(())
 }
