@@ -1,8 +1,331 @@
-//! `shipcast predictor`: placeholder, being written.
+//! `shipcast predictor`: subscribes to motion over iceoryx2 (event wake-up, or `--busy-poll`),
+//! decimates 8 -> 2 Hz with the evaluation's filter, forecasts all six DOF at every new 2 Hz
+//! value, and publishes the Forecast over iceoryx2 and as JSON over zenoh. A background thread
+//! retrains from recent live data and hands over new models without pausing the forecasts.
+
+mod history;
+mod models;
+mod retrain;
+
+use anyhow::Context;
+use history::{Ingest, NewValue};
+use models::ModelSet;
+use serde::Serialize;
+use shipcast::config::{CommonArgs, PipelineConfig};
+use shipcast::payload::{Forecast, MotionSample, MAX_STEPS, NUM_DOF};
+use shipcast::predict::Predictor;
+use shipcast::signal::decimate;
+use shipcast::sim::{ShipMotion, SimConfig};
+use shipcast::transport::iox::{self, IoxPublisher, IoxSubscriber, Sizing, WaitMode};
+use shipcast::transport::zenoh::{self as zn, JsonPublisher};
+use shipcast::transport::{monotonic_ns, shutdown, Counters, Names};
+use std::path::PathBuf;
+use std::time::{Duration, Instant};
 
 #[derive(clap::Args, Debug)]
-pub struct Args {}
+pub struct Args {
+    #[command(flatten)]
+    pub common: CommonArgs,
+    /// Start from this model file (`shipcast train`) instead of training on simulated history.
+    #[arg(long, value_name = "MODEL.json")]
+    pub model: Option<PathBuf>,
+    /// Spin on the subscriber instead of sleeping until woken (lowest latency, one core busy).
+    #[arg(long)]
+    pub busy_poll: bool,
+    /// Past values per forecast (overrides the config).
+    #[arg(long, value_name = "N")]
+    pub order: Option<usize>,
+    /// Retrain every S seconds of record time (0 = never; overrides the config).
+    #[arg(long, value_name = "S")]
+    pub retrain_every_s: Option<f64>,
+}
 
-pub fn run(_args: Args) -> anyhow::Result<()> {
-    anyhow::bail!("'shipcast predictor' is not implemented yet")
+/// Longest run of lost or rejected input samples bridged by holding the last value (1 s at
+/// 8 Hz); longer gaps restart the history.
+const MAX_FILL: u64 = 8;
+
+/// Shortest wall-clock silence reported as stale.
+const MIN_STALE_WALL: Duration = Duration::from_millis(100);
+
+/// What the predictor reports about itself on zenoh `.../status/predictor` (the live view of
+/// `shipcast run` shows it).
+#[derive(Debug, Serialize)]
+struct Status {
+    counters: Counters,
+    stale: bool,
+    model_version: u32,
+    forecasts: u64,
+    history: usize,
+    order: usize,
+    last_time_s: f64,
+}
+
+pub fn run(args: Args) -> anyhow::Result<()> {
+    let mut config = args.common.load()?;
+    let q = &mut config.predictor;
+    if args.model.is_some() {
+        q.model = args.model.clone();
+    }
+    q.busy_poll |= args.busy_poll;
+    if let Some(o) = args.order {
+        q.order = o;
+    }
+    if let Some(r) = args.retrain_every_s {
+        q.retrain_every_s = r;
+    }
+    config.validate()?;
+    let limit = args.common.duration()?;
+    let factor = config.decimation_factor()?;
+    let names = config.names()?;
+    shutdown::stop_flag();
+
+    let models = initial_models(&config)?;
+    let (order, horizon) = (models.order(), models.horizon());
+    tracing::info!(
+        method = %models.predictors[0].method(),
+        order,
+        horizon,
+        version = models.version,
+        sigma_heave_last = models.sigma[2][horizon - 1],
+        "predictor: models ready"
+    );
+
+    let node = iox::node(&names, "predictor")?;
+    let mode = if config.predictor.busy_poll {
+        WaitMode::BusyPoll
+    } else {
+        WaitMode::Event
+    };
+    let motion = IoxSubscriber::<MotionSample>::new(&node, &names.motion(), Sizing::MOTION, mode)?;
+    let forecasts = IoxPublisher::<Forecast>::new(&node, &names.forecast(), Sizing::FORECAST)?;
+    let session = zn::open(&config.zenoh.publisher_side())?;
+    let forecast_json = JsonPublisher::new(&session, &names.forecast())?;
+    let status_json = JsonPublisher::new(&session, &names.status("predictor"))?;
+    let _alive = zn::liveliness_token(&session, &Names::liveliness(&names.forecast()))?;
+    tracing::info!(
+        mode = ?mode,
+        "predictor: {} -> {} (iceoryx2 and zenoh)",
+        names.motion(),
+        names.forecast()
+    );
+
+    let capacity = config.predictor.retrain_window.max(order + horizon);
+    let ingest = Ingest::new(factor, config.producer.rate_hz, capacity, MAX_FILL)?;
+    let retrainer = retrain::Retrainer::spawn(config.predictor.clone())?;
+    let mut service = Service {
+        config: &config,
+        ingest,
+        models,
+        retrainer,
+        forecast: Box::new(Forecast::default()),
+        out: [0.0; MAX_STEPS],
+        json: Vec::with_capacity(16 * 1024),
+        counters: Counters::default(),
+        values_since_retrain: 0,
+        last_time_s: f64::NAN,
+    };
+    let stale_after = stale_timeout(&config);
+    let started = Instant::now();
+    let mut last_sample: Option<Instant> = None;
+    let mut stale = false;
+    let mut last_status = Instant::now();
+    let mut last_log = Instant::now();
+    let nap = (stale_after / 2).clamp(Duration::from_millis(1), Duration::from_millis(100));
+    loop {
+        if shutdown::stop_requested() || limit.is_some_and(|l| started.elapsed() >= l) {
+            break;
+        }
+        motion.wait(nap)?;
+        let mut changed = false;
+        while let Some(sample) = motion.receive()? {
+            last_sample = Some(Instant::now());
+            if stale {
+                stale = false;
+                changed = true;
+                tracing::info!(
+                    time_s = sample.time_s,
+                    seq = sample.seq,
+                    "predictor: motion resumed"
+                );
+            }
+            if let Some(v) = service.ingest.push(&sample, &mut service.counters) {
+                if service.on_new_value(v)? {
+                    forecasts.send(&service.forecast)?;
+                    service.forecast.write_json(&mut service.json)?;
+                    forecast_json.put(&service.json)?;
+                    service.counters.published += 1;
+                }
+            }
+        }
+        if !stale && last_sample.is_some_and(|t| t.elapsed() >= stale_after) {
+            stale = true;
+            changed = true;
+            tracing::warn!(
+                last_time_s = service.last_time_s,
+                "predictor: motion stale (no sample for {:.2} s of wall time = {} s of record time)",
+                stale_after.as_secs_f64(),
+                config.predictor.stale_after_s
+            );
+        }
+        service.swap_models();
+        if changed || last_status.elapsed() >= Duration::from_millis(500) {
+            status_json.put_serialize(&service.status(stale))?;
+            last_status = Instant::now();
+        }
+        if last_log.elapsed() >= Duration::from_secs(10) {
+            tracing::info!("predictor: {}", service.counters.summary());
+            last_log = Instant::now();
+        }
+    }
+    tracing::info!("predictor: stopped; {}", service.counters.summary());
+    Ok(())
+}
+
+/// Wall time without samples after which the producer is reported stale: the configured
+/// record time divided by the pacing speed (as fast as possible counts as 100x), but at least
+/// `MIN_STALE_WALL`, so that scheduling hiccups on a busy machine are not reported as stale.
+fn stale_timeout(config: &PipelineConfig) -> Duration {
+    let speed = if config.producer.speed > 0.0 {
+        config.producer.speed
+    } else {
+        100.0
+    };
+    Duration::from_secs_f64(config.predictor.stale_after_s / speed).max(MIN_STALE_WALL)
+}
+
+/// Models to start with: the model file, or fitted on simulated history of the configured sea
+/// (another realisation than the producer's: seed + 1), so forecasts begin as soon as the
+/// live history holds `order` values.
+fn initial_models(config: &PipelineConfig) -> anyhow::Result<ModelSet> {
+    let q = &config.predictor;
+    if let Some(path) = &q.model {
+        let set = models::load(path, q.sample_rate_hz)?;
+        if set.horizon() > MAX_STEPS {
+            anyhow::bail!("model horizon {} exceeds {MAX_STEPS}", set.horizon());
+        }
+        return Ok(set);
+    }
+    let p = &config.producer;
+    let mut sim = SimConfig::scenario(p.scenario);
+    sim.seed = p.seed.wrapping_add(1);
+    let motion = ShipMotion::new(&sim)?;
+    let n = (q.warmup_s * p.rate_hz).ceil() as usize;
+    let mut raw = vec![Vec::with_capacity(n); NUM_DOF];
+    for point in motion.stream(p.rate_hz, 0.0)?.take(n) {
+        for (d, series) in raw.iter_mut().enumerate() {
+            series.push(point.dof[d]);
+        }
+    }
+    let factor = config.decimation_factor()?;
+    let series = raw
+        .iter()
+        .map(|x| decimate(x, factor))
+        .collect::<Result<Vec<_>, _>>()?;
+    let t = Instant::now();
+    let set = models::fit(&series, q, 1).context("training on simulated history")?;
+    tracing::info!(
+        values = series[0].len(),
+        seconds = t.elapsed().as_secs_f64(),
+        "predictor: trained on simulated history"
+    );
+    Ok(set)
+}
+
+/// The forecasting state, owned by the service thread.
+struct Service<'a> {
+    config: &'a PipelineConfig,
+    ingest: Ingest,
+    models: ModelSet,
+    retrainer: retrain::Retrainer,
+    /// Reused for every forecast (6 KB; boxed to keep it off the stack frame).
+    forecast: Box<Forecast>,
+    out: [f64; MAX_STEPS],
+    json: Vec<u8>,
+    counters: Counters,
+    values_since_retrain: usize,
+    last_time_s: f64,
+}
+
+impl Service<'_> {
+    /// A new decimated value arrived: learn online, forecast if the history is long enough,
+    /// and schedule retraining. Returns true if `self.forecast` holds a new forecast.
+    fn on_new_value(&mut self, v: NewValue) -> anyhow::Result<bool> {
+        self.last_time_s = v.time_s;
+        let (order, horizon) = (self.models.order(), self.models.horizon());
+        self.values_since_retrain += 1;
+        self.maybe_retrain();
+        for (d, p) in self.models.predictors.iter_mut().enumerate() {
+            if p.is_online() {
+                if let Some(recent) = self.ingest.last(d, order + horizon) {
+                    p.update(recent)?;
+                }
+            }
+        }
+        let f = &mut *self.forecast;
+        for (d, p) in self.models.predictors.iter_mut().enumerate() {
+            let Some(past) = self.ingest.last(d, order) else {
+                return Ok(false);
+            };
+            p.forecast(past, &mut self.out[..horizon])?;
+            for (m, x) in f.mean[d].iter_mut().zip(&self.out[..horizon]) {
+                *m = *x as f32;
+            }
+        }
+        f.sigma = self.models.sigma;
+        f.seq = self.counters.published;
+        f.source_seq = v.source_seq;
+        f.source_stamp_ns = v.source_stamp_ns;
+        f.time_s = v.time_s;
+        f.dt_s = 1.0 / self.config.predictor.sample_rate_hz;
+        f.steps = horizon as u32;
+        f.model_version = self.models.version;
+        f.issued_stamp_ns = monotonic_ns();
+        Ok(true)
+    }
+
+    /// Hand the recent history to the retraining thread every `retrain_every_s` of record time.
+    fn maybe_retrain(&mut self) {
+        let q = &self.config.predictor;
+        if q.retrain_every_s <= 0.0 {
+            return;
+        }
+        let due = (q.retrain_every_s * q.sample_rate_hz).round() as usize;
+        if self.values_since_retrain < due.max(1) {
+            return;
+        }
+        let Some(series) = (0..NUM_DOF)
+            .map(|d| self.ingest.last(d, q.retrain_window).map(<[f64]>::to_vec))
+            .collect::<Option<Vec<_>>>()
+        else {
+            return;
+        };
+        self.values_since_retrain = 0;
+        self.retrainer.request(series, self.models.version + 1);
+    }
+
+    /// Take a freshly trained model set if one is ready.
+    fn swap_models(&mut self) {
+        if let Some(set) = self.retrainer.take() {
+            if set.order() == self.models.order() && set.horizon() == self.models.horizon() {
+                tracing::info!(
+                    version = set.version,
+                    sigma_heave_last = set.sigma[2][set.horizon() - 1],
+                    "predictor: retrained model in use"
+                );
+                self.models = set;
+            }
+        }
+    }
+
+    fn status(&self, stale: bool) -> Status {
+        Status {
+            counters: self.counters,
+            stale,
+            model_version: self.models.version,
+            forecasts: self.counters.published,
+            history: self.ingest.len(),
+            order: self.models.order(),
+            last_time_s: self.last_time_s,
+        }
+    }
 }

@@ -94,6 +94,11 @@ impl Names {
         self.topic(&format!("advisory/{station}"))
     }
 
+    /// zenoh key where a service publishes its counters and state (JSON).
+    pub fn status(&self, service: &str) -> String {
+        self.topic(&format!("status/{service}"))
+    }
+
     /// zenoh liveliness token of a service: consumers see whether its publisher is alive.
     pub fn liveliness(service: &str) -> String {
         format!("{service}/alive")
@@ -126,6 +131,7 @@ mod tests {
         assert_eq!(n.forecast(), "shipcast/ddg51/forecast");
         assert_eq!(n.advisory("deck"), "shipcast/ddg51/advisory/deck");
         assert_eq!(n.iox_prefix(), "iox2_");
+        assert_eq!(n.status("predictor"), "shipcast/ddg51/status/predictor");
         let n = Names::new(Some("t1"), "s175").unwrap();
         assert_eq!(n.forecast(), "t1/shipcast/s175/forecast");
         assert_eq!(
