@@ -8,11 +8,22 @@
 //! - [`figures`]: SVG line charts.
 //! - [`plan`]: the sizes of a full or quick run.
 //! - [`seas`]: the simulated seas at 2 Hz with their exact autocorrelation.
+//! - [`study`]: runs the experiments.
+//! - [`skill`]: crossing times and whole-horizon error of an error curve.
+//! - [`plots`]: the study's figures.
+//! - [`report`]: writes report.md.
 //! - [`bound`]: the optimal linear predictor from the exact autocorrelation.
 
 pub mod bound;
 pub mod figures;
 pub mod paper_values;
 pub mod plan;
+pub mod plots;
+pub mod report;
 pub mod seas;
+pub mod skill;
+pub mod study;
 pub mod tables;
+
+pub use plan::Plan;
+pub use study::{run, NoProgress, Progress, Study};
