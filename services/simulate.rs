@@ -15,22 +15,22 @@ pub struct Args {
     #[arg(long, default_value = "paper")]
     pub scenario: String,
     /// Significant wave height [m] (overrides the scenario).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub hs: Option<f64>,
     /// Peak period [s] (overrides the scenario).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub tp: Option<f64>,
     /// Spectrum: jonswap (DNV, gamma from Tp/sqrt(Hs) unless --gamma) or ittc.
     #[arg(long, default_value = "jonswap")]
     pub spectrum: String,
     /// JONSWAP peak enhancement factor.
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub gamma: Option<f64>,
     /// Ship speed [kn].
-    #[arg(long = "speed-kn")]
+    #[arg(long = "speed-kn", allow_negative_numbers = true)]
     pub speed_kn: Option<f64>,
     /// Mean wave direction relative to the ship [deg], 180 = head seas, 0 = following seas.
-    #[arg(long = "heading-deg", allow_hyphen_values = true)]
+    #[arg(long = "heading-deg", allow_negative_numbers = true)]
     pub heading_deg: Option<f64>,
     /// A line spectrum of N components on a fixed frequency grid (default: >= 1000 components
     /// at random frequencies, which no finite linear predictor extrapolates exactly).
@@ -43,10 +43,10 @@ pub struct Args {
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
     /// Length of the record [s].
-    #[arg(long, default_value_t = 3600.0)]
+    #[arg(long, default_value_t = 3600.0, allow_negative_numbers = true)]
     pub duration: f64,
     /// Sample rate [Hz].
-    #[arg(long, default_value_t = 8.0)]
+    #[arg(long, default_value_t = 8.0, allow_negative_numbers = true)]
     pub rate: f64,
     /// Output motion CSV.
     #[arg(long)]
