@@ -1,8 +1,81 @@
-//! `shipcast deck`: placeholder, being written.
+//! `shipcast deck`: the co-located helideck consumer. Reads forecasts over iceoryx2, prints the
+//! landing advisory (windows where roll, pitch and deck vertical velocity stay within limits,
+//! with confidence) and publishes it as JSON on zenoh `.../advisory/deck`.
+
+use shipcast::config::CommonArgs;
+use shipcast::deck::DeckAdvisor;
+use shipcast::payload::Forecast;
+use shipcast::transport::iox::{self, IoxSubscriber, Sizing, WaitMode};
+use shipcast::transport::shutdown;
+use shipcast::transport::zenoh::{self as zn, JsonPublisher};
+use std::io::Write;
+use std::time::{Duration, Instant};
 
 #[derive(clap::Args, Debug)]
-pub struct Args {}
+pub struct Args {
+    #[command(flatten)]
+    pub common: CommonArgs,
+    /// Print every N-th advisory (all are published).
+    #[arg(long, value_name = "N", default_value_t = 1)]
+    pub print_every: u64,
+    /// Do not publish the advisory on zenoh.
+    #[arg(long)]
+    pub no_publish: bool,
+}
 
-pub fn run(_args: Args) -> anyhow::Result<()> {
-    anyhow::bail!("'shipcast deck' is not implemented yet")
+pub fn run(args: Args) -> anyhow::Result<()> {
+    let config = args.common.load()?;
+    let limit = args.common.duration()?;
+    let names = config.names()?;
+    shutdown::stop_flag();
+    let node = iox::node(&names, "deck")?;
+    let forecasts = IoxSubscriber::<Forecast>::new(
+        &node,
+        &names.forecast(),
+        Sizing::FORECAST,
+        WaitMode::Event,
+    )?;
+    let session;
+    let publisher = if config.deck.publish && !args.no_publish {
+        session = zn::open(&config.zenoh.consumer_side())?;
+        Some(JsonPublisher::new(&session, &names.advisory("deck"))?)
+    } else {
+        None
+    };
+    let mut advisor = DeckAdvisor::new(&config.deck);
+    tracing::info!(
+        point_m = ?config.deck.point_m,
+        "deck: advising from {}",
+        names.forecast()
+    );
+    let started = Instant::now();
+    let mut last_forecast = Instant::now();
+    let mut waiting_reported = false;
+    let mut count = 0u64;
+    let stdout = std::io::stdout();
+    while !shutdown::stop_requested() && !limit.is_some_and(|l| started.elapsed() >= l) {
+        forecasts.wait(Duration::from_millis(100))?;
+        // Only the newest forecast matters to the landing officer.
+        let Some(forecast) = forecasts.latest()? else {
+            if !waiting_reported && last_forecast.elapsed() >= Duration::from_secs(5) {
+                tracing::info!("deck: no forecast for 5 s");
+                waiting_reported = true;
+            }
+            continue;
+        };
+        last_forecast = Instant::now();
+        waiting_reported = false;
+        let advisory = advisor.advise(&forecast);
+        if let Some(p) = &publisher {
+            p.put_serialize(&advisory)?;
+        }
+        if count % args.print_every.max(1) == 0 {
+            let mut out = stdout.lock();
+            // A closed stdout (e.g. piped into `head`) must not stop the advisory service.
+            let _ = writeln!(out, "{}", advisory.summary());
+        }
+        count += 1;
+    }
+    tracing::info!("deck: stopped after {count} advisories");
+    Ok(())
 }
