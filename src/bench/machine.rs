@@ -7,6 +7,9 @@ pub struct Machine {
     pub cpu_model: String,
     pub logical_cores: usize,
     pub kernel: String,
+    /// 1, 5 and 15 minute load averages when the run started: other work on the same cores
+    /// shows up in the latency tails, busy polling most of all.
+    pub load_avg: String,
 }
 
 impl Machine {
@@ -19,8 +22,16 @@ impl Machine {
             cpu_model: cpu_model(&cpuinfo).unwrap_or_else(|| "unknown".into()),
             logical_cores: std::thread::available_parallelism().map_or(0, |n| n.get()),
             kernel,
+            load_avg: load_avg(),
         }
     }
+}
+
+/// The three load averages of /proc/loadavg.
+pub fn load_avg() -> String {
+    std::fs::read_to_string("/proc/loadavg")
+        .map(|s| s.split_whitespace().take(3).collect::<Vec<_>>().join(" "))
+        .unwrap_or_else(|_| "unknown".into())
 }
 
 /// The first `model name` line of /proc/cpuinfo.

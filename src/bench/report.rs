@@ -30,6 +30,9 @@ pub struct LatencyReport {
     pub rows: Vec<PathStats>,
     /// Paths that were not measured in this run, with the reason.
     pub not_measured: Vec<String>,
+    /// How the figures were obtained, where it is not obvious from the path name.
+    pub notes: Vec<String>,
+    pub load_avg_end: String,
     #[serde(skip)]
     pub curves: Vec<Curve>,
 }
@@ -56,8 +59,8 @@ impl LatencyReport {
         let mut s = String::new();
         let _ = writeln!(
             s,
-            "machine: {} ({} logical cores, Linux {})",
-            m.cpu_model, m.logical_cores, m.kernel
+            "machine: {} ({} logical cores, Linux {}); load average at start {}, at end {}",
+            m.cpu_model, m.logical_cores, m.kernel, m.load_avg, self.load_avg_end
         );
         let _ = writeln!(
             s,
@@ -78,6 +81,9 @@ impl LatencyReport {
             self.samples,
             self.warmup
         );
+        for note in &self.notes {
+            let _ = writeln!(s, "note: {note}");
+        }
         s
     }
 
@@ -279,6 +285,8 @@ mod tests {
             }],
             rows,
             not_measured: vec!["sample-to-forecast-zenoh: no zenoh".into()],
+            notes: vec!["stand-in".into()],
+            load_avg_end: "0.00 0.00 0.00".into(),
             curves,
         }
     }
@@ -290,6 +298,7 @@ mod tests {
         assert_eq!(table.lines().count(), 1 + 4 + 1);
         assert!(table.contains("not measured: sample-to-forecast-zenoh"));
         assert!(rep.header().contains("FAILED for ping"));
+        assert!(rep.header().contains("note: stand-in"));
         let json: serde_json::Value = serde_json::from_str(&rep.json().unwrap()).unwrap();
         let rows = json.as_array().unwrap();
         assert_eq!(rows.len(), 4);

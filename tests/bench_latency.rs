@@ -1,0 +1,101 @@
+//! The latency harness end to end: every path and mode reports a count, nothing is lost, and
+//! the percentiles are ordered. No timing thresholds: the figures depend on the machine.
+
+use shipcast::bench::latency;
+use shipcast::bench::plan::{Mode, Path, Plan};
+use std::collections::BTreeSet;
+use std::process::Command;
+
+fn plan(samples: u64) -> Plan {
+    Plan {
+        samples,
+        warmup: 20,
+        // Fast enough to keep the test short, slow enough that a consumer descheduled for
+        // tens of milliseconds by other work on the two cores does not overflow its queue.
+        rate_hz: 500.0,
+        cores: (0, 1),
+        // Unique per process and call: parallel tests never share services or keys.
+        instance: Plan::unique_instance("test"),
+    }
+}
+
+#[test]
+fn every_path_and_mode_reports_counts_without_loss_and_ordered_percentiles() {
+    let plan = plan(300);
+    let modes = [Mode::Event, Mode::Poll];
+    let report = latency::run(&plan, &modes).expect("benchmark runs");
+    let seen: BTreeSet<(&str, &str)> = report.rows.iter().map(|r| (r.path, r.mode)).collect();
+    for mode in modes {
+        for path in Path::ALL {
+            assert!(
+                seen.contains(&(path.name(), mode.name())),
+                "no row for {path} {mode}"
+            );
+        }
+    }
+    for r in &report.rows {
+        assert!(r.count > 0, "{r:?}");
+        assert_eq!(r.lost, 0, "{r:?}");
+        let p = r.percentiles();
+        assert!(p.windows(2).all(|w| w[0] <= w[1]), "unordered {r:?}");
+        assert!(p[0] > 0.0, "zero latency {r:?}");
+    }
+    // One sample per measured send on the motion path; both legs of every raw exchange; one
+    // forecast per 4 samples (the 8 -> 2 Hz decimation).
+    let row = |path: Path| report.row(path, Mode::Event, None).unwrap();
+    assert_eq!(row(Path::ProducerToPredictor).count, plan.samples);
+    assert_eq!(row(Path::Iceoryx2Raw).count, 2 * plan.samples);
+    let forecasts = row(Path::SampleToForecastPublished).count;
+    assert!(
+        (plan.samples / 4..=plan.samples / 4 + 1).contains(&forecasts),
+        "{forecasts}"
+    );
+    assert_eq!(row(Path::SampleToForecastLocal).count, forecasts);
+    assert_eq!(row(Path::SampleToForecastZenoh).count, forecasts);
+    assert!(report
+        .header()
+        .contains("cores: sender/producer 0, receiver/predictor 1"));
+}
+
+#[test]
+fn cli_prints_json_rows_and_refuses_bad_flags() {
+    let exe = env!("CARGO_BIN_EXE_shipcast");
+    let out = Command::new(exe)
+        .args(["bench", "latency", "--samples", "40", "--rate", "1000"])
+        .args(["--mode", "event", "--json"])
+        .output()
+        .expect("run shipcast");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let rows: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON on stdout");
+    let rows = rows.as_array().expect("a JSON array");
+    assert!(rows.len() >= Path::ALL.len());
+    for r in rows {
+        assert_eq!(r["mode"], "event");
+        for key in [
+            "path", "count", "lost", "p50_us", "p90_us", "p99_us", "p999_us", "max_us",
+        ] {
+            assert!(r.get(key).is_some(), "row without {key}: {r}");
+        }
+    }
+    assert!(String::from_utf8_lossy(&out.stderr).contains("machine: "));
+
+    for bad in [
+        &["--cores", "1,1"][..],
+        &["--mode", "fast"],
+        &["--rate", "0"],
+        &["--samples", "0"],
+    ] {
+        let out = Command::new(exe)
+            .args(["bench", "latency"])
+            .args(bad)
+            .output()
+            .expect("run shipcast");
+        assert!(!out.status.success(), "{bad:?} was accepted");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!err.contains("panicked"), "{bad:?}: {err}");
+    }
+}
