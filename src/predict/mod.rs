@@ -18,6 +18,7 @@ pub mod levinson;
 pub mod linear_map;
 pub mod mca;
 pub mod mlp;
+pub(crate) mod vector_state;
 pub mod wiener;
 
 #[cfg(test)]
