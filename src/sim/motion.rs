@@ -158,8 +158,8 @@ impl ShipMotion {
         let mut acc = [0.0; CHANNELS];
         for k in &self.coefficients {
             let (s, c) = (k.omega_e * t).sin_cos();
-            for ch in 0..CHANNELS {
-                acc[ch] += k.re[ch] * c - k.im[ch] * s;
+            for ((a, re), im) in acc.iter_mut().zip(&k.re).zip(&k.im) {
+                *a += re * c - im * s;
             }
         }
         point(t, &acc)
@@ -253,8 +253,8 @@ impl Iterator for MotionStream<'_> {
             .zip(&self.motion.coefficients)
         {
             let (c, s) = *p;
-            for ch in 0..CHANNELS {
-                acc[ch] += k.re[ch] * c - k.im[ch] * s;
+            for ((a, re), im) in acc.iter_mut().zip(&k.re).zip(&k.im) {
+                *a += re * c - im * s;
             }
             *p = (c * r.0 - s * r.1, s * r.0 + c * r.1);
         }
