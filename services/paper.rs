@@ -1,6 +1,7 @@
 //! `shipcast paper --out DIR [--quick] [--seed N]`: the paper study (tables and figures of Zhao,
 //! Xu and Kwan, section 4), written as `DIR/report.md` and SVG figures, with a progress bar.
 
+use anyhow::Context;
 use indicatif::{ProgressBar, ProgressStyle};
 use shipcast::paper::{self, Plan, Progress};
 use std::path::PathBuf;
@@ -37,6 +38,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     } else {
         Plan::full(args.seed)
     };
+    // Fail on an unusable output directory before spending minutes on the study.
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("creating the output directory {}", args.out.display()))?;
     let bar = ProgressBar::new(0);
     bar.set_style(
         ProgressStyle::with_template("{elapsed_precise} [{bar:30}] {pos}/{len} {wide_msg}")

@@ -15,8 +15,18 @@ pub const MAX_POINTS: usize = 600;
 pub struct Series {
     pub label: String,
     pub points: Vec<(f64, f64)>,
-    /// Dashed style for references (persistence, zero, bound) so methods stand out.
-    pub dashed: bool,
+    pub style: Style,
+}
+
+/// How a curve is drawn. Dashes cost one SVG element per dash, so they suit short curves
+/// (error against lead); long or noisy records use thin solid lines.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Style {
+    Solid,
+    /// Secondary curves of long records (noisy observations, the bound's trace).
+    Thin,
+    /// References on short curves (persistence, zero, bound).
+    Dashed,
 }
 
 impl Series {
@@ -24,12 +34,17 @@ impl Series {
         Self {
             label: label.into(),
             points,
-            dashed: false,
+            style: Style::Solid,
         }
     }
 
     pub fn dashed(mut self) -> Self {
-        self.dashed = true;
+        self.style = Style::Dashed;
+        self
+    }
+
+    pub fn thin(mut self) -> Self {
+        self.style = Style::Thin;
         self
     }
 }
@@ -103,13 +118,14 @@ pub fn line_chart(path: &Path, chart: &Chart<'_>) -> anyhow::Result<()> {
             .draw()?;
         for (i, s) in chart.series.iter().enumerate() {
             let color = Palette99::pick(i).to_rgba();
-            let style = ShapeStyle::from(color).stroke_width(if s.dashed { 1 } else { 2 });
+            let width = if s.style == Style::Solid { 2 } else { 1 };
+            let style = ShapeStyle::from(color).stroke_width(width);
             let points: Vec<(f64, f64)> = thin(&s.points, MAX_POINTS)
                 .into_iter()
                 .filter(|(x, y)| x.is_finite() && y.is_finite())
                 .collect();
             let legend_style = style;
-            let anno = if s.dashed {
+            let anno = if s.style == Style::Dashed {
                 ctx.draw_series(DashedLineSeries::new(points, 6, 4, style))?
             } else {
                 ctx.draw_series(LineSeries::new(points, style))?

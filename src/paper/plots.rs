@@ -66,16 +66,15 @@ fn trace_figure(study: &Study, trace: &Trace, dir: &Path) -> anyhow::Result<Figu
     };
     let mut series = Vec::new();
     if let Some(obs) = &trace.observed {
-        series.push(Series::new("observed (noisy)", obs.clone()).dashed());
+        series.push(Series::new("observed (noisy)", obs.clone()).thin());
     }
     series.push(Series::new("true", trace.truth.clone()));
     if let Ok(p) = &trace.mca {
         series.push(Series::new(format!("MCA-{order}"), p.clone()));
     }
     if let Ok(p) = &trace.bound {
-        series.push(
-            Series::new(format!("bound (optimal linear, order {order})"), p.clone()).dashed(),
-        );
+        series
+            .push(Series::new(format!("bound (optimal linear, order {order})"), p.clone()).thin());
     }
     let y_label = format!("{} [{}]", dof.name(), dof.unit());
     line_chart(

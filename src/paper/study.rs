@@ -700,6 +700,52 @@ mod tests {
         assert!(forecasts_at_lead(&mut p, &x, 45..51, 1).is_err());
     }
 
+    /// A plan small enough to run twice in a test: the same seed must give the same numbers,
+    /// and every job must report (MCA fails only where infeasible).
+    #[test]
+    fn same_seed_same_numbers() {
+        let plan = Plan {
+            train: 700,
+            test: 900,
+            stride: 20,
+            orders: vec![10, 30, 80],
+            mlp_epochs: 2,
+            trace_len: 40,
+            ..Plan::quick(5)
+        };
+        let a = run(&plan, &NoProgress).unwrap();
+        let b = run(&plan, &NoProgress).unwrap();
+        assert_eq!(
+            a.outcomes.len(),
+            jobs(&plan)
+                .iter()
+                .filter(|j| matches!(j, Job::Eval { .. }))
+                .count()
+        );
+        for (x, y) in a.outcomes.iter().zip(&b.outcomes) {
+            let (rx, ry) = (x.result.as_ref(), y.result.as_ref());
+            match (rx, ry) {
+                (Ok(rx), Ok(ry)) => {
+                    assert_eq!(rx.rms, ry.rms, "{:?} {} {}", x.dof, x.method, x.order)
+                }
+                (Err(ex), Err(ey)) => {
+                    assert_eq!(ex, ey);
+                    assert!(x.method == Method::Mca && x.order <= plan.horizon, "{ex}");
+                }
+                _ => panic!("{:?} {} {}: one run failed", x.dof, x.method, x.order),
+            }
+        }
+        for (x, y) in a.bounds.iter().zip(&b.bounds) {
+            assert_eq!(
+                x.result.as_ref().unwrap().exact_rms,
+                y.result.as_ref().unwrap().exact_rms
+            );
+        }
+        assert_eq!(a.timings.len(), 8);
+        assert_eq!(a.traces.len(), 7);
+        assert!(a.traces.iter().all(|t| t.mca.is_ok() && t.bound.is_ok()));
+    }
+
     #[test]
     fn job_list_runs_timing_first_and_covers_every_table() {
         let plan = Plan::quick(1);

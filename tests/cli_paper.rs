@@ -1,0 +1,121 @@
+//! `shipcast paper --quick` end to end: the report has its tables and figures, the figures are
+//! SVG, and every number in the report is finite.
+
+use std::path::Path;
+use std::process::Command;
+
+fn shipcast() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_shipcast"))
+}
+
+/// Every Markdown table in `report`: (header cells, body rows).
+fn tables(report: &str) -> Vec<(usize, Vec<usize>)> {
+    let mut out = Vec::new();
+    let mut current: Option<(usize, Vec<usize>)> = None;
+    for line in report.lines() {
+        let cells = line.matches(" |").count();
+        match (&mut current, line.starts_with('|')) {
+            (None, true) => current = Some((cells, Vec::new())),
+            (Some((_, rows)), true) => rows.push(cells),
+            (Some(_), false) => out.extend(current.take()),
+            (None, false) => {}
+        }
+    }
+    out.extend(current);
+    out
+}
+
+#[test]
+fn quick_paper_study_writes_a_complete_finite_report() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("study");
+    let status = shipcast()
+        .args(["paper", "--quick", "--seed", "3", "--out"])
+        .arg(&out)
+        .status()
+        .unwrap();
+    assert!(status.success(), "shipcast paper --quick failed: {status}");
+    let report = std::fs::read_to_string(out.join("report.md")).unwrap();
+
+    for heading in [
+        "## Table 1:",
+        "## Table 2:",
+        "## Table 3:",
+        "## Line-spectrum sea against realistic dense sea",
+        "## Improvements to MCA",
+        "## Useful horizon",
+        "## Figures",
+        "## Appendix",
+        "### yaw",
+    ] {
+        assert!(report.contains(heading), "report lacks '{heading}'");
+    }
+    // Tables: Table 1 (heave), 2, 3, line sea, improvements, horizons, std, six appendix tables.
+    let tables = tables(&report);
+    assert!(tables.len() >= 13, "{} tables", tables.len());
+    for (header, rows) in &tables {
+        assert!(rows.len() >= 2, "a table without body rows");
+        assert!(
+            rows.iter().all(|r| r == header),
+            "ragged table: {header} vs {rows:?}"
+        );
+    }
+
+    // Figures: every one the report links exists and is SVG; the paper's figures 1-6 and 8 and
+    // the error-against-lead figures are among them.
+    let linked: Vec<&str> = report
+        .lines()
+        .filter_map(|l| l.strip_prefix("!["))
+        .filter_map(|l| l.split("](").nth(1))
+        .map(|l| l.trim_end_matches(')'))
+        .collect();
+    for name in [
+        "fig1_surge.svg",
+        "fig3_heave.svg",
+        "fig6_yaw.svg",
+        "fig8_noisy_heave.svg",
+        "rms_vs_lead_dense.svg",
+        "rms_vs_lead_line.svg",
+    ] {
+        assert!(linked.contains(&name), "report does not link {name}");
+    }
+    for name in &linked {
+        let svg = std::fs::read_to_string(Path::new(&out).join(name)).unwrap();
+        assert!(svg.trim_start().starts_with("<svg"), "{name} is not SVG");
+        assert!(
+            svg.contains("polyline") || svg.contains("<path"),
+            "{name} has no curve"
+        );
+    }
+
+    // Every number is finite: Rust parses "NaN", "inf" and "-inf", so a token that parses to
+    // a non-finite value is one.
+    let mut finite = 0;
+    for token in report.split(|c: char| c.is_whitespace() || "|()[]`,:;/".contains(c)) {
+        let token = token.trim_end_matches(['.', 'x', 's']);
+        if let Ok(v) = token.parse::<f64>() {
+            assert!(v.is_finite(), "non-finite number '{token}' in the report");
+            finite += 1;
+        }
+    }
+    assert!(finite > 500, "only {finite} numbers in the report");
+    assert!(!report.contains("failed:"), "a method failed:\n{report}");
+}
+
+#[test]
+fn unwritable_output_is_a_one_line_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("a-file");
+    std::fs::write(&file, "not a directory").unwrap();
+    let output = shipcast()
+        .args(["paper", "--quick", "--out"])
+        .arg(file.join("sub"))
+        .output()
+        .unwrap();
+    assert_eq!(output.status.code(), Some(2));
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    let errors: Vec<&str> = stderr.lines().filter(|l| l.starts_with("error:")).collect();
+    assert_eq!(errors.len(), 1, "{stderr}");
+    assert!(errors[0].contains("a-file"), "{stderr}");
+    assert!(!stderr.contains("panicked"), "{stderr}");
+}
