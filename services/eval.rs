@@ -105,7 +105,9 @@ pub fn parse_dofs(text: &str, data: &MotionData) -> anyhow::Result<Vec<Dof>> {
         anyhow::ensure!(!dofs.is_empty(), "no DOF column in the file (expected any of surge_m, sway_m, heave_m, roll_rad, pitch_rad, yaw_rad)");
         return Ok(dofs);
     }
-    Ok(vec![text.parse::<Dof>()?])
+    let dof = text.parse::<Dof>()?;
+    data.dof(dof)?;
+    Ok(vec![dof])
 }
 
 fn parse_methods(text: &str) -> anyhow::Result<Vec<Method>> {
@@ -121,7 +123,7 @@ pub fn load_resampled(path: &Path, sample_rate: f64) -> anyhow::Result<MotionDat
         MotionData::read_path(path).with_context(|| format!("reading {}", path.display()))?;
     let resampled = signal::resample_motion(&data, sample_rate)
         .with_context(|| format!("resampling {}", path.display()))?;
-    tracing::info!(
+    tracing::debug!(
         input = %path.display(),
         samples = data.len(),
         resampled = resampled.len(),
@@ -174,7 +176,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                     tracing::debug!(dof = %r.dof, method = %r.method, train_s = r.train_seconds, "evaluated")
                 }
                 Entry::Failed(f) => {
-                    tracing::warn!(dof = %f.dof, method = %f.method, error = %f.error, "method failed")
+                    tracing::debug!(dof = %f.dof, method = %f.method, error = %f.error, "method failed")
                 }
             }
             bar.set_message(format!("{}/{}", entry.dof(), entry.method()));

@@ -49,7 +49,7 @@ pub fn sample_rate(time: &[f64]) -> Result<f64, ResampleError> {
     sorted.sort_by(f64::total_cmp);
     let median = sorted[sorted.len() / 2];
     for (index, &step) in steps.iter().enumerate() {
-        if !(step > 0.0) || ((step - median) / median).abs() > STEP_TOLERANCE {
+        if step.is_nan() || step <= 0.0 || ((step - median) / median).abs() > STEP_TOLERANCE {
             return Err(ResampleError::Irregular {
                 index: index + 1,
                 step,

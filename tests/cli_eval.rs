@@ -1,0 +1,310 @@
+//! `shipcast eval` as a user runs it: the built binary on small CSVs in a temporary directory.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+const HEADER: &str = "time_s,surge_m,sway_m,heave_m,roll_rad,pitch_rad,yaw_rad,wave_m";
+
+/// A sea of a few sinusoids per DOF at `rate` Hz, `n` rows.
+fn sea_csv(dir: &Path, name: &str, rate: f64, n: usize) -> PathBuf {
+    let mut text = String::from(HEADER);
+    text.push('\n');
+    for i in 0..n {
+        let t = i as f64 / rate;
+        text.push_str(&t.to_string());
+        for d in 0..7 {
+            let d = d as f64;
+            let v =
+                (0.55 * t + d).sin() + 0.5 * (0.83 * t + 2.0 * d).sin() + 0.3 * (0.31 * t).cos();
+            text.push_str(&format!(",{}", if d >= 3.0 { 0.01 * v } else { v }));
+        }
+        text.push('\n');
+    }
+    write(dir, name, &text)
+}
+
+fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
+    let path = dir.join(name);
+    std::fs::write(&path, text).expect("write test CSV");
+    path
+}
+
+fn shipcast(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_shipcast"))
+        .args(args)
+        .env_remove("RUST_LOG")
+        .output()
+        .expect("run shipcast")
+}
+
+/// Small protocol so every method runs in well under a second.
+const SMALL: [&str; 10] = [
+    "--order",
+    "40",
+    "--horizon",
+    "6",
+    "--train",
+    "300",
+    "--epochs",
+    "5",
+    "--stride",
+    "2",
+];
+
+/// `shipcast eval` on `input` with the small protocol, `extra` flags overriding it.
+fn eval(input: &Path, extra: &[&str]) -> Output {
+    let mut args = vec!["eval", "--input", input.to_str().expect("utf-8 path")];
+    for pair in SMALL.chunks(2) {
+        if !extra.contains(&pair[0]) {
+            args.extend_from_slice(pair);
+        }
+    }
+    args.extend_from_slice(extra);
+    shipcast(&args)
+}
+
+/// Non-zero exit, one stderr line starting with `error:` and containing `reason`, no panic.
+fn assert_one_line_error(output: &Output, reason: &str) {
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(!output.status.success(), "succeeded; stderr: {stderr}");
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    let lines: Vec<&str> = stderr.lines().collect();
+    assert_eq!(lines.len(), 1, "stderr: {stderr}");
+    assert!(lines[0].starts_with("error: "), "{stderr}");
+    assert!(lines[0].contains(reason), "want '{reason}' in: {stderr}");
+}
+
+#[test]
+fn json_lines_have_the_contract_fields_for_every_pair() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = sea_csv(dir.path(), "sea.csv", 2.0, 500);
+    let output = eval(&input, &["--dof", "all", "--method", "all", "--json"]);
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    assert!(
+        output.status.success(),
+        "stderr: {}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    let lines: Vec<serde_json::Value> = stdout
+        .lines()
+        .map(|l| serde_json::from_str(l).expect("one JSON object per line"))
+        .collect();
+    assert_eq!(lines.len(), 6 * 6);
+    let origins = (340..=494).step_by(2).count();
+    for v in &lines {
+        for field in [
+            "dof",
+            "method",
+            "order",
+            "horizon",
+            "train",
+            "sample_rate",
+            "origins",
+            "rms",
+            "nrmse",
+            "persistence_rms",
+            "train_seconds",
+            "predict_seconds",
+        ] {
+            assert!(v.get(field).is_some(), "missing {field}: {v}");
+        }
+        assert_eq!(v["order"], 40);
+        assert_eq!(v["train"], 300);
+        assert_eq!(v["origins"], origins);
+        assert_eq!(v["rms"].as_array().unwrap().len(), 6);
+        assert_eq!(v["nrmse"].as_array().unwrap().len(), 6);
+        assert!(v.get("rms_clean").is_none());
+        if v["method"] == "mca" {
+            assert!(v["minor_components"].as_u64().unwrap() >= 6, "{v}");
+        }
+        if v["method"] == "persistence" {
+            assert_eq!(v["rms"], v["persistence_rms"]);
+        }
+    }
+}
+
+#[test]
+fn noise_adds_rms_clean_and_8_hz_input_is_decimated() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = sea_csv(dir.path(), "sea8.csv", 8.0, 2000);
+    let output = eval(
+        &input,
+        &[
+            "--dof",
+            "heave",
+            "--method",
+            "zero",
+            "--json",
+            "--noise-pct",
+            "10",
+        ],
+    );
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&output.stdout).unwrap();
+    // 2000 samples at 8 Hz decimate to (2000 - 17) / 4 + 1 = 496 at 2 Hz.
+    assert_eq!(v["origins"], (340..=490).step_by(2).count());
+    assert_eq!(v["sample_rate"], 2.0);
+    let rms = v["rms"].as_array().unwrap();
+    let clean = v["rms_clean"].as_array().unwrap();
+    assert_eq!(clean.len(), rms.len());
+    assert_ne!(rms, clean);
+}
+
+#[test]
+fn table_is_the_default_output() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = sea_csv(dir.path(), "sea.csv", 2.0, 500);
+    let output = eval(&input, &["--dof", "pitch", "--method", "persistence"]);
+    assert!(output.status.success());
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    assert!(stdout.contains("rms/skill 0.5 s"), "{stdout}");
+    assert!(stdout.contains("pitch  persistence"), "{stdout}");
+}
+
+#[test]
+fn bad_input_gives_one_line_error_and_non_zero_exit() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let good = sea_csv(d, "sea.csv", 2.0, 500);
+    let rows = |f: &dyn Fn(usize) -> String| -> String {
+        let body: String = (0..500).map(|i| f(i) + "\n").collect();
+        format!("time_s,heave_m\n{body}")
+    };
+    let cases: Vec<(PathBuf, Vec<&str>, &str)> = vec![
+        (write(d, "empty.csv", ""), vec![], "empty file"),
+        (
+            write(d, "pitch_only.csv", "time_s,pitch_rad\n0,1\n0.5,2\n"),
+            vec!["--dof", "heave"],
+            "no 'heave_m' column",
+        ),
+        (
+            write(d, "no_time.csv", "t,heave_m\n0,1\n"),
+            vec![],
+            "no 'time_s' column",
+        ),
+        (
+            write(
+                d,
+                "nan.csv",
+                &rows(&|i| {
+                    if i == 7 {
+                        format!("{},NaN", i as f64 * 0.5)
+                    } else {
+                        format!("{},1", i as f64 * 0.5)
+                    }
+                }),
+            ),
+            vec![],
+            "line 9, column 'heave_m': non-finite value 'NaN'",
+        ),
+        (
+            write(
+                d,
+                "back.csv",
+                &rows(&|i| format!("{},1", if i == 20 { 3.0 } else { i as f64 * 0.5 })),
+            ),
+            vec![],
+            "line 22, column 'time_s'",
+        ),
+        (
+            write(
+                d,
+                "hole.csv",
+                &rows(&|i| {
+                    if i == 3 {
+                        "1.5,".to_string()
+                    } else {
+                        format!("{},1", i as f64 * 0.5)
+                    }
+                }),
+            ),
+            vec![],
+            "line 5, column 'heave_m': missing value",
+        ),
+        (
+            write(
+                d,
+                "irregular.csv",
+                &rows(&|i| format!("{},1", i as f64 * 0.5 + if i > 100 { 0.25 } else { 0.0 })),
+            ),
+            vec![],
+            "irregular sampling",
+        ),
+        (
+            sea_csv(d, "three_hz.csv", 3.0, 600),
+            vec![],
+            "not an integer multiple",
+        ),
+        (good.clone(), vec!["--order", "900"], "too short"),
+        (
+            good.clone(),
+            vec!["--method", "mca", "--horizon", "40"],
+            "mca",
+        ),
+        (
+            good.clone(),
+            vec!["--method", "kalman"],
+            "unknown method 'kalman'",
+        ),
+        (
+            good.clone(),
+            vec!["--dof", "heavy"],
+            "unknown degree of freedom 'heavy'",
+        ),
+        (dir.path().join("absent.csv"), vec![], "absent.csv"),
+    ];
+    for (input, extra, reason) in cases {
+        let output = eval(&input, &extra);
+        assert_one_line_error(&output, reason);
+    }
+}
+
+#[test]
+fn train_writes_a_loadable_model_for_every_dof_present() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = sea_csv(dir.path(), "sea.csv", 2.0, 500);
+    let out = dir.path().join("model.json");
+    let output = shipcast(&[
+        "train",
+        "--input",
+        input.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--method",
+        "wiener",
+        "--order",
+        "40",
+        "--horizon",
+        "6",
+    ]);
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    let model = shipcast::model::ModelFile::load(&out).unwrap();
+    assert_eq!(model.dofs.len(), 6);
+    assert_eq!(model.sample_rate, 2.0);
+    assert_eq!(model.config.order, 40);
+    for m in &model.dofs {
+        assert_eq!(m.sigma.len(), 6);
+        assert_eq!(m.samples, 500);
+    }
+
+    let bad = shipcast(&[
+        "train",
+        "--input",
+        input.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--order",
+        "10",
+        "--horizon",
+        "10",
+    ]);
+    assert_one_line_error(&bad, "infeasible");
+}
