@@ -10,6 +10,7 @@
 use super::rao::{Rao, Response};
 use super::sea::{draw_components, Components, WaveComponent};
 use super::{ClosedFormRao, RaoSpec, RaoTable, ScaledRaoTable, SimConfig, SimError, Spectrum};
+use std::borrow::Borrow;
 use std::sync::Arc;
 
 /// Number of output channels: six DOF then the wave elevation.
@@ -166,35 +167,8 @@ impl ShipMotion {
     }
 
     /// Samples at `rate_hz` starting at `start_s`, endless (take what you need).
-    pub fn stream(&self, rate_hz: f64, start_s: f64) -> Result<MotionStream<'_>, SimError> {
-        if !(rate_hz.is_finite() && rate_hz > 0.0) {
-            return Err(SimError::Config(format!(
-                "sample rate must be positive, got {rate_hz} Hz"
-            )));
-        }
-        if !start_s.is_finite() {
-            return Err(SimError::Config("start time must be finite".into()));
-        }
-        let dt = 1.0 / rate_hz;
-        let n = self.coefficients.len();
-        let rotation = self
-            .coefficients
-            .iter()
-            .map(|k| {
-                let (s, c) = (k.omega_e * dt).sin_cos();
-                (c, s)
-            })
-            .collect();
-        let mut stream = MotionStream {
-            motion: self,
-            dt,
-            start_s,
-            step: 0,
-            phasor: vec![(1.0, 0.0); n],
-            rotation,
-        };
-        stream.resync();
-        Ok(stream)
+    pub fn stream(&self, rate_hz: f64, start_s: f64) -> Result<MotionStream<&Self>, SimError> {
+        MotionStream::new(self, rate_hz, start_s)
     }
 }
 
@@ -206,10 +180,12 @@ fn point(t: f64, acc: &[f64; CHANNELS]) -> MotionPoint {
     }
 }
 
-/// Fixed-rate iterator over a [`ShipMotion`]; never ends, allocates nothing per sample.
+/// Fixed-rate iterator over a [`ShipMotion`]; never ends, allocates nothing per sample. `M` is
+/// `&ShipMotion` (from [`ShipMotion::stream`]) or an owner such as `ShipMotion` or
+/// `Arc<ShipMotion>` for a stream that moves into a thread (`MotionStream::new`).
 #[derive(Debug)]
-pub struct MotionStream<'a> {
-    motion: &'a ShipMotion,
+pub struct MotionStream<M: Borrow<ShipMotion>> {
+    motion: M,
     dt: f64,
     start_s: f64,
     step: u64,
@@ -219,14 +195,50 @@ pub struct MotionStream<'a> {
     rotation: Vec<(f64, f64)>,
 }
 
-impl MotionStream<'_> {
+impl<M: Borrow<ShipMotion>> MotionStream<M> {
+    /// Samples of `motion` at `rate_hz` starting at `start_s`.
+    pub fn new(motion: M, rate_hz: f64, start_s: f64) -> Result<Self, SimError> {
+        if !(rate_hz.is_finite() && rate_hz > 0.0) {
+            return Err(SimError::Config(format!(
+                "sample rate must be positive, got {rate_hz} Hz"
+            )));
+        }
+        if !start_s.is_finite() {
+            return Err(SimError::Config("start time must be finite".into()));
+        }
+        let dt = 1.0 / rate_hz;
+        let coefficients = &motion.borrow().coefficients;
+        let n = coefficients.len();
+        let rotation = coefficients
+            .iter()
+            .map(|k| {
+                let (s, c) = (k.omega_e * dt).sin_cos();
+                (c, s)
+            })
+            .collect();
+        let mut stream = MotionStream {
+            motion,
+            dt,
+            start_s,
+            step: 0,
+            phasor: vec![(1.0, 0.0); n],
+            rotation,
+        };
+        stream.resync();
+        Ok(stream)
+    }
+
     fn time(&self) -> f64 {
         self.start_s + self.step as f64 * self.dt
     }
 
     fn resync(&mut self) {
         let t = self.time();
-        for (p, k) in self.phasor.iter_mut().zip(&self.motion.coefficients) {
+        for (p, k) in self
+            .phasor
+            .iter_mut()
+            .zip(&self.motion.borrow().coefficients)
+        {
             let (s, c) = (k.omega_e * t).sin_cos();
             *p = (c, s);
         }
@@ -236,9 +248,14 @@ impl MotionStream<'_> {
     pub fn dt(&self) -> f64 {
         self.dt
     }
+
+    /// The simulation being sampled.
+    pub fn motion(&self) -> &ShipMotion {
+        self.motion.borrow()
+    }
 }
 
-impl Iterator for MotionStream<'_> {
+impl<M: Borrow<ShipMotion>> Iterator for MotionStream<M> {
     type Item = MotionPoint;
 
     fn next(&mut self) -> Option<MotionPoint> {
@@ -250,7 +267,7 @@ impl Iterator for MotionStream<'_> {
             .phasor
             .iter_mut()
             .zip(&self.rotation)
-            .zip(&self.motion.coefficients)
+            .zip(&self.motion.borrow().coefficients)
         {
             let (c, s) = *p;
             for ((a, re), im) in acc.iter_mut().zip(&k.re).zip(&k.im) {
@@ -284,5 +301,12 @@ mod tests {
             }
         }
         assert!(m.stream(0.0, 0.0).is_err());
+        // An owning stream gives the same samples.
+        let shared = Arc::new(m);
+        let owned: Vec<MotionPoint> = MotionStream::new(shared.clone(), 8.0, 10.0)
+            .unwrap()
+            .take(5)
+            .collect();
+        assert_eq!(owned[..], pts[..5]);
     }
 }
