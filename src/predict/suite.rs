@@ -56,6 +56,30 @@ pub fn allocations_during(f: impl FnOnce()) -> usize {
     ALLOCATIONS.with(Cell::get) - before
 }
 
+#[test]
+fn the_allocation_counter_sees_allocations_on_this_thread_only() {
+    let n = allocations_during(|| {
+        std::hint::black_box(vec![1u8; 16]);
+    });
+    assert_eq!(n, 2, "one allocation and one free");
+    // Another thread allocating while this one waits must not count here.
+    let barrier = std::sync::Barrier::new(2);
+    std::thread::scope(|s| {
+        s.spawn(|| {
+            barrier.wait();
+            for len in 1..100 {
+                std::hint::black_box(vec![0u64; len]);
+            }
+            barrier.wait();
+        });
+        let n = allocations_during(|| {
+            barrier.wait();
+            barrier.wait();
+        });
+        assert_eq!(n, 0, "allocations of another thread were counted");
+    });
+}
+
 // ---------------------------------------------------------------------------------------------
 // Signals and scoring.
 
