@@ -5,7 +5,7 @@
 
 use super::histogram::LatencyRecorder;
 use super::pinning::{pin_current, PinOutcome};
-use super::plan::Plan;
+use super::plan::{Pacer, Plan};
 use crate::transport::monotonic_ns;
 use anyhow::{anyhow, Context};
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -117,17 +117,9 @@ fn ping_loop(
 ) -> anyhow::Result<LatencyRecorder> {
     handshake(&mut ep, done)?;
     let mut rec = LatencyRecorder::new();
-    let period = plan.period();
-    let mut next = Instant::now();
+    let mut pacer = Pacer::new(plan);
     for seq in 0..plan.warmup + plan.samples {
-        next += period;
-        let now = Instant::now();
-        if next > now {
-            std::thread::sleep(next - now);
-        } else {
-            // Fell behind (slow transport): restart the schedule instead of bursting.
-            next = now;
-        }
+        pacer.wait();
         ep.send(seq, monotonic_ns())?;
         let deadline = Instant::now() + REPLY_TIMEOUT;
         while !done.load(Ordering::Acquire) {

@@ -10,7 +10,7 @@ use super::histogram::LatencyRecorder;
 use super::latency::{ReportBuilder, FORECAST_BYTES, MOTION_BYTES};
 use super::pingpong_zenoh::free_port;
 use super::pinning::{pin_current, PinOutcome};
-use super::plan::{Mode, Path, Plan};
+use super::plan::{Mode, Pacer, Path, Plan};
 use super::stand_in::{swell, ForecastStep, RECORD_RATE_HZ};
 use crate::payload::{Forecast, MotionSample};
 use crate::transport::iox::{self, IoxPublisher, IoxSubscriber, Sizing, WaitMode};
@@ -118,8 +118,13 @@ pub fn measure(plan: &Plan, mode: Mode, out: &mut ReportBuilder) -> anyhow::Resu
         )
     });
     let (tally, pin_p) = tally?;
-    let ((local, published_seen), pin_l) = local?;
-    let ((remote, _), pin_z) = remote?;
+    let (local, pin_l) = local?;
+    let ((remote, rejected), pin_z) = remote?;
+    if rejected > 0 {
+        out.note(format!(
+            "{mode}: the zenoh consumer rejected {rejected} malformed forecast JSON payloads"
+        ));
+    }
     let pin_s = pins?;
     out.pins().extend([pin_s, pin_p, pin_l, pin_z]);
     out.add(
@@ -150,7 +155,6 @@ pub fn measure(plan: &Plan, mode: Mode, out: &mut ReportBuilder) -> anyhow::Resu
         tally.sent,
         super::latency::forecast_json_bytes(),
     );
-    tracing::debug!(published_seen, "local consumer saw issued stamps");
     Ok(())
 }
 
@@ -191,20 +195,13 @@ fn producer(run: &Run<'_>) -> anyhow::Result<PinOutcome> {
     let node = iox::node(&run.names, "bench-producer")?;
     let publisher = IoxPublisher::<MotionSample>::new(&node, &run.names.motion(), Sizing::MOTION)?;
     await_until(run, "the predictor", || run.started.load(Ordering::Acquire))?;
-    let period = run.plan.period();
-    let mut next = Instant::now();
+    let mut pacer = Pacer::new(run.plan);
     let mut sample = MotionSample::default();
     for seq in 0..run.plan.warmup + run.plan.samples {
         if run.is_done() {
             anyhow::bail!("stopped early: another part of the pipeline failed");
         }
-        next += period;
-        let now = Instant::now();
-        if next > now {
-            std::thread::sleep(next - now);
-        } else {
-            next = now;
-        }
+        pacer.wait();
         let t = seq as f64 / RECORD_RATE_HZ;
         sample.seq = seq;
         sample.time_s = t;
@@ -276,7 +273,7 @@ fn predictor(
 }
 
 /// Co-located iceoryx2 consumer, on the first core.
-fn local_consumer(run: &Run<'_>) -> anyhow::Result<((LatencyRecorder, u64), PinOutcome)> {
+fn local_consumer(run: &Run<'_>) -> anyhow::Result<(LatencyRecorder, PinOutcome)> {
     let pin = pin_current("local consumer", run.plan.cores.0);
     let node = iox::node(&run.names, "bench-local")?;
     let sub = IoxSubscriber::<Forecast>::new(
@@ -287,18 +284,16 @@ fn local_consumer(run: &Run<'_>) -> anyhow::Result<((LatencyRecorder, u64), PinO
     )?;
     run.consumers_ready.fetch_add(1, Ordering::AcqRel);
     let mut rec = LatencyRecorder::new();
-    let mut seen = 0u64;
     while !run.is_done() {
         sub.wait(SLICE)?;
         while let Some(f) = sub.receive()? {
             let now = monotonic_ns();
             if run.measured(f.source_seq) {
                 rec.record_between(f.source_stamp_ns, now);
-                seen += 1;
             }
         }
     }
-    Ok(((rec, seen), pin))
+    Ok((rec, pin))
 }
 
 /// zenoh consumer over tcp/127.0.0.1, on the first core. It always blocks on its channel:

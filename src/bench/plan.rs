@@ -148,6 +148,34 @@ impl Plan {
     }
 }
 
+/// Paces sends at the plan's rate.
+#[derive(Debug)]
+pub struct Pacer {
+    period: std::time::Duration,
+    next: std::time::Instant,
+}
+
+impl Pacer {
+    pub fn new(plan: &Plan) -> Self {
+        Self {
+            period: plan.period(),
+            next: std::time::Instant::now(),
+        }
+    }
+
+    /// Sleep until the next send is due.
+    pub fn wait(&mut self) {
+        self.next += self.period;
+        let now = std::time::Instant::now();
+        if self.next > now {
+            std::thread::sleep(self.next - now);
+        } else {
+            // Fell behind (slow transport, busy core): restart the schedule, never burst.
+            self.next = now;
+        }
+    }
+}
+
 /// Parse `--cores A,B` (two distinct core ids).
 pub fn parse_cores(s: &str) -> Result<(usize, usize), String> {
     let parts: Vec<&str> = s.split(',').map(str::trim).collect();
