@@ -88,7 +88,7 @@ impl TrainingSet {
         let windows = (series.len() - span) / stride + 1;
         let at = |row: usize, offset: usize| series[row * stride + offset] * gain;
         Self {
-            inputs: Mat::from_fn(windows, shape.inputs, |row, col| at(row, col)),
+            inputs: Mat::from_fn(windows, shape.inputs, &at),
             targets: Mat::from_fn(windows, shape.outputs, |row, col| {
                 at(row, shape.inputs + col)
             }),
