@@ -52,7 +52,7 @@ trait MotionSource {
 
 /// The simulator, endless.
 struct SimSource<'a> {
-    stream: MotionStream<'a>,
+    stream: MotionStream<&'a ShipMotion>,
 }
 
 impl MotionSource for SimSource<'_> {

@@ -4,7 +4,7 @@
 
 use crate::payload::limits;
 use crate::transport::naming::Names;
-use iceoryx2::port::listener::Listener;
+use iceoryx2::port::listener::{Listener, ListenerWaitError};
 use iceoryx2::port::notifier::Notifier;
 use iceoryx2::port::publisher::Publisher;
 use iceoryx2::port::subscriber::Subscriber;
@@ -212,11 +212,11 @@ impl<T: Debug + ZeroCopySend + Copy + 'static> IoxSubscriber<T> {
     /// callers drain with [`Self::receive`] until it returns `None`.
     pub fn wait(&self, timeout: Duration) -> Result<(), IoxError> {
         match self.mode {
-            WaitMode::Event => {
-                self.listener
-                    .timed_wait(|_| {}, timeout)
-                    .map_err(err("wait for event"))?;
-            }
+            WaitMode::Event => match self.listener.timed_wait(|_| {}, timeout) {
+                // A signal (Ctrl-C, SIGTERM) ends the wait early; the caller checks its stop flag.
+                Ok(_) | Err(ListenerWaitError::InterruptSignal) => {}
+                Err(e) => return Err(err("wait for event")(e)),
+            },
             WaitMode::BusyPoll => {
                 let deadline = Instant::now() + timeout;
                 while !self.subscriber.has_samples().map_err(err("poll"))? {
