@@ -150,9 +150,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             _ => String::new(),
         };
         tracing::info!(
-            "{:<10} RMS {rms:.4}{deg}, exact {exact:.4}; peak encounter period {:.1} s",
+            "{:<10} RMS {rms:.4}{deg}, exact {exact:.4}; peak encounter period {}",
             ch.column(),
-            motion.peak_encounter_period(ch)
+            motion
+                .peak_encounter_period(ch)
+                .map_or("none (not excited)".to_string(), |t| format!("{t:.1} s"))
         );
     }
     if let Some(svg) = &args.plot {

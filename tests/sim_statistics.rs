@@ -147,12 +147,21 @@ fn encounter_period_is_shorter_in_head_seas_and_longer_in_following_seas() {
         ShipMotion::new(&cfg)
             .unwrap()
             .peak_encounter_period(Channel::Wave)
+            .unwrap()
     };
     let tp = SimConfig::default().tp_s;
     let (head, beam, following) = (period(180.0), period(90.0), period(0.0));
     assert!(head < 0.85 * tp, "head seas {head:.2} s vs Tp {tp} s");
     assert!((beam / tp - 1.0).abs() < 0.1, "beam seas {beam:.2} s");
     assert!(following > 1.3 * tp, "following seas {following:.2} s");
+    // Roll is not excited at all in long-crested head seas.
+    let head_seas = SimConfig {
+        heading_deg: 180.0,
+        spreading: Spreading::None,
+        ..SimConfig::default()
+    };
+    let m = ShipMotion::new(&head_seas).unwrap();
+    assert_eq!(m.peak_encounter_period(Channel::Motion(Dof::Roll)), None);
     // Consistent with the encounter frequency of the spectral peak.
     let we = encounter_omega(2.0 * PI / tp, PI, 11.0 * KNOT_MPS);
     assert!((head / (2.0 * PI / we) - 1.0).abs() < 0.1);

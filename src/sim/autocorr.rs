@@ -94,18 +94,23 @@ impl ShipMotion {
     }
 
     /// Period [s] at the peak of a channel's encounter spectrum (0.02 rad/s bins, lightly
-    /// smoothed so that one large random component does not decide it).
-    pub fn peak_encounter_period(&self, channel: Channel) -> f64 {
+    /// smoothed so that one large random component does not decide it); None for a channel the
+    /// sea does not excite (e.g. roll in long-crested head seas).
+    pub fn peak_encounter_period(&self, channel: Channel) -> Option<f64> {
         const D_OMEGA: f64 = 0.02;
+        // Rounding (sin(pi) = 1.2e-16) leaves a trace of energy in channels the sea does not
+        // excite; far below any real response per metre of wave, whatever the unit.
+        if self.variance(channel) <= 1e-20 * self.variance(Channel::Wave) {
+            return None;
+        }
         let hist = self.encounter_spectrum(channel, D_OMEGA, 400);
         let smooth = |i: usize| {
             let lo = i.saturating_sub(2);
             let hi = (i + 3).min(hist.len());
             hist[lo..hi].iter().sum::<f64>()
         };
-        let best = (1..hist.len())
-            .max_by(|&a, &b| smooth(a).total_cmp(&smooth(b)))
-            .unwrap_or(1);
-        TAU / ((best as f64 + 0.5) * D_OMEGA)
+        // Bin 0 would be an infinite period: waves that keep pace with the ship.
+        let best = (1..hist.len()).max_by(|&a, &b| smooth(a).total_cmp(&smooth(b)))?;
+        Some(TAU / ((best as f64 + 0.5) * D_OMEGA))
     }
 }

@@ -163,7 +163,14 @@ pub fn plot_overview(
             lim = record.iter().map(|p| p.wave_m.abs()).fold(lim, f64::max);
         }
         let lim = if lim > 0.0 { lim * 1.1 } else { 1.0 };
-        let unit = if dof.is_rotation() { "deg" } else { "m" };
+        let unit = match dof {
+            Dof::Surge => "m, + forward",
+            Dof::Sway => "m, + starboard",
+            Dof::Heave => "m, + down",
+            Dof::Roll => "deg, + starboard down",
+            Dof::Pitch => "deg, + bow up",
+            Dof::Yaw => "deg, + bow to starboard",
+        };
         let mut chart = ChartBuilder::on(area)
             .caption(format!("{dof} [{unit}]"), ("sans-serif", 16))
             .margin(8)
