@@ -39,6 +39,10 @@ impl Components {
     }
 }
 
+/// Upper limit on the number of components: beyond it the memory and time per sample grow
+/// with no gain in realism.
+pub const MAX_COMPONENTS: usize = 200_000;
+
 /// One regular wave.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct WaveComponent {
@@ -63,6 +67,22 @@ pub fn draw_components(
     layout: Components,
     seed: u64,
 ) -> Result<Vec<WaveComponent>, SimError> {
+    let count = match layout {
+        Components::Random {
+            freq_bins,
+            dir_bins,
+        } => freq_bins.saturating_mul(if spreading == Spreading::None {
+            1
+        } else {
+            dir_bins
+        }),
+        Components::FixedGrid { lines } => lines,
+    };
+    if count > MAX_COMPONENTS {
+        return Err(SimError::Config(format!(
+            "{count} wave components requested, at most {MAX_COMPONENTS} are supported"
+        )));
+    }
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let (w_lo, w_hi) = spectrum.band();
     let mut out = Vec::new();
