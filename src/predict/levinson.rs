@@ -46,8 +46,7 @@ pub fn solve_toeplitz(
         return Ok(());
     }
     let r0 = r[0];
-    // `!(a > 0)` also catches NaN.
-    if !(r0 > 0.0) || !r0.is_finite() {
+    if !positive_and_finite(r0) {
         return Err(LevinsonError::NotPositiveDefinite { size: 1 });
     }
     // Work with the unit-diagonal matrix T / r0; the solution is unchanged when b is also
@@ -64,7 +63,7 @@ pub fn solve_toeplitz(
     for k in 1..n {
         // beta_k = (1 - alpha^2) beta_{k-1} is the ratio of consecutive leading minors.
         beta *= 1.0 - alpha * alpha;
-        if !(beta > 0.0) || !beta.is_finite() {
+        if !positive_and_finite(beta) {
             return Err(LevinsonError::NotPositiveDefinite { size: k + 1 });
         }
         let mut dot_rx = 0.0;
@@ -91,6 +90,11 @@ pub fn solve_toeplitz(
     } else {
         Err(LevinsonError::NotPositiveDefinite { size: n })
     }
+}
+
+/// False for NaN as well as for zero, negative and infinite values.
+fn positive_and_finite(v: f64) -> bool {
+    v > 0.0 && v.is_finite()
 }
 
 /// `y <- y + alpha * reverse(y)` in place, a pair of mirrored entries at a time.

@@ -86,10 +86,12 @@ fn the_allocation_counter_sees_allocations_on_this_thread_only() {
 /// Sample rate of the test signals [Hz], the evaluation rate of DESIGN.md section 4.
 pub const RATE_HZ: f64 = 2.0;
 
+/// Amplitude, period [s] and phase [rad] of the lines of `sum_of_sinusoids`.
+pub const LINES: [(f64, f64, f64); 3] = [(1.0, 7.0, 0.3), (0.6, 10.3, 1.1), (0.3, 14.1, 2.0)];
+
 /// Three sinusoids with wave-like periods (7, 10.3 and 14.1 s) sampled at 2 Hz: a line
 /// spectrum, which any linear predictor with enough past values extrapolates exactly.
 pub fn sum_of_sinusoids(len: usize) -> Vec<f64> {
-    const LINES: [(f64, f64, f64); 3] = [(1.0, 7.0, 0.3), (0.6, 10.3, 1.1), (0.3, 14.1, 2.0)];
     (0..len)
         .map(|i| {
             let t = i as f64 / RATE_HZ;

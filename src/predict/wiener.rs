@@ -143,7 +143,7 @@ impl Predictor for WienerPredictor {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::predict::suite::{nrmse_over_test, sum_of_sinusoids};
+    use crate::predict::suite::{nrmse_over_test, sum_of_sinusoids, LINES, RATE_HZ};
     use faer::linalg::solvers::Solve;
     use faer::Mat;
 
@@ -163,6 +163,30 @@ mod tests {
         p.fit(&x[..TRAIN]).unwrap();
         let nrmse = nrmse_over_test(&mut p, &x, TRAIN, 25);
         assert!(nrmse < 1e-3, "Wiener-800 nrmse {nrmse}");
+    }
+
+    #[test]
+    fn exact_autocorrelation_of_a_line_spectrum_predicts_it() {
+        // r(k) = sum A^2/2 cos(w k) for the lines, plus a white-noise floor of 1e-8 of the
+        // power that keeps the Toeplitz matrix positive definite.
+        let (order, horizon) = (200, 50);
+        let power: f64 = LINES.iter().map(|&(a, _, _)| a * a / 2.0).sum();
+        let r: Vec<f64> = (0..order + horizon)
+            .map(|k| {
+                let lines: f64 = LINES
+                    .iter()
+                    .map(|&(a, period, _)| {
+                        let w = 2.0 * std::f64::consts::PI / (period * RATE_HZ);
+                        a * a / 2.0 * (w * k as f64).cos()
+                    })
+                    .sum();
+                lines + if k == 0 { 1e-8 * power } else { 0.0 }
+            })
+            .collect();
+        let mut p = WienerPredictor::from_autocorrelation(&r, order, horizon).unwrap();
+        let x = sum_of_sinusoids(2000);
+        let nrmse = nrmse_over_test(&mut p, &x, 1000, 7);
+        assert!(nrmse < 1e-3, "exact Wiener-200 nrmse {nrmse}");
     }
 
     /// Independent path: autocorrelation by explicit double loop, Toeplitz matrix built in full
