@@ -43,7 +43,11 @@ pub fn origins(
     if stride == 0 {
         return Err(EvalError::Zero { what: "stride" });
     }
-    let needed = first + order + horizon;
+    // Checked: absurd flags (e.g. --order 18446744073709551615) must be an error, not a wrap.
+    let needed = first
+        .checked_add(order)
+        .and_then(|v| v.checked_add(horizon))
+        .unwrap_or(usize::MAX);
     if len < needed {
         return Err(EvalError::TooShort {
             len,

@@ -95,6 +95,7 @@ fn origins_follow_the_protocol() {
         "{short}"
     );
     assert!(origins(100, 50, 0, 5, 1).is_err());
+    assert!(origins(100, 50, usize::MAX, 5, 1).is_err());
     assert!(origins(100, 50, 10, 0, 1).is_err());
     assert!(origins(100, 50, 10, 5, 0).is_err());
 }

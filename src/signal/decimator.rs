@@ -3,6 +3,9 @@
 use super::fir::{delay_samples, design_lowpass};
 use super::ResampleError;
 
+/// Largest decimation factor accepted (the filter has `4 * factor + 1` taps).
+pub const MAX_FACTOR: usize = 1 << 16;
+
 /// Filters and decimates one series sample by sample; the live counterpart of [`decimate`].
 ///
 /// Push every input sample; every `factor`-th push returns the filtered output. The first output
@@ -32,6 +35,9 @@ impl Decimator {
     pub fn new(factor: usize) -> Result<Self, ResampleError> {
         if factor == 0 {
             return Err(ResampleError::ZeroFactor);
+        }
+        if factor > MAX_FACTOR {
+            return Err(ResampleError::FactorTooLarge(factor));
         }
         let mut weights = design_lowpass(factor);
         weights.reverse();
@@ -134,6 +140,11 @@ mod tests {
             }
         }
         assert!(matches!(Decimator::new(0), Err(ResampleError::ZeroFactor)));
+        assert!(Decimator::new(MAX_FACTOR).is_ok());
+        assert!(matches!(
+            Decimator::new(MAX_FACTOR + 1),
+            Err(ResampleError::FactorTooLarge(_))
+        ));
     }
 
     #[test]

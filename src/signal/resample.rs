@@ -16,6 +16,8 @@ const RATIO_TOLERANCE: f64 = 1e-3;
 pub enum ResampleError {
     #[error("decimation factor must be at least 1")]
     ZeroFactor,
+    #[error("decimation factor {0} is too large (at most {max})", max = super::decimator::MAX_FACTOR)]
+    FactorTooLarge(usize),
     #[error("need at least two samples to estimate the sample rate, got {0}")]
     TooFewForRate(usize),
     #[error("irregular sampling: time step {index} is {step} s, the typical step is {median} s")]
@@ -84,6 +86,9 @@ pub fn resample_motion(data: &MotionData, target: f64) -> Result<MotionData, Res
     let factor = decimation_factor(input, target)?;
     if factor == 1 {
         return Ok(data.clone());
+    }
+    if factor > super::decimator::MAX_FACTOR {
+        return Err(ResampleError::FactorTooLarge(factor));
     }
     let needed = 4 * factor + 1;
     if data.len() < needed {
@@ -170,6 +175,15 @@ mod tests {
         assert!(decimation_factor(1.0, 2.0).is_err());
         assert!(decimation_factor(8.0, 0.0).is_err());
         assert!(decimation_factor(8.0, f64::NAN).is_err());
+        // A tiny target rate gives a factor no filter should be built for.
+        let tiny = MotionData {
+            time: vec![0.0, 1.0, 2.0],
+            columns: vec![],
+        };
+        assert!(matches!(
+            resample_motion(&tiny, 1e-300),
+            Err(ResampleError::FactorTooLarge(_))
+        ));
     }
 
     #[test]
