@@ -52,6 +52,11 @@ fn non_physical_settings_are_rejected() {
         ..base.clone()
     });
     assert!(e.contains("at least 1"), "{e}");
+    let e = error_of(SimConfig {
+        components: Some(usize::MAX),
+        ..base.clone()
+    });
+    assert!(e.contains("at most"), "{e}");
     let m = ShipMotion::new(&base).unwrap();
     assert!(m.stream(-8.0, 0.0).is_err());
 }
