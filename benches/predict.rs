@@ -63,6 +63,14 @@ fn mca_training(c: &mut Criterion) {
     group.bench_function("mca_800_on_5000", |b| {
         b.iter(|| p.fit(black_box(&x)).expect("fit"))
     });
+    // The predictor service retrains in the background; on one core it must not starve the
+    // forecasting thread, so the single-threaded figure matters too.
+    let parallelism = faer::get_global_parallelism();
+    faer::set_global_parallelism(faer::Par::Seq);
+    group.bench_function("mca_800_on_5000_one_thread", |b| {
+        b.iter(|| p.fit(black_box(&x)).expect("fit"))
+    });
+    faer::set_global_parallelism(parallelism);
     group.finish();
 }
 
