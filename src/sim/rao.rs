@@ -3,7 +3,9 @@
 //! Convention (the one of the S175 table in ../shared/data/s175, i.e. MSS / ShipX): body axes
 //! x forward, y starboard, z down; roll positive starboard down, pitch positive bow up, yaw
 //! positive bow to starboard. A wave component of direction beta (pi = head seas, 0 = following
-//! seas) travels along (cos beta, sin beta) in body axes. With the wave elevation at the centre
+//! seas) travels along (cos beta, sin beta) in body axes. (The table's README calls 90 deg
+//! "waves from starboard"; its numbers, sway -i and roll +i k at 90 deg in long waves, are what
+//! this module matches, so closed form and table agree in sign.) With the wave elevation at the centre
 //! of gravity a cos(w_e t + eps), the motion of DOF j is Re(H_j a exp(i (w_e t + eps))), where
 //! w_e = |w - w^2 U cos(beta) / g| is the encounter frequency.
 //!
