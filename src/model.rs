@@ -48,17 +48,20 @@ pub struct DofModel {
 }
 
 /// Why a model could not be trained, saved or loaded.
+///
+/// Inner errors are fields named `error`, not `source`: the message already includes them, and
+/// a `source` would make error-chain printers (`anyhow`'s `{:#}`) repeat them.
 #[derive(Debug, thiserror::Error)]
 pub enum ModelError {
-    #[error("{path}: {source}")]
+    #[error("{path}: {error}")]
     Io {
         path: PathBuf,
-        source: std::io::Error,
+        error: std::io::Error,
     },
-    #[error("{path}: {source}")]
+    #[error("{path}: {error}")]
     Json {
         path: PathBuf,
-        source: serde_json::Error,
+        error: serde_json::Error,
     },
     #[error("{path}: not a shipcast model file (no 'format_version')")]
     NoVersion { path: PathBuf },
@@ -70,10 +73,10 @@ pub enum ModelError {
     Invalid { path: PathBuf, reason: String },
     #[error(transparent)]
     Csv(#[from] MotionCsvError),
-    #[error("{dof}: {source}")]
-    Eval { dof: Dof, source: EvalError },
-    #[error("{dof}: {source}")]
-    Predict { dof: Dof, source: PredictError },
+    #[error("{dof}: {error}")]
+    Eval { dof: Dof, error: EvalError },
+    #[error("{dof}: {error}")]
+    Predict { dof: Dof, error: PredictError },
     #[error("hold-out fraction {0} must lie strictly between 0 and 1")]
     BadHoldout(f64),
     #[error("no DOF to train")]
@@ -113,8 +116,8 @@ pub fn train_models(
     for &dof in dofs {
         let series = data.dof(dof)?;
         let split = ((1.0 - holdout) * series.len() as f64).floor() as usize;
-        let eval_err = |source| ModelError::Eval { dof, source };
-        let predict_err = |source| ModelError::Predict { dof, source };
+        let eval_err = |error| ModelError::Eval { dof, error };
+        let predict_err = |error| ModelError::Predict { dof, error };
         let sigma_origins = origins(
             series.len(),
             split,
@@ -160,13 +163,13 @@ impl ModelFile {
     /// Write the file (compact JSON: prediction matrices are large).
     pub fn save(&self, path: impl AsRef<Path>) -> Result<(), ModelError> {
         let path = path.as_ref();
-        let io_err = |source| ModelError::Io {
+        let io_err = |error| ModelError::Io {
             path: path.to_path_buf(),
-            source,
+            error,
         };
-        let json = serde_json::to_vec(self).map_err(|source| ModelError::Json {
+        let json = serde_json::to_vec(self).map_err(|error| ModelError::Json {
             path: path.to_path_buf(),
-            source,
+            error,
         })?;
         std::fs::write(path, json).map_err(io_err)
     }
@@ -174,18 +177,18 @@ impl ModelFile {
     /// Read and check a model file.
     pub fn load(path: impl AsRef<Path>) -> Result<Self, ModelError> {
         let path = path.as_ref();
-        let text = std::fs::read_to_string(path).map_err(|source| ModelError::Io {
+        let text = std::fs::read_to_string(path).map_err(|error| ModelError::Io {
             path: path.to_path_buf(),
-            source,
+            error,
         })?;
         Self::from_json(&text, path)
     }
 
     /// Parse and check a model file's text; `path` only names it in errors.
     pub fn from_json(text: &str, path: &Path) -> Result<Self, ModelError> {
-        let json_err = |source| ModelError::Json {
+        let json_err = |error| ModelError::Json {
             path: path.to_path_buf(),
-            source,
+            error,
         };
         // The version first, so that a file of another version says so instead of failing on
         // whichever field changed.

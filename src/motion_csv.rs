@@ -20,7 +20,7 @@ pub const TIME_COLUMN: &str = "time_s";
 /// Why a motion CSV could not be read or written.
 #[derive(Debug, thiserror::Error)]
 pub enum MotionCsvError {
-    #[error("{0}")]
+    #[error(transparent)]
     Io(#[from] io::Error),
     #[error("empty file: no header row")]
     Empty,

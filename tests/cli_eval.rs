@@ -71,7 +71,11 @@ fn assert_one_line_error(output: &Output, reason: &str) {
     let lines: Vec<&str> = stderr.lines().collect();
     assert_eq!(lines.len(), 1, "stderr: {stderr}");
     assert!(lines[0].starts_with("error: "), "{stderr}");
-    assert!(lines[0].contains(reason), "want '{reason}' in: {stderr}");
+    assert_eq!(
+        lines[0].matches(reason).count(),
+        1,
+        "want '{reason}' once in: {stderr}"
+    );
 }
 
 #[test]
