@@ -1,0 +1,191 @@
+//! Faults of the real processes: a crashed predictor restarted, a producer that stops and a new
+//! one, NaN and out-of-order samples, and a consumer that never reads.
+
+mod pipeline_support;
+
+use pipeline_support::{counter, TestPipeline};
+use shipcast::payload::{limits, Forecast, MotionSample};
+use shipcast::transport::iox::{self, IoxSubscriber, Sizing, WaitMode};
+use shipcast::transport::{Counters, SeqTracker};
+use std::time::{Duration, Instant};
+
+/// Wait until `pred` holds for a forecast received on `sub`; panics after a minute.
+fn wait_forecast(
+    sub: &IoxSubscriber<Forecast>,
+    what: &str,
+    pred: impl Fn(&Forecast) -> bool,
+) -> Forecast {
+    let deadline = Instant::now() + Duration::from_secs(60);
+    loop {
+        sub.wait(Duration::from_millis(50)).unwrap();
+        while let Some(f) = sub.receive().unwrap() {
+            if pred(&f) {
+                return f;
+            }
+        }
+        assert!(Instant::now() < deadline, "no forecast: {what}");
+    }
+}
+
+/// kill -9 the predictor, reap it, start a new one: it starts without a stale-resource error
+/// and the deck consumer (still running) gets forecasts again.
+#[test]
+fn killed_predictor_restarts_and_consumers_resume() {
+    let p = TestPipeline::new("kill9", "[producer]\nspeed = 20.0\nbackfill_s = 0.0\n");
+    let names = p.names();
+    let mut first = p.spawn("predictor", &[]);
+    first.wait_for("(iceoryx2 and zenoh)");
+    let deck = p.spawn("deck", &["--no-publish"]);
+    let _producer = p.spawn("producer", &["--wait-subscriber-s", "30"]);
+    deck.wait_for("deck t=");
+
+    first.kill9();
+    let before = deck.stdout().len();
+    let second = p.spawn("predictor", &[]);
+    second.wait_for("(iceoryx2 and zenoh)");
+    // The new predictor refills its history, then the deck advises again.
+    let deadline = Instant::now() + Duration::from_secs(60);
+    while deck.stdout().len() <= before + 2 {
+        assert!(
+            Instant::now() < deadline,
+            "deck did not resume; predictor:\n{}",
+            second.stderr().join("\n")
+        );
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    assert!(
+        !second.stderr().iter().any(|l| l.contains("error")),
+        "{}",
+        second.stderr().join("\n")
+    );
+    // The deck kept running through the crash and saw the new model's forecasts.
+    let node = iox::node(&names, "test-observer").unwrap();
+    let sub =
+        IoxSubscriber::<Forecast>::new(&node, &names.forecast(), Sizing::FORECAST, WaitMode::Event)
+            .unwrap();
+    wait_forecast(&sub, "from the restarted predictor", |f| f.seq > 0);
+}
+
+/// The producer dies: the predictor reports the motion stale; a new producer (seq from 0)
+/// brings it back and forecasts resume on the new record.
+#[test]
+fn stopped_producer_is_reported_stale_and_a_new_one_resumes() {
+    let p = TestPipeline::new("stale", "[producer]\nspeed = 20.0\nbackfill_s = 0.0\n");
+    let names = p.names();
+    let predictor = p.spawn("predictor", &[]);
+    predictor.wait_for("(iceoryx2 and zenoh)");
+    let node = iox::node(&names, "test-observer").unwrap();
+    let sub =
+        IoxSubscriber::<Forecast>::new(&node, &names.forecast(), Sizing::FORECAST, WaitMode::Event)
+            .unwrap();
+
+    let mut producer = p.spawn("producer", &["--wait-subscriber-s", "30"]);
+    let before = wait_forecast(&sub, "before the producer stops", |f| f.time_s > 60.0);
+    producer.kill9();
+    let stale = predictor.wait_for("motion stale");
+    assert!(stale.contains("2 s of record time"), "{stale}");
+
+    let log_len = predictor.stderr().len();
+    let _second = p.spawn("producer", &["--wait-subscriber-s", "30"]);
+    predictor.wait_for_after("new producer run", log_len);
+    predictor.wait_for_after("motion resumed", log_len);
+    // The new record starts at time 0 again; its first forecasts come after `order` values.
+    let after = wait_forecast(&sub, "after the new producer started", |f| {
+        f.time_s < before.time_s
+    });
+    assert!(after.seq > before.seq);
+}
+
+/// NaN and stale (out-of-order) samples are rejected and counted, nothing is lost, and the
+/// pipeline keeps forecasting.
+#[test]
+fn nan_and_out_of_order_samples_are_rejected_counted_and_survived() {
+    let p = TestPipeline::new("nan", "[producer]\nspeed = 100.0\nbackfill_s = 0.0\n");
+    let mut predictor = p.spawn("predictor", &[]);
+    predictor.wait_for("(iceoryx2 and zenoh)");
+    let mut producer = p.spawn(
+        "producer",
+        &[
+            "--record-s",
+            "300",
+            "--wait-subscriber-s",
+            "30",
+            "--fault-nan-every",
+            "50",
+            "--fault-reorder-every",
+            "70",
+        ],
+    );
+    assert!(producer.wait_exit().success());
+    std::thread::sleep(Duration::from_millis(300));
+    assert!(predictor.terminate().success());
+    let line = predictor.wait_for("predictor: stopped;");
+    // 2400 samples; seq 50, 100, ... 2350 carry NaN (47); after seq 70, 140, ... 2380 the
+    // previous sample is sent again (34 extra, out of order).
+    assert_eq!(counter(&line, "received"), 2400 + 34, "{line}");
+    assert_eq!(counter(&line, "non-finite"), 47, "{line}");
+    assert_eq!(counter(&line, "out-of-order"), 34, "{line}");
+    assert_eq!(counter(&line, "lost"), 0, "{line}");
+    // Bridged NaN samples keep the 2 Hz grid: as many forecasts as from a clean record.
+    assert_eq!(
+        counter(&line, "published"),
+        (2400 - 17) / 4 + 1 - 99,
+        "{line}"
+    );
+}
+
+/// A subscriber that never reads does not slow or block the producer: while it sits idle, an
+/// active reader sees every sample, far beyond the idle one's buffer, and the idle one finds
+/// only the newest samples (its oldest were overwritten), contiguous.
+#[test]
+fn a_consumer_that_never_reads_never_blocks_the_producer() {
+    let p = TestPipeline::new("slow", "[producer]\nspeed = 200.0\nbackfill_s = 0.0\n");
+    let names = p.names();
+    let node = iox::node(&names, "test-readers").unwrap();
+    let idle =
+        IoxSubscriber::<MotionSample>::new(&node, &names.motion(), Sizing::MOTION, WaitMode::Event)
+            .unwrap();
+    let active =
+        IoxSubscriber::<MotionSample>::new(&node, &names.motion(), Sizing::MOTION, WaitMode::Event)
+            .unwrap();
+    let _producer = p.spawn("producer", &["--wait-subscriber-s", "30"]);
+    let target = 8 * limits::MOTION_BUFFER as u64;
+    let (mut tracker, mut seen) = (SeqTracker::new(), Counters::default());
+    let mut newest = 0;
+    let deadline = Instant::now() + Duration::from_secs(60);
+    while newest < target {
+        assert!(
+            Instant::now() < deadline,
+            "producer stalled at seq {newest}"
+        );
+        active.wait(Duration::from_millis(20)).unwrap();
+        while let Some(s) = active.receive().unwrap() {
+            newest = s.seq;
+            seen.count(tracker.check(&s));
+        }
+    }
+    assert_eq!(
+        (seen.lost, seen.rejected_order),
+        (0, 0),
+        "the active reader missed samples"
+    );
+
+    // The producer is still running: read what the idle subscriber kept.
+    let (mut tracker, mut kept) = (SeqTracker::new(), Counters::default());
+    let mut first = None;
+    let mut count = 0u64;
+    while count < limits::MOTION_BUFFER as u64 {
+        let Some(s) = idle.receive().unwrap() else {
+            break;
+        };
+        first.get_or_insert(s.seq);
+        kept.count(tracker.check(&s));
+        count += 1;
+    }
+    assert_eq!(kept.received, limits::MOTION_BUFFER as u64);
+    assert!(
+        first.unwrap() > target - limits::MOTION_BUFFER as u64,
+        "oldest kept: {first:?}"
+    );
+    assert_eq!(kept.lost, 0, "the kept samples are contiguous");
+}

@@ -1,0 +1,244 @@
+//! Shared helpers of the pipeline integration tests: spawn the real `shipcast` binary with a
+//! unique instance prefix, capture its output, and always kill and reap it (Drop), also when a
+//! test fails.
+
+#![allow(dead_code)]
+
+use std::io::{BufRead, BufReader};
+use std::net::TcpListener;
+use std::path::PathBuf;
+use std::process::{Child, Command, Stdio};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+pub const BIN: &str = env!("CARGO_BIN_EXE_shipcast");
+
+/// Upper bound for waiting on an expected event; a hang guard, not a performance threshold.
+pub const PATIENCE: Duration = Duration::from_secs(60);
+
+/// An instance name no other test (or test run) uses.
+pub fn unique_instance(tag: &str) -> String {
+    let nanos = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map(|d| d.subsec_nanos())
+        .unwrap_or(0);
+    format!("t{tag}-{}-{nanos}", std::process::id())
+}
+
+pub fn free_port() -> u16 {
+    TcpListener::bind("127.0.0.1:0")
+        .and_then(|l| l.local_addr())
+        .map(|a| a.port())
+        .expect("a free TCP port")
+}
+
+/// A pipeline config for tests: small order, fast start-up training, no scouting, explicit
+/// loopback endpoint on a free port.
+pub struct TestPipeline {
+    pub dir: tempfile::TempDir,
+    pub config: PathBuf,
+    pub instance: String,
+    pub endpoint: String,
+}
+
+impl TestPipeline {
+    pub fn new(tag: &str, extra_toml: &str) -> Self {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let instance = unique_instance(tag);
+        let endpoint = format!("tcp/127.0.0.1:{}", free_port());
+        let text = format!(
+            "instance = \"{instance}\"\n{extra_toml}\n[zenoh]\nlisten = [\"{endpoint}\"]\nmulticast_scouting = false\n"
+        );
+        let text = if text.contains("[predictor]") {
+            text
+        } else {
+            format!("{text}\n[predictor]\norder = 100\nholdout = 300\nretrain_window = 1000\nwarmup_s = 900.0\nretrain_every_s = 0.0\n")
+        };
+        let config = dir.path().join("pipeline.toml");
+        std::fs::write(&config, text).expect("write config");
+        Self {
+            dir,
+            config,
+            instance,
+            endpoint,
+        }
+    }
+
+    pub fn path(&self, name: &str) -> PathBuf {
+        self.dir.path().join(name)
+    }
+
+    /// Start `shipcast <service> --config <this config> <args>`.
+    pub fn spawn(&self, service: &str, args: &[&str]) -> Proc {
+        let mut all = vec![
+            service,
+            "--config",
+            self.config.to_str().expect("utf-8 path"),
+        ];
+        all.extend_from_slice(args);
+        Proc::spawn(service, &all)
+    }
+
+    pub fn names(&self) -> shipcast::transport::Names {
+        shipcast::transport::Names::new(Some(&self.instance), "ddg51").expect("valid names")
+    }
+}
+
+/// A running child with its output collected line by line.
+pub struct Proc {
+    pub name: String,
+    child: Option<Child>,
+    stdout: Arc<Mutex<Vec<String>>>,
+    stderr: Arc<Mutex<Vec<String>>>,
+}
+
+fn strip_ansi(line: &str) -> String {
+    let mut out = String::with_capacity(line.len());
+    let mut chars = line.chars();
+    while let Some(c) = chars.next() {
+        if c == '\x1b' {
+            for c in chars.by_ref() {
+                if c.is_ascii_alphabetic() {
+                    break;
+                }
+            }
+        } else {
+            out.push(c);
+        }
+    }
+    out
+}
+
+fn collect(stream: impl std::io::Read + Send + 'static, into: Arc<Mutex<Vec<String>>>) {
+    std::thread::spawn(move || {
+        for line in BufReader::new(stream).lines().map_while(Result::ok) {
+            into.lock().expect("lines").push(strip_ansi(&line));
+        }
+    });
+}
+
+impl Proc {
+    pub fn spawn(name: &str, args: &[&str]) -> Self {
+        let mut child = Command::new(BIN)
+            .args(args)
+            .env("RUST_LOG", "info")
+            .stdin(Stdio::null())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .expect("spawn shipcast");
+        let stdout = Arc::new(Mutex::new(Vec::new()));
+        let stderr = Arc::new(Mutex::new(Vec::new()));
+        collect(child.stdout.take().expect("stdout"), stdout.clone());
+        collect(child.stderr.take().expect("stderr"), stderr.clone());
+        Self {
+            name: name.to_string(),
+            child: Some(child),
+            stdout,
+            stderr,
+        }
+    }
+
+    pub fn stdout(&self) -> Vec<String> {
+        self.stdout.lock().expect("lines").clone()
+    }
+
+    pub fn stderr(&self) -> Vec<String> {
+        self.stderr.lock().expect("lines").clone()
+    }
+
+    /// Wait until a line of stderr (logs) or stdout contains `needle`; panics with the output
+    /// after PATIENCE.
+    pub fn wait_for(&self, needle: &str) -> String {
+        self.wait_for_after(needle, 0)
+    }
+
+    /// Like `wait_for`, but only stderr lines from index `from` on count.
+    pub fn wait_for_after(&self, needle: &str, from: usize) -> String {
+        let deadline = Instant::now() + PATIENCE;
+        loop {
+            if let Some(l) = self.stderr().iter().skip(from).find(|l| l.contains(needle)) {
+                return l.clone();
+            }
+            if let Some(l) = self.stdout().iter().find(|l| l.contains(needle)) {
+                return l.clone();
+            }
+            assert!(
+                Instant::now() < deadline,
+                "{}: no line with '{needle}'; stderr:\n{}",
+                self.name,
+                self.stderr().join("\n")
+            );
+            std::thread::sleep(Duration::from_millis(20));
+        }
+    }
+
+    /// Wait for the process to exit by itself; panics after PATIENCE.
+    pub fn wait_exit(&mut self) -> std::process::ExitStatus {
+        let deadline = Instant::now() + PATIENCE;
+        let child = self.child.as_mut().expect("running");
+        loop {
+            if let Some(status) = child.try_wait().expect("try_wait") {
+                // Let the reader threads drain the pipes.
+                std::thread::sleep(Duration::from_millis(100));
+                return status;
+            }
+            assert!(
+                Instant::now() < deadline,
+                "{} did not exit; stderr:\n{}",
+                self.name,
+                self.stderr().join("\n")
+            );
+            std::thread::sleep(Duration::from_millis(20));
+        }
+    }
+
+    /// SIGTERM (a clean stop) and wait.
+    pub fn terminate(&mut self) -> std::process::ExitStatus {
+        if let Some(child) = &self.child {
+            // SAFETY: kill(2) on our own child.
+            unsafe {
+                libc::kill(child.id() as libc::pid_t, libc::SIGTERM);
+            }
+        }
+        self.wait_exit()
+    }
+
+    /// SIGKILL (a crash) and reap, so iceoryx2 sees the node as dead.
+    pub fn kill9(&mut self) {
+        if let Some(mut child) = self.child.take() {
+            let _ = child.kill();
+            let _ = child.wait();
+        }
+    }
+}
+
+impl Drop for Proc {
+    fn drop(&mut self) {
+        self.kill9();
+    }
+}
+
+/// The last log line of a service that contains `needle`, parsed for `key N` pairs.
+pub fn counter(line: &str, key: &str) -> u64 {
+    let words: Vec<&str> = line.split_whitespace().collect();
+    words
+        .windows(2)
+        .find(|w| w[0].trim_start_matches('(') == key)
+        .and_then(|w| {
+            w[1].trim_end_matches(|c: char| !c.is_ascii_digit())
+                .parse()
+                .ok()
+        })
+        .unwrap_or_else(|| panic!("no '{key} N' in: {line}"))
+}
+
+/// Run a `shipcast` command to completion, panicking with its stderr if it fails.
+pub fn run_ok(args: &[&str]) {
+    let out = Command::new(BIN).args(args).output().expect("run shipcast");
+    assert!(
+        out.status.success(),
+        "shipcast {args:?} failed:\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
