@@ -100,12 +100,12 @@ impl McaPredictor {
     /// Like `forecast`, with the f32 copy of P: about half the memory traffic, relative error
     /// around 1e-6. Never allocates.
     pub fn forecast_f32(&mut self, past: &[f64], out: &mut [f64]) -> Result<(), PredictError> {
-        check_forecast_buffers(self.order, self.horizon, past, out)?;
         let n1 = self.past_len();
         let model = self
             .model
             .as_mut()
             .ok_or(PredictError::NotFitted(Method::Mca))?;
+        check_forecast_buffers(self.order, self.horizon, past, out)?;
         model.prediction.apply_f32(&past[past.len() - n1..], out);
         Ok(())
     }
