@@ -139,7 +139,7 @@ fn progress_bar(total: u64) -> ProgressBar {
     }
     let bar = ProgressBar::new(total);
     if let Ok(style) =
-        ProgressStyle::with_template("{msg:>18} [{bar:40}] {pos}/{len} forecasts, eta {eta}")
+        ProgressStyle::with_template("{msg:>23} [{bar:40}] {pos}/{len} forecasts, eta {eta}")
     {
         bar.set_style(style.progress_chars("=> "));
     }
@@ -179,7 +179,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                     tracing::debug!(dof = %f.dof, method = %f.method, error = %f.error, "method failed")
                 }
             }
-            bar.set_message(format!("{}/{}", entry.dof(), entry.method()));
+            bar.set_message(format!("{}/{} done", entry.dof(), entry.method()));
             if args.json && write_error.is_none() {
                 // Stream each line as soon as its pair is done; long runs show progress in the output.
                 let line = serde_json::to_string(entry).map_err(anyhow::Error::from);
