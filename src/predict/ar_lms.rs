@@ -125,6 +125,16 @@ impl ArLmsPredictor {
         if let Some(reason) = &self.diverged {
             return Err(PredictError::Numerical(reason.clone()));
         }
+        // A model file edited by hand must not make forecasts silently short.
+        if self.weights.len() != self.order * self.horizon {
+            return Err(PredictError::Numerical(format!(
+                "AR model holds {} coefficients, order {} x horizon {} needs {}",
+                self.weights.len(),
+                self.order,
+                self.horizon,
+                self.order * self.horizon
+            )));
+        }
         Ok(())
     }
 }
@@ -423,6 +433,20 @@ mod tests {
         assert!(matches!(
             p.forecast(&[0.0; 4], &mut out[..1]),
             Err(PredictError::Length(_))
+        ));
+    }
+
+    #[test]
+    fn a_model_file_with_missing_coefficients_is_refused() {
+        let mut p = ArLmsPredictor::new(&config(4, 2, 0.01, false)).unwrap();
+        p.fit(&sines(50, &[(1.0, 9.0, 0.0)])).unwrap();
+        let mut model: serde_json::Value = serde_json::to_value(&p).unwrap();
+        model["weights"].as_array_mut().unwrap().truncate(5);
+        let mut loaded: ArLmsPredictor = serde_json::from_value(model).unwrap();
+        let mut out = [0.0; 2];
+        assert!(matches!(
+            loaded.forecast(&[0.0; 4], &mut out),
+            Err(PredictError::Numerical(_))
         ));
     }
 }

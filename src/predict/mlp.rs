@@ -183,8 +183,17 @@ impl Predictor for MlpPredictor {
     }
 
     fn forecast(&mut self, past: &[f64], out: &mut [f64]) -> Result<(), PredictError> {
-        if self.params.len() != self.shape.len() {
+        if self.params.is_empty() {
             return Err(PredictError::NotFitted(Method::Mlp));
+        }
+        // A model file edited by hand must not index out of range or scale by nonsense.
+        if self.params.len() != self.shape.len() || !(self.scale.is_finite() && self.scale > 0.0) {
+            return Err(PredictError::Numerical(format!(
+                "MLP model holds {} parameters with scale {}; its shape needs {} and a positive scale",
+                self.params.len(),
+                self.scale,
+                self.shape.len()
+            )));
         }
         let (order, horizon) = (self.shape.inputs, self.shape.outputs);
         check_forecast_buffers(order, horizon, past, out)?;

@@ -153,6 +153,25 @@ fn bad_configurations_and_inputs_are_errors() {
     ));
 }
 
+#[test]
+fn a_model_file_with_wrong_parameters_is_refused() {
+    let mut p = MlpPredictor::new(&config(6, 2, 3, 5)).unwrap();
+    p.fit(&sines(40)).unwrap();
+    let model = serde_json::to_value(&p).unwrap();
+    let mut short = model.clone();
+    short["params"].as_array_mut().unwrap().pop();
+    let mut zero_scale = model;
+    zero_scale["scale"] = serde_json::json!(0.0);
+    let mut out = [0.0; 2];
+    for broken in [short, zero_scale] {
+        let mut loaded: MlpPredictor = serde_json::from_value(broken).unwrap();
+        assert!(matches!(
+            loaded.forecast(&[0.1; 6], &mut out),
+            Err(PredictError::Numerical(_))
+        ));
+    }
+}
+
 /// A dense random-phase sea at 2 Hz, heave-like: standard deviation about 0.43 m, as the heave of
 /// the `paper` scenario.
 fn dense_sea(len: usize, seed: u64) -> Vec<f64> {
