@@ -215,3 +215,51 @@ fn service_forecasts_equal_the_eval_predictor_for_the_same_model_and_history() {
         }
     }
 }
+
+/// Retraining runs in the background and the new model is swapped in without pausing the
+/// forecasts: every 2 Hz value still gets its forecast, and later forecasts carry the new
+/// model version and its freshly measured sigma.
+#[test]
+fn retrained_models_are_swapped_in_without_a_missed_forecast() {
+    let p = TestPipeline::new(
+        "retrain",
+        "[producer]\nspeed = 100.0\nbackfill_s = 0.0\n[predictor]\norder = 100\nholdout = 300\nretrain_window = 600\nwarmup_s = 900.0\nretrain_every_s = 60.0\n",
+    );
+    let names = p.names();
+    let mut predictor = p.spawn("predictor", &["--busy-poll"]);
+    predictor.wait_for("(iceoryx2 and zenoh)");
+    let node = iox::node(&names, "test-observer").unwrap();
+    let forecasts =
+        IoxSubscriber::<Forecast>::new(&node, &names.forecast(), Sizing::FORECAST, WaitMode::Event)
+            .unwrap();
+    let mut producer = p.spawn(
+        "producer",
+        &["--record-s", "900", "--wait-subscriber-s", "30"],
+    );
+    let mut got: Vec<Forecast> = Vec::new();
+    // 900 s at 8 Hz: 7200 samples -> 1796 values at 2 Hz -> 1697 forecasts.
+    let deadline = Instant::now() + Duration::from_secs(60);
+    while got.len() < 1697 && Instant::now() < deadline {
+        forecasts.wait(Duration::from_millis(50)).unwrap();
+        while let Some(f) = forecasts.receive().unwrap() {
+            got.push(f);
+        }
+    }
+    assert!(producer.wait_exit().success());
+    assert!(predictor.terminate().success());
+    assert_eq!(got.len(), 1697, "a forecast was missed");
+    assert!(got.windows(2).all(|w| w[1].seq == w[0].seq + 1));
+    assert!(got
+        .windows(2)
+        .all(|w| w[1].model_version >= w[0].model_version));
+    let first = &got[0];
+    let last = got.last().unwrap();
+    assert_eq!(first.model_version, 1);
+    assert!(last.model_version >= 2, "never retrained");
+    assert_ne!(
+        first.sigma[2][..50],
+        last.sigma[2][..50],
+        "sigma not re-measured"
+    );
+    predictor.wait_for("retrained model in use");
+}

@@ -1,0 +1,69 @@
+//! `shipcast run`: the whole pipeline from one config ends by itself after `--duration`, shows
+//! forecasts and the deck advisory, and refuses a config with an unknown key.
+
+mod pipeline_support;
+
+use pipeline_support::{free_port, unique_instance, BIN};
+use std::process::Command;
+
+#[test]
+fn run_shows_forecasts_and_advisory_and_stops_after_duration() {
+    let dir = tempfile::tempdir().unwrap();
+    let endpoint = format!("tcp/127.0.0.1:{}", free_port());
+    let instance = unique_instance("run");
+    let out = Command::new(BIN)
+        .args([
+            "run",
+            "--instance",
+            &instance,
+            "--zenoh-listen",
+            &endpoint,
+            "--duration",
+            "15",
+        ])
+        .arg("--log-dir")
+        .arg(dir.path())
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    // Default config: order 400, 240 s of backfill, so forecasts start within seconds.
+    assert!(stdout.contains("forecast   t="), "{stdout}");
+    assert!(stdout.contains("deck t="), "{stdout}");
+    assert!(stdout.contains("predictor  model v1"), "{stdout}");
+    assert!(
+        stdout.contains("duration reached; all services stopped"),
+        "{stdout}"
+    );
+    // Every child wrote its log and stopped cleanly.
+    for name in ["producer", "predictor", "deck", "crane"] {
+        let log = std::fs::read_to_string(dir.path().join(format!("{name}.log"))).unwrap();
+        assert!(log.contains(&format!("{name}: stopped")), "{name}:\n{log}");
+    }
+    let crane = std::fs::read_to_string(dir.path().join("crane.log")).unwrap();
+    assert!(crane.contains("crane t="), "{crane}");
+}
+
+#[test]
+fn unknown_config_key_is_a_one_line_error_naming_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("bad.toml");
+    std::fs::write(&path, "[predictor]\norder = 100\nhorizn = 20\n").unwrap();
+    let out = Command::new(BIN)
+        .args(["run", "--config"])
+        .arg(&path)
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    let lines: Vec<&str> = stderr.lines().collect();
+    assert_eq!(lines.len(), 1, "{stderr}");
+    assert!(
+        lines[0].starts_with("error: config ") && lines[0].contains("horizn"),
+        "{stderr}"
+    );
+}
