@@ -12,10 +12,10 @@
 //! Plain LMS needs `mu` well below `2 / (order * power)`, where power is the mean square of the
 //! signal (mean-square stability of Gaussian signals is guaranteed below `2 / (3 order power)`):
 //! with the paper's gain 0.005 an order-800 predictor diverges on heave of about 0.7 m standard
-//! deviation, and on anything larger. Divergence is detected (a non-finite prediction or one far beyond anything
-//! observed) and reported as [`PredictError::Numerical`] naming the bound, instead of producing
-//! NaN forecasts; normalised LMS (`lms_normalized`, step `mu / (eps + |x|^2)`, stable for
-//! 0 < mu < 2) avoids it.
+//! deviation, and on anything larger. Divergence is detected (a non-finite prediction or one far
+//! beyond anything observed) and reported as [`PredictError::Numerical`] with the safe gain,
+//! instead of producing NaN forecasts. Normalised LMS (`lms_normalized`: step
+//! `mu / (eps + |x|^2)`, stable for 0 < mu < 2, where about 0.1 is a good choice) avoids it.
 
 use super::linear_map::dot;
 use super::vector_state::clear_upper_vector_state;
@@ -251,7 +251,7 @@ impl Predictor for ArLmsPredictor {
 }
 
 /// `y += alpha * x`.
-pub(crate) fn axpy(alpha: f64, x: &[f64], y: &mut [f64]) {
+fn axpy(alpha: f64, x: &[f64], y: &mut [f64]) {
     for (yi, xi) in y.iter_mut().zip(x) {
         *yi += alpha * xi;
     }
