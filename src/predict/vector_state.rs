@@ -1,10 +1,11 @@
 //! Clearing the upper halves of the vector registers after faer.
 //!
 //! faer's AVX-512 kernels can return with the upper register state dirty. Until a `vzeroupper`
-//! runs, every legacy-SSE instruction on that thread pays a merge penalty, and libm's `tanh` and
-//! `exp` (SSE code) became about 30x slower: measured 130 ns instead of 4 ns per call after a
-//! faer product, which made MLP training five times slower. The state survives context
-//! switches, so it is cleared right after faer calls and at the start of hot loops that call libm.
+//! runs, legacy-SSE code on that thread (such as libm's `tanh` and `exp`) pays a penalty on every
+//! instruction: measured on this VM (Xeon with AVX-512), `tanh` took 130-200 ns per call after a
+//! faer product instead of about 17 ns, which made MLP training 3x (order 800) to 14x (order 40)
+//! slower. The state survives context switches, so it is cleared right after faer calls and at
+//! the start of hot loops that may follow faer code on the same thread.
 
 /// Mark the upper vector-register state clean (`vzeroupper`). No-op on CPUs without AVX and on
 /// other architectures.
