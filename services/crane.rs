@@ -8,7 +8,7 @@ use shipcast::payload::Forecast;
 use shipcast::transport::zenoh::{self as zn, LatestSubscriber, LivelinessWatch};
 use shipcast::transport::{shutdown, Names};
 use std::io::Write;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 #[derive(clap::Args, Debug)]
 pub struct Args {
@@ -27,19 +27,17 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }
         config.crane.tip_m = [t[0], t[1], t[2]];
     }
-    let limit = args.common.duration()?;
+    let limit = shutdown::RunLimit::new(args.common.duration()?);
     let names = config.names()?;
-    shutdown::stop_flag();
     let session = zn::open(&config.zenoh.consumer_side())?;
     let forecasts = LatestSubscriber::new(&session, &names.forecast())?;
     let alive = LivelinessWatch::new(&session, &Names::liveliness(&names.forecast()))?;
     let tip = ShipPoint::new(config.crane.tip_m);
     tracing::info!(tip_m = ?config.crane.tip_m, "crane: following {} over zenoh", names.forecast());
-    let started = Instant::now();
     let (mut count, mut rejected) = (0u64, 0u64);
     let mut track = Vec::new();
     let stdout = std::io::stdout();
-    while !shutdown::stop_requested() && !limit.is_some_and(|l| started.elapsed() >= l) {
+    while !limit.reached() {
         match alive.poll() {
             Some(true) => tracing::info!("crane: predictor alive"),
             Some(false) => tracing::warn!("crane: predictor gone"),

@@ -25,9 +25,8 @@ pub struct Args {
 
 pub fn run(args: Args) -> anyhow::Result<()> {
     let config = args.common.load()?;
-    let limit = args.common.duration()?;
+    let limit = shutdown::RunLimit::new(args.common.duration()?);
     let names = config.names()?;
-    shutdown::stop_flag();
     let node = iox::node(&names, "deck")?;
     let forecasts = IoxSubscriber::<Forecast>::new(
         &node,
@@ -48,12 +47,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         "deck: advising from {}",
         names.forecast()
     );
-    let started = Instant::now();
     let mut last_forecast = Instant::now();
     let mut waiting_reported = false;
     let mut count = 0u64;
     let stdout = std::io::stdout();
-    while !shutdown::stop_requested() && !limit.is_some_and(|l| started.elapsed() >= l) {
+    while !limit.reached() {
         forecasts.wait(Duration::from_millis(100))?;
         // Only the newest forecast matters to the landing officer.
         let Some(forecast) = forecasts.latest()? else {

@@ -74,10 +74,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         q.retrain_every_s = r;
     }
     config.validate()?;
-    let limit = args.common.duration()?;
+    let limit = shutdown::RunLimit::new(args.common.duration()?);
     let factor = config.decimation_factor()?;
     let names = config.names()?;
-    shutdown::stop_flag();
 
     let models = initial_models(&config)?;
     let (order, horizon) = (models.order(), models.horizon());
@@ -125,14 +124,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         last_time_s: f64::NAN,
     };
     let stale_after = stale_timeout(&config);
-    let started = Instant::now();
     let mut last_sample: Option<Instant> = None;
     let mut stale = false;
     let mut last_status = Instant::now();
     let mut last_log = Instant::now();
     let nap = (stale_after / 2).clamp(Duration::from_millis(1), Duration::from_millis(100));
     loop {
-        if shutdown::stop_requested() || limit.is_some_and(|l| started.elapsed() >= l) {
+        if limit.reached() {
             break;
         }
         motion.wait(nap)?;
@@ -210,7 +208,7 @@ fn initial_models(config: &PipelineConfig) -> anyhow::Result<ModelSet> {
     sim.seed = p.seed.wrapping_add(1);
     let motion = ShipMotion::new(&sim)?;
     let n = (q.warmup_s * p.rate_hz).ceil() as usize;
-    let mut raw = vec![Vec::with_capacity(n); NUM_DOF];
+    let mut raw: Vec<Vec<f64>> = (0..NUM_DOF).map(|_| Vec::with_capacity(n)).collect();
     for point in motion.stream(p.rate_hz, 0.0)?.take(n) {
         for (d, series) in raw.iter_mut().enumerate() {
             series.push(point.dof[d]);

@@ -178,11 +178,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         p.backfill_s = b;
     }
     config.validate()?;
-    let limit = args.common.duration()?;
+    let limit = shutdown::RunLimit::new(args.common.duration()?);
     let names = config.names()?;
     let node = iox::node(&names, "producer")?;
     let publisher = IoxPublisher::<MotionSample>::new(&node, &names.motion(), Sizing::MOTION)?;
-    shutdown::stop_flag();
 
     let wait_until = Instant::now() + Duration::from_secs_f64(args.wait_subscriber_s.max(0.0));
     while publisher.subscribers() == 0 && Instant::now() < wait_until {
@@ -226,10 +225,9 @@ fn publish_all(
     source: &mut dyn MotionSource,
     publisher: &IoxPublisher<MotionSample>,
     config: &ProducerConfig,
-    limit: Option<Duration>,
+    limit: shutdown::RunLimit,
     faults: Faults,
 ) -> anyhow::Result<()> {
-    let started = Instant::now();
     let mut pacer = Pacer::new(config);
     let mut counters = Counters::default();
     let mut last_log = Instant::now();
@@ -241,7 +239,7 @@ fn publish_all(
         if config.record_s.is_some_and(|r| time_s - t0 >= r) {
             break;
         }
-        if shutdown::stop_requested() || limit.is_some_and(|l| started.elapsed() >= l) {
+        if limit.reached() {
             break;
         }
         pacer.wait(time_s);

@@ -176,9 +176,8 @@ impl View {
 
 pub fn run(args: Args) -> anyhow::Result<()> {
     let config = args.common.load()?;
-    let limit = args.common.duration()?;
+    let limit = shutdown::RunLimit::new(args.common.duration()?);
     let names = config.names()?;
-    let stop = shutdown::stop_flag();
     let logs = match &args.log_dir {
         Some(d) => d.clone(),
         None => std::env::temp_dir().join(format!("shipcast-run-{}", std::process::id())),
@@ -207,16 +206,16 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let status = LatestSubscriber::new(&session, &names.status("predictor"))?;
 
     let tty = std::io::stdout().is_terminal();
-    let started = Instant::now();
     let mut view = View::default();
     let mut drawn = 0usize;
     let mut last_draw = Instant::now() - Duration::from_secs(10);
     let outcome = loop {
-        if stop.load(std::sync::atomic::Ordering::Relaxed) {
-            break Ok("stopped by Ctrl-C");
-        }
-        if limit.is_some_and(|l| started.elapsed() >= l) {
-            break Ok("duration reached");
+        if limit.reached() {
+            break Ok(if shutdown::stop_requested() {
+                "stopped by Ctrl-C"
+            } else {
+                "duration reached"
+            });
         }
         if let Some((name, status)) = children.exited() {
             break Err(anyhow::anyhow!(
@@ -237,7 +236,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             let header = format!(
                 "shipcast run  {}  +{:.0}s  (Ctrl-C stops; logs in {})",
                 names,
-                started.elapsed().as_secs_f64(),
+                limit.elapsed().as_secs_f64(),
                 logs.display()
             );
             let lines = view.lines(&header);

@@ -499,8 +499,10 @@ mod tests {
 
     #[test]
     fn toml_round_trip_and_flags_override_the_file() {
-        let mut c = PipelineConfig::default();
-        c.instance = Some("abc".into());
+        let mut c = PipelineConfig {
+            instance: Some("abc".into()),
+            ..PipelineConfig::default()
+        };
         c.producer.input = Some("/tmp/x.csv".into());
         c.predictor.model = Some("/tmp/m.json".into());
         let text = c.to_toml().unwrap();

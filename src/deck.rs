@@ -217,7 +217,8 @@ impl DeckAdvisor {
 
 /// P(|X| <= limit) for X ~ N(mean, sigma^2); a zero sigma means certainty.
 pub fn prob_within(mean: f64, sigma: f64, limit: f64) -> f64 {
-    if !(sigma > 0.0) {
+    // NaN sigma (unknown) counts as certainty, like zero.
+    if sigma.is_nan() || sigma <= 0.0 {
         return if mean.abs() <= limit { 1.0 } else { 0.0 };
     }
     (normal_cdf((limit - mean) / sigma) - normal_cdf((-limit - mean) / sigma)).clamp(0.0, 1.0)

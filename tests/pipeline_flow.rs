@@ -203,9 +203,9 @@ fn service_forecasts_equal_the_eval_predictor_for_the_same_model_and_history() {
         for (d, pred) in predictors.iter_mut().enumerate() {
             pred.forecast(&series[d][j + 1 - 100..=j], &mut out)
                 .unwrap();
-            for k in 0..50 {
+            for (k, x) in out.iter().enumerate() {
                 assert_eq!(
-                    f.mean[d][k], out[k] as f32,
+                    f.mean[d][k], *x as f32,
                     "forecast seq {} dof {d} step {k}",
                     f.seq
                 );

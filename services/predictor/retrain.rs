@@ -4,7 +4,7 @@
 
 use super::models::{self, ModelSet};
 use shipcast::config::PredictorServiceConfig;
-use std::sync::mpsc::{self, Receiver, SyncSender, TryRecvError, TrySendError};
+use std::sync::mpsc::{self, Receiver, SyncSender, TrySendError};
 use std::time::Instant;
 
 struct Job {
@@ -61,9 +61,6 @@ impl Retrainer {
 
     /// A finished model set, if any.
     pub fn take(&self) -> Option<ModelSet> {
-        match self.done.try_recv() {
-            Ok(set) => Some(set),
-            Err(TryRecvError::Empty | TryRecvError::Disconnected) => None,
-        }
+        self.done.try_recv().ok()
     }
 }

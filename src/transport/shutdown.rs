@@ -23,3 +23,31 @@ pub fn stop_flag() -> Arc<AtomicBool> {
 pub fn stop_requested() -> bool {
     stop_flag().load(Ordering::Relaxed)
 }
+
+/// When a service loop should end: on a stop request, or once its wall-clock limit passed.
+#[derive(Debug, Clone, Copy)]
+pub struct RunLimit {
+    started: std::time::Instant,
+    limit: Option<std::time::Duration>,
+}
+
+impl RunLimit {
+    /// Starts counting now; `None` runs until stopped.
+    pub fn new(limit: Option<std::time::Duration>) -> Self {
+        stop_flag();
+        Self {
+            started: std::time::Instant::now(),
+            limit,
+        }
+    }
+
+    /// True if the loop should end.
+    pub fn reached(&self) -> bool {
+        stop_requested() || self.limit.is_some_and(|l| self.started.elapsed() >= l)
+    }
+
+    /// Time since the start.
+    pub fn elapsed(&self) -> std::time::Duration {
+        self.started.elapsed()
+    }
+}
