@@ -57,6 +57,7 @@ fn run_latency(a: LatencyArgs) -> anyhow::Result<()> {
         rate_hz: a.rate,
         cores: a.cores,
         instance: Plan::unique_instance("latency"),
+        shipcast_exe: Some(std::env::current_exe().context("locate the shipcast executable")?),
     };
     let report = latency::run(&plan, a.mode.modes())?;
     let targets = report.targets(MOTION_BYTES, FORECAST_BYTES, latency::forecast_json_bytes());

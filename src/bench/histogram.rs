@@ -1,6 +1,6 @@
 //! HDR histogram of one-way latencies (nanoseconds) and the summary row of one path and mode.
 
-use super::plan::{Mode, Path};
+use super::plan::{Mode, Path, Source};
 use hdrhistogram::Histogram;
 use serde::Serialize;
 
@@ -66,7 +66,14 @@ impl LatencyRecorder {
 
     /// The summary row. `expected` is how many latencies should have been recorded; the
     /// difference is reported as lost.
-    pub fn stats(&self, path: Path, mode: Mode, expected: u64, payload_bytes: usize) -> PathStats {
+    pub fn stats(
+        &self,
+        path: Path,
+        mode: Mode,
+        source: Source,
+        expected: u64,
+        payload_bytes: usize,
+    ) -> PathStats {
         let us = |ns: u64| ns as f64 / 1000.0;
         PathStats {
             path: path.name(),
@@ -83,6 +90,7 @@ impl LatencyRecorder {
                 self.hist.max()
             }),
             payload_bytes,
+            source: source.name(),
         }
     }
 
@@ -118,6 +126,9 @@ pub struct PathStats {
     pub max_us: f64,
     /// Size of the payload on this path (raw rows exist per payload size).
     pub payload_bytes: usize,
+    /// `services` (the real producer and predictor processes), `in-process` (the bench's own
+    /// pipeline threads) or `raw` (transport ping-pong).
+    pub source: &'static str,
 }
 
 impl PathStats {
@@ -144,7 +155,7 @@ mod tests {
         for i in 1..=1000u64 {
             r.record_between(1_000_000, 1_000_000 + i * 1000);
         }
-        let s = r.stats(Path::Iceoryx2Raw, Mode::Poll, 1002, 72);
+        let s = r.stats(Path::Iceoryx2Raw, Mode::Poll, Source::Raw, 1002, 72);
         assert_eq!((s.count, s.lost), (1000, 2));
         // 3 significant digits: within 0.1 %.
         for (got, want) in s
@@ -167,7 +178,13 @@ mod tests {
         a.merge(&b);
         assert_eq!(a.count(), 3);
         assert_eq!(a.quantile_ns(0.0), 0);
-        assert!((a.stats(Path::ZenohRaw, Mode::Event, 3, 0).max_us - 20.0).abs() < 0.05);
+        assert!(
+            (a.stats(Path::ZenohRaw, Mode::Event, Source::Raw, 3, 0)
+                .max_us
+                - 20.0)
+                .abs()
+                < 0.05
+        );
         // Beyond the highest trackable value: clamped, not dropped.
         a.record_ns(u64::MAX);
         assert_eq!(a.count(), 4);
@@ -176,7 +193,13 @@ mod tests {
     #[test]
     fn empty_recorder_reports_everything_lost() {
         let r = LatencyRecorder::new();
-        let s = r.stats(Path::SampleToForecastZenoh, Mode::Event, 7, 0);
+        let s = r.stats(
+            Path::SampleToForecastZenoh,
+            Mode::Event,
+            Source::Services,
+            7,
+            0,
+        );
         assert_eq!((s.count, s.lost, s.max_us), (0, 7, 0.0));
         assert!(r.curve(3.0, 10).is_empty());
     }

@@ -4,18 +4,18 @@
 use super::histogram::LatencyRecorder;
 use super::machine::Machine;
 use super::pingpong::PingPongOutcome;
-use super::plan::{Mode, Path, Plan};
+use super::plan::{Mode, Path, Plan, Source};
 use super::report::{Curve, LatencyReport};
 use super::{pingpong_iox, pingpong_zenoh};
 use crate::payload::{Forecast, MotionSample, MAX_STEPS, NUM_DOF};
 use crate::predict::PredictorConfig;
 
 /// How the shipcast paths were measured, stated in every report.
-pub const STAND_IN_NOTE: &str = "shipcast paths: producer, predictor and consumers are threads of this process using the \
-middleware's transport API (transport::iox, transport::zenoh); the forecasting step is the bench's stand-in built \
-from the library parts (Decimator 8->2 Hz, MCA order 200 / 50 steps per DOF, Forecast payload), not the \
-`shipcast predictor` service, which has no hook reporting receive stamps; the zenoh consumer always blocks on its \
-channel (mode applies to iceoryx2 receivers)";
+pub const STAND_IN_NOTE: &str = "source 'services' = `shipcast producer` and `shipcast predictor` as child \
+processes pinned to the two cores, measured by consumers in this process; source 'in-process' = producer, \
+predictor and consumers as threads of this process over the same transport API, the predictor being the \
+bench's stand-in from the library parts (Decimator 8->2 Hz, MCA per DOF, Forecast payload), which also \
+records receive stamps; zenoh consumers always block on their channel (mode applies to iceoryx2 receivers)";
 
 /// Points per percentile curve in the SVG.
 const CURVE_POINTS: usize = 60;
@@ -83,11 +83,12 @@ impl ReportBuilder {
         &mut self,
         path: Path,
         mode: Mode,
+        source: Source,
         recorder: &LatencyRecorder,
         expected: u64,
         payload_bytes: usize,
     ) {
-        let stats = recorder.stats(path, mode, expected, payload_bytes);
+        let stats = recorder.stats(path, mode, source, expected, payload_bytes);
         tracing::info!(
             path = stats.path,
             mode = stats.mode,
@@ -99,13 +100,13 @@ impl ReportBuilder {
         );
         self.report.rows.push(stats);
         self.report.curves.push(Curve {
-            label: format!("{path} {mode} {payload_bytes} B"),
+            label: format!("{path} {mode} {payload_bytes} B ({})", source.name()),
             points: recorder.curve(3.0, CURVE_POINTS),
         });
     }
 
     fn add_pingpong(&mut self, path: Path, mode: Mode, out: PingPongOutcome, bytes: usize) {
-        self.add(path, mode, &out.recorder, out.expected, bytes);
+        self.add(path, mode, Source::Raw, &out.recorder, out.expected, bytes);
         self.report.pins.extend(out.pins);
     }
 
@@ -148,6 +149,17 @@ pub fn run(plan: &Plan, modes: &[Mode]) -> anyhow::Result<LatencyReport> {
     let mut out = ReportBuilder::new(plan, modes);
     out.note(STAND_IN_NOTE.to_string());
     for &mode in modes {
+        // The services' rows first: the target comparison takes the first row of a path.
+        match &plan.shipcast_exe {
+            Some(exe) => {
+                if let Err(e) = super::services::measure(plan, mode, exe, &mut out) {
+                    out.not_measured(format!("services {mode}: {e:#}"));
+                }
+            }
+            None => out.not_measured(format!(
+                "services {mode}: no shipcast executable given, only the in-process pipeline"
+            )),
+        }
         super::pipeline::measure(plan, mode, &mut out)?;
         measure_raw(plan, mode, &mut out)?;
     }

@@ -9,6 +9,7 @@
 //! Everything is recorded into HDR histograms ([`histogram`]) and reported as a table, JSON rows
 //! and an SVG of the latency distributions ([`report`]).
 
+pub mod consumers;
 pub mod histogram;
 pub mod latency;
 pub mod machine;
@@ -19,7 +20,8 @@ pub mod pinning;
 pub mod pipeline;
 pub mod plan;
 pub mod report;
+pub mod services;
 pub mod stand_in;
 
 pub use histogram::{LatencyRecorder, PathStats};
-pub use plan::{Mode, ModeSelect, Path, Plan};
+pub use plan::{Mode, ModeSelect, Path, Plan, Source};

@@ -213,6 +213,7 @@ mod tests {
             rate_hz: 5000.0,
             cores: (0, 1),
             instance: "unit".into(),
+            shipcast_exe: None,
         }
     }
 

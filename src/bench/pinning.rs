@@ -34,6 +34,49 @@ pub fn pin_current(role: &str, core: usize) -> PinOutcome {
     }
 }
 
+/// Make the child started by `cmd` run on `core` only (set between fork and exec, so every
+/// thread it ever starts inherits it). A failure leaves the child unpinned; check with
+/// [`child_pinned`].
+pub fn pin_command(cmd: &mut std::process::Command, core: usize) {
+    use std::os::unix::process::CommandExt;
+    // SAFETY: the closure runs in the forked child before exec and only calls
+    // async-signal-safe functions on stack data (CPU_ZERO/CPU_SET, sched_setaffinity).
+    unsafe {
+        cmd.pre_exec(move || {
+            let mut set: libc::cpu_set_t = std::mem::zeroed();
+            libc::CPU_ZERO(&mut set);
+            libc::CPU_SET(core, &mut set);
+            // Unpinned on failure: the parent checks and records it.
+            let _ = libc::sched_setaffinity(0, std::mem::size_of::<libc::cpu_set_t>(), &set);
+            Ok(())
+        });
+    }
+}
+
+/// Whether process `pid` may run on `core` only; warns when not.
+pub fn child_pinned(role: &str, pid: u32, core: usize) -> PinOutcome {
+    // SAFETY: `set` is a valid, writable cpu_set_t of the size passed.
+    let pinned = unsafe {
+        let mut set: libc::cpu_set_t = std::mem::zeroed();
+        libc::sched_getaffinity(
+            pid as libc::pid_t,
+            std::mem::size_of::<libc::cpu_set_t>(),
+            &mut set,
+        ) == 0
+            && core < libc::CPU_SETSIZE as usize
+            && libc::CPU_ISSET(core, &set)
+            && libc::CPU_COUNT(&set) == 1
+    };
+    if !pinned {
+        tracing::warn!(role, core, pid, "child process is not pinned to its core");
+    }
+    PinOutcome {
+        role: role.to_string(),
+        core,
+        pinned,
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -45,5 +88,19 @@ mod tests {
             .unwrap();
         assert!(!outcome.pinned);
         assert_eq!((outcome.role.as_str(), outcome.core), ("test", 1 << 20));
+    }
+
+    #[test]
+    fn child_is_pinned_before_exec_or_reported_unpinned() {
+        let mut cmd = std::process::Command::new("sleep");
+        cmd.arg("5");
+        pin_command(&mut cmd, 0);
+        let mut child = cmd.spawn().unwrap();
+        let outcome = child_pinned("sleep", child.id(), 0);
+        let wrong = child_pinned("sleep", child.id(), 1);
+        child.kill().unwrap();
+        child.wait().unwrap();
+        assert!(outcome.pinned, "{outcome:?}");
+        assert!(!wrong.pinned);
     }
 }

@@ -48,6 +48,25 @@ impl fmt::Display for Path {
     }
 }
 
+/// What produced a row: the real service processes, the bench's in-process pipeline, or a raw
+/// transport ping-pong.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Source {
+    Services,
+    InProcess,
+    Raw,
+}
+
+impl Source {
+    pub const fn name(self) -> &'static str {
+        match self {
+            Source::Services => "services",
+            Source::InProcess => "in-process",
+            Source::Raw => "raw",
+        }
+    }
+}
+
 /// How receivers wait for data.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum Mode {
@@ -115,6 +134,9 @@ pub struct Plan {
     pub cores: (usize, usize),
     /// Unique prefix of every iceoryx2 service and zenoh key of this run.
     pub instance: String,
+    /// The `shipcast` executable whose `producer` and `predictor` subcommands are measured as
+    /// child processes; none: only the in-process pipeline and the raw floors.
+    pub shipcast_exe: Option<std::path::PathBuf>,
 }
 
 impl Plan {
@@ -217,6 +239,7 @@ mod tests {
             rate_hz: 100.0,
             cores: (0, 1),
             instance: "x".into(),
+            shipcast_exe: None,
         };
         assert!(plan.validate().is_ok());
         plan.rate_hz = f64::NAN;

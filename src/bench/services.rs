@@ -1,0 +1,272 @@
+//! shipcast's forecast paths measured through the real services: `shipcast predictor` and
+//! `shipcast producer` run as child processes pinned to the second and first core, under a
+//! unique instance, with the measuring consumers of [`super::consumers`] in this process.
+//!
+//! The predictor needs `order` values of 2 Hz history before its first forecast: the producer
+//! backfills that much record at high speed (`--backfill-s`), then paces at the plan's rate
+//! (`--speed rate/8`). Forecasts from backfilled and warm-up samples are not recorded.
+//! producer -> predictor cannot be measured from outside: the service does not report when it
+//! received a sample.
+
+use super::consumers::{self, Shared, CONSUMERS};
+use super::latency::{ReportBuilder, FORECAST_BYTES};
+use super::pinning::{child_pinned, pin_command, PinOutcome};
+use super::pipeline::{add_consumer_rows, await_until, join, zenoh_pair, DRAIN};
+use super::plan::{Mode, Path, Plan, Source};
+use super::stand_in::RECORD_RATE_HZ;
+use crate::config::PipelineConfig;
+use crate::transport::naming::DEFAULT_VESSEL;
+use crate::transport::zenoh::LivelinessWatch;
+use crate::transport::Names;
+use anyhow::{anyhow, Context};
+use std::path::{Path as FsPath, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::sync::atomic::Ordering;
+use std::time::{Duration, Instant};
+
+/// Speed of the backfill (record seconds per wall second).
+const BACKFILL_SPEED: f64 = 200.0;
+/// Record seconds of history beyond `order / sample_rate` (decimation filter, margin).
+const BACKFILL_MARGIN_S: f64 = 30.0;
+/// Start-up of the predictor (model training on simulated history) may take this long.
+const START_TIMEOUT: Duration = Duration::from_secs(120);
+/// Extra time the producer may take beyond its schedule before it is considered hung.
+const RUN_SLACK: Duration = Duration::from_secs(60);
+
+/// Child processes, killed and reaped when dropped (also when the run fails), so that no
+/// service outlives the benchmark and iceoryx2 sees their nodes as dead.
+#[derive(Default)]
+struct Children {
+    list: Vec<(String, Child, PathBuf)>,
+}
+
+impl Children {
+    fn spawn(
+        &mut self,
+        role: &str,
+        exe: &FsPath,
+        args: &[String],
+        core: usize,
+        log: PathBuf,
+    ) -> anyhow::Result<PinOutcome> {
+        let file = std::fs::File::create(&log)
+            .with_context(|| format!("create log file {}", log.display()))?;
+        let mut cmd = Command::new(exe);
+        cmd.args(args)
+            .stdin(Stdio::null())
+            .stdout(file.try_clone().context("duplicate log file handle")?)
+            .stderr(file);
+        pin_command(&mut cmd, core);
+        let child = cmd
+            .spawn()
+            .with_context(|| format!("start {role}: {} {}", exe.display(), args.join(" ")))?;
+        let pin = child_pinned(role, child.id(), core);
+        self.list.push((role.to_string(), child, log));
+        Ok(pin)
+    }
+
+    /// Fail if the child `role` has exited, naming its log.
+    fn check_running(&mut self, role: &str) -> anyhow::Result<()> {
+        for (_, child, log) in self.list.iter_mut().filter(|(r, _, _)| r == role) {
+            if let Some(status) = child.try_wait().context("check child")? {
+                anyhow::bail!("{role} exited early ({status}); see {}", log.display());
+            }
+        }
+        Ok(())
+    }
+
+    /// Wait for `role` to exit by itself within `timeout`.
+    fn wait_exit(&mut self, role: &str, timeout: Duration) -> anyhow::Result<()> {
+        let deadline = Instant::now() + timeout;
+        let (_, child, log) = self
+            .list
+            .iter_mut()
+            .find(|(r, _, _)| r == role)
+            .ok_or_else(|| anyhow!("no child '{role}'"))?;
+        loop {
+            if let Some(status) = child.try_wait().context("wait for child")? {
+                if !status.success() {
+                    anyhow::bail!("{role} failed ({status}); see {}", log.display());
+                }
+                return Ok(());
+            }
+            if Instant::now() > deadline {
+                anyhow::bail!(
+                    "{role} did not finish within {timeout:?}; see {}",
+                    log.display()
+                );
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        }
+    }
+}
+
+impl Drop for Children {
+    fn drop(&mut self) {
+        for (role, child, _) in &mut self.list {
+            if let Ok(None) = child.try_wait() {
+                if let Err(e) = child.kill() {
+                    tracing::warn!(role = role.as_str(), "could not kill child: {e}");
+                }
+            }
+            // Reap it, so it is not a zombie that iceoryx2 still counts as alive.
+            let _ = child.wait();
+        }
+    }
+}
+
+/// Measure the forecast paths of the real services in `mode` and add their rows to `out`.
+pub fn measure(
+    plan: &Plan,
+    mode: Mode,
+    exe: &FsPath,
+    out: &mut ReportBuilder,
+) -> anyhow::Result<()> {
+    let defaults = PipelineConfig::default();
+    let q = &defaults.predictor;
+    let backfill_s = (q.order as f64 / q.sample_rate_hz + BACKFILL_MARGIN_S).ceil();
+    let backfill_samples = (backfill_s * RECORD_RATE_HZ).round() as u64;
+    let instance = format!("{}-svc-{}", plan.instance, mode.name());
+    let names = Names::new(Some(&instance), DEFAULT_VESSEL).context("benchmark instance name")?;
+    let shared = Shared::new(names, mode, plan.cores.0, backfill_samples + plan.warmup);
+    let (endpoint, _, consumer_session) = zenoh_pair(false)?;
+    let dir = std::env::temp_dir();
+    let config = dir.join(format!("{instance}.toml"));
+    std::fs::write(
+        &config,
+        format!("[producer]\nbackfill_speed = {BACKFILL_SPEED:.1}\n"),
+    )
+    .with_context(|| format!("write {}", config.display()))?;
+    let common = |service: &str| -> Vec<String> {
+        vec![
+            service.to_string(),
+            "--instance".into(),
+            instance.clone(),
+            "--config".into(),
+            config.display().to_string(),
+            "--zenoh-listen".into(),
+            endpoint.clone(),
+        ]
+    };
+    let mut children = Children::default();
+    let mut predictor_args = common("predictor");
+    predictor_args.extend(["--retrain-every-s".into(), "0".into()]);
+    if mode == Mode::Poll {
+        predictor_args.push("--busy-poll".into());
+    }
+    let log = |role: &str| dir.join(format!("{instance}-{role}.log"));
+    let pin_pred = children.spawn(
+        "predictor",
+        exe,
+        &predictor_args,
+        plan.cores.1,
+        log("predictor"),
+    )?;
+
+    let record_s = backfill_s + (plan.warmup + plan.samples) as f64 / RECORD_RATE_HZ;
+    let mut producer_args = common("producer");
+    producer_args.extend([
+        "--speed".into(),
+        format!("{}", plan.rate_hz / RECORD_RATE_HZ),
+        "--record-s".into(),
+        format!("{record_s}"),
+        "--backfill-s".into(),
+        format!("{backfill_s}"),
+        "--wait-subscriber-s".into(),
+        "10".into(),
+    ]);
+    let schedule = Duration::from_secs_f64(
+        backfill_s / BACKFILL_SPEED + (plan.warmup + plan.samples) as f64 / plan.rate_hz,
+    );
+
+    let result = std::thread::scope(|s| {
+        let local = s.spawn(|| stop_on_err(&shared, consumers::local(&shared)));
+        let remote =
+            s.spawn(|| stop_on_err(&shared, consumers::remote(&shared, &consumer_session)));
+        let driven = drive(
+            &shared,
+            &consumer_session,
+            &mut children,
+            exe,
+            &producer_args,
+            plan.cores.0,
+            log("producer"),
+            schedule,
+        );
+        shared.stop();
+        (
+            driven,
+            join(local, "local consumer"),
+            join(remote, "zenoh consumer"),
+        )
+    });
+    let _ = std::fs::remove_file(&config);
+    let (driven, local, remote) = result;
+    let pin_prod = driven?;
+    let (local, pin_l) = local?;
+    let (remote, pin_z) = remote?;
+    out.pins().extend([pin_prod, pin_pred, pin_l, pin_z]);
+    let src = Source::Services;
+    out.add(
+        Path::SampleToForecastPublished,
+        mode,
+        src,
+        &local.published,
+        local.latency.count() + local.lost,
+        FORECAST_BYTES,
+    );
+    let published = local.latency.count() + local.lost;
+    let remote_expected = published.max(remote.latency.count() + remote.lost);
+    add_consumer_rows(
+        out,
+        mode,
+        src,
+        [(&local, published), (&remote, remote_expected)],
+    );
+    out.not_measured(format!(
+        "producer-to-predictor {mode} (services): `shipcast predictor` does not report when it \
+         received a sample; the in-process row measures the same transport path"
+    ));
+    Ok(())
+}
+
+fn stop_on_err<T>(shared: &Shared, r: anyhow::Result<T>) -> anyhow::Result<T> {
+    if r.is_err() {
+        shared.stop();
+    }
+    r
+}
+
+/// Wait for the consumers and the predictor, run the producer to its end, let the last
+/// forecasts arrive. The children are killed by the caller's guard afterwards.
+#[allow(clippy::too_many_arguments)]
+fn drive(
+    shared: &Shared,
+    watch_session: &zenoh::Session,
+    children: &mut Children,
+    exe: &FsPath,
+    producer_args: &[String],
+    core: usize,
+    log: PathBuf,
+    schedule: Duration,
+) -> anyhow::Result<PinOutcome> {
+    await_until(shared, "the consumers", || {
+        shared.ready.load(Ordering::Acquire) == CONSUMERS
+    })?;
+    // The predictor is ready when its liveliness token reaches the consumer's own session:
+    // models trained, ports created, and the consumer connected to it.
+    let watch = LivelinessWatch::new(watch_session, &Names::liveliness(&shared.names.forecast()))?;
+    let deadline = Instant::now() + START_TIMEOUT;
+    while watch.poll() != Some(true) {
+        children.check_running("predictor")?;
+        if Instant::now() > deadline {
+            anyhow::bail!("predictor not alive within {START_TIMEOUT:?}");
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let pin = children.spawn("producer", exe, producer_args, core, log)?;
+    children.wait_exit("producer", schedule + RUN_SLACK)?;
+    std::thread::sleep(DRAIN);
+    children.check_running("predictor")?;
+    Ok(pin)
+}
