@@ -85,7 +85,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         order,
         horizon,
         version = models.version,
-        sigma_heave_last = models.sigma[2][horizon - 1],
+        sigma_at_horizon = %sigma_summary(&models, horizon),
         "predictor: models ready"
     );
 
@@ -177,6 +177,15 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     tracing::info!("predictor: stopped; {}", service.counters.summary());
     Ok(())
+}
+
+/// sigma of every DOF at the last step, for the logs.
+fn sigma_summary(models: &ModelSet, horizon: usize) -> String {
+    shipcast::Dof::ALL
+        .iter()
+        .map(|d| format!("{} {:.3}", d.name(), models.sigma[d.index()][horizon - 1]))
+        .collect::<Vec<_>>()
+        .join(", ")
 }
 
 /// Wall time without samples after which the producer is reported stale: the configured
@@ -307,7 +316,7 @@ impl Service<'_> {
             if set.order() == self.models.order() && set.horizon() == self.models.horizon() {
                 tracing::info!(
                     version = set.version,
-                    sigma_heave_last = set.sigma[2][set.horizon() - 1],
+                    sigma_at_horizon = %sigma_summary(&set, set.horizon()),
                     "predictor: retrained model in use"
                 );
                 self.models = set;
