@@ -28,7 +28,8 @@ fn wait_forecast(
 }
 
 /// kill -9 the predictor, reap it, start a new one: it starts without a stale-resource error
-/// and the deck consumer (still running) gets forecasts again.
+/// and both consumers, still running, get forecasts again: the deck over iceoryx2, the crane
+/// over zenoh (which also sees the liveliness token go and come back).
 #[test]
 fn killed_predictor_restarts_and_consumers_resume() {
     let p = TestPipeline::new("kill9", "[producer]\nspeed = 20.0\nbackfill_s = 0.0\n");
@@ -36,11 +37,17 @@ fn killed_predictor_restarts_and_consumers_resume() {
     let mut first = p.spawn("predictor", &[]);
     first.wait_for("(iceoryx2 and zenoh)");
     let deck = p.spawn("deck", &["--no-publish"]);
+    let crane = p.spawn("crane", &[]);
     let _producer = p.spawn("producer", &["--wait-subscriber-s", "30"]);
     deck.wait_for("deck t=");
+    crane.wait_for("crane t=");
 
     first.kill9();
+    // The remote consumer sees the predictor's liveliness token go.
+    crane.wait_for("predictor gone");
     let before = deck.stdout().len();
+    let crane_before = crane.stdout().len();
+    let crane_log = crane.stderr().len();
     let second = p.spawn("predictor", &[]);
     second.wait_for("(iceoryx2 and zenoh)");
     // The new predictor refills its history, then the deck advises again.
@@ -58,6 +65,12 @@ fn killed_predictor_restarts_and_consumers_resume() {
         "{}",
         second.stderr().join("\n")
     );
+    // The zenoh consumer reconnects to the new predictor by itself.
+    crane.wait_for_after("predictor alive", crane_log);
+    while crane.stdout().len() <= crane_before + 2 {
+        assert!(Instant::now() < deadline, "crane did not resume");
+        std::thread::sleep(Duration::from_millis(50));
+    }
     // The deck kept running through the crash and saw the new model's forecasts.
     let node = iox::node(&names, "test-observer").unwrap();
     let sub =
