@@ -6,8 +6,8 @@ use shipcast::config::CommonArgs;
 use shipcast::deck::DeckAdvisor;
 use shipcast::payload::Forecast;
 use shipcast::transport::iox::{self, IoxSubscriber, Sizing, WaitMode};
-use shipcast::transport::shutdown;
 use shipcast::transport::zenoh::{self as zn, JsonPublisher};
+use shipcast::transport::{shutdown, Names};
 use std::io::Write;
 use std::time::{Duration, Instant};
 
@@ -37,7 +37,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let session;
     let publisher = if config.deck.publish && !args.no_publish {
         session = zn::open(&config.zenoh.consumer_side())?;
-        Some(JsonPublisher::new(&session, &names.advisory("deck"))?)
+        let key = names.advisory("deck");
+        let token = zn::liveliness_token(&session, &Names::liveliness(&key))?;
+        Some((JsonPublisher::new(&session, &key)?, token))
     } else {
         None
     };
@@ -64,7 +66,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         last_forecast = Instant::now();
         waiting_reported = false;
         let advisory = advisor.advise(&forecast);
-        if let Some(p) = &publisher {
+        if let Some((p, _alive)) = &publisher {
             p.put_serialize(&advisory)?;
         }
         if count % args.print_every.max(1) == 0 {

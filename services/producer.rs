@@ -276,3 +276,31 @@ fn publish_all(
     );
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn pacer(backfill_s: f64, speed: f64) -> Pacer {
+        Pacer::new(&ProducerConfig {
+            backfill_s,
+            backfill_speed: 50.0,
+            speed,
+            ..ProducerConfig::default()
+        })
+    }
+
+    #[test]
+    fn pacing_runs_the_backfill_fast_then_at_speed() {
+        let mut p = pacer(100.0, 2.0);
+        // Times count from the first sample, whatever the record's clock says.
+        assert_eq!(p.due(1000.0), Some(Duration::ZERO));
+        assert_eq!(p.due(1050.0), Some(Duration::from_secs(1)));
+        // 100 s of backfill at 50x = 2 s, then 20 s of record at 2x = 10 s.
+        assert_eq!(p.due(1120.0), Some(Duration::from_secs(12)));
+        // As fast as possible after the backfill: no pacing at all.
+        let mut p = pacer(100.0, 0.0);
+        assert_eq!(p.due(0.0), Some(Duration::ZERO));
+        assert_eq!(p.due(150.0), None);
+    }
+}
