@@ -10,6 +10,18 @@ use std::path::Path;
 /// Most points drawn per series.
 pub const MAX_POINTS: usize = 600;
 
+/// High-contrast colours in series order (the first series, usually the truth, is black).
+const PALETTE: [RGBColor; 8] = [
+    RGBColor(0, 0, 0),
+    RGBColor(214, 39, 40),
+    RGBColor(31, 119, 180),
+    RGBColor(44, 160, 44),
+    RGBColor(255, 127, 14),
+    RGBColor(148, 103, 189),
+    RGBColor(140, 86, 75),
+    RGBColor(127, 127, 127),
+];
+
 /// One curve of a chart.
 #[derive(Clone, Debug)]
 pub struct Series {
@@ -117,7 +129,7 @@ pub fn line_chart(path: &Path, chart: &Chart<'_>) -> anyhow::Result<()> {
             .light_line_style(WHITE)
             .draw()?;
         for (i, s) in chart.series.iter().enumerate() {
-            let color = Palette99::pick(i).to_rgba();
+            let color = PALETTE[i % PALETTE.len()].to_rgba();
             let width = if s.style == Style::Solid { 2 } else { 1 };
             let style = ShapeStyle::from(color).stroke_width(width);
             let points: Vec<(f64, f64)> = thin(&s.points, MAX_POINTS)

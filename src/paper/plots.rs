@@ -64,17 +64,21 @@ fn trace_figure(study: &Study, trace: &Trace, dir: &Path) -> anyhow::Result<Figu
             ),
         )
     };
-    let mut series = Vec::new();
+    let mut series = vec![Series::new("true", trace.truth.clone())];
     if let Some(obs) = &trace.observed {
         series.push(Series::new("observed (noisy)", obs.clone()).thin());
     }
-    series.push(Series::new("true", trace.truth.clone()));
     if let Ok(p) = &trace.mca {
         series.push(Series::new(format!("MCA-{order}"), p.clone()));
     }
     if let Ok(p) = &trace.bound {
-        series
-            .push(Series::new(format!("bound (optimal linear, order {order})"), p.clone()).thin());
+        // The bound is computed for, and fed with, the clean motion.
+        let label = if trace.noise_pct > 0.0 {
+            format!("bound (optimal linear, order {order}, from the clean record)")
+        } else {
+            format!("bound (optimal linear, order {order})")
+        };
+        series.push(Series::new(label, p.clone()).thin());
     }
     let y_label = format!("{} [{}]", dof.name(), dof.unit());
     line_chart(
@@ -111,7 +115,11 @@ fn rms_figure(study: &Study, sea: SeaKind, dir: &Path) -> anyhow::Result<Option<
             .map(|(i, v)| ((i + 1) as f64 * dt, *v))
             .collect()
     };
+    // The bound first, so it gets the first (black) colour.
     let mut series = Vec::new();
+    if let Some(Ok(b)) = study.bound(sea, Dof::Heave, order).map(|b| &b.result) {
+        series.push(Series::new(format!("bound-{order} (exact)"), curve(&b.exact_rms)).dashed());
+    }
     for method in PAPER_METHODS.into_iter().chain(REFERENCES) {
         if let Some(Ok(r)) = study
             .outcome(sea, Dof::Heave, order, method, Variant::Paper)
@@ -124,9 +132,6 @@ fn rms_figure(study: &Study, sea: SeaKind, dir: &Path) -> anyhow::Result<Option<
                 s
             });
         }
-    }
-    if let Some(Ok(b)) = study.bound(sea, Dof::Heave, order).map(|b| &b.result) {
-        series.push(Series::new(format!("bound-{order} (exact)"), curve(&b.exact_rms)).dashed());
     }
     if series.is_empty() {
         return Ok(None);
