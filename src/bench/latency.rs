@@ -100,6 +100,7 @@ impl ReportBuilder {
         );
         self.report.rows.push(stats);
         self.report.curves.push(Curve {
+            mode: mode.name(),
             label: format!("{path} {mode} {payload_bytes} B ({})", source.name()),
             points: recorder.curve(3.0, CURVE_POINTS),
         });

@@ -12,6 +12,8 @@ use std::fmt::Write as _;
 /// The percentile curve of one row, for the SVG.
 #[derive(Debug, Clone)]
 pub struct Curve {
+    /// Receive mode: each mode gets its own panel.
+    pub mode: &'static str,
     pub label: String,
     /// (number of nines of the quantile, latency in µs); the max is the last point.
     pub points: Vec<(f64, f64)>,
@@ -185,9 +187,18 @@ impl LatencyReport {
             anyhow::bail!("no latencies recorded: nothing to plot");
         }
         let (lo, hi) = ((lo * 0.8).max(0.01), (hi * 1.25).max(lo * 2.0));
-        let root = SVGBackend::new(path, (1000, 640)).into_drawing_area();
-        draw(&root, &self.curves, lo, hi, &self.header())
-            .map_err(|e| anyhow::anyhow!("draw {}: {e}", path.display()))?;
+        let panels = self.modes.len().max(1);
+        let root = SVGBackend::new(path, (820 * panels as u32, 700)).into_drawing_area();
+        let areas = root.split_evenly((1, panels));
+        for (area, mode) in areas.iter().zip(&self.modes) {
+            let curves: Vec<&Curve> = self.curves.iter().filter(|c| c.mode == *mode).collect();
+            let title = format!(
+                "one-way latency, {mode} mode, cores {},{}",
+                self.cores.0, self.cores.1
+            );
+            draw(area, &curves, lo, hi, &title)
+                .map_err(|e| anyhow::anyhow!("draw {}: {e}", path.display()))?;
+        }
         root.present()
             .map_err(|e| anyhow::anyhow!("write {}: {e}", path.display()))
     }
@@ -205,23 +216,23 @@ type DrawResult = Result<(), DrawingAreaErrorKind<std::io::Error>>;
 
 fn draw(
     root: &DrawingArea<SVGBackend<'_>, plotters::coord::Shift>,
-    curves: &[Curve],
+    curves: &[&Curve],
     lo: f64,
     hi: f64,
-    header: &str,
+    title: &str,
 ) -> DrawResult {
     root.fill(&WHITE)?;
-    let title = header.lines().next().unwrap_or("latency");
     let mut chart = ChartBuilder::on(root)
-        .caption(format!("one-way latency, {title}"), ("sans-serif", 16))
+        .caption(title, ("sans-serif", 16))
         .margin(12)
         .x_label_area_size(40)
         .y_label_area_size(60)
-        .build_cartesian_2d(0f64..3.6f64, (lo..hi).log_scale())?;
+        .build_cartesian_2d(0f64..3.5f64, (lo..hi).log_scale())?;
     chart
         .configure_mesh()
         .x_desc("quantile")
         .y_desc("latency [µs]")
+        // Ticks every half nine; only whole nines and the max are labelled.
         .x_labels(8)
         .x_label_formatter(&|x| nines_label(*x))
         .draw()?;
@@ -238,16 +249,21 @@ fn draw(
     chart
         .configure_series_labels()
         .position(SeriesLabelPosition::UpperLeft)
+        .label_font(("sans-serif", 11))
         .background_style(WHITE.mix(0.85))
         .border_style(BLACK)
         .draw()?;
     Ok(())
 }
 
-/// Axis label of a quantile given as its number of nines (2 -> p99); past 3.4, the max.
+/// Axis label of a quantile given as its number of nines (2 -> p99); past 3.4, the max;
+/// none between whole nines.
 fn nines_label(nines: f64) -> String {
     if nines > 3.4 {
         return "max".into();
+    }
+    if (nines - nines.round()).abs() > 1e-6 {
+        return String::new();
     }
     let q = 100.0 * (1.0 - 10f64.powf(-nines));
     format!("p{}", (q * 100.0).round() / 100.0)
@@ -274,6 +290,7 @@ mod tests {
             }
             rows.push(r.stats(path, mode, Source::InProcess, 100, bytes));
             curves.push(Curve {
+                mode: mode.name(),
                 label: format!("{path} {mode}"),
                 points: r.curve(3.0, 30),
             });
@@ -333,5 +350,7 @@ mod tests {
         assert!(rep.write_svg(&file).is_err());
         assert_eq!(nines_label(2.0), "p99");
         assert_eq!(nines_label(3.5), "max");
+        assert_eq!(nines_label(1.5), "");
+        assert_eq!(nines_label(0.0), "p0");
     }
 }
