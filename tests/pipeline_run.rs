@@ -3,21 +3,22 @@
 
 mod pipeline_support;
 
-use pipeline_support::{free_port, unique_instance, BIN};
+use pipeline_support::{TestPipeline, BIN};
 use std::process::Command;
 
 #[test]
 fn run_shows_forecasts_and_advisory_and_stops_after_duration() {
+    // Only the instance and endpoint come from the test pipeline: the rest is the default
+    // configuration a fresh clone runs with.
+    let p = TestPipeline::new("run", "");
     let dir = tempfile::tempdir().unwrap();
-    let endpoint = format!("tcp/127.0.0.1:{}", free_port());
-    let instance = unique_instance("run");
     let out = Command::new(BIN)
         .args([
             "run",
             "--instance",
-            &instance,
+            &p.instance,
             "--zenoh-listen",
-            &endpoint,
+            &p.endpoint,
             "--duration",
             "15",
         ])

@@ -259,9 +259,28 @@ mod tests {
         Names::new(Some(&instance), "testvessel").unwrap()
     }
 
+    /// Removes the 16-byte management segment iceoryx2 keeps per file prefix, once the test's
+    /// nodes are gone (the prefix is unique to the test).
+    struct PrefixCleanup(String);
+
+    impl Drop for PrefixCleanup {
+        fn drop(&mut self) {
+            for e in std::fs::read_dir("/dev/shm")
+                .into_iter()
+                .flatten()
+                .flatten()
+            {
+                if e.file_name().to_string_lossy().starts_with(&self.0) {
+                    let _ = std::fs::remove_file(e.path());
+                }
+            }
+        }
+    }
+
     #[test]
     fn samples_round_trip_with_event_wake_up() {
         let names = unique_names("rt");
+        let _cleanup = PrefixCleanup(names.iox_prefix());
         let node = node(&names, "unit").unwrap();
         let sub = IoxSubscriber::<MotionSample>::new(
             &node,
@@ -292,6 +311,7 @@ mod tests {
     #[test]
     fn full_queue_overwrites_oldest_instead_of_blocking() {
         let names = unique_names("ovf");
+        let _cleanup = PrefixCleanup(names.iox_prefix());
         let node = node(&names, "unit").unwrap();
         let sub = IoxSubscriber::<Forecast>::new(
             &node,

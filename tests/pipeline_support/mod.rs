@@ -84,6 +84,21 @@ impl TestPipeline {
     }
 }
 
+impl Drop for TestPipeline {
+    /// iceoryx2 keeps a 16-byte management segment per file prefix after the last node is
+    /// gone; the prefix is unique to this test, so remove it once every process has stopped.
+    fn drop(&mut self) {
+        let prefix = format!("iox2_{}_", self.instance);
+        if let Ok(entries) = std::fs::read_dir("/dev/shm") {
+            for e in entries.flatten() {
+                if e.file_name().to_string_lossy().starts_with(&prefix) {
+                    let _ = std::fs::remove_file(e.path());
+                }
+            }
+        }
+    }
+}
+
 /// A running child with its output collected line by line.
 pub struct Proc {
     pub name: String,
@@ -214,8 +229,21 @@ impl Proc {
 }
 
 impl Drop for Proc {
+    /// Stop cleanly (SIGTERM) so the process releases its shared memory, and SIGKILL it if it
+    /// does not exit within a few seconds; always reap it.
     fn drop(&mut self) {
-        self.kill9();
+        if let Some(mut child) = self.child.take() {
+            // SAFETY: kill(2) on our own child.
+            unsafe {
+                libc::kill(child.id() as libc::pid_t, libc::SIGTERM);
+            }
+            let deadline = Instant::now() + Duration::from_secs(5);
+            while matches!(child.try_wait(), Ok(None)) && Instant::now() < deadline {
+                std::thread::sleep(Duration::from_millis(20));
+            }
+            let _ = child.kill();
+            let _ = child.wait();
+        }
     }
 }
 
