@@ -169,10 +169,12 @@ impl<T: Stamped> Endpoint for IoxEndpoint<T> {
 
 /// Ping-pong `T` over iceoryx2 between the plan's two cores in `mode`.
 pub fn run<T: Stamped>(plan: &Plan, mode: Mode) -> anyhow::Result<PingPongOutcome> {
-    let instance = format!("{}-iox-{}-{}", plan.instance, T::TAG, mode.name());
-    let names = Names::new(Some(&instance), "bench").context("benchmark instance name")?;
-    let ping_topic = format!("{instance}/bench/ping");
-    let pong_topic = format!("{instance}/bench/pong");
+    // One instance (iceoryx2 file prefix) per run; the measurements run one after the other
+    // and differ by service name.
+    let names = Names::new(Some(&plan.instance), "bench").context("benchmark instance name")?;
+    let base = format!("{}/bench/iox-{}-{}", plan.instance, T::TAG, mode.name());
+    let ping_topic = format!("{base}/ping");
+    let pong_topic = format!("{base}/pong");
     let label = format!("iceoryx2 {} {}", T::TAG, mode.name());
     pingpong::run(
         plan,

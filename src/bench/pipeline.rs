@@ -71,8 +71,9 @@ pub fn zenoh_pair(
 
 /// Measure the four shipcast paths in `mode` and add their rows to `out`.
 pub fn measure(plan: &Plan, mode: Mode, out: &mut ReportBuilder) -> anyhow::Result<()> {
-    let instance = format!("{}-pipe-{}", plan.instance, mode.name());
-    let names = Names::new(Some(&instance), "bench").context("benchmark instance name")?;
+    // The run's instance, a vessel name per mode: one iceoryx2 file prefix per run.
+    let vessel = format!("pipe-{}", mode.name());
+    let names = Names::new(Some(&plan.instance), &vessel).context("benchmark names")?;
     let run = Run {
         plan,
         shared: Shared::new(names, mode, plan.cores.0, plan.warmup),

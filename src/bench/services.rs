@@ -15,7 +15,6 @@ use super::pipeline::{add_consumer_rows, await_until, join, zenoh_pair, DRAIN};
 use super::plan::{Mode, Path, Plan, Source};
 use super::stand_in::RECORD_RATE_HZ;
 use crate::config::PipelineConfig;
-use crate::transport::naming::DEFAULT_VESSEL;
 use crate::transport::zenoh::LivelinessWatch;
 use crate::transport::Names;
 use anyhow::{anyhow, Context};
@@ -30,6 +29,8 @@ const BACKFILL_SPEED: f64 = 200.0;
 const BACKFILL_MARGIN_S: f64 = 30.0;
 /// Start-up of the predictor (model training on simulated history) may take this long.
 const START_TIMEOUT: Duration = Duration::from_secs(120);
+/// How long the services get to shut down cleanly before they are killed.
+const STOP_TIMEOUT: Duration = Duration::from_secs(5);
 /// Extra time the producer may take beyond its schedule before it is considered hung.
 const RUN_SLACK: Duration = Duration::from_secs(60);
 
@@ -101,17 +102,52 @@ impl Children {
     }
 }
 
-impl Drop for Children {
-    fn drop(&mut self) {
-        for (role, child, _) in &mut self.list {
+impl Children {
+    /// Ask every running child to stop (SIGTERM: the services shut down cleanly and remove
+    /// their iceoryx2 resources), wait up to `timeout`, then kill what is left.
+    fn stop_all(&mut self, timeout: Duration) {
+        for (_, child, _) in &mut self.list {
+            if let Ok(None) = child.try_wait() {
+                // SAFETY: plain kill(2) on the id of a child we have not reaped yet.
+                unsafe {
+                    libc::kill(child.id() as libc::pid_t, libc::SIGTERM);
+                }
+            }
+        }
+        let deadline = Instant::now() + timeout;
+        while Instant::now() < deadline
+            && self
+                .list
+                .iter_mut()
+                .any(|(_, c, _)| matches!(c.try_wait(), Ok(None)))
+        {
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        self.kill_all();
+    }
+
+    /// Kill and reap every child; remove the logs of those that exited successfully.
+    fn kill_all(&mut self) {
+        for (role, mut child, log) in self.list.drain(..) {
             if let Ok(None) = child.try_wait() {
                 if let Err(e) = child.kill() {
                     tracing::warn!(role = role.as_str(), "could not kill child: {e}");
                 }
             }
             // Reap it, so it is not a zombie that iceoryx2 still counts as alive.
-            let _ = child.wait();
+            match child.wait() {
+                Ok(status) if status.success() => {
+                    let _ = std::fs::remove_file(&log);
+                }
+                _ => tracing::info!(role = role.as_str(), "service log kept: {}", log.display()),
+            }
         }
+    }
+}
+
+impl Drop for Children {
+    fn drop(&mut self) {
+        self.kill_all();
     }
 }
 
@@ -126,12 +162,14 @@ pub fn measure(
     let q = &defaults.predictor;
     let backfill_s = (q.order as f64 / q.sample_rate_hz + BACKFILL_MARGIN_S).ceil();
     let backfill_samples = (backfill_s * RECORD_RATE_HZ).round() as u64;
-    let instance = format!("{}-svc-{}", plan.instance, mode.name());
-    let names = Names::new(Some(&instance), DEFAULT_VESSEL).context("benchmark instance name")?;
+    // The run's instance, a vessel name per mode: one iceoryx2 file prefix per run.
+    let instance = &plan.instance;
+    let vessel = format!("svc-{}", mode.name());
+    let names = Names::new(Some(instance), &vessel).context("benchmark names")?;
     let shared = Shared::new(names, mode, plan.cores.0, backfill_samples + plan.warmup);
     let (endpoint, _, consumer_session) = zenoh_pair(false)?;
     let dir = std::env::temp_dir();
-    let config = dir.join(format!("{instance}.toml"));
+    let config = dir.join(format!("{instance}-{vessel}.toml"));
     std::fs::write(
         &config,
         format!("[producer]\nbackfill_speed = {BACKFILL_SPEED:.1}\n"),
@@ -142,6 +180,8 @@ pub fn measure(
             service.to_string(),
             "--instance".into(),
             instance.clone(),
+            "--vessel".into(),
+            vessel.clone(),
             "--config".into(),
             config.display().to_string(),
             "--zenoh-listen".into(),
@@ -154,7 +194,7 @@ pub fn measure(
     if mode == Mode::Poll {
         predictor_args.push("--busy-poll".into());
     }
-    let log = |role: &str| dir.join(format!("{instance}-{role}.log"));
+    let log = |role: &str| dir.join(format!("{instance}-{vessel}-{role}.log"));
     let pin_pred = children.spawn(
         "predictor",
         exe,
@@ -200,7 +240,10 @@ pub fn measure(
             join(remote, "zenoh consumer"),
         )
     });
+    children.stop_all(STOP_TIMEOUT);
     let _ = std::fs::remove_file(&config);
+    // Creating a node of this instance removes whatever a killed service left behind.
+    drop(crate::transport::iox::node(&shared.names, "bench-cleanup"));
     let (driven, local, remote) = result;
     let pin_prod = driven?;
     let (local, pin_l) = local?;
