@@ -48,19 +48,24 @@ fn ten_simulated_minutes_at_100x_flow_without_gaps_over_both_transports() {
     let (mut tracker, mut seen) = (SeqTracker::new(), Counters::default());
     let mut by_iox: HashMap<u64, Forecast> = HashMap::new();
     let mut by_zenoh: HashMap<u64, Forecast> = HashMap::new();
+    // Everything waiting on iceoryx2; the newest on zenoh (its ring keeps only the latest).
+    let drain_forecasts =
+        |by_iox: &mut HashMap<u64, Forecast>, by_zenoh: &mut HashMap<u64, Forecast>| {
+            while let Some(f) = forecasts.receive().unwrap() {
+                by_iox.insert(f.seq, f);
+            }
+            if let Some(b) = zenoh_forecasts.latest().unwrap() {
+                let f = Forecast::from_json(&b).unwrap();
+                by_zenoh.insert(f.seq, f);
+            }
+        };
     let deadline = Instant::now() + Duration::from_secs(60);
     while seen.received < 4800 && Instant::now() < deadline {
         motion.wait(Duration::from_millis(50)).unwrap();
         while let Some(s) = motion.receive().unwrap() {
             seen.count(tracker.check(&s));
         }
-        while let Some(f) = forecasts.receive().unwrap() {
-            by_iox.insert(f.seq, f);
-        }
-        while let Some(b) = zenoh_forecasts.latest().unwrap() {
-            let f = Forecast::from_json(&b).unwrap();
-            by_zenoh.insert(f.seq, f);
-        }
+        drain_forecasts(&mut by_iox, &mut by_zenoh);
     }
     assert!(producer.wait_exit().success());
     let done = producer.wait_for("producer: stopped after");
@@ -73,13 +78,7 @@ fn ten_simulated_minutes_at_100x_flow_without_gaps_over_both_transports() {
 
     // Drain the last forecasts, then stop the predictor cleanly and read its counters.
     std::thread::sleep(Duration::from_millis(300));
-    while let Some(f) = forecasts.receive().unwrap() {
-        by_iox.insert(f.seq, f);
-    }
-    while let Some(b) = zenoh_forecasts.latest().unwrap() {
-        let f = Forecast::from_json(&b).unwrap();
-        by_zenoh.insert(f.seq, f);
-    }
+    drain_forecasts(&mut by_iox, &mut by_zenoh);
     assert!(predictor.terminate().success());
     let stopped = predictor.wait_for("predictor: stopped;");
     assert_eq!(counter(&stopped, "received"), 4800, "{stopped}");
