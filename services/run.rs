@@ -142,6 +142,7 @@ impl View {
         });
         lines.push(match &self.forecast {
             None => "forecast   none yet (the history fills first)".into(),
+            Some(f) if f.valid_steps() == 0 => "forecast   empty (0 steps)".into(),
             Some(f) => {
                 let at = |d: usize, step_s: f64| {
                     let k = ((step_s / f.dt_s).round() as usize).clamp(1, f.valid_steps()) - 1;
