@@ -5,7 +5,7 @@ use anyhow::Context;
 use indicatif::{ProgressBar, ProgressStyle};
 use shipcast::eval::{self, report, Entry, EvalSettings};
 use shipcast::motion_csv::MotionData;
-use shipcast::predict::{Method, PredictorConfig};
+use shipcast::predict::{McaWeighting, Method, PredictorConfig};
 use shipcast::signal;
 use shipcast::Dof;
 use std::io::{IsTerminal, Write};
@@ -27,12 +27,18 @@ pub struct PredictorArgs {
     /// MCA: energy fraction of the minor components.
     #[arg(long, default_value_t = PredictorConfig::default().mca_energy)]
     pub energy: f64,
-    /// MCA: ridge on B2^T B2, relative to its mean diagonal (0 = paper).
+    /// MCA: ridge on B2^T B2, relative to its mean diagonal (0 = paper); with
+    /// --mca-weighting inverse: eps relative to the mean eigenvalue (0 = 1e-3).
     #[arg(long, default_value_t = PredictorConfig::default().mca_ridge)]
     pub ridge: f64,
-    /// MCA: choose the energy threshold by validation on the end of the training segment.
+    /// MCA: choose the energy threshold by validation on the end of the training segment
+    /// (inverse weighting: the ridge).
     #[arg(long)]
     pub validate_energy: bool,
+    /// MCA: eigen-direction weights, paper (minor components, unweighted) or inverse
+    /// (all, 1/(lambda + eps): the conditional mean; --ridge sets eps, 0 = default 1e-3).
+    #[arg(long, default_value_t = PredictorConfig::default().mca_weighting)]
+    pub mca_weighting: McaWeighting,
     /// AR: normalised LMS instead of plain LMS.
     #[arg(long)]
     pub nlms: bool,
@@ -56,6 +62,7 @@ impl PredictorArgs {
             mca_energy: self.energy,
             mca_ridge: self.ridge,
             mca_validate_energy: self.validate_energy,
+            mca_weighting: self.mca_weighting,
             lms_gain: self.lms_gain,
             lms_normalized: self.nlms,
             mlp_hidden: self.hidden,

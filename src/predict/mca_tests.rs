@@ -19,6 +19,13 @@ fn fitted(config: &PredictorConfig, train: &[f64]) -> McaPredictor {
     p
 }
 
+fn assert_same_matrix(a: &McaPredictor, b: &McaPredictor) {
+    assert_eq!(
+        a.prediction_matrix().unwrap().coefficients(),
+        b.prediction_matrix().unwrap().coefficients()
+    );
+}
+
 fn frobenius(map: &LinearMap) -> f64 {
     map.coefficients().iter().map(|c| c * c).sum::<f64>().sqrt()
 }
@@ -62,9 +69,8 @@ fn at_least_horizon_minor_components_are_used() {
     assert_eq!(p.diagnostics().minor_components, Some(8));
 }
 
-/// Independent path: windows and R = sum x x^T by explicit loops, faer's eigen-decomposition,
-/// the energy rule written out, B2^T B2 and B2^T B1 by loops, a dense LU solve.
-fn reference_prediction(x: &[f64], n: usize, h: usize, shift: usize, energy: f64) -> Vec<Vec<f64>> {
+/// R = sum x x^T over the windows of length `n` starting every `shift` values, by explicit loops.
+fn window_correlation(x: &[f64], n: usize, shift: usize) -> Mat<f64> {
     let mut r = Mat::<f64>::zeros(n, n);
     let mut start = 0;
     while start + n <= x.len() {
@@ -76,6 +82,13 @@ fn reference_prediction(x: &[f64], n: usize, h: usize, shift: usize, energy: f64
         }
         start += shift;
     }
+    r
+}
+
+/// Independent path: R by explicit loops, faer's eigen-decomposition,
+/// the energy rule written out, B2^T B2 and B2^T B1 by loops, a dense LU solve.
+fn reference_prediction(x: &[f64], n: usize, h: usize, shift: usize, energy: f64) -> Vec<Vec<f64>> {
+    let r = window_correlation(x, n, shift);
     let evd = r.self_adjoint_eigen(Side::Lower).unwrap();
     let values: Vec<f64> = (0..n).map(|i| evd.S()[i]).collect();
     let trace: f64 = (0..n).map(|i| r[(i, i)]).sum();
@@ -217,10 +230,7 @@ fn validated_energy_is_from_the_grid_and_refits_on_everything() {
         },
         &x,
     );
-    assert_eq!(
-        validated.prediction_matrix().unwrap().coefficients(),
-        plain.prediction_matrix().unwrap().coefficients()
-    );
+    assert_same_matrix(&validated, &plain);
 }
 
 #[test]
@@ -272,4 +282,134 @@ fn forecast_uses_only_the_last_past_len_values() {
     p.forecast(&window, &mut b).unwrap();
     assert_eq!(a, b);
     assert_eq!(p.past_len(), 15);
+}
+
+fn inverse(order: usize, horizon: usize, shift: usize, ridge: f64) -> PredictorConfig {
+    PredictorConfig {
+        mca_weighting: McaWeighting::Inverse,
+        mca_shift: shift,
+        mca_ridge: ridge,
+        ..config(order, horizon)
+    }
+}
+
+/// Independent path for inverse weighting: R by explicit loops, then the conditional mean
+/// P = R21 (R11 + eps I)^-1 by a dense LU solve of (R11 + eps I) P^T = R12, with
+/// eps = ridge * trace / n (the mean eigenvalue).
+fn conditional_mean(x: &[f64], n: usize, h: usize, shift: usize, ridge: f64) -> Mat<f64> {
+    let r = window_correlation(x, n, shift);
+    let n1 = n - h;
+    let eps = ridge * (0..n).map(|i| r[(i, i)]).sum::<f64>() / n as f64;
+    let r11 = Mat::from_fn(n1, n1, |i, j| r[(i, j)] + if i == j { eps } else { 0.0 });
+    let r12 = Mat::from_fn(n1, h, |i, j| r[(i, n1 + j)]);
+    r11.partial_piv_lu().solve(&r12).transpose().to_owned()
+}
+
+#[test]
+fn inverse_weighting_is_the_conditional_mean_of_the_sample_covariance() {
+    let (n, h, shift) = (20, 5, 2);
+    let x = noisy_oscillation(800, 18);
+    // A tiny ridge: the exact R21 R11^-1; a large one: exactly the ridge-regularised version.
+    for ridge in [1e-12, 0.1] {
+        let p = fitted(&inverse(n, h, shift, ridge), &x);
+        let want = conditional_mean(&x, n, h, shift, ridge);
+        let map = p.prediction_matrix().unwrap();
+        let scale = (0..h)
+            .flat_map(|i| (0..n - h).map(move |j| (i, j)))
+            .fold(0.0f64, |m, (i, j)| m.max(want[(i, j)].abs()));
+        for i in 0..h {
+            for (j, got) in map.row(i).iter().enumerate() {
+                let w = want[(i, j)];
+                assert!(
+                    (got - w).abs() <= 1e-6 * scale,
+                    "ridge {ridge}: P[{i}][{j}] = {got}, conditional mean {w}"
+                );
+            }
+        }
+        let d = p.diagnostics();
+        assert_eq!(d.mca_weighting, Some(McaWeighting::Inverse));
+        assert_eq!(d.ridge, Some(ridge));
+        assert_eq!(d.minor_components, Some(n), "every eigenvector is used");
+    }
+}
+
+#[test]
+fn inverse_weighting_extrapolates_sinusoids_despite_a_rank_deficient_r() {
+    // Three sinusoids span six of the 200 dimensions: the default ridge keeps the null space
+    // from deciding the forecast, and the prediction stays nearly exact.
+    let x = sum_of_sinusoids(3000 + 1000);
+    let mut p = fitted(&inverse(200, 50, 10, 0.0), &x[..3000]);
+    assert_eq!(p.diagnostics().ridge, Some(INVERSE_DEFAULT_RIDGE));
+    let nrmse = nrmse_over_test(&mut p, &x, 3000, 25);
+    assert!(nrmse < 1e-3, "inverse MCA-200 nrmse {nrmse}");
+}
+
+#[test]
+fn inverse_weighting_of_an_all_zero_series_predicts_zero() {
+    let p = fitted(&inverse(20, 5, 1, 0.0), &[0.0; 100]);
+    assert!(p
+        .prediction_matrix()
+        .unwrap()
+        .coefficients()
+        .iter()
+        .all(|&c| c == 0.0));
+}
+
+#[test]
+fn paper_weighting_is_the_default_and_reported() {
+    assert_eq!(
+        PredictorConfig::default().mca_weighting,
+        McaWeighting::Paper
+    );
+    let d = fitted(&config(20, 5), &noisy_oscillation(300, 19)).diagnostics();
+    assert_eq!(d.mca_weighting, Some(McaWeighting::Paper));
+    assert_eq!(d.ridge, Some(0.0));
+    assert!(d.minor_components.unwrap() < 20, "{d:?}");
+}
+
+#[test]
+fn weighting_names_parse_and_round_trip() {
+    for w in [McaWeighting::Paper, McaWeighting::Inverse] {
+        assert_eq!(w.to_string().parse::<McaWeighting>(), Ok(w));
+        let json = serde_json::to_string(&w).unwrap();
+        assert_eq!(json, format!("\"{}\"", w.name()));
+    }
+    assert_eq!(
+        " Inverse ".parse::<McaWeighting>(),
+        Ok(McaWeighting::Inverse)
+    );
+    let err = "inverted".parse::<McaWeighting>().unwrap_err();
+    assert!(err.contains("expected paper or inverse"), "{err}");
+    let c: PredictorConfig = serde_json::from_str(r#"{"mca_weighting":"inverse"}"#).unwrap();
+    assert_eq!(c.mca_weighting, McaWeighting::Inverse);
+    assert!(serde_json::from_str::<PredictorConfig>(r#"{"mca_weighting":"minor"}"#).is_err());
+}
+
+#[test]
+fn model_files_without_weighting_load_as_the_paper_method() {
+    let x = noisy_oscillation(300, 20);
+    let p = fitted(&inverse(20, 5, 1, 0.0), &x);
+    let mut json: serde_json::Value = serde_json::to_value(&p).unwrap();
+    assert_eq!(json["weighting"], "inverse");
+    json.as_object_mut().unwrap().remove("weighting");
+    let old: McaPredictor = serde_json::from_value(json).unwrap();
+    assert_eq!(old.weighting, McaWeighting::Paper);
+    // The fitted matrix is kept as stored.
+    assert_same_matrix(&old, &p);
+}
+
+#[test]
+fn validation_with_inverse_weighting_chooses_the_ridge_and_refits_on_everything() {
+    let x = noisy_oscillation(1500, 21);
+    let validated = fitted(
+        &PredictorConfig {
+            mca_validate_energy: true,
+            ..inverse(40, 10, 1, 0.0)
+        },
+        &x,
+    );
+    let ridge = validated.diagnostics().ridge.unwrap();
+    assert!(RIDGE_GRID.contains(&ridge), "chose {ridge}");
+    let plain = fitted(&inverse(40, 10, 1, ridge), &x);
+    assert_same_matrix(&validated, &plain);
 }

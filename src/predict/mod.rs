@@ -26,7 +26,7 @@ mod suite;
 
 pub use ar_lms::ArLmsPredictor;
 pub use baseline::{PersistencePredictor, ZeroPredictor};
-pub use mca::McaPredictor;
+pub use mca::{McaPredictor, McaWeighting};
 pub use mlp::MlpPredictor;
 pub use wiener::WienerPredictor;
 
@@ -128,10 +128,15 @@ pub struct PredictorConfig {
     /// MCA: minor components are the smallest eigenvalues whose sum is at most this fraction of
     /// the trace (at least `horizon` of them).
     pub mca_energy: f64,
-    /// MCA: ridge added to B2^T B2, relative to its mean diagonal (0 = paper).
+    /// MCA: ridge added to B2^T B2, relative to its mean diagonal (0 = paper). With inverse
+    /// weighting: eps relative to the mean eigenvalue (0 = `mca::INVERSE_DEFAULT_RIDGE`).
     pub mca_ridge: f64,
-    /// MCA: choose the energy threshold by validation on the end of the training segment.
+    /// MCA: choose the energy threshold by validation on the end of the training segment
+    /// (inverse weighting: the ridge).
     pub mca_validate_energy: bool,
+    /// MCA: weights of the eigen-directions (`paper`: minor components, unweighted;
+    /// `inverse`: all, 1/(lambda + eps), the conditional mean; not in the paper).
+    pub mca_weighting: McaWeighting,
     /// AR: LMS step size (paper: 0.005).
     pub lms_gain: f64,
     /// AR: normalised LMS (step divided by the input power) instead of plain LMS.
@@ -153,6 +158,7 @@ impl Default for PredictorConfig {
             mca_energy: 0.015,
             mca_ridge: 0.0,
             mca_validate_energy: false,
+            mca_weighting: McaWeighting::Paper,
             lms_gain: 0.005,
             lms_normalized: false,
             mlp_hidden: 100,
@@ -169,6 +175,10 @@ pub struct Diagnostics {
     pub minor_components: Option<usize>,
     /// MCA: the energy threshold used (the one chosen when validation is on).
     pub energy: Option<f64>,
+    /// MCA: the ridge used (inverse weighting with validation: the one chosen).
+    pub ridge: Option<f64>,
+    /// MCA: how the eigen-directions were weighted.
+    pub mca_weighting: Option<McaWeighting>,
 }
 
 /// A ship-motion predictor for one degree of freedom.
