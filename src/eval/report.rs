@@ -105,6 +105,8 @@ mod tests {
             update_seconds: 0.0,
             minor_components: Some(13),
             energy: None,
+            ridge: None,
+            mca_weighting: None,
         };
         let failure = EvalFailure {
             dof: Dof::Heave,

@@ -5,7 +5,7 @@ use super::noise::add_noise;
 use super::protocol::{origins, score_forecasts, EvalError};
 use crate::dof::Dof;
 use crate::motion_csv::{MotionCsvError, MotionData};
-use crate::predict::{AnyPredictor, Method, Predictor, PredictorConfig};
+use crate::predict::{AnyPredictor, McaWeighting, Method, Predictor, PredictorConfig};
 use serde::{Deserialize, Serialize};
 use std::time::Instant;
 
@@ -61,6 +61,12 @@ pub struct EvalResult {
     /// MCA with validated energy: the threshold chosen.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub energy: Option<f64>,
+    /// MCA: the ridge used (inverse weighting with validation: the one chosen).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub ridge: Option<f64>,
+    /// MCA: weights of the eigen-directions (paper or inverse).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mca_weighting: Option<McaWeighting>,
 }
 
 /// A (dof, method) pair that could not be evaluated, and why.
@@ -183,6 +189,8 @@ pub fn evaluate_method(
         update_seconds: scores.update_seconds,
         minor_components: diagnostics.minor_components,
         energy: diagnostics.energy,
+        ridge: diagnostics.ridge,
+        mca_weighting: diagnostics.mca_weighting,
     })
 }
 

@@ -478,7 +478,12 @@ impl Predictor for McaPredictor {
     fn diagnostics(&self) -> Diagnostics {
         Diagnostics {
             minor_components: self.model.as_ref().map(|m| m.minor_components),
-            energy: self.model.as_ref().map(|m| m.energy),
+            // Inverse weighting uses every eigenvector: no energy threshold to report.
+            energy: self
+                .model
+                .as_ref()
+                .filter(|_| self.weighting == McaWeighting::Paper)
+                .map(|m| m.energy),
             ridge: self.model.as_ref().map(|m| m.ridge),
             mca_weighting: Some(self.weighting),
         }

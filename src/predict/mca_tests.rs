@@ -330,6 +330,7 @@ fn inverse_weighting_is_the_conditional_mean_of_the_sample_covariance() {
         assert_eq!(d.mca_weighting, Some(McaWeighting::Inverse));
         assert_eq!(d.ridge, Some(ridge));
         assert_eq!(d.minor_components, Some(n), "every eigenvector is used");
+        assert_eq!(d.energy, None, "no energy threshold");
     }
 }
 
