@@ -80,6 +80,25 @@ pub fn run(args: Args) -> anyhow::Result<()> {
 
     let models = initial_models(&config)?;
     let (order, horizon) = (models.order(), models.horizon());
+    // Retraining fits what is running: a model file's method, order and horizon win over the
+    // configured ones.
+    let q = &mut config.predictor;
+    if (q.method, q.order, q.horizon) != (models.predictors[0].method(), order, horizon) {
+        tracing::info!(
+            "predictor: the model file's {} order {order} horizon {horizon} replaces the configured {} order {} horizon {}",
+            models.predictors[0].method(),
+            q.method,
+            q.order,
+            q.horizon
+        );
+        q.method = models.predictors[0].method();
+        q.order = order;
+        q.horizon = horizon;
+        if let Err(e) = config.validate() {
+            tracing::warn!("predictor: retraining disabled: {e}");
+            config.predictor.retrain_every_s = 0.0;
+        }
+    }
     tracing::info!(
         method = %models.predictors[0].method(),
         order,
@@ -320,6 +339,8 @@ impl Service<'_> {
                     "predictor: retrained model in use"
                 );
                 self.models = set;
+            } else {
+                tracing::warn!("predictor: retrained model has another order or horizon: ignored");
             }
         }
     }
