@@ -50,6 +50,16 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
 }
 
+/// The running binary, for starting the services. /proc/self/exe still names this image when
+/// the file on disk is replaced mid-run (a rebuild), which the plain path would not.
+fn own_executable() -> anyhow::Result<PathBuf> {
+    let proc_exe = PathBuf::from("/proc/self/exe");
+    if proc_exe.exists() {
+        return Ok(proc_exe);
+    }
+    std::env::current_exe().context("locate the shipcast executable")
+}
+
 fn run_latency(a: LatencyArgs) -> anyhow::Result<()> {
     let plan = Plan {
         samples: a.samples,
@@ -57,7 +67,7 @@ fn run_latency(a: LatencyArgs) -> anyhow::Result<()> {
         rate_hz: a.rate,
         cores: a.cores,
         instance: Plan::unique_instance("latency"),
-        shipcast_exe: Some(std::env::current_exe().context("locate the shipcast executable")?),
+        shipcast_exe: Some(own_executable()?),
     };
     let report = latency::run(&plan, a.mode.modes())?;
     let targets = report.targets(MOTION_BYTES, FORECAST_BYTES, latency::forecast_json_bytes());
