@@ -50,9 +50,29 @@ fn quick_paper_study_writes_a_complete_finite_report() {
     ] {
         assert!(report.contains(heading), "report lacks '{heading}'");
     }
-    // Tables: Table 1 (heave), 2, 3, line sea, improvements, horizons, std, six appendix tables.
+    // shipcast's eigenvalue-weighted MCA is in the improvements and the horizon table, and
+    // labelled as not the paper's method.
+    let horizons = report
+        .split("## Useful horizon")
+        .nth(1)
+        .and_then(|s| s.split("## Figures").next())
+        .unwrap();
+    assert!(
+        horizons.contains("| shipcast MCA-150, 1/lambda weighting"),
+        "no weighted-MCA column:\n{horizons}"
+    );
+    assert!(report.contains("1/lambda weighting, shift 2, validated ridge (not the paper's)"));
+    for part in [
+        "**Why the paper's rule fails",
+        "**Why weighting by 1/lambda",
+        "**Caveat.**",
+    ] {
+        assert!(report.contains(part), "report lacks '{part}'");
+    }
+    // Tables: Table 1 (heave), 2, 3, line sea, improvements (heave, other DOF), horizons, std,
+    // six appendix tables.
     let tables = tables(&report);
-    assert!(tables.len() >= 13, "{} tables", tables.len());
+    assert!(tables.len() >= 14, "{} tables", tables.len());
     for (header, rows) in &tables {
         assert!(rows.len() >= 2, "a table without body rows");
         assert!(
@@ -79,6 +99,11 @@ fn quick_paper_study_writes_a_complete_finite_report() {
     ] {
         assert!(linked.contains(&name), "report does not link {name}");
     }
+    let dense = std::fs::read_to_string(out.join("rms_vs_lead_dense.svg")).unwrap();
+    assert!(
+        dense.contains("shipcast MCA-150"),
+        "dense figure lacks the weighted MCA"
+    );
     for name in &linked {
         let svg = std::fs::read_to_string(Path::new(&out).join(name)).unwrap();
         assert!(svg.trim_start().starts_with("<svg"), "{name} is not SVG");

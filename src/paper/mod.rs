@@ -13,9 +13,12 @@
 //! - [`plots`]: the study's figures.
 //! - [`report`]: writes report.md.
 //! - [`bound`]: the optimal linear predictor from the exact autocorrelation.
+//! - [`variant`]: the MCA settings compared (paper, improvements, eigenvalue weighting).
+//! - [`improvements`]: the report's section on those settings.
 
 pub mod bound;
 pub mod figures;
+pub mod improvements;
 pub mod paper_values;
 pub mod plan;
 pub mod plots;
@@ -24,6 +27,7 @@ pub mod seas;
 pub mod skill;
 pub mod study;
 pub mod tables;
+pub mod variant;
 
 pub use plan::Plan;
 pub use study::{run, NoProgress, Progress, Study};

@@ -26,6 +26,9 @@ pub struct Plan {
     pub trace_len: usize,
     /// Ridge of the improved MCA variant, relative to the mean diagonal of B2^T B2.
     pub mca_ridge: f64,
+    /// Window shift of the validated eigenvalue-weighted MCA: overlapping windows give R full
+    /// rank (the paper's shift 10 leaves fewer windows than dimensions at order 800).
+    pub inverse_shift: usize,
 }
 
 impl Plan {
@@ -44,6 +47,7 @@ impl Plan {
             line_components: 50,
             trace_len: 600,
             mca_ridge: 1e-3,
+            inverse_shift: 2,
         }
     }
 
@@ -80,8 +84,12 @@ impl Plan {
     /// their 500 predictions.
     pub fn validate(&self) -> Result<(), String> {
         let big = self.big_order();
-        if self.orders.is_empty() || self.horizon == 0 || self.stride == 0 {
-            return Err("the plan needs orders, a horizon and a stride".into());
+        if self.orders.is_empty()
+            || self.horizon == 0
+            || self.stride == 0
+            || self.inverse_shift == 0
+        {
+            return Err("the plan needs orders, a horizon, a stride and an MCA shift".into());
         }
         let timing = big + self.horizon + super::paper_values::TABLE2_PREDICTIONS;
         if self.test < timing || self.test < big + self.horizon + self.trace_len {

@@ -3,7 +3,10 @@
 
 use super::figures::{line_chart, Chart, Series};
 use super::seas::STUDY_RATE_HZ;
-use super::study::{SeaKind, Study, Trace, Variant, PAPER_METHODS, REFERENCES, TRACE_LEAD};
+use super::study::{
+    rms_curve, SeaKind, Study, Trace, Variant, PAPER_METHODS, REFERENCES, TRACE_LEAD,
+};
+use crate::predict::Method;
 use crate::Dof;
 use std::path::Path;
 
@@ -16,8 +19,7 @@ pub struct Figure {
 }
 
 /// Display name of a method as the paper calls it.
-pub fn method_label(method: crate::predict::Method) -> &'static str {
-    use crate::predict::Method;
+pub fn method_label(method: Method) -> &'static str {
     match method {
         Method::Mca => "MCA",
         Method::Mlp => "NN (MLP)",
@@ -131,6 +133,15 @@ fn rms_figure(study: &Study, sea: SeaKind, dir: &Path) -> anyhow::Result<Option<
             } else {
                 s
             });
+        }
+    }
+    // shipcast's eigenvalue-weighted MCA (dense sea only, where the study runs it).
+    if let Some(v) = study.best_inverse().filter(|_| sea == SeaKind::Dense) {
+        if let Ok(rms) = rms_curve(study.outcome(sea, Dof::Heave, order, Method::Mca, v)) {
+            series.push(Series::new(
+                format!("shipcast MCA-{order}, {} (not the paper's)", v.name()),
+                curve(rms),
+            ));
         }
     }
     if series.is_empty() {

@@ -8,7 +8,7 @@ use super::paper_values::{
 use super::plots::{method_label, Figure};
 use super::seas::STUDY_RATE_HZ;
 use super::skill::{crossing_time, overall};
-use super::study::{Outcome, SeaKind, Study, Variant, PAPER_METHODS, REFERENCES};
+use super::study::{rms_curve, Outcome, SeaKind, Study, Variant, PAPER_METHODS, REFERENCES};
 use super::tables::{num, ratio, seconds, Table};
 use crate::predict::Method;
 use crate::Dof;
@@ -19,7 +19,7 @@ pub const USEFUL_FRACTION: f64 = 0.7;
 
 const DT_S: f64 = 1.0 / STUDY_RATE_HZ;
 
-fn lead_s(step: usize) -> f64 {
+pub(super) fn lead_s(step: usize) -> f64 {
     step as f64 * DT_S
 }
 
@@ -37,7 +37,7 @@ fn at_step(o: Option<&Outcome>, step: usize) -> Result<f64, String> {
 }
 
 /// A cell: the number, or why there is none (infeasible MCA, failed fit).
-fn cell(v: Result<f64, String>, sig: usize) -> String {
+pub(super) fn cell(v: Result<f64, String>, sig: usize) -> String {
     match v {
         Ok(v) => num(v, sig),
         Err(e) if e.contains("infeasible") => "infeasible (H >= n)".into(),
@@ -221,45 +221,6 @@ fn table3(study: &Study) -> Table {
     t
 }
 
-fn improvements(study: &Study) -> Table {
-    let order = study.plan.big_order();
-    let mut t = Table::new(&[
-        "DOF",
-        "MCA settings",
-        "5 s",
-        "20 s",
-        "all 50 steps",
-        "minor comp.",
-        "energy",
-    ]);
-    for dof in Dof::ALL {
-        for variant in [Variant::Paper].into_iter().chain(Variant::IMPROVED) {
-            let o = study.outcome(SeaKind::Dense, dof, order, Method::Mca, variant);
-            let r = o.and_then(|o| o.result.as_ref().ok());
-            t.row(vec![
-                format!("{} [{}]", dof.name(), dof.unit()),
-                variant.name().to_string(),
-                cell(at_step(o, TABLE1_STEPS[1]), 3),
-                cell(at_step(o, TABLE1_STEPS[2]), 3),
-                cell(
-                    o.map_or(Err("not run".into()), |o| {
-                        o.result
-                            .as_ref()
-                            .map(|r| overall(&r.rms))
-                            .map_err(|e| e.clone())
-                    }),
-                    3,
-                ),
-                r.and_then(|r| r.minor_components)
-                    .map_or(String::new(), |m| m.to_string()),
-                r.and_then(|r| r.energy)
-                    .map_or(String::new(), |e| num(e, 2)),
-            ]);
-        }
-    }
-    t
-}
-
 /// Lead time at which each method's error reaches 70 % of the DOF's test std (dense sea).
 fn useful_horizons(study: &Study) -> Table {
     let order = study.plan.big_order();
@@ -271,6 +232,13 @@ fn useful_horizons(study: &Study) -> Table {
             .map(|m| format!("{}-{order}", method_label(m))),
     );
     header.push(format!("bound-{order} (exact)"));
+    let best = study.best_inverse();
+    if let Some(v) = best {
+        header.push(format!(
+            "shipcast MCA-{order}, {} (not the paper's)",
+            v.name()
+        ));
+    }
     let mut t = Table::new(&header);
     let horizon_s = lead_s(study.plan.horizon);
     // An error already above the level at the first step (zero, or a predictor that has not
@@ -292,25 +260,19 @@ fn useful_horizons(study: &Study) -> Table {
                 .map_or(f64::NAN, |s| s.test_std[dof.index()]);
         let mut row = vec![dof.name().to_string()];
         for method in PAPER_METHODS.into_iter().chain(REFERENCES) {
-            let rms = match study.outcome(SeaKind::Dense, dof, order, method, Variant::Paper) {
-                Some(o) => o
-                    .result
-                    .as_ref()
-                    .map(|r| r.rms.as_slice())
-                    .map_err(|e| e.clone()),
-                None => Err("not run".into()),
-            };
+            let rms = rms_curve(study.outcome(SeaKind::Dense, dof, order, method, Variant::Paper));
             row.push(fmt(rms, level));
         }
-        let b = match study.bound(SeaKind::Dense, dof, order) {
-            Some(b) => b
-                .result
-                .as_ref()
-                .map(|b| b.exact_rms.as_slice())
-                .map_err(|e| e.clone()),
-            None => Err("not run".into()),
-        };
-        row.push(fmt(b, level));
+        row.push(fmt(
+            study.bound_curve(SeaKind::Dense, dof, order, true),
+            level,
+        ));
+        if let Some(v) = best {
+            row.push(fmt(
+                rms_curve(study.outcome(SeaKind::Dense, dof, order, Method::Mca, v)),
+                level,
+            ));
+        }
         t.row(row);
     }
     t
@@ -592,15 +554,7 @@ pub fn render(study: &Study, figures: &[Figure]) -> String {
     );
     discussion(study, &mut s);
 
-    let _ = writeln!(
-        s,
-        "## Improvements to MCA on the realistic dense sea, order {big}\n\n\
-         RMS error against the paper's settings: a ridge of {} (relative to the mean diagonal of \
-         B2^T B2), the energy threshold chosen by validation on the last fifth of the training \
-         segment, and both.\n\n{}",
-        num(plan.mca_ridge, 2),
-        improvements(study).to_markdown()
-    );
+    super::improvements::section(study, &mut s);
 
     let _ = writeln!(
         s,
