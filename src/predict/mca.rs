@@ -243,7 +243,7 @@ impl McaPredictor {
         let (energy, ridge, rms) = best.ok_or_else(|| {
             PredictError::Numerical("MCA: no candidate setting gave a usable predictor".into())
         })?;
-        tracing::info!(energy, ridge, weighting = %self.weighting, validation_rms = rms, "MCA setting chosen");
+        tracing::debug!(energy, ridge, weighting = %self.weighting, validation_rms = rms, "MCA setting chosen");
         self.fit_with(train, energy, ridge)
     }
 }
