@@ -14,6 +14,32 @@
 //! - [`transport`]: service names, iceoryx2 and zenoh plumbing.
 //! - [`config`]: the pipeline TOML configuration.
 //! - [`deck`], [`crane`]: ship-point geometry, landing advisory, crane-tip forecast.
+//! - [`bench`]: the latency harness (`shipcast bench latency`).
+//!
+//! # Example: fit a predictor and forecast
+//!
+//! Every method sits behind one trait; `forecast` writes into a caller's buffer and never
+//! allocates. A sum of a few sinusoids is extrapolated almost exactly by a linear predictor:
+//!
+//! ```
+//! use shipcast::predict::{AnyPredictor, Method, Predictor, PredictorConfig};
+//!
+//! let x: Vec<f64> = (0..3000)
+//!     .map(|t| {
+//!         let t = t as f64 * 0.5; // 2 Hz
+//!         (0.6 * t).sin() + 0.5 * (0.9 * t + 1.0).sin()
+//!     })
+//!     .collect();
+//! let config = PredictorConfig { order: 100, horizon: 20, ..PredictorConfig::default() };
+//! let mut wiener = AnyPredictor::new(Method::Wiener, &config).unwrap();
+//! wiener.fit(&x[..2000]).unwrap();
+//!
+//! let mut out = [0.0; 20];
+//! wiener.forecast(&x[..2500], &mut out).unwrap();
+//! for (h, predicted) in out.iter().enumerate() {
+//!     assert!((predicted - x[2500 + h]).abs() < 0.05, "step {}", h + 1);
+//! }
+//! ```
 
 pub mod bench;
 pub mod config;
