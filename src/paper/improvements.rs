@@ -161,7 +161,7 @@ fn discussion(study: &Study, s: &mut String) {
         let null = order - w10;
         let share = minor.map_or(String::new(), |k| {
             format!(
-                "; of the {k} minor components the energy rule keeps on heave, {} lie in this \
+                "; of the {k} minor components the energy rule keeps on heave, at least {} lie in this \
                  null space, which the training windows define only as what they did not contain",
                 null.min(k)
             )

@@ -122,6 +122,16 @@ fn rms_figure(study: &Study, sea: SeaKind, dir: &Path) -> anyhow::Result<Option<
     if let Some(Ok(b)) = study.bound(sea, Dof::Heave, order).map(|b| &b.result) {
         series.push(Series::new(format!("bound-{order} (exact)"), curve(&b.exact_rms)).dashed());
     }
+    // shipcast's eigenvalue-weighted MCA (dense sea only, where the study runs it) next, so it
+    // gets the second, high-contrast colour beside the bound it is compared with.
+    if let Some(v) = study.best_inverse().filter(|_| sea == SeaKind::Dense) {
+        if let Ok(rms) = rms_curve(study.outcome(sea, Dof::Heave, order, Method::Mca, v)) {
+            series.push(Series::new(
+                format!("shipcast MCA-{order}, {} (not the paper's)", v.name()),
+                curve(rms),
+            ));
+        }
+    }
     for method in PAPER_METHODS.into_iter().chain(REFERENCES) {
         if let Some(Ok(r)) = study
             .outcome(sea, Dof::Heave, order, method, Variant::Paper)
@@ -133,15 +143,6 @@ fn rms_figure(study: &Study, sea: SeaKind, dir: &Path) -> anyhow::Result<Option<
             } else {
                 s
             });
-        }
-    }
-    // shipcast's eigenvalue-weighted MCA (dense sea only, where the study runs it).
-    if let Some(v) = study.best_inverse().filter(|_| sea == SeaKind::Dense) {
-        if let Ok(rms) = rms_curve(study.outcome(sea, Dof::Heave, order, Method::Mca, v)) {
-            series.push(Series::new(
-                format!("shipcast MCA-{order}, {} (not the paper's)", v.name()),
-                curve(rms),
-            ));
         }
     }
     if series.is_empty() {

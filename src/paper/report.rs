@@ -565,7 +565,8 @@ pub fn render(study: &Study, figures: &[Figure]) -> String {
          gets. The AR keeps the paper's fixed LMS gain of 0.005: on series measured in radians \
          (power around 1e-4 rad^2) the effective step, gain times power, is tiny, so the AR hardly \
          adapts and stays close to the zero predictor there; the NLMS option removes this \
-         dependence on units.\n\n{}",
+         dependence on units. The last column is shipcast's eigenvalue-weighted MCA (see the \
+         improvements section), not a method of the paper.\n\n{}",
         num(100.0 * USEFUL_FRACTION, 2),
         num(lead_s(plan.horizon), 3),
         useful_horizons(study).to_markdown()
