@@ -1,0 +1,269 @@
+//! The documented Python consumers (examples/*.py) against a real pipeline, so the examples
+//! cannot rot: each must exit 0 after `--count 3` and print forecast lines whose content is
+//! plausible. Needs python3 with `eclipse-zenoh` and `iceoryx2` (.ci/run installs them); when
+//! they are missing the test fails and names the install command.
+
+mod pipeline_support;
+
+use pipeline_support::TestPipeline;
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, ExitStatus, Stdio};
+use std::time::{Duration, Instant};
+
+const INSTALL: &str = "python3 -m pip install eclipse-zenoh==1.10.2 iceoryx2==0.10.0";
+
+/// Forecasts each example reads before it exits.
+const COUNT: usize = 3;
+
+/// Hang guard for one example run (start-up, connection, three forecasts at 2 Hz); not a
+/// performance threshold.
+const EXAMPLE_PATIENCE: Duration = Duration::from_secs(60);
+
+fn example(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("examples")
+        .join(name)
+}
+
+/// Fail loudly, naming the install command, when python3 or a package is missing: CI installs
+/// them, so a silent skip would hide a broken example.
+fn require_python_packages() {
+    let out = Command::new("python3")
+        .args(["-c", "import zenoh, iceoryx2"])
+        .output()
+        .unwrap_or_else(|e| {
+            panic!("python3 not runnable ({e}); install python3 and then: {INSTALL}")
+        });
+    assert!(
+        out.status.success(),
+        "the Python examples need eclipse-zenoh and iceoryx2; install them with: {INSTALL}\n{}",
+        String::from_utf8_lossy(&out.stderr).trim()
+    );
+}
+
+/// A running example script whose output goes to files (no pipe can fill up and stall it);
+/// killed and reaped on drop, also when an assertion fails.
+struct PyProc {
+    label: String,
+    child: Option<Child>,
+    stdout: PathBuf,
+    stderr: PathBuf,
+}
+
+/// What an example printed and how it ended.
+struct PyOutput {
+    status: ExitStatus,
+    stdout: String,
+    stderr: String,
+}
+
+impl PyProc {
+    fn spawn(label: &str, dir: &Path, script: &str, args: &[&str]) -> Self {
+        let stdout = dir.join(format!("{label}.out"));
+        let stderr = dir.join(format!("{label}.err"));
+        let child = Command::new("python3")
+            .arg(example(script))
+            .args(args)
+            .env("PYTHONUNBUFFERED", "1")
+            .stdin(Stdio::null())
+            .stdout(std::fs::File::create(&stdout).expect("create stdout file"))
+            .stderr(std::fs::File::create(&stderr).expect("create stderr file"))
+            .spawn()
+            .unwrap_or_else(|e| panic!("spawn python3 {script}: {e}"));
+        Self {
+            label: label.to_string(),
+            child: Some(child),
+            stdout,
+            stderr,
+        }
+    }
+
+    fn read(path: &Path) -> String {
+        std::fs::read_to_string(path).unwrap_or_default()
+    }
+
+    /// Wait for the script to exit; panics with its output after EXAMPLE_PATIENCE.
+    fn finish(mut self) -> PyOutput {
+        let deadline = Instant::now() + EXAMPLE_PATIENCE;
+        let child = self.child.as_mut().expect("running");
+        let status = loop {
+            if let Some(status) = child.try_wait().expect("try_wait") {
+                break status;
+            }
+            assert!(
+                Instant::now() < deadline,
+                "{} did not exit within {EXAMPLE_PATIENCE:?}; stdout:\n{}\nstderr:\n{}",
+                self.label,
+                Self::read(&self.stdout),
+                Self::read(&self.stderr)
+            );
+            std::thread::sleep(Duration::from_millis(20));
+        };
+        self.child = None;
+        PyOutput {
+            status,
+            stdout: Self::read(&self.stdout),
+            stderr: Self::read(&self.stderr),
+        }
+    }
+}
+
+impl Drop for PyProc {
+    fn drop(&mut self) {
+        if let Some(mut child) = self.child.take() {
+            let _ = child.kill();
+            let _ = child.wait();
+        }
+    }
+}
+
+/// The fields both examples print at the start of a forecast line:
+/// `seq N t=T.Ts [model ]vM: in K s heave +H m (sigma S), <angle> +A deg...`.
+#[derive(Debug)]
+struct ForecastLine {
+    seq: u64,
+    time_s: f64,
+    model_version: u32,
+    lead_s: f64,
+    heave_m: f64,
+    heave_sigma_m: f64,
+    angle_deg: f64,
+}
+
+/// The word after `key` in `words`, with the given prefix and suffix stripped, parsed.
+fn field<T: std::str::FromStr>(words: &[&str], key: &str, strip: (&str, &str), line: &str) -> T {
+    words
+        .iter()
+        .position(|w| *w == key)
+        .and_then(|i| words.get(i + 1))
+        .and_then(|w| w.strip_prefix(strip.0))
+        .and_then(|w| w.strip_suffix(strip.1))
+        .and_then(|w| w.parse().ok())
+        .unwrap_or_else(|| panic!("no parsable '{key}' field in: {line}"))
+}
+
+fn parse_forecast_line(line: &str, angle: &str) -> ForecastLine {
+    let words: Vec<&str> = line.split_whitespace().collect();
+    let time_s = words
+        .get(2)
+        .and_then(|w| w.strip_prefix("t="))
+        .and_then(|w| w.strip_suffix('s'))
+        .and_then(|w| w.parse().ok())
+        .unwrap_or_else(|| panic!("no 't=..s' in: {line}"));
+    let model_version = words
+        .iter()
+        .find_map(|w| w.strip_prefix('v').and_then(|v| v.strip_suffix(':')))
+        .and_then(|v| v.parse().ok())
+        .unwrap_or_else(|| panic!("no 'vN:' model version in: {line}"));
+    ForecastLine {
+        seq: field(&words, "seq", ("", ""), line),
+        time_s,
+        model_version,
+        lead_s: field(&words, "in", ("", ""), line),
+        heave_m: field(&words, "heave", ("", ""), line),
+        heave_sigma_m: field(&words, "(sigma", ("", "),"), line),
+        angle_deg: field(&words, angle, ("", ""), line),
+    }
+}
+
+/// Exactly COUNT forecast lines, with finite, physically plausible values for the `paper` sea
+/// (Hs 3.05 m), from one predictor run: seq rising and record time advancing 0.5 s per
+/// forecast (one forecast per 2 Hz value).
+fn check_forecasts(label: &str, out: &PyOutput, angle: &str, lead_s: f64) -> Vec<ForecastLine> {
+    assert!(
+        out.status.success(),
+        "{label} exited with {}; stdout:\n{}\nstderr:\n{}",
+        out.status,
+        out.stdout,
+        out.stderr
+    );
+    let lines: Vec<ForecastLine> = out
+        .stdout
+        .lines()
+        .filter(|l| l.starts_with("seq "))
+        .map(|l| parse_forecast_line(l, angle))
+        .collect();
+    assert_eq!(lines.len(), COUNT, "{label} stdout:\n{}", out.stdout);
+    for f in &lines {
+        assert!(f.time_s.is_finite() && f.time_s > 0.0, "{label}: {f:?}");
+        assert!(f.model_version >= 1, "{label}: {f:?}");
+        assert_eq!(f.lead_s, lead_s, "{label}: {f:?}");
+        assert!(f.heave_m.abs() < 10.0, "{label}: heave out of range: {f:?}");
+        assert!(
+            f.heave_sigma_m > 0.0 && f.heave_sigma_m < 10.0,
+            "{label}: sigma out of range: {f:?}"
+        );
+        assert!(
+            f.angle_deg.abs() < 45.0,
+            "{label}: {angle} out of range: {f:?}"
+        );
+    }
+    for pair in lines.windows(2) {
+        let (a, b) = (&pair[0], &pair[1]);
+        assert!(b.seq > a.seq, "{label}: seq not rising: {a:?} {b:?}");
+        let expected_dt = 0.5 * (b.seq - a.seq) as f64;
+        assert!(
+            ((b.time_s - a.time_s) - expected_dt).abs() < 0.06,
+            "{label}: record time does not advance 0.5 s per forecast: {a:?} {b:?}"
+        );
+    }
+    lines
+}
+
+/// Both Python consumers read three forecasts each from a running producer and predictor, one
+/// over zenoh (JSON) and one from iceoryx2 shared memory (ctypes layout).
+#[test]
+fn python_examples_read_forecasts_over_zenoh_and_iceoryx2() {
+    require_python_packages();
+    let p = TestPipeline::new("pyex", "");
+    let predictor = p.spawn("predictor", &[]);
+    predictor.wait_for("(iceoryx2 and zenoh)");
+    let _producer = p.spawn("producer", &["--wait-subscriber-s", "30"]);
+
+    let key = format!("{}/shipcast/ddg51/forecast", p.instance);
+    let count = COUNT.to_string();
+    let zenoh = PyProc::spawn(
+        "zenoh_forecast_subscriber",
+        p.dir.path(),
+        "zenoh_forecast_subscriber.py",
+        &["--connect", &p.endpoint, "--key", &key, "--count", &count],
+    );
+    let iox = PyProc::spawn(
+        "iceoryx2_forecast_reader",
+        p.dir.path(),
+        "iceoryx2_forecast_reader.py",
+        &["--instance", &p.instance, "--count", &count],
+    );
+
+    let zenoh = zenoh.finish();
+    eprintln!("zenoh example:\n{}", zenoh.stdout);
+    let by_zenoh = check_forecasts("zenoh_forecast_subscriber.py", &zenoh, "roll", 20.0);
+    assert!(
+        zenoh
+            .stdout
+            .lines()
+            .filter(|l| l.starts_with("seq "))
+            .all(|l| l.ends_with("[application/json]")),
+        "the forecast must carry the JSON encoding:\n{}",
+        zenoh.stdout
+    );
+    let iox = iox.finish();
+    eprintln!("iceoryx2 example:\n{}", iox.stdout);
+    let by_iox = check_forecasts("iceoryx2_forecast_reader.py", &iox, "pitch", 5.0);
+    for line in iox.stdout.lines().filter(|l| l.starts_with("seq ")) {
+        let latency_us: f64 = field(
+            &line.split_whitespace().collect::<Vec<_>>(),
+            "latency",
+            ("", ""),
+            line,
+        );
+        assert!(latency_us >= 0.0, "negative latency: {line}");
+    }
+    // Both read the same predictor run: its record clock and forecast counter agree.
+    let (z, i) = (&by_zenoh[0], &by_iox[0]);
+    let expected_dt = 0.5 * (z.seq as f64 - i.seq as f64);
+    assert!(
+        ((z.time_s - i.time_s) - expected_dt).abs() < 0.06,
+        "zenoh and iceoryx2 forecasts from different runs: {z:?} {i:?}"
+    );
+}
