@@ -5,7 +5,7 @@ Needs only `pip install eclipse-zenoh` (1.10) and a running predictor
 (`cargo run --release -- run`, which listens on tcp/127.0.0.1:17447).
 
     python3 examples/zenoh_forecast_subscriber.py [--connect tcp/127.0.0.1:17447]
-        [--key shipcast/ddg51/forecast] [--count N]
+        [--instance NAME] [--vessel ddg51] [--key KEY] [--count N]
 """
 
 import argparse
@@ -21,11 +21,18 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--connect", default="tcp/127.0.0.1:17447",
                         help="zenoh endpoint of the predictor")
-    parser.add_argument("--key", default="shipcast/ddg51/forecast",
-                        help="forecast key ([<instance>/]shipcast/<vessel>/forecast)")
+    parser.add_argument("--instance", default="",
+                        help="instance name of the pipeline (prefixes the key with NAME/)")
+    parser.add_argument("--vessel", default="ddg51")
+    parser.add_argument("--key", default="",
+                        help="forecast key; default [<instance>/]shipcast/<vessel>/forecast")
     parser.add_argument("--count", type=int, default=0,
                         help="stop after N forecasts (0: run until Ctrl-C)")
     args = parser.parse_args()
+    if not args.key:
+        args.key = f"shipcast/{args.vessel}/forecast"
+        if args.instance:
+            args.key = f"{args.instance}/{args.key}"
 
     config = zenoh.Config()
     config.insert_json5("mode", '"peer"')

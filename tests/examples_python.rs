@@ -220,13 +220,19 @@ fn python_examples_read_forecasts_over_zenoh_and_iceoryx2() {
     predictor.wait_for("(iceoryx2 and zenoh)");
     let _producer = p.spawn("producer", &["--wait-subscriber-s", "30"]);
 
-    let key = format!("{}/shipcast/ddg51/forecast", p.instance);
     let count = COUNT.to_string();
     let zenoh = PyProc::spawn(
         "zenoh_forecast_subscriber",
         p.dir.path(),
         "zenoh_forecast_subscriber.py",
-        &["--connect", &p.endpoint, "--key", &key, "--count", &count],
+        &[
+            "--connect",
+            &p.endpoint,
+            "--instance",
+            &p.instance,
+            "--count",
+            &count,
+        ],
     );
     let iox = PyProc::spawn(
         "iceoryx2_forecast_reader",
