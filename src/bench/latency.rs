@@ -12,10 +12,13 @@ use crate::predict::PredictorConfig;
 
 /// How the shipcast paths were measured, stated in every report.
 pub const STAND_IN_NOTE: &str = "source 'services' = `shipcast producer` and `shipcast predictor` as child \
-processes pinned to the two cores, measured by consumers in this process; source 'in-process' = producer, \
+processes pinned to the two cores, measured by consumers in this process, producer-to-predictor from the \
+receive stamps the predictor publishes with --bench-stamps; source 'in-process' = producer, \
 predictor and consumers as threads of this process over the same transport API, the predictor being the \
 bench's stand-in from the library parts (Decimator 8->2 Hz, MCA per DOF, Forecast payload), which also \
-records receive stamps; zenoh consumers always block on their channel (mode applies to iceoryx2 receivers)";
+records receive stamps; zenoh consumers always block on their channel (mode applies to iceoryx2 receivers); \
+poll = spinning on the queue; shipcast receivers and the zenoh floor yield the core after 20 µs without \
+data so that zenoh's threads on the same core run (the iceoryx2 floor never yields)";
 
 /// Points per percentile curve in the SVG.
 const CURVE_POINTS: usize = 60;

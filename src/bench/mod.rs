@@ -21,6 +21,7 @@ pub mod pipeline;
 pub mod plan;
 pub mod report;
 pub mod services;
+pub mod stamps;
 pub mod stand_in;
 
 pub use histogram::{LatencyRecorder, PathStats};

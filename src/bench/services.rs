@@ -4,15 +4,16 @@
 //!
 //! The predictor needs `order` values of 2 Hz history before its first forecast: the producer
 //! backfills that much record at high speed (`--backfill-s`), then paces at the plan's rate
-//! (`--speed rate/8`). Forecasts from backfilled and warm-up samples are not recorded.
-//! producer -> predictor cannot be measured from outside: the service does not report when it
-//! received a sample.
+//! (`--speed rate/8`). Samples and forecasts from the backfill and the warm-up are not
+//! recorded. producer -> predictor comes from the receive stamps the predictor publishes with
+//! `--bench-stamps` ([`super::stamps`]).
 
-use super::consumers::{self, Shared, CONSUMERS};
-use super::latency::{ReportBuilder, FORECAST_BYTES};
+use super::consumers::{self, Shared, CONSUMERS, SLICE};
+use super::latency::{ReportBuilder, FORECAST_BYTES, MOTION_BYTES};
 use super::pinning::{child_pinned, pin_command, PinOutcome};
 use super::pipeline::{add_consumer_rows, await_until, join, zenoh_pair, DRAIN};
 use super::plan::{Mode, Path, Plan, Source};
+use super::stamps::{StampReader, StampTally};
 use super::stand_in::RECORD_RATE_HZ;
 use crate::config::PipelineConfig;
 use crate::transport::zenoh::LivelinessWatch;
@@ -31,6 +32,8 @@ const BACKFILL_MARGIN_S: f64 = 30.0;
 const START_TIMEOUT: Duration = Duration::from_secs(120);
 /// How long the services get to shut down cleanly before they are killed.
 const STOP_TIMEOUT: Duration = Duration::from_secs(5);
+/// Readers in this process that report ready: the forecast consumers and the stamp reader.
+const READERS: usize = CONSUMERS + 1;
 /// Extra time the producer may take beyond its schedule before it is considered hung.
 const RUN_SLACK: Duration = Duration::from_secs(60);
 
@@ -190,7 +193,11 @@ pub fn measure(
     };
     let mut children = Children::default();
     let mut predictor_args = common("predictor");
-    predictor_args.extend(["--retrain-every-s".into(), "0".into()]);
+    predictor_args.extend([
+        "--retrain-every-s".into(),
+        "0".into(),
+        "--bench-stamps".into(),
+    ]);
     if mode == Mode::Poll {
         predictor_args.push("--busy-poll".into());
     }
@@ -223,6 +230,7 @@ pub fn measure(
         let local = s.spawn(|| stop_on_err(&shared, consumers::local(&shared)));
         let remote =
             s.spawn(|| stop_on_err(&shared, consumers::remote(&shared, &consumer_session)));
+        let stamps = s.spawn(|| stop_on_err(&shared, read_stamps(&shared)));
         let driven = drive(
             &shared,
             &consumer_session,
@@ -238,18 +246,28 @@ pub fn measure(
             driven,
             join(local, "local consumer"),
             join(remote, "zenoh consumer"),
+            join(stamps, "receive stamp reader"),
         )
     });
     children.stop_all(STOP_TIMEOUT);
     let _ = std::fs::remove_file(&config);
     // Creating a node of this instance removes whatever a killed service left behind.
     drop(crate::transport::iox::node(&shared.names, "bench-cleanup"));
-    let (driven, local, remote) = result;
+    let (driven, local, remote, stamps) = result;
     let pin_prod = driven?;
     let (local, pin_l) = local?;
     let (remote, pin_z) = remote?;
+    let stamps = stamps?;
     out.pins().extend([pin_prod, pin_pred, pin_l, pin_z]);
     let src = Source::Services;
+    out.add(
+        Path::ProducerToPredictor,
+        mode,
+        src,
+        &stamps.latency,
+        plan.samples.max(stamps.seen()),
+        MOTION_BYTES,
+    );
     out.add(
         Path::SampleToForecastPublished,
         mode,
@@ -266,11 +284,22 @@ pub fn measure(
         src,
         [(&local, published), (&remote, remote_expected)],
     );
-    out.not_measured(format!(
-        "producer-to-predictor {mode} (services): `shipcast predictor` does not report when it \
-         received a sample; the in-process row measures the same transport path"
-    ));
     Ok(())
+}
+
+/// Drain the predictor's receive stamps until the run is over. The stamps carry their own
+/// receive time, so a slow drain (every [`SLICE`], on the producer's core) costs no accuracy.
+fn read_stamps(shared: &Shared) -> anyhow::Result<StampTally> {
+    let node = crate::transport::iox::node(&shared.names, "bench-stamps")?;
+    let reader = StampReader::new(&node, &shared.names.bench_receive())?;
+    shared.ready.fetch_add(1, Ordering::AcqRel);
+    let mut tally = StampTally::new(shared.first_measured);
+    while !shared.is_done() {
+        reader.drain(&mut tally)?;
+        std::thread::sleep(SLICE);
+    }
+    reader.drain(&mut tally)?;
+    Ok(tally)
 }
 
 fn stop_on_err<T>(shared: &Shared, r: anyhow::Result<T>) -> anyhow::Result<T> {
@@ -294,7 +323,7 @@ fn drive(
     schedule: Duration,
 ) -> anyhow::Result<PinOutcome> {
     await_until(shared, "the consumers", || {
-        shared.ready.load(Ordering::Acquire) == CONSUMERS
+        shared.ready.load(Ordering::Acquire) == READERS
     })?;
     // The predictor is ready when its liveliness token reaches the consumer's own session:
     // models trained, ports created, and the consumer connected to it.
@@ -309,6 +338,7 @@ fn drive(
     }
     let pin = children.spawn("producer", exe, producer_args, core, log)?;
     children.wait_exit("producer", schedule + RUN_SLACK)?;
+
     std::thread::sleep(DRAIN);
     children.check_running("predictor")?;
     Ok(pin)

@@ -83,6 +83,12 @@ impl Names {
         self.topic("forecast")
     }
 
+    /// iceoryx2 service where `shipcast predictor --bench-stamps` publishes when it received
+    /// each motion sample (the latency benchmark reads it).
+    pub fn bench_receive(&self) -> String {
+        self.topic("bench/receive")
+    }
+
     /// iceoryx2 event service that wakes subscribers of `service` (a pub-sub service has no
     /// wake-up of its own).
     pub fn event_of(service: &str) -> String {
@@ -134,6 +140,7 @@ mod tests {
         assert_eq!(n.status("predictor"), "shipcast/ddg51/status/predictor");
         let n = Names::new(Some("t1"), "s175").unwrap();
         assert_eq!(n.forecast(), "t1/shipcast/s175/forecast");
+        assert_eq!(n.bench_receive(), "t1/shipcast/s175/bench/receive");
         assert_eq!(
             Names::event_of(&n.motion()),
             "t1/shipcast/s175/motion/event"
