@@ -16,6 +16,26 @@ use zenoh::Wait;
 /// How long receivers wait per call before checking whether the run is over.
 pub const SLICE: Duration = Duration::from_millis(20);
 
+/// Busy polling spins this long, then yields the core once (as `shipcast predictor
+/// --busy-poll` does): on two cores, zenoh's threads share a core with a spinner and would
+/// otherwise wait for the scheduler tick (milliseconds) before they run.
+pub const SPIN_SLICE: Duration = Duration::from_micros(20);
+
+/// How long one wait of a receiver in `mode` lasts before it checks for other work.
+pub fn wait_slice(mode: Mode) -> Duration {
+    match mode {
+        Mode::Event => SLICE,
+        Mode::Poll => SPIN_SLICE,
+    }
+}
+
+/// Called after a wait that brought nothing: a polling receiver lets other threads run.
+pub fn after_idle_wait(mode: Mode) {
+    if mode == Mode::Poll {
+        std::thread::yield_now();
+    }
+}
+
 /// What the consumers share with the rest of a pipeline run.
 pub struct Shared {
     pub names: Names,
@@ -103,13 +123,19 @@ pub fn local(shared: &Shared) -> anyhow::Result<(ConsumerTally, PinOutcome)> {
     )?;
     shared.ready.fetch_add(1, Ordering::AcqRel);
     let mut tally = ConsumerTally::default();
+    let slice = wait_slice(shared.mode);
     while !shared.is_done() {
-        sub.wait(SLICE)?;
+        sub.wait(slice)?;
+        let mut idle = true;
         while let Some(f) = sub.receive()? {
             let now = monotonic_ns();
+            idle = false;
             if shared.measured(f.source_seq) {
                 tally.record(&f, now);
             }
+        }
+        if idle {
+            after_idle_wait(shared.mode);
         }
     }
     Ok((tally, pin))

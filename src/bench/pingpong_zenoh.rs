@@ -1,7 +1,9 @@
 //! Raw zenoh floor: ping-pong between two peer sessions over tcp/127.0.0.1 on a free port, with
 //! multicast scouting disabled and express (unbatched) publishers, as in zenoh's own z_ping.
-//! Event mode blocks on the subscriber channel; poll mode spins on `try_recv`.
+//! Event mode blocks on the subscriber channel; poll mode spins on `try_recv`, yielding the core
+//! every [`SPIN_SLICE`] so zenoh's own threads can deliver.
 
+use super::consumers::SPIN_SLICE;
 use super::pingpong::{self, Endpoint, PingPongOutcome};
 use super::plan::{Mode, Plan};
 use crate::transport::zenoh::{open, ZenohSettings};
@@ -95,13 +97,20 @@ impl Endpoint for ZenohEndpoint {
                 .map_err(|e| anyhow!("zenoh: receive: {e}"))?,
             Mode::Poll => {
                 let deadline = Instant::now() + timeout;
+                let mut slice_end = Instant::now() + SPIN_SLICE;
                 loop {
                     let got = self
                         .subscriber
                         .try_recv()
                         .map_err(|e| anyhow!("zenoh: receive: {e}"))?;
-                    if got.is_some() || Instant::now() >= deadline {
+                    let now = Instant::now();
+                    if got.is_some() || now >= deadline {
                         break got;
+                    }
+                    if now >= slice_end {
+                        // zenoh's own threads may share this core: let them deliver.
+                        std::thread::yield_now();
+                        slice_end = Instant::now() + SPIN_SLICE;
                     }
                     std::hint::spin_loop();
                 }

@@ -236,10 +236,13 @@ fn predictor(
     run.started.store(true, Ordering::Release);
     let mut tally = PredictorTally::default();
     let mut json = Vec::with_capacity(16 * 1024);
+    let slice = consumers::wait_slice(shared.mode);
     while !shared.is_done() {
-        motion.wait(consumers::SLICE)?;
+        motion.wait(slice)?;
+        let mut idle = true;
         while let Some(sample) = motion.receive()? {
             let received = monotonic_ns();
+            idle = false;
             let measured = shared.measured(sample.seq);
             if measured {
                 tally.received.record_between(sample.stamp_ns, received);
@@ -260,6 +263,9 @@ fn predictor(
                     .published
                     .record_between(f.source_stamp_ns, f.issued_stamp_ns);
             }
+        }
+        if idle {
+            consumers::after_idle_wait(shared.mode);
         }
     }
     drop(session.close().wait());
