@@ -1,12 +1,14 @@
 //! Criterion benchmarks of the pieces on the sample -> forecast hot path: the decimation step
 //! (six DOF, 8 -> 2 Hz), the six-DOF MCA-800 forecast, writing the Forecast payload (and sending
-//! it over iceoryx2), and encoding a forecast as zenoh JSON.
+//! it over iceoryx2), encoding a forecast as zenoh JSON, and the predictor's optional receive
+//! stamp.
 //!
 //! Run: `cargo bench --bench hot_path`.
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+use shipcast::bench::stamps::{ReceiveStamp, StampPublisher, StampReader, StampTally};
 use shipcast::payload::{Forecast, MotionSample, MAX_STEPS, NUM_DOF};
 use shipcast::predict::{McaPredictor, Predictor, PredictorConfig};
 use shipcast::signal::decimator::Decimator;
@@ -154,6 +156,24 @@ fn payload_write(c: &mut Criterion) {
             mpub.send(black_box(&m)).expect("send");
             black_box(msub.receive().expect("receive"));
         })
+    });
+    // What `shipcast predictor --bench-stamps` adds per received sample (no notification).
+    let stamp_name = names.bench_receive();
+    let stamps = StampPublisher::new(&node, &stamp_name).expect("stamp publisher");
+    let reader = StampReader::new(&node, &stamp_name).expect("stamp reader");
+    let mut tally = StampTally::new(0);
+    let mut sent = 0u32;
+    group.bench_function("receive_stamp_send", |b| {
+        b.iter(|| {
+            stamps
+                .send(black_box(ReceiveStamp::default()))
+                .expect("send");
+            // The benchmark's reader drains every 20 ms: about 20 stamps at 1 kHz.
+            sent += 1;
+            if sent % 32 == 0 {
+                reader.drain(&mut tally).expect("drain");
+            }
+        });
     });
     group.finish();
 }

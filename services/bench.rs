@@ -30,7 +30,7 @@ struct LatencyArgs {
     /// Receive mode: event (blocking wait, woken by notify), poll (busy polling) or both.
     #[arg(long, default_value = "both", value_parser = |s: &str| s.parse::<ModeSelect>())]
     mode: ModeSelect,
-    /// Print the rows as a JSON array on stdout (the conditions go to stderr).
+    /// Print the rows as a JSON array on stdout (the conditions and the table go to stderr).
     #[arg(long)]
     json: bool,
     /// Write an SVG of the latency distributions to this file.
@@ -72,7 +72,8 @@ fn run_latency(a: LatencyArgs) -> anyhow::Result<()> {
     let report = latency::run(&plan, a.mode.modes())?;
     let targets = report.targets(MOTION_BYTES, FORECAST_BYTES, latency::forecast_json_bytes());
     if a.json {
-        eprint!("{}{}", report.header(), targets);
+        // The table goes to stderr too, so one run gives both the JSON and the readable form.
+        eprint!("{}\n{}\n{}", report.header(), report.table(), targets);
         println!("{}", report.json().context("encode JSON")?);
     } else {
         print!("{}\n{}\n{}", report.header(), report.table(), targets);
