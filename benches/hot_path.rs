@@ -8,6 +8,7 @@
 use criterion::{criterion_group, criterion_main, Criterion};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+use shipcast::bench::machine::remove_iox_leftovers;
 use shipcast::bench::stamps::{ReceiveStamp, StampPublisher, StampReader, StampTally};
 use shipcast::payload::{Forecast, MotionSample, MAX_STEPS, NUM_DOF};
 use shipcast::predict::{McaPredictor, Predictor, PredictorConfig};
@@ -176,6 +177,8 @@ fn payload_write(c: &mut Criterion) {
         });
     });
     group.finish();
+    drop((publisher, subscriber, mpub, msub, stamps, reader, node));
+    remove_iox_leftovers(&names.iox_prefix());
 }
 
 fn json_encoding(c: &mut Criterion) {

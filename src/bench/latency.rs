@@ -167,6 +167,9 @@ pub fn run(plan: &Plan, modes: &[Mode]) -> anyhow::Result<LatencyReport> {
         super::pipeline::measure(plan, mode, &mut out)?;
         measure_raw(plan, mode, &mut out)?;
     }
+    // Every node of the run is dropped by now: only the run's own prefix is removed.
+    let names = crate::transport::Names::new(Some(&plan.instance), "any")?;
+    super::machine::remove_iox_leftovers(&names.iox_prefix());
     Ok(out.finish())
 }
 

@@ -195,15 +195,11 @@ mod tests {
         assert_eq!((tally.latency.count(), tally.lost, tally.seen()), (4, 0, 4));
         assert_eq!(tally.latency.quantile_ns(1.0), 40);
         drop((reader, publisher, node));
-        let prefix = names.iox_prefix();
-        for e in std::fs::read_dir("/dev/shm")
-            .into_iter()
-            .flatten()
-            .flatten()
-        {
-            if e.file_name().to_string_lossy().starts_with(&prefix) {
-                let _ = std::fs::remove_file(e.path());
-            }
-        }
+        // The run's management segment is left behind by iceoryx2 and removed here.
+        assert!(crate::bench::machine::remove_iox_leftovers(&names.iox_prefix()) >= 1);
+        assert_eq!(
+            crate::bench::machine::remove_iox_leftovers(&names.iox_prefix()),
+            0
+        );
     }
 }
