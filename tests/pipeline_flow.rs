@@ -49,16 +49,16 @@ fn ten_simulated_minutes_at_100x_flow_without_gaps_over_both_transports() {
     let mut by_iox: HashMap<u64, Forecast> = HashMap::new();
     let mut by_zenoh: HashMap<u64, Forecast> = HashMap::new();
     // Everything waiting on iceoryx2; the newest on zenoh (its ring keeps only the latest).
-    let drain_forecasts =
-        |by_iox: &mut HashMap<u64, Forecast>, by_zenoh: &mut HashMap<u64, Forecast>| {
-            while let Some(f) = forecasts.receive().unwrap() {
-                by_iox.insert(f.seq, f);
-            }
-            if let Some(b) = zenoh_forecasts.latest().unwrap() {
-                let f = Forecast::from_json(&b).unwrap();
-                by_zenoh.insert(f.seq, f);
-            }
-        };
+    let drain_forecasts = |by_iox: &mut HashMap<u64, Forecast>,
+                           by_zenoh: &mut HashMap<u64, Forecast>| {
+        while let Some(f) = forecasts.receive().unwrap() {
+            by_iox.insert(f.seq, f);
+        }
+        if let Some(b) = zenoh_forecasts.latest().unwrap() {
+            let f = Forecast::from_json(&b).unwrap();
+            by_zenoh.insert(f.seq, f);
+        }
+    };
     let deadline = Instant::now() + Duration::from_secs(60);
     while seen.received < 4800 && Instant::now() < deadline {
         motion.wait(Duration::from_millis(50)).unwrap();

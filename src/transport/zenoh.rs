@@ -54,7 +54,10 @@ pub fn open(settings: &ZenohSettings) -> Result<Session, ZenohError> {
         // Return from open once the explicit endpoints are connected instead of waiting for
         // every peer learnt by gossip (a 500 ms wait and a warning when one is slow to
         // answer). Declarations propagate asynchronously either way.
-        ("open/return_conditions/connect_scouted", "false".to_string()),
+        (
+            "open/return_conditions/connect_scouted",
+            "false".to_string(),
+        ),
     ];
     for (key, value) in entries {
         config
