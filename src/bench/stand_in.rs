@@ -1,8 +1,10 @@
 //! The bench's own forecasting step, assembled from shipcast's library parts exactly as the
 //! pipeline uses them: per-DOF 8 -> 2 Hz [`Decimator`], a history window of `order` values, an
-//! MCA model per DOF, and the [`Forecast`] payload. It stands in for the `shipcast predictor`
-//! service until that service offers a hook that reports its receive stamps, and the report
-//! says so. Nothing here allocates after construction.
+//! MCA model per DOF, and the [`Forecast`] payload. The `in-process` rows of the report run it
+//! to separate the transport's cost from the process boundary; the `services` rows measure the
+//! real `shipcast predictor` (receive stamps via `--bench-stamps`). It repeats the service's
+//! history handling in small (services/predictor/history.rs): a known twin, kept only while the
+//! in-process rows are. Nothing here allocates after construction.
 
 use crate::config::PredictorServiceConfig;
 use crate::payload::{Forecast, MotionSample, MAX_STEPS, NUM_DOF};
