@@ -71,6 +71,11 @@ pub fn open(settings: &ZenohSettings) -> Result<Session, ZenohError> {
 }
 
 /// Publishes JSON payloads (encoding `application/json`) on one key.
+///
+/// Publishers are express: each put is written to the link from the calling thread instead of
+/// waiting in zenoh's batching queue for its transmit task. Our messages are few (a forecast
+/// every 0.5 s) and latency is what consumers pay for, so batching only adds a thread hop (about
+/// 40 µs at the median on two cores, where that task shares the predictor's core).
 pub struct JsonPublisher {
     publisher: Publisher<'static>,
 }
@@ -80,6 +85,7 @@ impl JsonPublisher {
         let publisher = session
             .declare_publisher(key.to_string())
             .encoding(Encoding::APPLICATION_JSON)
+            .express(true)
             .wait()
             .map_err(err(format!("declare publisher on '{key}'")))?;
         Ok(Self { publisher })
