@@ -1,6 +1,7 @@
 //! `shipcast bench`: benchmarks of the running system. `bench latency` measures shipcast's
 //! paths and the raw transport floors one way on two pinned cores (issue 6).
 
+use crate::progress::Bar;
 use anyhow::Context;
 use shipcast::bench::latency::{self, FORECAST_BYTES, MOTION_BYTES};
 use shipcast::bench::plan::parse_cores;
@@ -42,6 +43,10 @@ struct LatencyArgs {
     /// Unsent warm-up samples before measuring (default: 10 % of --samples, at most 200).
     #[arg(long)]
     warmup: Option<u64>,
+    /// The measurements take turns this many times, each with its share of --samples, so
+    /// noise from the host falls on every path alike (each round restarts the services).
+    #[arg(long, default_value_t = 4)]
+    rounds: u64,
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
@@ -64,12 +69,16 @@ fn run_latency(a: LatencyArgs) -> anyhow::Result<()> {
     let plan = Plan {
         samples: a.samples,
         warmup: a.warmup.unwrap_or((a.samples / 10).clamp(1, 200)),
+        rounds: a.rounds,
         rate_hz: a.rate,
         cores: a.cores,
         instance: Plan::unique_instance("latency"),
         shipcast_exe: Some(own_executable()?),
     };
-    let report = latency::run(&plan, a.mode.modes())?;
+    let bar = Bar::new();
+    let report = latency::run(&plan, a.mode.modes(), &bar);
+    bar.finish();
+    let report = report?;
     let targets = report.targets(MOTION_BYTES, FORECAST_BYTES, latency::forecast_json_bytes());
     if a.json {
         // The table goes to stderr too, so one run gives both the JSON and the readable form.

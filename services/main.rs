@@ -12,6 +12,7 @@ mod logging;
 mod paper;
 mod predictor;
 mod producer;
+mod progress;
 mod run;
 mod simulate;
 mod train;

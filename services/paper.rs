@@ -1,9 +1,9 @@
 //! `shipcast paper --out DIR [--quick] [--seed N]`: the paper study (tables and figures of Zhao,
 //! Xu and Kwan, section 4), written as `DIR/report.md` and SVG figures, with a progress bar.
 
+use crate::progress::Bar;
 use anyhow::Context;
-use indicatif::{ProgressBar, ProgressStyle};
-use shipcast::paper::{self, Plan, Progress};
+use shipcast::paper::{self, Plan};
 use std::path::PathBuf;
 
 #[derive(clap::Args, Debug)]
@@ -19,19 +19,6 @@ pub struct Args {
     seed: u64,
 }
 
-/// The progress bar on stderr.
-struct Bar(ProgressBar);
-
-impl Progress for Bar {
-    fn start(&self, jobs: u64) {
-        self.0.set_length(jobs);
-    }
-    fn advance(&self, what: &str) {
-        self.0.set_message(what.to_string());
-        self.0.inc(1);
-    }
-}
-
 pub fn run(args: Args) -> anyhow::Result<()> {
     let plan = if args.quick {
         Plan::quick(args.seed)
@@ -41,15 +28,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     // Fail on an unusable output directory before spending minutes on the study.
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("creating the output directory {}", args.out.display()))?;
-    let bar = ProgressBar::new(0);
-    bar.set_style(
-        ProgressStyle::with_template("{elapsed_precise} [{bar:30}] {pos}/{len} {wide_msg}")
-            .map_err(|e| anyhow::anyhow!("progress bar template: {e}"))?
-            .progress_chars("=> "),
-    );
-    let bar = Bar(bar);
+    let bar = Bar::new();
     let study = paper::run(&plan, &bar)?;
-    bar.0.finish_and_clear();
+    bar.finish();
     let path = paper::report::write(&study, &args.out)?;
     tracing::info!(
         report = %path.display(),

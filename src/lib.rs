@@ -52,6 +52,7 @@ pub mod motion_csv;
 pub mod paper;
 pub mod payload;
 pub mod predict;
+pub mod progress;
 pub mod signal;
 pub mod sim;
 pub mod transport;

@@ -9,6 +9,7 @@ use super::report::{Curve, LatencyReport};
 use super::{pingpong_iox, pingpong_zenoh};
 use crate::payload::{Forecast, MotionSample, MAX_STEPS, NUM_DOF};
 use crate::predict::PredictorConfig;
+use crate::progress::Progress;
 
 /// How the shipcast paths were measured, stated in every report.
 pub const STAND_IN_NOTE: &str = "source 'services' = `shipcast producer` and `shipcast predictor` as child \
@@ -56,9 +57,20 @@ pub fn forecast_json_bytes() -> usize {
     out.len()
 }
 
-/// Collects the rows and curves of one run.
+/// Key of one row: the rounds of a run add to the same row.
+type RowKey = (Path, Mode, Source, usize);
+
+/// The latencies of one row, over the rounds so far.
+struct RowData {
+    key: RowKey,
+    recorder: LatencyRecorder,
+    expected: u64,
+}
+
+/// Collects the rows and curves of one run; rows keep the order in which they were first added.
 pub struct ReportBuilder {
     report: LatencyReport,
+    rows: Vec<RowData>,
 }
 
 impl ReportBuilder {
@@ -70,6 +82,7 @@ impl ReportBuilder {
                 rate_hz: plan.rate_hz,
                 samples: plan.samples,
                 warmup: plan.warmup,
+                rounds: plan.rounds,
                 modes: modes.iter().map(|m| m.name()).collect(),
                 pins: Vec::new(),
                 rows: Vec::new(),
@@ -78,10 +91,11 @@ impl ReportBuilder {
                 load_avg_end: String::new(),
                 curves: Vec::new(),
             },
+            rows: Vec::new(),
         }
     }
 
-    /// Add the row (and curve) of one path and mode.
+    /// Add what one round measured on one path and mode (merged with earlier rounds).
     pub fn add(
         &mut self,
         path: Path,
@@ -91,31 +105,39 @@ impl ReportBuilder {
         expected: u64,
         payload_bytes: usize,
     ) {
-        let stats = recorder.stats(path, mode, source, expected, payload_bytes);
-        tracing::info!(
-            path = stats.path,
-            mode = stats.mode,
-            count = stats.count,
-            lost = stats.lost,
-            p50_us = stats.p50_us,
-            p99_us = stats.p99_us,
-            "measured"
+        let key = (path, mode, source, payload_bytes);
+        tracing::debug!(
+            path = path.name(),
+            mode = mode.name(),
+            count = recorder.count(),
+            expected,
+            "measured one round"
         );
-        self.report.rows.push(stats);
-        self.report.curves.push(Curve {
-            mode: mode.name(),
-            label: format!("{path} {mode} {payload_bytes} B ({})", source.name()),
-            points: recorder.curve(3.0, CURVE_POINTS),
-        });
+        match self.rows.iter_mut().find(|r| r.key == key) {
+            Some(row) => {
+                row.recorder.merge(recorder);
+                row.expected += expected;
+            }
+            None => self.rows.push(RowData {
+                key,
+                recorder: recorder.clone(),
+                expected,
+            }),
+        }
     }
 
     fn add_pingpong(&mut self, path: Path, mode: Mode, out: PingPongOutcome, bytes: usize) {
         self.add(path, mode, Source::Raw, &out.recorder, out.expected, bytes);
-        self.report.pins.extend(out.pins);
+        self.add_pins(out.pins);
     }
 
-    pub fn pins(&mut self) -> &mut Vec<super::pinning::PinOutcome> {
-        &mut self.report.pins
+    /// Record how threads were pinned; every round pins the same roles, so repeats are dropped.
+    pub fn add_pins(&mut self, pins: impl IntoIterator<Item = super::pinning::PinOutcome>) {
+        for pin in pins {
+            if !self.report.pins.contains(&pin) {
+                self.report.pins.push(pin);
+            }
+        }
     }
 
     pub fn note(&mut self, note: String) {
@@ -128,6 +150,28 @@ impl ReportBuilder {
     }
 
     pub fn finish(mut self) -> LatencyReport {
+        for row in &self.rows {
+            let (path, mode, source, payload_bytes) = row.key;
+            let stats = row
+                .recorder
+                .stats(path, mode, source, row.expected, payload_bytes);
+            tracing::info!(
+                path = stats.path,
+                mode = stats.mode,
+                source = stats.source,
+                count = stats.count,
+                lost = stats.lost,
+                p50_us = stats.p50_us,
+                p99_us = stats.p99_us,
+                "measured"
+            );
+            self.report.rows.push(stats);
+            self.report.curves.push(Curve {
+                mode: mode.name(),
+                label: format!("{path} {mode} {payload_bytes} B ({})", source.name()),
+                points: row.recorder.curve(3.0, CURVE_POINTS),
+            });
+        }
         self.report.load_avg_end = super::machine::load_avg();
         self.report
     }
@@ -147,29 +191,37 @@ pub fn measure_raw(plan: &Plan, mode: Mode, out: &mut ReportBuilder) -> anyhow::
     Ok(())
 }
 
-/// The whole benchmark: for each mode, shipcast's paths and the raw floors.
-pub fn run(plan: &Plan, modes: &[Mode]) -> anyhow::Result<LatencyReport> {
+/// The whole benchmark: in every round, for each mode, shipcast's paths and the raw floors.
+/// The measurements run one after another (never competing for the two cores) and take turns
+/// `plan.rounds` times, so the slow drifts and bursts of a shared host reach every row.
+pub fn run(plan: &Plan, modes: &[Mode], progress: &dyn Progress) -> anyhow::Result<LatencyReport> {
     plan.validate().map_err(anyhow::Error::msg)?;
     let mut out = ReportBuilder::new(plan, modes);
     out.note(STAND_IN_NOTE.to_string());
-    for &mode in modes {
-        // The services' rows first: the target comparison takes the first row of a path.
-        match &plan.shipcast_exe {
-            Some(exe) => {
-                if let Err(e) = super::services::measure(plan, mode, exe, &mut out) {
-                    out.not_measured(format!("services {mode}: {e:#}"));
+    progress.start(plan.rounds * modes.len() as u64);
+    for round in 0..plan.rounds {
+        let sub = plan.round(round);
+        for &mode in modes {
+            // The services' rows first: the target comparison takes the first row of a path.
+            match &sub.shipcast_exe {
+                Some(exe) => {
+                    if let Err(e) = super::services::measure(&sub, mode, exe, &mut out) {
+                        out.not_measured(format!("services {mode} (round {round}): {e:#}"));
+                    }
                 }
+                None if round == 0 => out.not_measured(format!(
+                    "services {mode}: no shipcast executable given, only the in-process pipeline"
+                )),
+                None => {}
             }
-            None => out.not_measured(format!(
-                "services {mode}: no shipcast executable given, only the in-process pipeline"
-            )),
+            super::pipeline::measure(&sub, mode, &mut out)?;
+            measure_raw(&sub, mode, &mut out)?;
+            progress.advance(&format!("round {} of {}, {mode}", round + 1, plan.rounds));
         }
-        super::pipeline::measure(plan, mode, &mut out)?;
-        measure_raw(plan, mode, &mut out)?;
+        // Every node of the round is dropped by now: only the round's own prefix is removed.
+        let names = crate::transport::Names::new(Some(&sub.instance), "any")?;
+        super::machine::remove_iox_leftovers(&names.iox_prefix());
     }
-    // Every node of the run is dropped by now: only the run's own prefix is removed.
-    let names = crate::transport::Names::new(Some(&plan.instance), "any")?;
-    super::machine::remove_iox_leftovers(&names.iox_prefix());
     Ok(out.finish())
 }
 

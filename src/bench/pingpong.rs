@@ -210,6 +210,7 @@ mod tests {
         Plan {
             samples,
             warmup: 3,
+            rounds: 1,
             rate_hz: 5000.0,
             cores: (0, 1),
             instance: "unit".into(),

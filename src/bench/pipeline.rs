@@ -97,7 +97,7 @@ pub fn measure(plan: &Plan, mode: Mode, out: &mut ReportBuilder) -> anyhow::Resu
     let (tally, pin_p) = tally?;
     let (local, pin_l) = local?;
     let (remote, pin_z) = remote?;
-    out.pins().extend([pin_s?, pin_p, pin_l, pin_z]);
+    out.add_pins([pin_s?, pin_p, pin_l, pin_z]);
     let src = Source::InProcess;
     out.add(
         Path::ProducerToPredictor,

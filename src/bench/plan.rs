@@ -124,10 +124,15 @@ impl FromStr for ModeSelect {
 /// Parameters shared by every measurement of one run.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Plan {
-    /// Measured exchanges (ping-pong) or samples (pipeline), after the warm-up.
+    /// Measured exchanges (ping-pong) or samples (pipeline), after the warm-up, over all rounds.
     pub samples: u64,
-    /// Exchanges or samples sent first and not recorded (caches, lazy port connection).
+    /// Exchanges or samples sent first and not recorded (caches, lazy port connection), in
+    /// every round.
     pub warmup: u64,
+    /// The measurements take turns this many times, each with its share of `samples`, so a
+    /// burst of noise from the host (a virtual machine's neighbours) falls on every path alike
+    /// instead of on whichever path was being measured at the time.
+    pub rounds: u64,
     /// Send rate in Hz.
     pub rate_hz: f64,
     /// Cores of the sending side (producer) and the receiving side (predictor).
@@ -145,6 +150,12 @@ impl Plan {
         if self.samples == 0 {
             return Err("--samples must be at least 1".into());
         }
+        if self.rounds == 0 || self.rounds > self.samples {
+            return Err(format!(
+                "--rounds {} must be at least 1 and at most --samples {}",
+                self.rounds, self.samples
+            ));
+        }
         if !(self.rate_hz.is_finite() && self.rate_hz > 0.0 && self.rate_hz <= 100_000.0) {
             return Err(format!(
                 "--rate {} must be a number in (0, 100000] Hz",
@@ -152,6 +163,19 @@ impl Plan {
             ));
         }
         Ok(())
+    }
+
+    /// The plan of round `round` (0-based) of `rounds`: its share of the samples (the first
+    /// rounds take the remainder) and an instance of its own, so no round meets services or
+    /// keys that an earlier one left behind.
+    pub fn round(&self, round: u64) -> Plan {
+        let share = self.samples / self.rounds + u64::from(round < self.samples % self.rounds);
+        Plan {
+            samples: share,
+            rounds: 1,
+            instance: format!("{}-r{round}", self.instance),
+            ..self.clone()
+        }
     }
 
     /// Time between two sends.
@@ -236,6 +260,7 @@ mod tests {
         let mut plan = Plan {
             samples: 10,
             warmup: 1,
+            rounds: 3,
             rate_hz: 100.0,
             cores: (0, 1),
             instance: "x".into(),
@@ -249,5 +274,31 @@ mod tests {
         plan.rate_hz = 10.0;
         plan.samples = 0;
         assert!(plan.validate().is_err());
+        plan.samples = 10;
+        plan.rounds = 0;
+        assert!(plan.validate().is_err());
+        plan.rounds = 11;
+        assert!(plan.validate().is_err());
+    }
+
+    #[test]
+    fn rounds_share_the_samples_and_have_their_own_instance() {
+        let plan = Plan {
+            samples: 10,
+            warmup: 2,
+            rounds: 3,
+            rate_hz: 100.0,
+            cores: (0, 1),
+            instance: "x".into(),
+            shipcast_exe: None,
+        };
+        let rounds: Vec<Plan> = (0..3).map(|r| plan.round(r)).collect();
+        assert_eq!(
+            rounds.iter().map(|p| p.samples).collect::<Vec<_>>(),
+            [4, 3, 3]
+        );
+        assert!(rounds.iter().all(|p| p.rounds == 1 && p.warmup == 2));
+        assert_eq!(rounds[2].instance, "x-r2");
+        assert!(rounds.iter().all(|p| p.validate().is_ok()));
     }
 }

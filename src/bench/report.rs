@@ -27,6 +27,8 @@ pub struct LatencyReport {
     pub rate_hz: f64,
     pub samples: u64,
     pub warmup: u64,
+    /// Turns the measurements took, each with its share of the samples.
+    pub rounds: u64,
     pub modes: Vec<&'static str>,
     pub pins: Vec<PinOutcome>,
     pub rows: Vec<PathStats>,
@@ -78,10 +80,11 @@ impl LatencyReport {
         );
         let _ = writeln!(
             s,
-            "modes: {} (event = blocking wait woken by notify, poll = busy polling); rate {} Hz; {} samples after {} warm-up; latencies one way from payload stamps, in µs",
+            "modes: {} (event = blocking wait woken by notify, poll = busy polling); rate {} Hz; {} samples per path in {} interleaved rounds, each after {} warm-up; latencies one way from payload stamps, in µs",
             self.modes.join(", "),
             self.rate_hz,
             self.samples,
+            self.rounds,
             self.warmup
         );
         for note in &self.notes {
@@ -301,6 +304,7 @@ mod tests {
             rate_hz: 100.0,
             samples: 100,
             warmup: 10,
+            rounds: 1,
             modes: vec!["event", "poll"],
             pins: vec![PinOutcome {
                 role: "ping".into(),

@@ -258,7 +258,7 @@ pub fn measure(
     let (local, pin_l) = local?;
     let (remote, pin_z) = remote?;
     let stamps = stamps?;
-    out.pins().extend([pin_prod, pin_pred, pin_l, pin_z]);
+    out.add_pins([pin_prod, pin_pred, pin_l, pin_z]);
     let src = Source::Services;
     out.add(
         Path::ProducerToPredictor,

@@ -223,21 +223,7 @@ pub fn rms_curve(outcome: Option<&Outcome>) -> Result<&[f64], String> {
     }
 }
 
-/// Where the study reports progress (a progress bar in the CLI, nothing in tests).
-pub trait Progress: Sync {
-    /// The number of jobs about to run.
-    fn start(&self, jobs: u64);
-    /// One job finished.
-    fn advance(&self, what: &str);
-}
-
-/// Progress that goes nowhere.
-pub struct NoProgress;
-
-impl Progress for NoProgress {
-    fn start(&self, _jobs: u64) {}
-    fn advance(&self, _what: &str) {}
-}
+pub use crate::progress::{NoProgress, Progress};
 
 /// One unit of work.
 #[derive(Clone, Debug)]

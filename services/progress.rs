@@ -1,0 +1,39 @@
+//! The progress bar that long subcommands draw on stderr (hidden when stderr is not a terminal,
+//! so logs and CI output stay clean).
+
+use indicatif::{ProgressBar, ProgressStyle};
+use shipcast::progress::Progress;
+use std::io::IsTerminal;
+
+/// A bar with elapsed time, position and the job just finished.
+pub struct Bar(ProgressBar);
+
+impl Bar {
+    pub fn new() -> Self {
+        if !std::io::stderr().is_terminal() {
+            return Self(ProgressBar::hidden());
+        }
+        let bar = ProgressBar::new(0);
+        // The template is a constant; should it ever fail to parse, the default style remains.
+        if let Ok(style) =
+            ProgressStyle::with_template("{elapsed_precise} [{bar:30}] {pos}/{len} {wide_msg}")
+        {
+            bar.set_style(style.progress_chars("=> "));
+        }
+        Self(bar)
+    }
+
+    pub fn finish(&self) {
+        self.0.finish_and_clear();
+    }
+}
+
+impl Progress for Bar {
+    fn start(&self, jobs: u64) {
+        self.0.set_length(jobs);
+    }
+    fn advance(&self, what: &str) {
+        self.0.set_message(what.to_string());
+        self.0.inc(1);
+    }
+}
