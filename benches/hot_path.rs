@@ -11,6 +11,7 @@ use rand_chacha::ChaCha8Rng;
 use shipcast::bench::machine::remove_iox_leftovers;
 use shipcast::bench::stamps::{ReceiveStamp, StampPublisher, StampReader, StampTally};
 use shipcast::payload::{Forecast, MotionSample, MAX_STEPS, NUM_DOF};
+use shipcast::payload_json::ForecastJsonEncoder;
 use shipcast::predict::{McaPredictor, Predictor, PredictorConfig};
 use shipcast::signal::decimator::Decimator;
 use shipcast::transport::iox::{self, IoxPublisher, IoxSubscriber, Sizing, WaitMode};
@@ -192,11 +193,37 @@ fn json_encoding(c: &mut Criterion) {
     });
 }
 
+/// The same forecast through the hand-written encoder: reused, so its sigma cache is warm
+/// (`_encoder`), and with the sigma changing at every call, so it always formats both arrays
+/// (`_encoder_cold`).
+fn json_encoder(c: &mut Criterion) {
+    let f = filled_forecast(PredictorConfig::default().horizon);
+    let mut encoder = ForecastJsonEncoder::new();
+    c.bench_function("json_encoding/forecast_50_steps_encoder", |b| {
+        b.iter(|| black_box(encoder.encode(black_box(&f)).len()))
+    });
+    let mut g = f;
+    for row in g.sigma.iter_mut() {
+        for s in row.iter_mut() {
+            *s *= 1.5;
+        }
+    }
+    let alternating = [f, g];
+    let mut i = 0usize;
+    c.bench_function("json_encoding/forecast_50_steps_encoder_cold", |b| {
+        b.iter(|| {
+            i += 1;
+            black_box(encoder.encode(black_box(&alternating[i % 2])).len())
+        })
+    });
+}
+
 criterion_group!(
     benches,
     decimation_step,
     six_dof_forecast,
     payload_write,
-    json_encoding
+    json_encoding,
+    json_encoder
 );
 criterion_main!(benches);

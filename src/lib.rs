@@ -51,6 +51,7 @@ pub mod model;
 pub mod motion_csv;
 pub mod paper;
 pub mod payload;
+pub mod payload_json;
 pub mod predict;
 pub mod progress;
 pub mod signal;
