@@ -14,6 +14,7 @@ use serde::Serialize;
 use shipcast::bench::stamps::{ReceiveStamp, StampPublisher};
 use shipcast::config::{CommonArgs, PipelineConfig};
 use shipcast::payload::{Forecast, MotionSample, MAX_STEPS, NUM_DOF};
+use shipcast::payload_json::ForecastJsonEncoder;
 use shipcast::predict::Predictor;
 use shipcast::signal::decimate;
 use shipcast::sim::{ShipMotion, SimConfig};
@@ -151,7 +152,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         retrainer,
         forecast: Box::new(Forecast::default()),
         out: [0.0; MAX_STEPS],
-        json: Vec::with_capacity(16 * 1024),
+        json: ForecastJsonEncoder::new(),
         counters: Counters::default(),
         values_since_retrain: 0,
         last_time_s: f64::NAN,
@@ -189,8 +190,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             if let Some(v) = service.ingest.push(&sample, &mut service.counters) {
                 if service.on_new_value(v)? {
                     forecasts.send(&service.forecast)?;
-                    service.forecast.write_json(&mut service.json)?;
-                    forecast_json.put(&service.json)?;
+                    forecast_json.put(service.json.encode(&service.forecast))?;
                     service.counters.published += 1;
                 }
             }
@@ -298,7 +298,8 @@ struct Service<'a> {
     /// Reused for every forecast (6 KB; boxed to keep it off the stack frame).
     forecast: Box<Forecast>,
     out: [f64; MAX_STEPS],
-    json: Vec<u8>,
+    /// Reused for every forecast; re-encodes sigma only when the model changes.
+    json: ForecastJsonEncoder,
     counters: Counters,
     values_since_retrain: usize,
     last_time_s: f64,

@@ -15,6 +15,7 @@ use super::pinning::{pin_current, PinOutcome};
 use super::plan::{Mode, Pacer, Path, Plan, Source};
 use super::stand_in::{swell, ForecastStep, RECORD_RATE_HZ};
 use crate::payload::{Forecast, MotionSample};
+use crate::payload_json::ForecastJsonEncoder;
 use crate::transport::iox::{self, IoxPublisher, IoxSubscriber, Sizing};
 use crate::transport::zenoh::{open, JsonPublisher, ZenohSettings};
 use crate::transport::{monotonic_ns, Names};
@@ -235,7 +236,7 @@ fn predictor(
     await_until(shared, "the zenoh subscriber", || remote.has_subscribers())?;
     run.started.store(true, Ordering::Release);
     let mut tally = PredictorTally::default();
-    let mut json = Vec::with_capacity(16 * 1024);
+    let mut json = ForecastJsonEncoder::new();
     let slice = consumers::wait_slice(shared.mode);
     while !shared.is_done() {
         motion.wait(slice)?;
@@ -255,8 +256,7 @@ fn predictor(
             }
             f.issued_stamp_ns = monotonic_ns();
             forecasts.send(f)?;
-            f.write_json(&mut json).context("encode forecast JSON")?;
-            remote.put(&json)?;
+            remote.put(json.encode(f))?;
             if measured {
                 tally.sent += 1;
                 tally
