@@ -4,6 +4,7 @@
 use crate::progress::Bar;
 use anyhow::Context;
 use shipcast::bench::latency::{self, FORECAST_BYTES, MOTION_BYTES};
+use shipcast::bench::pingpong_zenoh_processes::{self, PongArgs};
 use shipcast::bench::plan::parse_cores;
 use shipcast::bench::{ModeSelect, Plan};
 use std::path::PathBuf;
@@ -18,6 +19,30 @@ pub struct Args {
 enum Command {
     /// One-way latency of shipcast's paths and of raw iceoryx2 and zenoh, on two pinned cores.
     Latency(LatencyArgs),
+    /// The answering side of the inter-process zenoh floor, started by `bench latency`.
+    #[command(hide = true)]
+    ZenohPong(ZenohPongArgs),
+}
+
+#[derive(clap::Args, Debug)]
+struct ZenohPongArgs {
+    /// The ping side's listen endpoint.
+    #[arg(long)]
+    connect: String,
+    /// Key prefix of the exchange.
+    #[arg(long)]
+    prefix: String,
+    #[arg(long)]
+    bytes: usize,
+    #[arg(long, value_parser = |s: &str| s.parse::<ModeSelect>())]
+    mode: ModeSelect,
+    #[arg(long)]
+    core: usize,
+    #[arg(long)]
+    warmup: u64,
+    /// File for the recorded legs.
+    #[arg(long)]
+    out: PathBuf,
 }
 
 #[derive(clap::Args, Debug)]
@@ -52,6 +77,20 @@ struct LatencyArgs {
 pub fn run(args: Args) -> anyhow::Result<()> {
     match args.command {
         Command::Latency(a) => run_latency(a),
+        Command::ZenohPong(a) => {
+            let &[mode] = a.mode.modes() else {
+                anyhow::bail!("zenoh-pong: --mode must be event or poll");
+            };
+            pingpong_zenoh_processes::serve_pong(&PongArgs {
+                connect: a.connect,
+                prefix: a.prefix,
+                bytes: a.bytes,
+                mode,
+                core: a.core,
+                warmup: a.warmup,
+                out: a.out,
+            })
+        }
     }
 }
 

@@ -11,6 +11,7 @@ use anyhow::Context;
 use history::{Ingest, NewValue};
 use models::ModelSet;
 use serde::Serialize;
+use shipcast::bench::pinning::pin_current;
 use shipcast::bench::stamps::{ReceiveStamp, StampPublisher};
 use shipcast::config::{CommonArgs, PipelineConfig};
 use shipcast::payload::{Forecast, MotionSample, MAX_STEPS, NUM_DOF};
@@ -40,6 +41,10 @@ pub struct Args {
     /// Retrain every S seconds of record time (0 = never; overrides the config).
     #[arg(long, value_name = "S")]
     pub retrain_every_s: Option<f64>,
+    /// Pin the forecasting thread to this core once the transports are open; zenoh's threads
+    /// and the retraining thread keep every core, so they never preempt it.
+    #[arg(long, value_name = "CORE")]
+    pub pin_core: Option<usize>,
     /// Publish when each motion sample was received on iceoryx2 `.../bench/receive`, for
     /// `shipcast bench latency` (off: no cost).
     #[arg(long)]
@@ -167,6 +172,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         true => SPIN_SLICE,
         false => (stale_after / 2).clamp(Duration::from_millis(1), Duration::from_millis(100)),
     };
+    // Last, after every helper thread has been started with the full set of cores.
+    if let Some(core) = args.pin_core {
+        if pin_current("predictor forecasting thread", core).pinned {
+            tracing::info!(core, "predictor: forecasting thread pinned");
+        }
+    }
     loop {
         if limit.reached() {
             break;

@@ -38,7 +38,8 @@ fn every_path_and_mode_reports_counts_without_loss_and_ordered_percentiles() {
             .iter()
             .map(|p| (*p, Source::Services))
             .chain(Path::ALL[..4].iter().map(|p| (*p, Source::InProcess)))
-            .chain([Path::Iceoryx2Raw, Path::ZenohRaw].map(|p| (p, Source::Raw)));
+            .chain([Path::Iceoryx2Raw, Path::ZenohRaw].map(|p| (p, Source::Raw)))
+            .chain([(Path::ZenohRaw, Source::RawProcesses)]);
         for (path, source) in expected {
             assert!(
                 seen.contains(&(path.name(), mode.name(), source.name())),
@@ -71,6 +72,11 @@ fn every_path_and_mode_reports_counts_without_loss_and_ordered_percentiles() {
         assert_eq!(row(Path::ProducerToPredictor, source).count, plan.samples);
     }
     assert_eq!(row(Path::Iceoryx2Raw, Source::Raw).count, 2 * plan.samples);
+    // The inter-process floor: this side's legs and the ones the child wrote back.
+    assert_eq!(
+        row(Path::ZenohRaw, Source::RawProcesses).count,
+        2 * plan.samples
+    );
     for source in [Source::Services, Source::InProcess] {
         let forecasts = row(Path::SampleToForecastPublished, source).count;
         // Up to one more per round: where the decimation phase falls is up to each round.

@@ -6,7 +6,7 @@ use super::machine::Machine;
 use super::pingpong::PingPongOutcome;
 use super::plan::{Mode, Path, Plan, Source};
 use super::report::{Curve, LatencyReport};
-use super::{pingpong_iox, pingpong_zenoh};
+use super::{pingpong_iox, pingpong_zenoh, pingpong_zenoh_processes};
 use crate::payload::{Forecast, MotionSample, MAX_STEPS, NUM_DOF};
 use crate::predict::PredictorConfig;
 use crate::progress::Progress;
@@ -17,7 +17,7 @@ processes pinned to the two cores, measured by consumers in this process, produc
 receive stamps the predictor publishes with --bench-stamps; source 'in-process' = producer, \
 predictor and consumers as threads of this process over the same transport API, the predictor being the \
 bench's stand-in from the library parts (Decimator 8->2 Hz, MCA per DOF, Forecast payload), which also \
-records receive stamps; zenoh consumers always block on their channel (mode applies to iceoryx2 receivers); \
+records receive stamps; source 'raw' = ping-pong between two threads of this process, 'raw-processes' = zenoh ping-pong between this process and a child `shipcast bench zenoh-pong` (the process boundary the services' zenoh path crosses); zenoh consumers always block on their channel (mode applies to iceoryx2 receivers); \
 poll = spinning on the queue; shipcast receivers and the zenoh floor yield the core after 20 µs without \
 data so that zenoh's threads on the same core run (the iceoryx2 floor never yields)";
 
@@ -126,8 +126,15 @@ impl ReportBuilder {
         }
     }
 
-    fn add_pingpong(&mut self, path: Path, mode: Mode, out: PingPongOutcome, bytes: usize) {
-        self.add(path, mode, Source::Raw, &out.recorder, out.expected, bytes);
+    fn add_pingpong(
+        &mut self,
+        path: Path,
+        mode: Mode,
+        source: Source,
+        out: PingPongOutcome,
+        bytes: usize,
+    ) {
+        self.add(path, mode, source, &out.recorder, out.expected, bytes);
         self.add_pins(out.pins);
     }
 
@@ -177,16 +184,34 @@ impl ReportBuilder {
     }
 }
 
-/// Measure the raw transport floors in `mode`: iceoryx2 with both payload types, zenoh with the
-/// motion size and the forecast JSON size.
+/// Measure the raw transport floors in `mode`: iceoryx2 with both payload types and zenoh with
+/// the motion size and the forecast JSON size between two threads, and, given the shipcast
+/// executable, zenoh with the JSON size between two processes.
 pub fn measure_raw(plan: &Plan, mode: Mode, out: &mut ReportBuilder) -> anyhow::Result<()> {
     let iox_motion = pingpong_iox::run::<MotionSample>(plan, mode)?;
-    out.add_pingpong(Path::Iceoryx2Raw, mode, iox_motion, MOTION_BYTES);
+    out.add_pingpong(
+        Path::Iceoryx2Raw,
+        mode,
+        Source::Raw,
+        iox_motion,
+        MOTION_BYTES,
+    );
     let iox_forecast = pingpong_iox::run::<Forecast>(plan, mode)?;
-    out.add_pingpong(Path::Iceoryx2Raw, mode, iox_forecast, FORECAST_BYTES);
-    for bytes in [MOTION_BYTES, forecast_json_bytes()] {
+    out.add_pingpong(
+        Path::Iceoryx2Raw,
+        mode,
+        Source::Raw,
+        iox_forecast,
+        FORECAST_BYTES,
+    );
+    let json_bytes = forecast_json_bytes();
+    for bytes in [MOTION_BYTES, json_bytes] {
         let z = pingpong_zenoh::run(plan, mode, bytes)?;
-        out.add_pingpong(Path::ZenohRaw, mode, z, bytes);
+        out.add_pingpong(Path::ZenohRaw, mode, Source::Raw, z, bytes);
+    }
+    if let Some(exe) = &plan.shipcast_exe {
+        let z = pingpong_zenoh_processes::run(plan, mode, json_bytes, exe)?;
+        out.add_pingpong(Path::ZenohRaw, mode, Source::RawProcesses, z, json_bytes);
     }
     Ok(())
 }

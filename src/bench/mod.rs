@@ -9,6 +9,7 @@
 //! Everything is recorded into HDR histograms ([`histogram`]) and reported as a table, JSON rows
 //! and an SVG of the latency distributions ([`report`]).
 
+pub mod children;
 pub mod consumers;
 pub mod histogram;
 pub mod latency;
@@ -16,6 +17,7 @@ pub mod machine;
 pub mod pingpong;
 pub mod pingpong_iox;
 pub mod pingpong_zenoh;
+pub mod pingpong_zenoh_processes;
 pub mod pinning;
 pub mod pipeline;
 pub mod plan;

@@ -22,13 +22,13 @@ pub trait Endpoint {
 }
 
 /// seq of the handshake messages that prove both directions are connected.
-const HANDSHAKE: u64 = u64::MAX;
+pub(crate) const HANDSHAKE: u64 = u64::MAX;
 /// How long the ping side waits for the pong side to answer the handshake.
 const HANDSHAKE_TIMEOUT: Duration = Duration::from_secs(15);
 /// How long the ping side waits for one answer before counting the exchange as lost.
 const REPLY_TIMEOUT: Duration = Duration::from_secs(1);
 /// How often the pong side checks whether the run is over.
-const POLL_SLICE: Duration = Duration::from_millis(20);
+pub(crate) const POLL_SLICE: Duration = Duration::from_millis(20);
 
 /// Latencies of both legs of a ping-pong run.
 #[derive(Debug)]
@@ -67,7 +67,7 @@ where
             let pin = pin_current(&format!("{label} ping"), plan.cores.0);
             let ep = make_ping();
             ready.wait();
-            let result = ep.and_then(|ep| ping_loop(ep, plan, &done));
+            let result = ep.and_then(|mut ep| ping_loop(&mut ep, plan, &done));
             done.store(true, Ordering::Release);
             result.map(|rec| (rec, pin))
         });
@@ -110,12 +110,12 @@ fn pong_loop(
 }
 
 /// Handshake, then paced exchanges; record the pong leg of measured ones.
-fn ping_loop(
-    mut ep: impl Endpoint,
+pub(crate) fn ping_loop(
+    ep: &mut impl Endpoint,
     plan: &Plan,
     done: &AtomicBool,
 ) -> anyhow::Result<LatencyRecorder> {
-    handshake(&mut ep, done)?;
+    handshake(ep, done)?;
     let mut rec = LatencyRecorder::new();
     let mut pacer = Pacer::new(plan);
     for seq in 0..plan.warmup + plan.samples {

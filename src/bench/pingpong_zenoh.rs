@@ -26,7 +26,7 @@ pub fn free_port() -> anyhow::Result<u16> {
         .port())
 }
 
-struct ZenohEndpoint {
+pub(crate) struct ZenohEndpoint {
     publisher: Publisher<'static>,
     subscriber: Subscriber<FifoChannelHandler<Sample>>,
     mode: Mode,
@@ -36,7 +36,7 @@ struct ZenohEndpoint {
 }
 
 impl ZenohEndpoint {
-    fn new(
+    pub(crate) fn new(
         session: Session,
         out: &str,
         inp: &str,

@@ -54,7 +54,11 @@ impl fmt::Display for Path {
 pub enum Source {
     Services,
     InProcess,
+    /// A ping-pong between two threads of this process.
     Raw,
+    /// A ping-pong between this process and a child process (the boundary shipcast's own
+    /// zenoh path crosses).
+    RawProcesses,
 }
 
 impl Source {
@@ -63,6 +67,7 @@ impl Source {
             Source::Services => "services",
             Source::InProcess => "in-process",
             Source::Raw => "raw",
+            Source::RawProcesses => "raw-processes",
         }
     }
 }

@@ -1,6 +1,6 @@
-//! shipcast's forecast paths measured through the real services: `shipcast predictor` and
-//! `shipcast producer` run as child processes pinned to the second and first core, under a
-//! unique instance, with the measuring consumers of [`super::consumers`] in this process.
+//! shipcast's forecast paths measured through the real services: `shipcast predictor` (its
+//! forecasting thread pinned to the second core) and `shipcast producer` (pinned to the first)
+//! run as child processes under a unique instance, with the measuring consumers of [`super::consumers`] in this process.
 //!
 //! The predictor needs `order` values of 2 Hz history before its first forecast: the producer
 //! backfills that much record at high speed (`--backfill-s`), then paces at the plan's rate
@@ -8,9 +8,10 @@
 //! recorded. producer -> predictor comes from the receive stamps the predictor publishes with
 //! `--bench-stamps` ([`super::stamps`]).
 
+use super::children::Children;
 use super::consumers::{self, Shared, CONSUMERS, SLICE};
 use super::latency::{ReportBuilder, FORECAST_BYTES, MOTION_BYTES};
-use super::pinning::{child_pinned, pin_command, PinOutcome};
+use super::pinning::{child_pinned, PinOutcome};
 use super::pipeline::{add_consumer_rows, await_until, join, zenoh_pair, DRAIN};
 use super::plan::{Mode, Path, Plan, Source};
 use super::stamps::{StampReader, StampTally};
@@ -18,9 +19,8 @@ use super::stand_in::RECORD_RATE_HZ;
 use crate::config::PipelineConfig;
 use crate::transport::zenoh::LivelinessWatch;
 use crate::transport::Names;
-use anyhow::{anyhow, Context};
+use anyhow::Context;
 use std::path::{Path as FsPath, PathBuf};
-use std::process::{Child, Command, Stdio};
 use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
 
@@ -36,117 +36,6 @@ const STOP_TIMEOUT: Duration = Duration::from_secs(5);
 const READERS: usize = CONSUMERS + 1;
 /// Extra time the producer may take beyond its schedule before it is considered hung.
 const RUN_SLACK: Duration = Duration::from_secs(60);
-
-/// Child processes, killed and reaped when dropped (also when the run fails), so that no
-/// service outlives the benchmark and iceoryx2 sees their nodes as dead.
-#[derive(Default)]
-struct Children {
-    list: Vec<(String, Child, PathBuf)>,
-}
-
-impl Children {
-    fn spawn(
-        &mut self,
-        role: &str,
-        exe: &FsPath,
-        args: &[String],
-        core: usize,
-        log: PathBuf,
-    ) -> anyhow::Result<PinOutcome> {
-        let file = std::fs::File::create(&log)
-            .with_context(|| format!("create log file {}", log.display()))?;
-        let mut cmd = Command::new(exe);
-        cmd.args(args)
-            .stdin(Stdio::null())
-            .stdout(file.try_clone().context("duplicate log file handle")?)
-            .stderr(file);
-        pin_command(&mut cmd, core);
-        let child = cmd
-            .spawn()
-            .with_context(|| format!("start {role}: {} {}", exe.display(), args.join(" ")))?;
-        let pin = child_pinned(role, child.id(), core);
-        self.list.push((role.to_string(), child, log));
-        Ok(pin)
-    }
-
-    /// Fail if the child `role` has exited, naming its log.
-    fn check_running(&mut self, role: &str) -> anyhow::Result<()> {
-        for (_, child, log) in self.list.iter_mut().filter(|(r, _, _)| r == role) {
-            if let Some(status) = child.try_wait().context("check child")? {
-                anyhow::bail!("{role} exited early ({status}); see {}", log.display());
-            }
-        }
-        Ok(())
-    }
-
-    /// Wait for `role` to exit by itself within `timeout`.
-    fn wait_exit(&mut self, role: &str, timeout: Duration) -> anyhow::Result<()> {
-        let deadline = Instant::now() + timeout;
-        let (_, child, log) = self
-            .list
-            .iter_mut()
-            .find(|(r, _, _)| r == role)
-            .ok_or_else(|| anyhow!("no child '{role}'"))?;
-        loop {
-            if let Some(status) = child.try_wait().context("wait for child")? {
-                if !status.success() {
-                    anyhow::bail!("{role} failed ({status}); see {}", log.display());
-                }
-                return Ok(());
-            }
-            if Instant::now() > deadline {
-                anyhow::bail!(
-                    "{role} did not finish within {timeout:?}; see {}",
-                    log.display()
-                );
-            }
-            std::thread::sleep(Duration::from_millis(20));
-        }
-    }
-}
-
-impl Children {
-    /// Ask every running child to stop (SIGTERM: the services shut down cleanly and remove
-    /// their iceoryx2 resources), wait up to `timeout`, then kill what is left.
-    fn stop_all(&mut self, timeout: Duration) {
-        for (_, child, _) in &mut self.list {
-            if let Ok(None) = child.try_wait() {
-                // SAFETY: plain kill(2) on the id of a child we have not reaped yet.
-                unsafe {
-                    libc::kill(child.id() as libc::pid_t, libc::SIGTERM);
-                }
-            }
-        }
-        let deadline = Instant::now() + timeout;
-        while Instant::now() < deadline
-            && self
-                .list
-                .iter_mut()
-                .any(|(_, c, _)| matches!(c.try_wait(), Ok(None)))
-        {
-            std::thread::sleep(Duration::from_millis(20));
-        }
-        self.kill_all();
-    }
-
-    /// Kill and reap every child; remove the logs of those that exited successfully.
-    fn kill_all(&mut self) {
-        for (role, mut child, log) in self.list.drain(..) {
-            if let Ok(None) = child.try_wait() {
-                if let Err(e) = child.kill() {
-                    tracing::warn!(role = role.as_str(), "could not kill child: {e}");
-                }
-            }
-            // Reap it, so it is not a zombie that iceoryx2 still counts as alive.
-            match child.wait() {
-                Ok(status) if status.success() => {
-                    let _ = std::fs::remove_file(&log);
-                }
-                _ => tracing::info!(role = role.as_str(), "service log kept: {}", log.display()),
-            }
-        }
-    }
-}
 
 impl Drop for Children {
     fn drop(&mut self) {
@@ -201,14 +90,12 @@ pub fn measure(
     if mode == Mode::Poll {
         predictor_args.push("--busy-poll".into());
     }
+    // The predictor pins its forecasting thread itself, once its transports are open: zenoh's
+    // threads and the retraining thread keep every core, as they would in a deployment.
+    predictor_args.extend(["--pin-core".into(), plan.cores.1.to_string()]);
     let log = |role: &str| dir.join(format!("{instance}-{vessel}-{role}.log"));
-    let pin_pred = children.spawn(
-        "predictor",
-        exe,
-        &predictor_args,
-        plan.cores.1,
-        log("predictor"),
-    )?;
+    let predictor_pid =
+        children.spawn_unpinned("predictor", exe, &predictor_args, log("predictor"))?;
 
     let record_s = backfill_s + (plan.warmup + plan.samples) as f64 / RECORD_RATE_HZ;
     let mut producer_args = common("producer");
@@ -242,8 +129,11 @@ pub fn measure(
             schedule,
         );
         shared.stop();
+        // The forecasting thread is the main thread, whose id is the process id.
+        let pin_pred = child_pinned("predictor forecasting thread", predictor_pid, plan.cores.1);
         (
             driven,
+            pin_pred,
             join(local, "local consumer"),
             join(remote, "zenoh consumer"),
             join(stamps, "receive stamp reader"),
@@ -253,7 +143,7 @@ pub fn measure(
     let _ = std::fs::remove_file(&config);
     // Creating a node of this instance removes whatever a killed service left behind.
     drop(crate::transport::iox::node(&shared.names, "bench-cleanup"));
-    let (driven, local, remote, stamps) = result;
+    let (driven, pin_pred, local, remote, stamps) = result;
     let pin_prod = driven?;
     let (local, pin_l) = local?;
     let (remote, pin_z) = remote?;
