@@ -10,6 +10,7 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use shipcast::bench::machine::remove_iox_leftovers;
 use shipcast::bench::stamps::{ReceiveStamp, StampPublisher, StampReader, StampTally};
+use shipcast::config::PipelineConfig;
 use shipcast::payload::{Forecast, MotionSample, MAX_STEPS, NUM_DOF};
 use shipcast::payload_json::ForecastJsonEncoder;
 use shipcast::predict::{McaPredictor, Predictor, PredictorConfig};
@@ -58,37 +59,44 @@ fn decimation_step(c: &mut Criterion) {
 }
 
 fn six_dof_forecast(c: &mut Criterion) {
-    let config = PredictorConfig::default(); // order 800, horizon 50: the paper's setting
-    let train = series(3000, 2);
-    let mut models: Vec<McaPredictor> = (0..NUM_DOF)
-        .map(|d| {
-            let mut m = McaPredictor::new(&config).expect("default MCA config is feasible");
-            m.fit(&series(3000, 10 + d as u64))
-                .expect("MCA fits the test series");
-            m
-        })
-        .collect();
-    let past = &train[train.len() - config.order..];
-    let mut out = vec![0.0; config.horizon];
     let mut group = c.benchmark_group("six_dof_forecast");
-    group.bench_function("mca800_h50_f64", |b| {
-        b.iter(|| {
-            for m in models.iter_mut() {
-                m.forecast(black_box(past), &mut out)
-                    .expect("buffers sized");
-            }
-            black_box(&out);
-        })
-    });
-    group.bench_function("mca800_h50_f32", |b| {
-        b.iter(|| {
-            for m in models.iter_mut() {
-                m.forecast_f32(black_box(past), &mut out)
-                    .expect("buffers sized");
-            }
-            black_box(&out);
-        })
-    });
+    // The paper's setting (order 800, horizon 50) and the predictor service's default (order
+    // 400 with eigenvalue weighting, horizon 50).
+    let service = PipelineConfig::default().predictor.predictor_config();
+    for (name, config) in [
+        ("mca800_h50", PredictorConfig::default()),
+        ("service_default_mca400_h50", service),
+    ] {
+        let train = series(3000, 2);
+        let mut models: Vec<McaPredictor> = (0..NUM_DOF)
+            .map(|d| {
+                let mut m = McaPredictor::new(&config).expect("MCA config is feasible");
+                m.fit(&series(3000, 10 + d as u64))
+                    .expect("MCA fits the test series");
+                m
+            })
+            .collect();
+        let past = &train[train.len() - config.order..];
+        let mut out = vec![0.0; config.horizon];
+        group.bench_function(format!("{name}_f64"), |b| {
+            b.iter(|| {
+                for m in models.iter_mut() {
+                    m.forecast(black_box(past), &mut out)
+                        .expect("buffers sized");
+                }
+                black_box(&out);
+            })
+        });
+        group.bench_function(format!("{name}_f32"), |b| {
+            b.iter(|| {
+                for m in models.iter_mut() {
+                    m.forecast_f32(black_box(past), &mut out)
+                        .expect("buffers sized");
+                }
+                black_box(&out);
+            })
+        });
+    }
     group.finish();
 }
 
