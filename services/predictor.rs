@@ -12,7 +12,7 @@ use history::{Ingest, NewValue};
 use models::ModelSet;
 use serde::Serialize;
 use shipcast::bench::pinning::pin_current;
-use shipcast::bench::stamps::{ReceiveStamp, StampPublisher};
+use shipcast::bench::stamps::{PublishStages, ReceiveStamp, StampPublisher};
 use shipcast::config::{CommonArgs, PipelineConfig};
 use shipcast::payload::{Forecast, MotionSample, MAX_STEPS, NUM_DOF};
 use shipcast::payload_json::ForecastJsonEncoder;
@@ -198,10 +198,22 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                     "predictor: motion resumed"
                 );
             }
+            let mut stages = PublishStages::default();
+            // Each step's end is stamped only for the benchmark (`--bench-stamps`).
+            let mark = |at: &mut u64| {
+                if stamps.is_some() {
+                    *at = monotonic_ns();
+                }
+            };
             if let Some(v) = service.ingest.push(&sample, &mut service.counters) {
                 if service.on_new_value(v)? {
+                    stages.issued_ns = service.forecast.issued_stamp_ns;
                     forecasts.send(&service.forecast)?;
-                    forecast_json.put(service.json.encode(&service.forecast))?;
+                    mark(&mut stages.local_sent_ns);
+                    let json = service.json.encode(&service.forecast);
+                    mark(&mut stages.encoded_ns);
+                    forecast_json.put(json)?;
+                    mark(&mut stages.zenoh_put_ns);
                     service.counters.published += 1;
                 }
             }
@@ -211,6 +223,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                     seq: sample.seq,
                     stamp_ns: sample.stamp_ns,
                     received_ns,
+                    stages,
                 })?;
             }
         }

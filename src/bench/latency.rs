@@ -5,7 +5,8 @@ use super::histogram::LatencyRecorder;
 use super::machine::Machine;
 use super::pingpong::PingPongOutcome;
 use super::plan::{Mode, Path, Plan, Source};
-use super::report::{Curve, LatencyReport};
+use super::report::{Curve, LatencyReport, StageStats};
+use super::stamps::STAGE_NAMES;
 use super::{pingpong_iox, pingpong_zenoh, pingpong_zenoh_processes};
 use crate::payload::{Forecast, MotionSample, MAX_STEPS, NUM_DOF};
 use crate::predict::PredictorConfig;
@@ -71,6 +72,8 @@ struct RowData {
 pub struct ReportBuilder {
     report: LatencyReport,
     rows: Vec<RowData>,
+    /// The predictor's steps per mode, over the rounds so far.
+    stages: Vec<(Mode, [LatencyRecorder; 4])>,
 }
 
 impl ReportBuilder {
@@ -86,12 +89,22 @@ impl ReportBuilder {
                 modes: modes.iter().map(|m| m.name()).collect(),
                 pins: Vec::new(),
                 rows: Vec::new(),
+                stages: Vec::new(),
                 not_measured: Vec::new(),
                 notes: Vec::new(),
                 load_avg_end: String::new(),
                 curves: Vec::new(),
             },
             rows: Vec::new(),
+            stages: Vec::new(),
+        }
+    }
+
+    /// Add one round's durations of the predictor's steps (see [`STAGE_NAMES`]).
+    pub fn add_stages(&mut self, mode: Mode, stages: &[LatencyRecorder; 4]) {
+        match self.stages.iter_mut().find(|(m, _)| *m == mode) {
+            Some((_, acc)) => acc.iter_mut().zip(stages).for_each(|(a, b)| a.merge(b)),
+            None => self.stages.push((mode, stages.clone())),
         }
     }
 
@@ -178,6 +191,19 @@ impl ReportBuilder {
                 label: format!("{path} {mode} {payload_bytes} B ({})", source.name()),
                 points: row.recorder.curve(3.0, CURVE_POINTS),
             });
+        }
+        for (mode, stages) in &self.stages {
+            for (stage, rec) in STAGE_NAMES.iter().zip(stages) {
+                let us = |q: f64| rec.quantile_ns(q) as f64 / 1000.0;
+                self.report.stages.push(StageStats {
+                    mode: mode.name(),
+                    stage,
+                    count: rec.count(),
+                    p50_us: us(0.5),
+                    p90_us: us(0.9),
+                    p99_us: us(0.99),
+                });
+            }
         }
         self.report.load_avg_end = super::machine::load_avg();
         self.report

@@ -19,6 +19,17 @@ pub struct Curve {
     pub points: Vec<(f64, f64)>,
 }
 
+/// Duration of one step of the predictor's work on a sample that completes a forecast.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct StageStats {
+    pub mode: &'static str,
+    pub stage: &'static str,
+    pub count: u64,
+    pub p50_us: f64,
+    pub p90_us: f64,
+    pub p99_us: f64,
+}
+
 /// Everything one `shipcast bench latency` run measured, with the conditions it ran under.
 #[derive(Debug, Clone, Serialize)]
 pub struct LatencyReport {
@@ -32,6 +43,8 @@ pub struct LatencyReport {
     pub modes: Vec<&'static str>,
     pub pins: Vec<PinOutcome>,
     pub rows: Vec<PathStats>,
+    /// Where the predictor service's time goes on a sample that completes a forecast.
+    pub stages: Vec<StageStats>,
     /// Paths that were not measured in this run, with the reason.
     pub not_measured: Vec<String>,
     /// How the figures were obtained, where it is not obvious from the path name.
@@ -131,6 +144,20 @@ impl LatencyReport {
                 r.p999_us,
                 r.max_us
             );
+        }
+        if !self.stages.is_empty() {
+            let _ = writeln!(
+                s,
+                "\nthe predictor's steps on a sample that completes a forecast (services, from its --bench-stamps), µs:\n{:<6} {:<62} {:>7} {:>9} {:>9} {:>9}",
+                "mode", "step", "count", "p50", "p90", "p99"
+            );
+            for t in &self.stages {
+                let _ = writeln!(
+                    s,
+                    "{:<6} {:<62} {:>7} {:>9.1} {:>9.1} {:>9.1}",
+                    t.mode, t.stage, t.count, t.p50_us, t.p90_us, t.p99_us
+                );
+            }
         }
         for missing in &self.not_measured {
             let _ = writeln!(s, "not measured: {missing}");
@@ -338,6 +365,14 @@ mod tests {
                 pinned: false,
             }],
             rows,
+            stages: vec![StageStats {
+                mode: "event",
+                stage: "zenoh put",
+                count: 10,
+                p50_us: 11.0,
+                p90_us: 40.0,
+                p99_us: 70.0,
+            }],
             not_measured: vec!["sample-to-forecast-zenoh: no zenoh".into()],
             notes: vec!["stand-in".into()],
             load_avg_end: "0.00 0.00 0.00".into(),
@@ -349,7 +384,9 @@ mod tests {
     fn table_json_and_targets_state_what_was_measured() {
         let rep = report();
         let table = rep.table();
-        assert_eq!(table.lines().count(), 1 + 4 + 1);
+        // Header, four rows, the steps' title, header and row, and what was not measured.
+        assert_eq!(table.lines().count(), 1 + 4 + 4 + 1, "{table}");
+        assert!(table.contains("zenoh put"), "{table}");
         assert!(table.contains("not measured: sample-to-forecast-zenoh"));
         assert!(rep.header().contains("FAILED for ping"));
         assert!(rep.header().contains("note: stand-in"));

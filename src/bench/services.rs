@@ -148,6 +148,7 @@ pub fn measure(
     let (local, pin_l) = local?;
     let (remote, pin_z) = remote?;
     let stamps = stamps?;
+    out.add_stages(mode, &stamps.stages);
     out.add_pins([pin_prod, pin_pred, pin_l, pin_z]);
     let src = Source::Services;
     out.add(

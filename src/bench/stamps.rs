@@ -1,7 +1,9 @@
 //! Receive stamps of the predictor service (`shipcast predictor --bench-stamps`): for every
 //! MotionSample it takes from its subscriber, the service publishes `{seq, stamp_ns,
 //! received_ns}` on `<instance>/shipcast/<vessel>/bench/receive`, so the benchmark measures
-//! producer -> predictor through the real process.
+//! producer -> predictor through the real process. For a sample that completed a forecast, the
+//! stamp also says when each step of publishing it ended ([`PublishStages`]), so the report can
+//! show where the predictor's share of the forecast paths goes.
 //!
 //! The stamps go out without an event notification: nobody waits on them with low latency
 //! (the latency is inside the payload), and a notify would cost the predictor a system call
@@ -14,7 +16,7 @@ use iceoryx2::port::subscriber::Subscriber;
 use iceoryx2::prelude::*;
 use std::fmt::Debug;
 
-/// When the predictor took one MotionSample from its subscriber.
+/// When the predictor took one MotionSample from its subscriber, and what it did with it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, ZeroCopySend)]
 #[type_name("shipcast::ReceiveStamp")]
 #[repr(C)]
@@ -25,6 +27,51 @@ pub struct ReceiveStamp {
     pub stamp_ns: u64,
     /// CLOCK_MONOTONIC right after the sample was taken from the subscriber.
     pub received_ns: u64,
+    /// Set when this sample completed a forecast; all zero otherwise.
+    pub stages: PublishStages,
+}
+
+/// When each step of publishing one forecast ended (CLOCK_MONOTONIC, ns).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, ZeroCopySend)]
+#[type_name("shipcast::PublishStages")]
+#[repr(C)]
+pub struct PublishStages {
+    /// Forecast computed (`Forecast::issued_stamp_ns`).
+    pub issued_ns: u64,
+    /// Sent on iceoryx2, listeners notified.
+    pub local_sent_ns: u64,
+    /// JSON encoded.
+    pub encoded_ns: u64,
+    /// zenoh put returned.
+    pub zenoh_put_ns: u64,
+}
+
+/// The steps of the predictor's work on a sample that completes a forecast, in order.
+pub const STAGE_NAMES: [&str; 4] = [
+    "receive -> forecast computed (decimation, six-DOF forecast)",
+    "iceoryx2 send + notify",
+    "JSON encoding",
+    "zenoh put",
+];
+
+impl PublishStages {
+    /// Duration of each step of [`STAGE_NAMES`] after `received_ns`, or None if this sample
+    /// completed no forecast.
+    pub fn durations_ns(&self, received_ns: u64) -> Option<[u64; 4]> {
+        if self.issued_ns == 0 {
+            return None;
+        }
+        let marks = [
+            received_ns,
+            self.issued_ns,
+            self.local_sent_ns,
+            self.encoded_ns,
+            self.zenoh_put_ns,
+        ];
+        Some(std::array::from_fn(|i| {
+            marks[i + 1].saturating_sub(marks[i])
+        }))
+    }
 }
 
 /// Stamps a reader can hold between two drains (about 4 s at 1 kHz).
@@ -124,6 +171,8 @@ impl StampReader {
 pub struct StampTally {
     pub first_measured: u64,
     pub latency: LatencyRecorder,
+    /// Durations of the steps of [`STAGE_NAMES`], for measured samples that completed a forecast.
+    pub stages: [LatencyRecorder; 4],
     /// Measured samples missing between received ones (gaps in seq).
     pub lost: u64,
     last_seq: Option<u64>,
@@ -145,6 +194,11 @@ impl StampTally {
         self.lost += s.seq.saturating_sub(expected);
         self.last_seq = Some(s.seq);
         self.latency.record_between(s.stamp_ns, s.received_ns);
+        if let Some(durations) = s.stages.durations_ns(s.received_ns) {
+            for (rec, ns) in self.stages.iter_mut().zip(durations) {
+                rec.record_ns(ns);
+            }
+        }
     }
 
     /// Measured seqs seen or lost so far, for the row's expected count.
@@ -166,11 +220,27 @@ mod tests {
                 seq,
                 stamp_ns: 1_000,
                 received_ns: 1_250,
+                ..ReceiveStamp::default()
             });
         }
         // 10 (before 11), 13 and 14 are missing; 3 and 9 are warm-up.
         assert_eq!((t.latency.count(), t.lost, t.seen()), (3, 3, 6));
         assert_eq!(t.latency.quantile_ns(0.5), 250);
+        assert!(t.stages.iter().all(|r| r.count() == 0));
+        // A sample that completed a forecast: each step from the end of the one before.
+        t.record(&ReceiveStamp {
+            seq: 16,
+            stamp_ns: 1_000,
+            received_ns: 1_250,
+            stages: PublishStages {
+                issued_ns: 1_300,
+                local_sent_ns: 1_370,
+                encoded_ns: 1_450,
+                zenoh_put_ns: 1_540,
+            },
+        });
+        let p50: Vec<u64> = t.stages.iter().map(|r| r.quantile_ns(0.5)).collect();
+        assert_eq!(p50, [50, 70, 80, 90]);
     }
 
     #[test]
@@ -187,6 +257,7 @@ mod tests {
                     seq,
                     stamp_ns: 100 * seq,
                     received_ns: 100 * seq + 40,
+                    ..ReceiveStamp::default()
                 })
                 .unwrap();
         }
