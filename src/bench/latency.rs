@@ -13,8 +13,8 @@ use crate::predict::PredictorConfig;
 use crate::progress::Progress;
 
 /// How the shipcast paths were measured, stated in every report.
-pub const STAND_IN_NOTE: &str = "source 'services' = `shipcast producer` and `shipcast predictor` as child \
-processes pinned to the two cores, measured by consumers in this process, producer-to-predictor from the \
+pub const STAND_IN_NOTE: &str = "source 'services' = `shipcast producer` (pinned to the first core) and \
+`shipcast predictor` (its forecasting thread pinned to the second with --pin-core) as child processes, measured by consumers in this process, producer-to-predictor from the \
 receive stamps the predictor publishes with --bench-stamps; source 'in-process' = producer, \
 predictor and consumers as threads of this process over the same transport API, the predictor being the \
 bench's stand-in from the library parts (Decimator 8->2 Hz, MCA per DOF, Forecast payload), which also \
