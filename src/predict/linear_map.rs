@@ -6,6 +6,13 @@
 //! (`benches/predict.rs`) compares the two (MCA-800 on an AVX-512 VM: faer 4.4 us, loop 5.4 us
 //! per 50-step forecast). An f32 copy of the matrix halves the memory traffic for callers that
 //! accept single-precision arithmetic.
+//!
+//! Forecasts go through `apply_prepared`, which splits the product in two: the columns of all
+//! but the newest input, which `prepare` may compute ahead of time from values already known,
+//! and the newest input's column, added when that value arrives. A service that prepares right
+//! after publishing a forecast then has 50 multiply-adds to do when the next value arrives
+//! instead of the whole product. Both parts always run on the same internal buffers, so the
+//! result is the same bit for bit whether or not `prepare` ran.
 
 use faer::linalg::matmul::matmul;
 use faer::{Accum, ColMut, ColRef, MatRef, Par};
@@ -22,6 +29,12 @@ pub struct LinearMap {
     coef_f32: Vec<f32>,
     x_f32: Vec<f32>,
     out_f32: Vec<f32>,
+    /// Split forecasts: the inputs but the newest, as the product saw them ...
+    known: Vec<f64>,
+    /// ... and their part of the product.
+    partial: Vec<f64>,
+    /// True when `partial` was computed from `known` (by `prepare`).
+    prepared: bool,
 }
 
 /// What is stored in a model file: the f64 matrix only; the f32 copy and the scratch buffer
@@ -77,6 +90,9 @@ impl LinearMap {
             coef_f32,
             x_f32: vec![0.0; cols],
             out_f32: vec![0.0; rows],
+            known: vec![0.0; cols.saturating_sub(1)],
+            partial: vec![0.0; rows],
+            prepared: false,
         })
     }
 
@@ -109,6 +125,62 @@ impl LinearMap {
             Accum::Replace,
             m,
             ColRef::from_slice(&x[..self.cols]),
+            1.0,
+            Par::Seq,
+        );
+    }
+
+    /// Compute ahead the part of the next `apply_prepared` that depends on values already known:
+    /// `known` ends with the newest input so far, and the next call is expected with the last
+    /// `cols - 1` of them followed by one new value. Fewer than `cols - 1` known values prepare
+    /// nothing. Never allocates.
+    pub fn prepare(&mut self, known: &[f64]) {
+        let k = self.cols.saturating_sub(1);
+        let Some(start) = known.len().checked_sub(k) else {
+            self.prepared = false;
+            return;
+        };
+        self.known.copy_from_slice(&known[start..]);
+        self.product_of_known();
+        self.prepared = true;
+    }
+
+    /// `out[..rows] = M * x[..cols]` for forecasts: the prepared part when `prepare` saw the
+    /// same first `cols - 1` inputs (compared bit for bit), else both parts now; the result is
+    /// identical either way. Callers check the lengths. Never allocates.
+    pub fn apply_prepared(&mut self, x: &[f64], out: &mut [f64]) {
+        let k = self.cols.saturating_sub(1);
+        let same = self.prepared
+            && self
+                .known
+                .iter()
+                .zip(&x[..k])
+                .all(|(a, b)| a.to_bits() == b.to_bits());
+        if !same {
+            self.known.copy_from_slice(&x[..k]);
+            self.product_of_known();
+            self.prepared = true;
+        }
+        let newest = x[self.cols - 1];
+        for (r, (o, p)) in out[..self.rows].iter_mut().zip(&self.partial).enumerate() {
+            *o = p + self.coef[r * self.cols + k] * newest;
+        }
+    }
+
+    /// `partial = M[.., ..cols-1] * known`, always from the same buffers, so that the product
+    /// does not depend on where the caller's values happen to lie in memory.
+    fn product_of_known(&mut self) {
+        let k = self.cols.saturating_sub(1);
+        if k == 0 {
+            self.partial.fill(0.0);
+            return;
+        }
+        let m = MatRef::from_row_major_slice(&self.coef, self.rows, self.cols).subcols(0, k);
+        matmul(
+            ColMut::from_slice_mut(&mut self.partial),
+            Accum::Replace,
+            m,
+            ColRef::from_slice(&self.known),
             1.0,
             Par::Seq,
         );
@@ -182,6 +254,56 @@ mod tests {
         // 3 x 11: enough columns to use both the vector body and the tail of `dot`.
         let coef = (0..33).map(|i| (i as f64 * 0.37).sin()).collect();
         LinearMap::from_row_major(3, 11, coef).unwrap()
+    }
+
+    /// A forecast-sized map and a long input series.
+    fn forecast_sized() -> (LinearMap, Vec<f64>) {
+        let (rows, cols) = (50, 350);
+        let coef = (0..rows * cols)
+            .map(|i| ((i * 7919 % 1000) as f64 / 500.0 - 1.0) * 1e3)
+            .collect();
+        let series = (0..1200)
+            .map(|t| (0.11 * t as f64).sin() + 0.3 * (0.037 * t as f64).cos())
+            .collect();
+        (LinearMap::from_row_major(rows, cols, coef).unwrap(), series)
+    }
+
+    #[test]
+    fn prepared_forecasts_equal_unprepared_ones_bit_for_bit() {
+        let (map, series) = forecast_sized();
+        let (rows, cols) = (map.rows(), map.cols());
+        let (mut fresh, mut prepared, mut wrong) = (map.clone(), map.clone(), map.clone());
+        let (mut a, mut b, mut c) = (vec![0.0; rows], vec![0.0; rows], vec![0.0; rows]);
+        let mut direct = vec![0.0; rows];
+        for t in (cols..series.len()).step_by(37) {
+            let x = &series[t - cols..t];
+            fresh.prepared = false;
+            fresh.apply_prepared(x, &mut a);
+            // Prepared from the values before the newest, then given them at another address.
+            prepared.prepare(&series[..t - 1]);
+            let moved: Vec<f64> = x.to_vec();
+            prepared.apply_prepared(&moved, &mut b);
+            // Prepared for a different history: the mismatch is noticed.
+            wrong.prepare(&series[..t - 2]);
+            wrong.apply_prepared(x, &mut c);
+            for r in 0..rows {
+                assert_eq!(a[r].to_bits(), b[r].to_bits(), "t {t} row {r}");
+                assert_eq!(a[r].to_bits(), c[r].to_bits(), "t {t} row {r}");
+            }
+            map.apply(x, &mut direct);
+            for (d, e) in direct.iter().zip(&a) {
+                assert!((d - e).abs() <= 1e-9 * d.abs().max(1.0), "{d} vs {e}");
+            }
+        }
+    }
+
+    #[test]
+    fn a_single_column_map_has_nothing_to_prepare() {
+        let mut m = LinearMap::from_row_major(2, 1, vec![2.0, -3.0]).unwrap();
+        m.prepare(&[5.0]);
+        let mut out = [0.0; 2];
+        m.apply_prepared(&[4.0], &mut out);
+        assert_eq!(out, [8.0, -12.0]);
     }
 
     #[test]

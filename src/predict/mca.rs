@@ -470,11 +470,20 @@ impl Predictor for McaPredictor {
     fn forecast(&mut self, past: &[f64], out: &mut [f64]) -> Result<(), PredictError> {
         let model = self
             .model
-            .as_ref()
+            .as_mut()
             .ok_or(PredictError::NotFitted(Method::Mca))?;
         check_forecast_buffers(self.order, self.horizon, past, out)?;
         let n1 = self.order - self.horizon;
-        model.prediction.apply(&past[past.len() - n1..], out);
+        model
+            .prediction
+            .apply_prepared(&past[past.len() - n1..], out);
+        Ok(())
+    }
+
+    fn prepare(&mut self, known: &[f64]) -> Result<(), PredictError> {
+        if let Some(model) = self.model.as_mut() {
+            model.prediction.prepare(known);
+        }
         Ok(())
     }
 

@@ -201,6 +201,17 @@ pub trait Predictor: Send {
     /// Never allocates.
     fn forecast(&mut self, past: &[f64], out: &mut [f64]) -> Result<(), PredictError>;
 
+    /// Do now the part of the next forecast that depends only on values already known, so that
+    /// `forecast` has less to do once the next value arrives (the linear methods: all but one
+    /// column of their matrix product). `known` ends with the newest value observed; the next
+    /// `forecast` is expected on `known` plus one new value. `forecast` gives the same result,
+    /// bit for bit, whether or not this ran and whatever `known` held. Methods with nothing to
+    /// prepare ignore it. Never allocates.
+    fn prepare(&mut self, known: &[f64]) -> Result<(), PredictError> {
+        let _ = known;
+        Ok(())
+    }
+
     /// True if the method learns online from values observed after training.
     fn is_online(&self) -> bool {
         false
@@ -293,6 +304,9 @@ impl Predictor for AnyPredictor {
     }
     fn forecast(&mut self, past: &[f64], out: &mut [f64]) -> Result<(), PredictError> {
         self.inner_mut().forecast(past, out)
+    }
+    fn prepare(&mut self, known: &[f64]) -> Result<(), PredictError> {
+        self.inner_mut().prepare(known)
     }
     fn is_online(&self) -> bool {
         self.inner().is_online()

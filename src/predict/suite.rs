@@ -238,9 +238,38 @@ fn forecast_and_update_never_allocate() {
             for end in TRAIN..TRAIN + 20 {
                 p.update(&x[..end]).unwrap();
                 p.forecast(&x[end - ORDER..end], &mut out).unwrap();
+                p.prepare(&x[..end]).unwrap();
             }
         });
-        assert_eq!(allocations, 0, "{method} allocated in forecast/update");
+        assert_eq!(
+            allocations, 0,
+            "{method} allocated in forecast/update/prepare"
+        );
+    }
+}
+
+#[test]
+fn prepared_forecasts_are_bit_identical_to_unprepared_ones() {
+    let x = noisy_oscillation(TRAIN + 100, 7);
+    for method in Method::ALL {
+        let mut plain = fitted(method, &x[..TRAIN]);
+        let mut prepared = fitted(method, &x[..TRAIN]);
+        let (mut a, mut b) = (vec![0.0; HORIZON], vec![0.0; HORIZON]);
+        for end in TRAIN + 1..TRAIN + 60 {
+            plain.update(&x[..end]).unwrap();
+            prepared.update(&x[..end]).unwrap();
+            plain.forecast(&x[..end], &mut a).unwrap();
+            prepared.forecast(&x[..end], &mut b).unwrap();
+            let bits = |v: &[f64]| v.iter().map(|f| f.to_bits()).collect::<Vec<_>>();
+            assert_eq!(bits(&a), bits(&b), "{method} at {end}");
+            // Ready for the next value (every third time for a history that will not come).
+            let known = if end % 3 == 0 {
+                &x[..end - 1]
+            } else {
+                &x[..end]
+            };
+            prepared.prepare(known).unwrap();
+        }
     }
 }
 

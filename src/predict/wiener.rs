@@ -132,10 +132,17 @@ impl Predictor for WienerPredictor {
     fn forecast(&mut self, past: &[f64], out: &mut [f64]) -> Result<(), PredictError> {
         let map = self
             .coefficients
-            .as_ref()
+            .as_mut()
             .ok_or(PredictError::NotFitted(Method::Wiener))?;
         check_forecast_buffers(self.order, self.horizon, past, out)?;
-        map.apply(&past[past.len() - self.order..], out);
+        map.apply_prepared(&past[past.len() - self.order..], out);
+        Ok(())
+    }
+
+    fn prepare(&mut self, known: &[f64]) -> Result<(), PredictError> {
+        if let Some(map) = self.coefficients.as_mut() {
+            map.prepare(known);
+        }
         Ok(())
     }
 }
