@@ -249,6 +249,8 @@ fn predictor(
                 tally.received.record_between(sample.stamp_ns, received);
             }
             let Some(f) = step.push(&sample)? else {
+                // A sample that completes no forecast: the time to prepare the next one.
+                step.prepare_next()?;
                 continue;
             };
             if measured {

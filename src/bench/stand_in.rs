@@ -31,6 +31,8 @@ pub struct ForecastStep {
     horizon: usize,
     dt_s: f64,
     forecast: Forecast,
+    /// The models have prepared for the next decimated value.
+    prepared: bool,
 }
 
 /// Synthetic training motion: incommensurate swell components, different per DOF, so the MCA
@@ -73,6 +75,7 @@ impl ForecastStep {
             horizon,
             dt_s,
             forecast: Forecast::default(),
+            prepared: false,
         })
     }
 
@@ -97,6 +100,7 @@ impl ForecastStep {
         if !complete {
             return Ok(None);
         }
+        self.prepared = false;
         let f = &mut self.forecast;
         for (d, ch) in self.channels.iter_mut().enumerate() {
             let past = &ch.history[ch.history.len() - self.order..];
@@ -112,6 +116,20 @@ impl ForecastStep {
         f.dt_s = self.dt_s;
         f.steps = self.horizon as u32;
         Ok(Some(f))
+    }
+
+    /// Do ahead the part of the next forecast that the values so far determine, once per
+    /// forecast (as the predictor service does on a sample that completes no forecast; see
+    /// `Predictor::prepare`).
+    pub fn prepare_next(&mut self) -> anyhow::Result<()> {
+        if self.prepared {
+            return Ok(());
+        }
+        for ch in &mut self.channels {
+            ch.model.prepare(&ch.history)?;
+        }
+        self.prepared = true;
+        Ok(())
     }
 
     /// Samples per forecast.
