@@ -403,17 +403,11 @@ impl Service<'_> {
         self.retrainer.request(series, self.models.version + 1);
     }
 
-    /// Take a freshly trained model set if one is ready.
-    /// True when the models have not yet prepared for the next value.
-    fn prepare_pending(&self) -> bool {
-        self.prepared_for != Some((self.values_seen, self.models.version))
-    }
-
     /// Let every model do ahead the part of the next forecast that the history so far
     /// determines (`Predictor::prepare`); once per new value and model.
     fn prepare_next(&mut self) -> anyhow::Result<()> {
         let now = (self.values_seen, self.models.version);
-        if !self.prepare_pending() {
+        if self.prepared_for == Some(now) {
             return Ok(());
         }
         let order = self.models.order();
@@ -426,6 +420,7 @@ impl Service<'_> {
         Ok(())
     }
 
+    /// Take a freshly trained model set if one is ready.
     fn swap_models(&mut self) {
         if let Some(set) = self.retrainer.take() {
             if set.order() == self.models.order() && set.horizon() == self.models.horizon() {
