@@ -64,6 +64,11 @@ impl LatencyRecorder {
         }
     }
 
+    /// Latency at quantile `q` in [0, 1], in microseconds (0 if nothing was recorded).
+    pub fn quantile_us(&self, q: f64) -> f64 {
+        self.quantile_ns(q) as f64 / 1000.0
+    }
+
     /// The summary row. `expected` is how many latencies should have been recorded; the
     /// difference is reported as lost.
     pub fn stats(
@@ -74,21 +79,20 @@ impl LatencyRecorder {
         expected: u64,
         payload_bytes: usize,
     ) -> PathStats {
-        let us = |ns: u64| ns as f64 / 1000.0;
         PathStats {
             path: path.name(),
             mode: mode.name(),
             count: self.count(),
             lost: expected.saturating_sub(self.count()),
-            p50_us: us(self.quantile_ns(0.5)),
-            p90_us: us(self.quantile_ns(0.9)),
-            p99_us: us(self.quantile_ns(0.99)),
-            p999_us: us(self.quantile_ns(0.999)),
-            max_us: us(if self.hist.is_empty() {
-                0
+            p50_us: self.quantile_us(0.5),
+            p90_us: self.quantile_us(0.9),
+            p99_us: self.quantile_us(0.99),
+            p999_us: self.quantile_us(0.999),
+            max_us: if self.hist.is_empty() {
+                0.0
             } else {
-                self.hist.max()
-            }),
+                self.hist.max() as f64 / 1000.0
+            },
             payload_bytes,
             source: source.name(),
         }
@@ -104,7 +108,7 @@ impl LatencyRecorder {
             .map(|i| {
                 let nines = max_nines * i as f64 / points as f64;
                 let q = 1.0 - 10f64.powf(-nines);
-                (nines, self.quantile_ns(q) as f64 / 1000.0)
+                (nines, self.quantile_us(q))
             })
             .collect();
         curve.push((max_nines + 0.5, self.hist.max() as f64 / 1000.0));

@@ -6,7 +6,7 @@ use super::machine::Machine;
 use super::pingpong::PingPongOutcome;
 use super::plan::{Mode, Path, Plan, Source};
 use super::report::{Curve, LatencyReport, StageStats};
-use super::stamps::STAGE_NAMES;
+use super::stamps::{STAGES, STAGE_NAMES};
 use super::{pingpong_iox, pingpong_zenoh, pingpong_zenoh_processes};
 use crate::payload::{Forecast, MotionSample, MAX_STEPS, NUM_DOF};
 use crate::predict::PredictorConfig;
@@ -73,7 +73,7 @@ pub struct ReportBuilder {
     report: LatencyReport,
     rows: Vec<RowData>,
     /// The predictor's steps per mode, over the rounds so far.
-    stages: Vec<(Mode, [LatencyRecorder; 4])>,
+    stages: Vec<(Mode, [LatencyRecorder; STAGES])>,
 }
 
 impl ReportBuilder {
@@ -101,7 +101,7 @@ impl ReportBuilder {
     }
 
     /// Add one round's durations of the predictor's steps (see [`STAGE_NAMES`]).
-    pub fn add_stages(&mut self, mode: Mode, stages: &[LatencyRecorder; 4]) {
+    pub fn add_stages(&mut self, mode: Mode, stages: &[LatencyRecorder; STAGES]) {
         match self.stages.iter_mut().find(|(m, _)| *m == mode) {
             Some((_, acc)) => acc.iter_mut().zip(stages).for_each(|(a, b)| a.merge(b)),
             None => self.stages.push((mode, stages.clone())),
@@ -194,14 +194,13 @@ impl ReportBuilder {
         }
         for (mode, stages) in &self.stages {
             for (stage, rec) in STAGE_NAMES.iter().zip(stages) {
-                let us = |q: f64| rec.quantile_ns(q) as f64 / 1000.0;
                 self.report.stages.push(StageStats {
                     mode: mode.name(),
                     stage,
                     count: rec.count(),
-                    p50_us: us(0.5),
-                    p90_us: us(0.9),
-                    p99_us: us(0.99),
+                    p50_us: rec.quantile_us(0.5),
+                    p90_us: rec.quantile_us(0.9),
+                    p99_us: rec.quantile_us(0.99),
                 });
             }
         }

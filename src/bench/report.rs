@@ -55,28 +55,19 @@ pub struct LatencyReport {
 }
 
 impl LatencyReport {
-    /// The first row of `path` in `mode` (rows of the service processes come before the
-    /// in-process ones); for raw paths, the one with the given payload size.
-    pub fn row(&self, path: Path, mode: Mode, payload_bytes: Option<usize>) -> Option<&PathStats> {
-        self.rows.iter().find(|r| {
-            r.path == path.name()
-                && r.mode == mode.name()
-                && payload_bytes.is_none_or(|b| r.payload_bytes == b)
-        })
-    }
-
-    /// The row of `path` in `mode` measured by `source`, with the given payload size if any.
-    pub fn row_from(
+    /// The first row of `path` in `mode` from `source` (any source: rows of the service
+    /// processes come before the in-process ones), with the given payload size if any.
+    pub fn row(
         &self,
         path: Path,
         mode: Mode,
-        source: Source,
+        source: Option<Source>,
         payload_bytes: Option<usize>,
     ) -> Option<&PathStats> {
         self.rows.iter().find(|r| {
             r.path == path.name()
                 && r.mode == mode.name()
-                && r.source == source.name()
+                && source.is_none_or(|src| r.source == src.name())
                 && payload_bytes.is_none_or(|b| r.payload_bytes == b)
         })
     }
@@ -168,7 +159,7 @@ impl LatencyReport {
     /// The targets of issue 6 that this run can judge, as ratios of p99 values.
     pub fn targets(&self, motion_bytes: usize, forecast_bytes: usize, json_bytes: usize) -> String {
         let mut s = String::new();
-        let local = |mode| self.row(Path::SampleToForecastLocal, mode, None);
+        let local = |mode| self.row(Path::SampleToForecastLocal, mode, None, None);
         if let Some(r) = local(Mode::Poll) {
             let _ = writeln!(
                 s,
@@ -180,8 +171,8 @@ impl LatencyReport {
         }
         if let (Some(r), Some(m), Some(f)) = (
             local(Mode::Event),
-            self.row(Path::Iceoryx2Raw, Mode::Event, Some(motion_bytes)),
-            self.row(Path::Iceoryx2Raw, Mode::Event, Some(forecast_bytes)),
+            self.row(Path::Iceoryx2Raw, Mode::Event, None, Some(motion_bytes)),
+            self.row(Path::Iceoryx2Raw, Mode::Event, None, Some(forecast_bytes)),
         ) {
             let floor = m.p99_us + f.p99_us;
             let _ = writeln!(
@@ -206,9 +197,13 @@ impl LatencyReport {
                 ),
                 (Source::InProcess, Source::Raw, "between two threads"),
             ] {
-                let path = self.row_from(Path::SampleToForecastZenoh, mode, source, None);
-                let floor =
-                    self.row_from(Path::ZenohRaw, Mode::Event, floor_source, Some(json_bytes));
+                let path = self.row(Path::SampleToForecastZenoh, mode, Some(source), None);
+                let floor = self.row(
+                    Path::ZenohRaw,
+                    Mode::Event,
+                    Some(floor_source),
+                    Some(json_bytes),
+                );
                 if let (Some(r), Some(z)) = (path, floor) {
                     let _ = writeln!(
                         s,
@@ -222,7 +217,7 @@ impl LatencyReport {
                     );
                     // In event mode the path also contains the predictor's own wake-up, which
                     // the zenoh ping-pong does not: state the ratio with it in the floor too.
-                    let wake = self.row(Path::Iceoryx2Raw, Mode::Event, Some(motion_bytes));
+                    let wake = self.row(Path::Iceoryx2Raw, Mode::Event, None, Some(motion_bytes));
                     if let (Mode::Event, Some(w)) = (mode, wake) {
                         let floor = z.p99_us + w.p99_us;
                         let _ = writeln!(

@@ -46,8 +46,11 @@ pub struct PublishStages {
     pub zenoh_put_ns: u64,
 }
 
+/// Number of steps in [`PublishStages`].
+pub const STAGES: usize = 4;
+
 /// The steps of the predictor's work on a sample that completes a forecast, in order.
-pub const STAGE_NAMES: [&str; 4] = [
+pub const STAGE_NAMES: [&str; STAGES] = [
     "receive -> forecast computed (decimation, six-DOF forecast)",
     "iceoryx2 send + notify",
     "JSON encoding",
@@ -57,7 +60,7 @@ pub const STAGE_NAMES: [&str; 4] = [
 impl PublishStages {
     /// Duration of each step of [`STAGE_NAMES`] after `received_ns`, or None if this sample
     /// completed no forecast.
-    pub fn durations_ns(&self, received_ns: u64) -> Option<[u64; 4]> {
+    pub fn durations_ns(&self, received_ns: u64) -> Option<[u64; STAGES]> {
         if self.issued_ns == 0 {
             return None;
         }
@@ -172,7 +175,7 @@ pub struct StampTally {
     pub first_measured: u64,
     pub latency: LatencyRecorder,
     /// Durations of the steps of [`STAGE_NAMES`], for measured samples that completed a forecast.
-    pub stages: [LatencyRecorder; 4],
+    pub stages: [LatencyRecorder; STAGES],
     /// Measured samples missing between received ones (gaps in seq).
     pub lost: u64,
     last_seq: Option<u64>,
