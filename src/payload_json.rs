@@ -59,13 +59,13 @@ pub const MAX_JSON_LEN: usize = 160 + 4 * MAX_U64_LEN + 2 * MAX_F64_LEN + 2 * 10
 pub struct ForecastJsonEncoder {
     /// The encoded forecast; capacity MAX_JSON_LEN.
     out: Vec<u8>,
-    /// Cached `,"sigma":[...]` text; capacity MAX_SIGMA_LEN. Valid if `sigma_cached`.
+    /// Cached `,"sigma":[...]` text; capacity MAX_SIGMA_LEN. Empty until the first forecast
+    /// (a cached text always starts with the key).
     sigma_json: Vec<u8>,
     /// Bit patterns of the sigma values `sigma_json` was made from; the first `sigma_steps` of
     /// each row are meaningful.
     sigma_bits: Box<[[u32; MAX_STEPS]; NUM_DOF]>,
     sigma_steps: usize,
-    sigma_cached: bool,
     /// Times the sigma part was formatted rather than copied (for the tests).
     sigma_misses: u64,
 }
@@ -85,7 +85,6 @@ impl ForecastJsonEncoder {
             sigma_json: Vec::with_capacity(MAX_SIGMA_LEN),
             sigma_bits: Box::new([[0; MAX_STEPS]; NUM_DOF]),
             sigma_steps: 0,
-            sigma_cached: false,
             sigma_misses: 0,
         }
     }
@@ -125,7 +124,6 @@ impl ForecastJsonEncoder {
                 }
             }
             self.sigma_steps = steps;
-            self.sigma_cached = true;
             self.sigma_misses += 1;
         }
         self.out.extend_from_slice(&self.sigma_json);
@@ -136,7 +134,7 @@ impl ForecastJsonEncoder {
     /// True if the cached sigma text was made from the same `steps` and bitwise the same valid
     /// sigma values as `f`'s.
     fn sigma_cache_matches(&self, f: &Forecast, steps: usize) -> bool {
-        self.sigma_cached
+        !self.sigma_json.is_empty()
             && self.sigma_steps == steps
             && self.sigma_bits.iter().zip(&f.sigma).all(|(bits, row)| {
                 // Branch-free within a row, so the comparison vectorises.
