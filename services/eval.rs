@@ -1,14 +1,14 @@
 //! `shipcast eval`: the evaluation protocol (DESIGN.md section 4) on a motion CSV, as a table or
 //! one JSON object per (dof, method) line.
 
+use crate::progress;
 use anyhow::Context;
-use indicatif::{ProgressBar, ProgressStyle};
 use shipcast::eval::{self, report, Entry, EvalSettings};
 use shipcast::motion_csv::MotionData;
 use shipcast::predict::{McaWeighting, Method, PredictorConfig};
 use shipcast::signal;
 use shipcast::Dof;
-use std::io::{IsTerminal, Write};
+use std::io::Write;
 use std::path::{Path, PathBuf};
 
 /// Predictor options shared by `eval` and `train`; defaults are the paper's
@@ -140,19 +140,6 @@ pub fn load_resampled(path: &Path, sample_rate: f64) -> anyhow::Result<MotionDat
     Ok(resampled)
 }
 
-fn progress_bar(total: u64) -> ProgressBar {
-    if !std::io::stderr().is_terminal() {
-        return ProgressBar::hidden();
-    }
-    let bar = ProgressBar::new(total);
-    if let Ok(style) =
-        ProgressStyle::with_template("{msg:>23} [{bar:40}] {pos}/{len} forecasts, eta {eta}")
-    {
-        bar.set_style(style.progress_chars("=> "));
-    }
-    bar
-}
-
 pub fn run(args: Args) -> anyhow::Result<()> {
     let methods = parse_methods(&args.method)?;
     let data = load_resampled(&args.input, args.sample_rate)?;
@@ -166,7 +153,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         seed: args.seed,
     };
     let per_pair = eval::origin_count(data.len(), &config, &settings)?;
-    let bar = progress_bar((per_pair * dofs.len() * methods.len()) as u64);
+    let bar = progress::styled(
+        (per_pair * dofs.len() * methods.len()) as u64,
+        "{msg:>23} [{bar:40}] {pos}/{len} forecasts, eta {eta}",
+    );
 
     let mut stdout = std::io::stdout().lock();
     let mut write_error = None;

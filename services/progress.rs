@@ -8,19 +8,26 @@ use std::io::IsTerminal;
 /// A bar with elapsed time, position and the job just finished.
 pub struct Bar(ProgressBar);
 
+/// A bar of `len` steps drawn on stderr with `template`, or a hidden one when stderr is not a
+/// terminal (logs and CI output stay clean).
+pub fn styled(len: u64, template: &str) -> ProgressBar {
+    if !std::io::stderr().is_terminal() {
+        return ProgressBar::hidden();
+    }
+    let bar = ProgressBar::new(len);
+    // The templates are constants; should one ever fail to parse, the default style remains.
+    if let Ok(style) = ProgressStyle::with_template(template) {
+        bar.set_style(style.progress_chars("=> "));
+    }
+    bar
+}
+
 impl Bar {
     pub fn new() -> Self {
-        if !std::io::stderr().is_terminal() {
-            return Self(ProgressBar::hidden());
-        }
-        let bar = ProgressBar::new(0);
-        // The template is a constant; should it ever fail to parse, the default style remains.
-        if let Ok(style) =
-            ProgressStyle::with_template("{elapsed_precise} [{bar:30}] {pos}/{len} {wide_msg}")
-        {
-            bar.set_style(style.progress_chars("=> "));
-        }
-        Self(bar)
+        Self(styled(
+            0,
+            "{elapsed_precise} [{bar:30}] {pos}/{len} {wide_msg}",
+        ))
     }
 
     pub fn finish(&self) {
