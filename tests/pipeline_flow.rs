@@ -4,7 +4,7 @@
 
 mod pipeline_support;
 
-use pipeline_support::{counter, run_ok, TestPipeline};
+use pipeline_support::{collect_forecasts, counter, run_ok, TestPipeline};
 use shipcast::model::ModelFile;
 use shipcast::motion_csv::MotionData;
 use shipcast::payload::{Forecast, MotionSample};
@@ -164,15 +164,8 @@ fn service_forecasts_equal_the_eval_predictor_for_the_same_model_and_history() {
         "producer",
         &["--input", &s(&replay_csv), "--wait-subscriber-s", "30"],
     );
-    let mut got = Vec::new();
-    let deadline = Instant::now() + Duration::from_secs(60);
     // 150 s at 8 Hz: 1200 samples -> 296 values at 2 Hz -> 197 forecasts.
-    while got.len() < 197 && Instant::now() < deadline {
-        forecasts.wait(Duration::from_millis(50)).unwrap();
-        while let Some(f) = forecasts.receive().unwrap() {
-            got.push(f);
-        }
-    }
+    let got = collect_forecasts(&forecasts, 197);
     assert!(producer.wait_exit().success());
     assert_eq!(got.len(), 197, "forecasts received");
 
@@ -235,15 +228,8 @@ fn retrained_models_are_swapped_in_without_a_missed_forecast() {
         "producer",
         &["--record-s", "900", "--wait-subscriber-s", "30"],
     );
-    let mut got: Vec<Forecast> = Vec::new();
     // 900 s at 8 Hz: 7200 samples -> 1796 values at 2 Hz -> 1697 forecasts.
-    let deadline = Instant::now() + Duration::from_secs(60);
-    while got.len() < 1697 && Instant::now() < deadline {
-        forecasts.wait(Duration::from_millis(50)).unwrap();
-        while let Some(f) = forecasts.receive().unwrap() {
-            got.push(f);
-        }
-    }
+    let got = collect_forecasts(&forecasts, 1697);
     assert!(producer.wait_exit().success());
     assert!(predictor.terminate().success());
     assert_eq!(got.len(), 1697, "a forecast was missed");

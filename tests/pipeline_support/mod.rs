@@ -270,3 +270,20 @@ pub fn run_ok(args: &[&str]) {
         String::from_utf8_lossy(&out.stderr)
     );
 }
+
+/// Receive forecasts on `sub` until `n` arrived or [`PATIENCE`] ran out; the caller asserts on
+/// what came.
+pub fn collect_forecasts(
+    sub: &shipcast::transport::iox::IoxSubscriber<shipcast::payload::Forecast>,
+    n: usize,
+) -> Vec<shipcast::payload::Forecast> {
+    let mut got = Vec::with_capacity(n);
+    let deadline = Instant::now() + PATIENCE;
+    while got.len() < n && Instant::now() < deadline {
+        sub.wait(Duration::from_millis(50)).unwrap();
+        while let Some(f) = sub.receive().unwrap() {
+            got.push(f);
+        }
+    }
+    got
+}
