@@ -1,6 +1,7 @@
 //! shipcast's forecast paths measured through the real services: `shipcast predictor` (its
 //! forecasting thread pinned to the second core) and `shipcast producer` (pinned to the first)
-//! run as child processes under a unique instance, with the measuring consumers of [`super::consumers`] in this process.
+//! run as child processes under a unique instance, with the measuring consumers of
+//! [`super::consumers`] in this process.
 //!
 //! The predictor needs `order` values of 2 Hz history before its first forecast: the producer
 //! backfills that much record at high speed (`--backfill-s`), then paces at the plan's rate
