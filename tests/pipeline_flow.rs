@@ -34,11 +34,7 @@ fn ten_simulated_minutes_at_100x_flow_without_gaps_over_both_transports() {
     let forecasts =
         IoxSubscriber::<Forecast>::new(&node, &names.forecast(), Sizing::FORECAST, WaitMode::Event)
             .unwrap();
-    let session = zn::open(&shipcast::transport::zenoh::ZenohSettings {
-        connect: vec![p.endpoint.clone()],
-        ..Default::default()
-    })
-    .unwrap();
+    let session = zn::open(&zn::ZenohSettings::connect_to(&p.endpoint)).unwrap();
     let zenoh_forecasts = LatestSubscriber::new(&session, &names.forecast()).unwrap();
 
     let mut producer = p.spawn(

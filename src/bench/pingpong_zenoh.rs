@@ -6,8 +6,8 @@
 use super::consumers::SPIN_SLICE;
 use super::pingpong::{self, Endpoint, PingPongOutcome};
 use super::plan::{Mode, Plan};
-use crate::transport::zenoh::{open, ZenohSettings};
-use anyhow::{anyhow, Context};
+use crate::transport::zenoh::{free_loopback_endpoint, open, ZenohSettings};
+use anyhow::anyhow;
 use std::time::{Duration, Instant};
 use zenoh::handlers::FifoChannelHandler;
 use zenoh::pubsub::{Publisher, Subscriber};
@@ -16,15 +16,6 @@ use zenoh::{Session, Wait};
 
 /// Bytes of the header every ping-pong message starts with: seq and stamp, little endian.
 const HEADER: usize = 16;
-
-/// A free TCP port on 127.0.0.1 (the OS picks one; released before zenoh binds it).
-pub fn free_port() -> anyhow::Result<u16> {
-    let listener = std::net::TcpListener::bind("127.0.0.1:0").context("find a free TCP port")?;
-    Ok(listener
-        .local_addr()
-        .context("find a free TCP port")?
-        .port())
-}
 
 pub(crate) struct ZenohEndpoint {
     publisher: Publisher<'static>,
@@ -122,17 +113,9 @@ impl Endpoint for ZenohEndpoint {
 
 /// Ping-pong messages of `bytes` bytes over zenoh between the plan's two cores in `mode`.
 pub fn run(plan: &Plan, mode: Mode, bytes: usize) -> anyhow::Result<PingPongOutcome> {
-    let endpoint = format!("tcp/127.0.0.1:{}", free_port()?);
-    let listen = open(&ZenohSettings {
-        listen: vec![endpoint.clone()],
-        connect: Vec::new(),
-        multicast_scouting: false,
-    })?;
-    let connect = open(&ZenohSettings {
-        listen: Vec::new(),
-        connect: vec![endpoint],
-        multicast_scouting: false,
-    })?;
+    let endpoint = free_loopback_endpoint()?;
+    let listen = open(&ZenohSettings::listen_on(&endpoint))?;
+    let connect = open(&ZenohSettings::connect_to(&endpoint))?;
     let prefix = format!("{}/zenoh-{bytes}-{}", plan.instance, mode.name());
     let ping_key = format!("{prefix}/ping");
     let pong_key = format!("{prefix}/pong");

@@ -13,12 +13,12 @@
 
 use super::children::Children;
 use super::pingpong::{ping_loop, Endpoint, PingPongOutcome, HANDSHAKE, POLL_SLICE};
-use super::pingpong_zenoh::{free_port, ZenohEndpoint};
+use super::pingpong_zenoh::ZenohEndpoint;
 use super::pinning::{pin_current, PinOutcome};
 use super::plan::{Mode, Plan};
 use crate::bench::histogram::LatencyRecorder;
 use crate::transport::monotonic_ns;
-use crate::transport::zenoh::{open, ZenohSettings};
+use crate::transport::zenoh::{free_loopback_endpoint, open, ZenohSettings};
 use anyhow::{anyhow, Context};
 use std::io::Write as _;
 use std::path::{Path as FsPath, PathBuf};
@@ -74,11 +74,7 @@ impl PongArgs {
 /// The pong process: connect, answer every ping, record the ping leg of measured exchanges, and
 /// on [`STOP`] write them to `args.out`.
 pub fn serve_pong(args: &PongArgs) -> anyhow::Result<()> {
-    let session = open(&ZenohSettings {
-        listen: Vec::new(),
-        connect: vec![args.connect.clone()],
-        multicast_scouting: false,
-    })?;
+    let session = open(&ZenohSettings::connect_to(&args.connect))?;
     // Pinned after the session exists: zenoh's own threads keep every core, as in the services.
     let pin = pin_current("zenoh pong process", args.core);
     let (ping_key, pong_key) = keys(&args.prefix);
@@ -148,12 +144,8 @@ fn read_legs(path: &FsPath) -> anyhow::Result<(bool, LatencyRecorder)> {
 /// Ping-pong `bytes`-byte messages over zenoh with a `shipcast bench zenoh-pong` child (the
 /// executable `exe`) in `mode`.
 pub fn run(plan: &Plan, mode: Mode, bytes: usize, exe: &FsPath) -> anyhow::Result<PingPongOutcome> {
-    let endpoint = format!("tcp/127.0.0.1:{}", free_port()?);
-    let session = open(&ZenohSettings {
-        listen: vec![endpoint.clone()],
-        connect: Vec::new(),
-        multicast_scouting: false,
-    })?;
+    let endpoint = free_loopback_endpoint()?;
+    let session = open(&ZenohSettings::listen_on(&endpoint))?;
     let dir = std::env::temp_dir();
     let tag = format!("{}-zenoh-pong-{bytes}-{}", plan.instance, mode.name());
     let args = PongArgs {

@@ -10,14 +10,13 @@
 use super::consumers::{self, ConsumerTally, Shared, CONSUMERS};
 use super::histogram::LatencyRecorder;
 use super::latency::{forecast_json_bytes, ReportBuilder, FORECAST_BYTES, MOTION_BYTES};
-use super::pingpong_zenoh::free_port;
 use super::pinning::{pin_current, PinOutcome};
 use super::plan::{Mode, Pacer, Path, Plan, Source};
 use super::stand_in::{swell, ForecastStep, RECORD_RATE_HZ};
 use crate::payload::{Forecast, MotionSample};
 use crate::payload_json::ForecastJsonEncoder;
 use crate::transport::iox::{self, IoxPublisher, IoxSubscriber, Sizing};
-use crate::transport::zenoh::{open, JsonPublisher, ZenohSettings};
+use crate::transport::zenoh::{free_loopback_endpoint, open, JsonPublisher, ZenohSettings};
 use crate::transport::{monotonic_ns, Names};
 use anyhow::{anyhow, Context};
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -52,21 +51,12 @@ struct Run<'a> {
 pub fn zenoh_pair(
     listen: bool,
 ) -> anyhow::Result<(String, Option<zenoh::Session>, zenoh::Session)> {
-    let endpoint = format!("tcp/127.0.0.1:{}", free_port()?);
-    let listener = if listen {
-        Some(open(&ZenohSettings {
-            listen: vec![endpoint.clone()],
-            connect: Vec::new(),
-            multicast_scouting: false,
-        })?)
-    } else {
-        None
+    let endpoint = free_loopback_endpoint()?;
+    let listener = match listen {
+        true => Some(open(&ZenohSettings::listen_on(&endpoint))?),
+        false => None,
     };
-    let connector = open(&ZenohSettings {
-        listen: Vec::new(),
-        connect: vec![endpoint.clone()],
-        multicast_scouting: false,
-    })?;
+    let connector = open(&ZenohSettings::connect_to(&endpoint))?;
     Ok((endpoint, listener, connector))
 }
 

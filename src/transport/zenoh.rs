@@ -39,6 +39,34 @@ pub struct ZenohSettings {
     pub multicast_scouting: bool,
 }
 
+impl ZenohSettings {
+    /// Listen on `endpoint` only, scouting off (the bench and tests on loopback).
+    pub fn listen_on(endpoint: &str) -> Self {
+        Self {
+            listen: vec![endpoint.to_string()],
+            ..Self::default()
+        }
+    }
+
+    /// Connect to `endpoint` only, scouting off.
+    pub fn connect_to(endpoint: &str) -> Self {
+        Self {
+            connect: vec![endpoint.to_string()],
+            ..Self::default()
+        }
+    }
+}
+
+/// A TCP endpoint on 127.0.0.1 with a port that is free now (the OS picks it; it is released
+/// before zenoh binds it), e.g. `tcp/127.0.0.1:40123`.
+pub fn free_loopback_endpoint() -> Result<String, ZenohError> {
+    let port = std::net::TcpListener::bind("127.0.0.1:0")
+        .and_then(|l| l.local_addr())
+        .map_err(err("find a free TCP port on 127.0.0.1"))?
+        .port();
+    Ok(format!("tcp/127.0.0.1:{port}"))
+}
+
 /// Open a peer session with exactly the configured endpoints.
 pub fn open(settings: &ZenohSettings) -> Result<Session, ZenohError> {
     let mut config = zenoh::Config::default();
@@ -187,30 +215,13 @@ impl LivelinessWatch {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use std::net::TcpListener;
     use std::time::Instant;
-
-    fn free_port() -> u16 {
-        TcpListener::bind("127.0.0.1:0")
-            .unwrap()
-            .local_addr()
-            .unwrap()
-            .port()
-    }
 
     #[test]
     fn json_flows_between_two_peers_on_explicit_endpoints() {
-        let endpoint = format!("tcp/127.0.0.1:{}", free_port());
-        let a = open(&ZenohSettings {
-            listen: vec![endpoint.clone()],
-            ..ZenohSettings::default()
-        })
-        .unwrap();
-        let b = open(&ZenohSettings {
-            connect: vec![endpoint],
-            ..ZenohSettings::default()
-        })
-        .unwrap();
+        let endpoint = free_loopback_endpoint().unwrap();
+        let a = open(&ZenohSettings::listen_on(&endpoint)).unwrap();
+        let b = open(&ZenohSettings::connect_to(&endpoint)).unwrap();
         let key = format!("unit-{}/shipcast/x/forecast", std::process::id());
         let sub = LatestSubscriber::new(&b, &key).unwrap();
         let watch = LivelinessWatch::new(&b, &format!("{key}/alive")).unwrap();

@@ -5,7 +5,6 @@
 #![allow(dead_code)]
 
 use std::io::{BufRead, BufReader};
-use std::net::TcpListener;
 use std::path::PathBuf;
 use std::process::{Child, Command, Stdio};
 use std::sync::{Arc, Mutex};
@@ -25,13 +24,6 @@ pub fn unique_instance(tag: &str) -> String {
     format!("t{tag}-{}-{nanos}", std::process::id())
 }
 
-pub fn free_port() -> u16 {
-    TcpListener::bind("127.0.0.1:0")
-        .and_then(|l| l.local_addr())
-        .map(|a| a.port())
-        .expect("a free TCP port")
-}
-
 /// A pipeline config for tests: small order, fast start-up training, no scouting, explicit
 /// loopback endpoint on a free port.
 pub struct TestPipeline {
@@ -45,7 +37,7 @@ impl TestPipeline {
     pub fn new(tag: &str, extra_toml: &str) -> Self {
         let dir = tempfile::tempdir().expect("temp dir");
         let instance = unique_instance(tag);
-        let endpoint = format!("tcp/127.0.0.1:{}", free_port());
+        let endpoint = shipcast::transport::zenoh::free_loopback_endpoint().expect("a free port");
         let text = format!(
             "instance = \"{instance}\"\n{extra_toml}\n[zenoh]\nlisten = [\"{endpoint}\"]\nmulticast_scouting = false\n"
         );
