@@ -13,6 +13,7 @@ mod paper;
 mod predictor;
 mod producer;
 mod progress;
+mod replay;
 mod run;
 mod simulate;
 mod train;
@@ -35,6 +36,8 @@ enum Command {
     Train(train::Args),
     /// Regenerate the paper's tables and figures (section 4 of Zhao, Xu, Kwan).
     Paper(paper::Args),
+    /// Run the predictor's engine over a recorded motion CSV and score every forecast.
+    Replay(replay::Args),
     /// Start the whole pipeline (producer, predictor, deck, crane) as separate processes.
     Run(run::Args),
     /// Publish motion samples over iceoryx2 (simulator or CSV replay).
@@ -57,6 +60,7 @@ fn main() -> ExitCode {
         Command::Eval(a) => eval::run(a),
         Command::Train(a) => train::run(a),
         Command::Paper(a) => paper::run(a),
+        Command::Replay(a) => replay::run(a),
         Command::Run(a) => run::run(a),
         Command::Producer(a) => producer::run(a),
         Command::Predictor(a) => predictor::run(a),

@@ -7,6 +7,7 @@
 //! - [`signal`]: resampling (anti-alias low-pass, decimation).
 //! - [`predict`]: the [`predict::Predictor`] trait and MCA, Wiener, AR-LMS, MLP and baselines.
 //! - [`eval`]: the evaluation protocol (DESIGN.md 4).
+//! - [`engine`]: the forecasting engine the predictor service and `shipcast replay` drive.
 //! - [`model`]: model files (per-DOF fitted predictors and held-out sigma).
 //! - [`sim`]: the ship-motion simulator (sea spectra, RAOs, time series).
 //! - [`paper`]: the paper study (`shipcast paper`).
@@ -46,6 +47,7 @@ pub mod config;
 pub mod crane;
 pub mod deck;
 pub mod dof;
+pub mod engine;
 pub mod eval;
 pub mod model;
 pub mod motion_csv;

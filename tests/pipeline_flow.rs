@@ -1,19 +1,18 @@
 //! End-to-end flow of the real processes: motion over iceoryx2 without gaps, forecasts over
-//! iceoryx2 and zenoh, and forecasts identical to what the evaluation's predictor computes
-//! from the same model and history.
+//! iceoryx2 and zenoh, forecasts identical to what `shipcast replay` computes from the same
+//! record and model, and retraining without a missed forecast.
 
 mod pipeline_support;
 
 use pipeline_support::{collect_forecasts, counter, run_ok, TestPipeline};
-use shipcast::model::ModelFile;
+use shipcast::config::PipelineConfig;
+use shipcast::engine::replay::replay;
+use shipcast::engine::startup::initial_models;
 use shipcast::motion_csv::MotionData;
 use shipcast::payload::{Forecast, MotionSample};
-use shipcast::predict::Predictor;
-use shipcast::signal::decimate;
 use shipcast::transport::iox::{self, IoxSubscriber, Sizing, WaitMode};
 use shipcast::transport::zenoh::{self as zn, LatestSubscriber};
 use shipcast::transport::{Counters, SeqTracker};
-use shipcast::Dof;
 use std::collections::HashMap;
 use std::time::{Duration, Instant};
 
@@ -80,8 +79,9 @@ fn ten_simulated_minutes_at_100x_flow_without_gaps_over_both_transports() {
     assert_eq!(counter(&stopped, "received"), 4800, "{stopped}");
     assert_eq!(counter(&stopped, "lost"), 0, "{stopped}");
     assert_eq!(counter(&stopped, "rejected"), 0, "{stopped}");
-    // 4800 samples -> (4800 - 17) / 4 + 1 = 1196 values at 2 Hz; forecasts from value 100 on.
-    assert_eq!(counter(&stopped, "published"), 1196 - 99, "{stopped}");
+    // 4800 samples -> (4800 - 17) / 4 + 1 = 1196 values at 2 Hz; forecasts from value 60 on
+    // (the engine's MIN_VALUES_TO_PUBLISH: the live RMS behind a no-skill sigma needs them).
+    assert_eq!(counter(&stopped, "published"), 1196 - 59, "{stopped}");
 
     assert!(!by_iox.is_empty() && !by_zenoh.is_empty());
     let common: Vec<u64> = by_zenoh
@@ -100,10 +100,11 @@ fn ten_simulated_minutes_at_100x_flow_without_gaps_over_both_transports() {
     }
 }
 
-/// The predictor service, given a model file from `shipcast train`, forecasts exactly what the
-/// library predictor computes from the evaluation's decimation of the same record.
+/// The predictor service, given a model file from `shipcast train`, delivers exactly the
+/// forecasts that `shipcast replay` computes from the same record, model and configuration: the
+/// same engine code, bit for bit (verification and recalibration included).
 #[test]
-fn service_forecasts_equal_the_eval_predictor_for_the_same_model_and_history() {
+fn service_forecasts_equal_replay_bit_for_bit_for_the_same_record_and_model() {
     let p = TestPipeline::new("equal", "[producer]\nspeed = 50.0\nbackfill_s = 0.0\n");
     let train_csv = p.path("train.csv");
     let replay_csv = p.path("replay.csv");
@@ -129,7 +130,7 @@ fn service_forecasts_equal_the_eval_predictor_for_the_same_model_and_history() {
         "--seed",
         "6",
         "--duration",
-        "150",
+        "400",
         "--rate",
         "8",
         "--out",
@@ -142,7 +143,7 @@ fn service_forecasts_equal_the_eval_predictor_for_the_same_model_and_history() {
         "--out",
         &s(&model),
         "--method",
-        "mca",
+        "wiener",
         "--order",
         "100",
         "--horizon",
@@ -160,48 +161,58 @@ fn service_forecasts_equal_the_eval_predictor_for_the_same_model_and_history() {
         "producer",
         &["--input", &s(&replay_csv), "--wait-subscriber-s", "30"],
     );
-    // 150 s at 8 Hz: 1200 samples -> 296 values at 2 Hz -> 197 forecasts.
-    let got = collect_forecasts(&forecasts, 197);
+    // 400 s at 8 Hz: 3200 samples -> 796 values at 2 Hz -> forecasts from value 60 on.
+    let expected = 796 - 59;
+    let got = collect_forecasts(&forecasts, expected);
     assert!(producer.wait_exit().success());
-    assert_eq!(got.len(), 197, "forecasts received");
+    assert_eq!(got.len(), expected, "forecasts received");
 
-    // Recompute with the library: batch decimation of the CSV, the model file's predictors.
+    let mut config = PipelineConfig::load(Some(&p.config)).unwrap();
+    config.predictor.model = Some(model.clone());
     let data = MotionData::read_path(&replay_csv).unwrap();
-    let file = ModelFile::load(&model).unwrap();
-    let mut predictors: Vec<_> = Dof::ALL
-        .iter()
-        .map(|d| file.dof(*d).unwrap().predictor.clone())
-        .collect();
-    let series: Vec<Vec<f64>> = Dof::ALL
-        .iter()
-        .map(|d| decimate(data.dof(*d).unwrap(), 4).unwrap())
-        .collect();
-    let mut out = vec![0.0; 50];
-    for f in &got {
-        // Value j stands for input j * 4 + 8 (the filter delay); time_s labels it.
-        let input = (f.time_s * 8.0).round() as usize;
+    let models = initial_models(&config).unwrap();
+    let (_, replayed) = replay(&data, &config.predictor, models, 0.0, true, &|_| {}).unwrap();
+    assert_eq!(replayed.len(), expected);
+    let mut shrunk = 0;
+    for (a, b) in got.iter().zip(&replayed) {
         assert_eq!(
-            (input - 8) % 4,
-            0,
-            "time {} is not on the 2 Hz grid",
-            f.time_s
+            (
+                a.seq,
+                a.source_seq,
+                a.time_s,
+                a.dt_s,
+                a.steps,
+                a.model_version
+            ),
+            (
+                b.seq,
+                b.source_seq,
+                b.time_s,
+                b.dt_s,
+                b.steps,
+                b.model_version
+            )
         );
-        let j = (input - 8) / 4;
-        assert!((data.time[input] - f.time_s).abs() < 1e-9);
-        for (d, pred) in predictors.iter_mut().enumerate() {
-            pred.forecast(&series[d][j + 1 - 100..=j], &mut out)
-                .unwrap();
-            for (k, x) in out.iter().enumerate() {
+        for d in 0..6 {
+            for k in 0..50 {
                 assert_eq!(
-                    f.mean[d][k], *x as f32,
-                    "forecast seq {} dof {d} step {k}",
-                    f.seq
+                    a.mean[d][k].to_bits(),
+                    b.mean[d][k].to_bits(),
+                    "seq {} dof {d} step {k}",
+                    a.seq
+                );
+                assert_eq!(
+                    a.sigma[d][k].to_bits(),
+                    b.sigma[d][k].to_bits(),
+                    "seq {} dof {d} step {k}",
+                    a.seq
                 );
             }
-            let sigma = &file.dof(Dof::ALL[d]).unwrap().sigma;
-            assert_eq!(f.sigma[d][0], sigma[0] as f32);
+            shrunk += usize::from(a.mean[d][0] != 0.0);
         }
     }
+    // Not a comparison of zeros: once verified, the model's forecasts are delivered.
+    assert!(shrunk > 1000, "only {shrunk} non-zero forecasts");
 }
 
 /// Retraining runs in the background and the new model is swapped in without pausing the
@@ -211,7 +222,7 @@ fn service_forecasts_equal_the_eval_predictor_for_the_same_model_and_history() {
 fn retrained_models_are_swapped_in_without_a_missed_forecast() {
     let p = TestPipeline::new(
         "retrain",
-        "[producer]\nspeed = 100.0\nbackfill_s = 0.0\n[predictor]\norder = 100\nholdout = 300\nretrain_window = 600\nwarmup_s = 900.0\nretrain_every_s = 60.0\n",
+        "[producer]\nspeed = 100.0\nbackfill_s = 0.0\n[predictor]\norder = 100\nholdout = 300\nretrain_window = 600\nwarmup_s = 0.0\nfirst_fit_s = 120.0\nretrain_every_s = 60.0\n",
     );
     let names = p.names();
     let mut predictor = p.spawn("predictor", &["--busy-poll"]);
@@ -224,23 +235,26 @@ fn retrained_models_are_swapped_in_without_a_missed_forecast() {
         "producer",
         &["--record-s", "900", "--wait-subscriber-s", "30"],
     );
-    // 900 s at 8 Hz: 7200 samples -> 1796 values at 2 Hz -> 1697 forecasts.
-    let got = collect_forecasts(&forecasts, 1697);
+    // 900 s at 8 Hz: 7200 samples -> 1796 values at 2 Hz -> forecasts from value 60 on.
+    let got = collect_forecasts(&forecasts, 1737);
     assert!(producer.wait_exit().success());
     assert!(predictor.terminate().success());
-    assert_eq!(got.len(), 1697, "a forecast was missed");
+    assert_eq!(got.len(), 1737, "a forecast was missed");
     assert!(got.windows(2).all(|w| w[1].seq == w[0].seq + 1));
     assert!(got
         .windows(2)
         .all(|w| w[1].model_version >= w[0].model_version));
     let first = &got[0];
     let last = got.last().unwrap();
-    assert_eq!(first.model_version, 1);
+    // No start-up model (warmup_s = 0): no skill, mean zero and sigma the live RMS, until the
+    // first live fit after first_fit_s.
+    assert_eq!(first.model_version, 0);
+    assert!(first.mean[2][..50].iter().all(|m| *m == 0.0));
     assert!(last.model_version >= 2, "never retrained");
     assert_ne!(
         first.sigma[2][..50],
         last.sigma[2][..50],
         "sigma not re-measured"
     );
-    predictor.wait_for("retrained model in use");
+    predictor.wait_for("first model fitted on live data in use");
 }

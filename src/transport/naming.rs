@@ -105,6 +105,11 @@ impl Names {
         self.topic(&format!("status/{service}"))
     }
 
+    /// zenoh key of the predictor's live verification scores (JSON).
+    pub fn verification(&self) -> String {
+        self.topic("verification")
+    }
+
     /// zenoh liveliness token of a service: consumers see whether its publisher is alive.
     pub fn liveliness(service: &str) -> String {
         format!("{service}/alive")

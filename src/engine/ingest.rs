@@ -2,9 +2,9 @@
 //! rejects), gap filling, 8 -> 2 Hz decimation with the evaluation's filter, and a ring of the
 //! most recent decimated values that always yields a contiguous window without copying.
 
-use shipcast::payload::{MotionSample, NUM_DOF};
-use shipcast::signal::Decimator;
-use shipcast::transport::{Counters, SeqCheck, SeqTracker};
+use crate::payload::{MotionSample, NUM_DOF};
+use crate::signal::Decimator;
+use crate::transport::{Counters, SeqCheck, SeqTracker};
 
 /// The newest `capacity` values of one series. Values are written twice (at `pos` and
 /// `pos + capacity`) so the last n are always one contiguous slice.
@@ -70,6 +70,12 @@ pub struct Ingest {
     history: Vec<Ring>,
     tracker: SeqTracker,
     last_good: Option<[f64; NUM_DOF]>,
+    /// Record time of the last accepted sample: a jump in time is a gap even when seq has none
+    /// (a CSV record with a hole in it).
+    last_time: Option<f64>,
+    input_rate_hz: f64,
+    /// Incremented whenever the history restarts (forecasts pending before it never verify).
+    generation: u64,
     delay_s: f64,
     /// Longest run of missing/rejected samples bridged by holding the last value; a longer
     /// gap breaks the record and the history starts again.
@@ -82,7 +88,7 @@ impl Ingest {
         input_rate_hz: f64,
         capacity: usize,
         max_fill: u64,
-    ) -> anyhow::Result<Self> {
+    ) -> Result<Self, crate::signal::ResampleError> {
         let decimator = Decimator::new(factor)?;
         let delay_s = decimator.delay_s(input_rate_hz);
         Ok(Self {
@@ -90,6 +96,9 @@ impl Ingest {
             history: vec![Ring::new(capacity); NUM_DOF],
             tracker: SeqTracker::new(),
             last_good: None,
+            last_time: None,
+            input_rate_hz,
+            generation: 0,
             delay_s,
             max_fill,
         })
@@ -105,8 +114,19 @@ impl Ingest {
         self.history[d].last(n)
     }
 
+    /// Restarts of the history so far.
+    pub fn generation(&self) -> u64 {
+        self.generation
+    }
+
+    /// Delay of a decimated value behind the newest input it used [s].
+    pub fn delay_s(&self) -> f64 {
+        self.delay_s
+    }
+
     /// Forget everything: the next sample starts a new record.
     fn restart(&mut self) {
+        self.generation += 1;
         self.decimators.iter_mut().for_each(Decimator::reset);
         self.history.iter_mut().for_each(Ring::clear);
         self.last_good = None;
@@ -138,7 +158,9 @@ impl Ingest {
         match verdict {
             SeqCheck::OutOfOrder => return None,
             SeqCheck::NonFinite => {
-                // Keep the fixed-rate grid: bridge the bad sample with the last good values.
+                // Keep the fixed-rate grid: bridge the bad sample with the last good values,
+                // and count its slot as filled so the next good sample is no gap in time.
+                self.last_time = self.last_time.map(|t| t + 1.0 / self.input_rate_hz);
                 if let Some(held) = self.last_good {
                     produced = self.push_values(&held);
                 }
@@ -148,22 +170,41 @@ impl Ingest {
                 tracing::info!("predictor: new producer run (seq 0): history restarts");
                 self.restart();
             }
-            SeqCheck::Accepted { lost } if lost > 0 => match self.last_good {
-                Some(held) if lost <= self.max_fill => {
-                    for _ in 0..lost {
-                        produced |= self.push_values(&held);
+            SeqCheck::Accepted { lost } if lost.max(self.missing_by_time(sample.time_s)) > 0 => {
+                let lost = lost.max(self.missing_by_time(sample.time_s));
+                match self.last_good {
+                    Some(held) if lost <= self.max_fill => {
+                        for _ in 0..lost {
+                            produced |= self.push_values(&held);
+                        }
+                    }
+                    _ => {
+                        tracing::warn!(lost, "predictor: gap too long to bridge: history restarts");
+                        self.restart();
                     }
                 }
-                _ => {
-                    tracing::warn!(lost, "predictor: gap too long to bridge: history restarts");
-                    self.restart();
-                }
-            },
+            }
             SeqCheck::Accepted { .. } => {}
         }
         produced |= self.push_values(&sample.dof);
         self.last_good = Some(sample.dof);
+        self.last_time = Some(sample.time_s);
         produced.then(|| self.new_value(sample))
+    }
+
+    /// Samples missing between the last accepted one and `time_s` by the record clock.
+    fn missing_by_time(&self, time_s: f64) -> u64 {
+        match self.last_time {
+            Some(t) => {
+                let steps = ((time_s - t) * self.input_rate_hz).round();
+                if steps.is_finite() && steps > 1.0 {
+                    steps as u64 - 1
+                } else {
+                    0
+                }
+            }
+            None => 0,
+        }
     }
 
     fn new_value(&self, sample: &MotionSample) -> NewValue {
@@ -178,7 +219,7 @@ impl Ingest {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use shipcast::signal::decimate;
+    use crate::signal::decimate;
 
     #[test]
     fn ring_keeps_the_newest_values_contiguous() {

@@ -1,0 +1,118 @@
+//! `shipcast replay`: the predictor's engine over a recorded motion CSV, no processes, no
+//! transports; every delivered forecast scored against the record (docs/contracts.md
+//! section 10).
+
+use crate::progress;
+use anyhow::Context;
+use shipcast::config::PipelineConfig;
+use shipcast::engine::replay::{replay, ReplayReport};
+use shipcast::engine::startup::initial_models;
+use shipcast::motion_csv::MotionData;
+use std::io::Write;
+use std::path::PathBuf;
+
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    /// Motion CSV (time_s plus any of the six DOF columns) at any integer multiple of the
+    /// predictor's rate, including that rate.
+    #[arg(long)]
+    pub input: PathBuf,
+    /// Pipeline configuration (its `[predictor]` section is what the engine runs with).
+    #[arg(long, value_name = "FILE.toml")]
+    pub config: Option<PathBuf>,
+    /// Start from this model file (`shipcast train`) instead of the configured start-up model.
+    #[arg(long, value_name = "MODEL.json")]
+    pub model: Option<PathBuf>,
+    /// Score only forecasts issued at record time >= S.
+    #[arg(
+        long,
+        default_value_t = 0.0,
+        value_name = "S",
+        allow_negative_numbers = true
+    )]
+    pub skip_s: f64,
+    /// One JSON object per DOF instead of the table.
+    #[arg(long)]
+    pub json: bool,
+}
+
+pub fn run(args: Args) -> anyhow::Result<()> {
+    if !(args.skip_s.is_finite() && args.skip_s >= 0.0) {
+        anyhow::bail!(
+            "--skip-s must be a non-negative number of seconds, got {}",
+            args.skip_s
+        );
+    }
+    let mut config = PipelineConfig::load(args.config.as_deref())?;
+    if args.model.is_some() {
+        config.predictor.model = args.model.clone();
+    }
+    config.validate()?;
+    let data = MotionData::read_path(&args.input)
+        .with_context(|| format!("reading {}", args.input.display()))?;
+    if data.dofs().is_empty() {
+        anyhow::bail!(
+            "{}: no motion column (surge_m, sway_m, heave_m, roll_rad, pitch_rad, yaw_rad)",
+            args.input.display()
+        );
+    }
+    let models = initial_models(&config)?;
+    let bar = progress::styled(
+        data.len() as u64,
+        "{elapsed_precise} [{bar:30}] {pos}/{len} samples",
+    );
+    let (report, _) = replay(&data, &config.predictor, models, args.skip_s, false, &|n| {
+        bar.inc(n)
+    })?;
+    bar.finish_and_clear();
+    let mut out = std::io::stdout().lock();
+    if args.json {
+        for d in &report.dofs {
+            serde_json::to_writer(&mut out, d)?;
+            writeln!(out)?;
+        }
+    } else {
+        write!(out, "{}", table(&report))?;
+    }
+    Ok(())
+}
+
+/// Leads shown in the table [s].
+const TABLE_LEADS: [f64; 4] = [5.0, 10.0, 15.0, 20.0];
+
+fn table(r: &ReplayReport) -> String {
+    let mut s = format!(
+        "replay: {} forecasts, {} retrains, {} swaps ({} kept the running model), {} sea changes; input {} Hz\n",
+        r.counts.forecasts, r.counts.retrains, r.counts.swaps, r.counts.kept_running, r.counts.changes, r.input_rate_hz
+    );
+    s.push_str("dof     lead  rms      nrmse  persist  sigma    cov1   cov2\n");
+    for d in &r.dofs {
+        for lead in TABLE_LEADS {
+            let k = (lead / r.dt_s).round() as usize;
+            if k == 0 || k > d.rms.len() {
+                continue;
+            }
+            let i = k - 1;
+            s.push_str(&format!(
+                "{:<7} {:>4.0}s {:<8.4} {:<6.3} {:<8.4} {:<8.4} {:<6.3} {:<6.3}\n",
+                d.dof,
+                lead,
+                d.rms[i],
+                d.nrmse[i],
+                d.persistence_rms[i],
+                d.mean_sigma[i],
+                d.coverage_1sigma[i],
+                d.coverage_2sigma[i]
+            ));
+        }
+        s.push_str(&format!(
+            "{:<7} max |error| {:.4} ({:.2} x the motion's RMS {:.4}); {} implausible forecasts replaced\n",
+            d.dof,
+            d.max_abs_error,
+            d.max_abs_error / d.std,
+            d.std,
+            d.implausible
+        ));
+    }
+    s
+}
