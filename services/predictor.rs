@@ -65,6 +65,9 @@ struct Status {
     order: usize,
     models: String,
     last_time_s: f64,
+    /// Delay of a forecast's `time_s` behind the newest sample (the decimation filter's): the
+    /// lead of step k after the newest sample is `k * dt_s - delay_s`.
+    delay_s: f64,
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
@@ -243,6 +246,7 @@ fn status(engine: &Engine, stale: bool) -> Status {
             .models()
             .map_or_else(|| "none".into(), ModelSet::describe),
         last_time_s: engine.last_time_s(),
+        delay_s: engine.delay_s(),
     }
 }
 

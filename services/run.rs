@@ -117,6 +117,7 @@ struct View {
     forecast: Option<Forecast>,
     advisory: Option<Advisory>,
     status: Option<serde_json::Value>,
+    verification: Option<serde_json::Value>,
 }
 
 impl View {
@@ -140,15 +141,24 @@ impl View {
                 )
             }
         });
+        // Leads are shown from the newest sample: step k is at time_s + k dt_s, and time_s
+        // lags the newest sample by the decimation filter's delay.
+        let delay_s = self
+            .status
+            .as_ref()
+            .and_then(|s| s["delay_s"].as_f64())
+            .unwrap_or(0.0);
         lines.push(match &self.forecast {
             None => "forecast   none yet (the history fills first)".into(),
             Some(f) if f.valid_steps() == 0 => "forecast   empty (0 steps)".into(),
             Some(f) => {
-                let at = |d: usize, step_s: f64| {
-                    let k = ((step_s / f.dt_s).round() as usize).clamp(1, f.valid_steps()) - 1;
+                let at = |d: usize, lead_s: f64| {
+                    let k = (((lead_s + delay_s) / f.dt_s).round() as usize)
+                        .clamp(1, f.valid_steps())
+                        - 1;
                     (f.mean[d][k], f.sigma[d][k])
                 };
-                let mut line = format!("forecast   t={:.1}s", f.time_s);
+                let mut line = format!("forecast   t={:.1}s", f.time_s + delay_s);
                 for (name, d, scale, unit) in [
                     ("heave", 2, 1.0, "m"),
                     ("roll", 3, 180.0 / std::f32::consts::PI, "deg"),
@@ -167,11 +177,51 @@ impl View {
                 line
             }
         });
+        lines.extend(self.skill_lines(delay_s));
         lines.push(match &self.advisory {
             None => "deck       no advisory yet".into(),
             Some(a) => a.summary(),
         });
         lines
+    }
+}
+
+impl View {
+    /// One line per DOF of the live verification: error relative to predicting zero, coverage
+    /// of the sigma bands, and the longest lead that can be trusted right now.
+    fn skill_lines(&self, delay_s: f64) -> Vec<String> {
+        let Some(v) = &self.verification else {
+            return vec![
+                "skill      not verified yet (forecasts are scored as their values arrive)".into(),
+            ];
+        };
+        let dt = v["dt_s"].as_f64().unwrap_or(0.5);
+        let mut out = Vec::new();
+        for d in v["dofs"].as_array().into_iter().flatten() {
+            let name = d["dof"].as_str().unwrap_or("?");
+            if !["heave", "roll", "pitch"].contains(&name) {
+                continue;
+            }
+            let at = |key: &str, lead_s: f64| -> String {
+                let k = ((lead_s + delay_s) / dt).round() as usize;
+                d[key]
+                    .as_array()
+                    .and_then(|a| a.get(k.saturating_sub(1)))
+                    .and_then(serde_json::Value::as_f64)
+                    .map_or("-".into(), |x| format!("{x:.2}"))
+            };
+            let horizon = d["skill_horizon_s"].as_f64().unwrap_or(0.0) - delay_s;
+            out.push(format!(
+                "skill      {name:<5} trust to +{:.0}s  error/zero +5s {} +10s {} +20s {}  within 1 sigma {} 2 sigma {}  (+10s)",
+                horizon.max(0.0),
+                at("nrmse_zero", 5.0),
+                at("nrmse_zero", 10.0),
+                at("nrmse_zero", 20.0),
+                at("coverage_1sigma", 10.0),
+                at("coverage_2sigma", 10.0),
+            ));
+        }
+        out
     }
 }
 
@@ -205,6 +255,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let forecasts = LatestSubscriber::new(&session, &names.forecast())?;
     let advisories = LatestSubscriber::new(&session, &names.advisory("deck"))?;
     let status = LatestSubscriber::new(&session, &names.status("predictor"))?;
+    let verification = LatestSubscriber::new(&session, &names.verification())?;
 
     let tty = std::io::stdout().is_terminal();
     let mut view = View::default();
@@ -232,6 +283,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }
         if let Some(b) = status.latest()? {
             view.status = serde_json::from_slice(&b).ok();
+        }
+        if let Some(b) = verification.latest()? {
+            view.verification = serde_json::from_slice(&b).ok();
         }
         if last_draw.elapsed() >= Duration::from_secs(1) {
             let header = format!(

@@ -101,7 +101,10 @@ pub struct Calibration {
 #[derive(Debug, Clone)]
 pub struct Calibrator {
     window: RollingSums<4>,
-    prior: Vec<[PairSums; MAX_STEPS]>,
+    /// None: "no skill", worth `no_skill_weight` values at the motion's live variance (known
+    /// only when asked: at start-up there is none yet).
+    prior: Vec<[Option<PairSums>; MAX_STEPS]>,
+    no_skill_weight: [f64; NUM_DOF],
     /// Largest weight (in values) a prior may carry.
     prior_cap: f64,
 }
@@ -111,18 +114,19 @@ impl Calibrator {
     pub fn new(window_values: usize, prior_cap: f64) -> Self {
         Self {
             window: RollingSums::new(window_values, 20),
-            prior: vec![[PairSums::default(); MAX_STEPS]; NUM_DOF],
+            prior: vec![[None; MAX_STEPS]; NUM_DOF],
+            no_skill_weight: [prior_cap; NUM_DOF],
             prior_cap,
         }
     }
 
     /// A new model for DOF `d`: forget the old model's evidence and start from `prior` (one
-    /// entry per step; steps beyond it get no-skill priors of `variance`).
-    pub fn reset(&mut self, d: usize, prior: &[PairSums], variance: f64) {
+    /// entry per step; steps beyond it, and an empty prior, start from "no skill").
+    pub fn reset(&mut self, d: usize, prior: &[PairSums]) {
         self.window.clear(d);
-        let none = PairSums::no_skill(self.prior_cap, variance);
+        self.no_skill_weight[d] = self.prior_cap;
         for (k, p) in self.prior[d].iter_mut().enumerate() {
-            *p = prior.get(k).map_or(none, |s| s.capped(self.prior_cap));
+            *p = prior.get(k).map(|s| s.capped(self.prior_cap));
         }
     }
 
@@ -139,10 +143,10 @@ impl Calibrator {
 
     /// The sea changed for DOF `d`: what is known counts as `keep` values at most.
     pub fn discount(&mut self, d: usize, keep: f64) {
-        for k in 0..MAX_STEPS {
-            let p = &mut self.prior[d][k];
+        for p in self.prior[d].iter_mut().flatten() {
             *p = p.capped(keep);
         }
+        self.no_skill_weight[d] = self.no_skill_weight[d].min(keep);
         let n = (0..MAX_STEPS)
             .map(|k| self.window.get(d, k)[N])
             .fold(0.0, f64::max);
@@ -151,14 +155,17 @@ impl Calibrator {
         }
     }
 
-    /// Evidence of DOF `d`, step index `k`: prior plus window.
-    pub fn sums(&self, d: usize, k: usize) -> PairSums {
-        self.prior[d][k].plus(self.window.get(d, k))
+    /// Evidence of DOF `d`, step index `k`: prior plus window; `variance` is the motion's
+    /// live mean square, which a "no skill" prior stands for.
+    pub fn sums(&self, d: usize, k: usize, variance: f64) -> PairSums {
+        let prior = self.prior[d][k]
+            .unwrap_or_else(|| PairSums::no_skill(self.no_skill_weight[d], variance));
+        prior.plus(self.window.get(d, k))
     }
 
     #[inline]
-    pub fn get(&self, d: usize, k: usize) -> Calibration {
-        let s = self.sums(d, k);
+    pub fn get(&self, d: usize, k: usize, variance: f64) -> Calibration {
+        let s = self.sums(d, k, variance);
         let beta = s.beta();
         Calibration {
             beta,
@@ -235,8 +242,8 @@ mod tests {
     #[test]
     fn no_skill_prior_gives_zero_and_the_motion_std_until_evidence_comes() {
         let mut c = Calibrator::new(2400, 120.0);
-        c.reset(2, &[], 4.0);
-        let cal = c.get(2, 10);
+        c.reset(2, &[]);
+        let cal = c.get(2, 10, 4.0);
         assert_eq!(cal.beta, 0.0);
         assert!((cal.sigma - 2.0).abs() < 1e-12);
         // Perfect evidence outweighs the prior as it accumulates.
@@ -245,7 +252,7 @@ mod tests {
             c.observe(2, 10, x, x);
             c.tick();
         }
-        let cal = c.get(2, 10);
+        let cal = c.get(2, 10, 4.0);
         assert!(cal.beta > 0.9, "{cal:?}");
         assert!(cal.sigma < 0.7, "{cal:?}");
     }

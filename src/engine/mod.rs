@@ -185,9 +185,8 @@ impl Engine {
     /// (or from "no skill" if it has none from this sea).
     fn install(&mut self, set: ModelSet) {
         for d in 0..NUM_DOF {
-            let variance = self.mean_square[d];
             let prior = set.held_out.get(d).map_or(&[][..], Vec::as_slice);
-            self.calib.reset(d, prior, variance);
+            self.calib.reset(d, prior);
             self.change.reset(d);
         }
         self.models = Some(set);
@@ -424,7 +423,7 @@ impl Engine {
             let inflate = self.change.inflation(d);
             let mut plausible = true;
             for k in 0..horizon {
-                let c = self.calib.get(d, k);
+                let c = self.calib.get(d, k, self.mean_square[d]);
                 let raw = self.raw[d][k];
                 let mean = c.beta * raw;
                 let sigma = if c.sigma.is_finite() { c.sigma } else { rms };

@@ -231,6 +231,16 @@ impl McaPredictor {
                     continue;
                 }
             };
+            let gain = max_row_gain(&model.prediction);
+            if gain > MAX_ROW_GAIN {
+                tracing::debug!(
+                    energy,
+                    ridge,
+                    gain,
+                    "MCA candidate rejected: prediction map too large"
+                );
+                continue;
+            }
             // Every origin, not only those aligned with the training windows: a map fitted on windows
             // at `shift` can exploit structure that exists only at those offsets (band-limited,
             // interpolated records), and would then fail at every other origin.
@@ -265,6 +275,19 @@ fn validation_needed(order: usize, horizon: usize) -> usize {
 }
 
 /// RMS error of the forecasts issued at origins `cut, cut + stride, ...` of `series`.
+/// Largest Euclidean norm of a row of the prediction map: how much a forecast step can amplify
+/// white noise on the past values. Validation rejects candidates above `MAX_ROW_GAIN`: a map that
+/// large reaches its validation score by cancelling big coefficients against each other, which
+/// holds only on data with the exact structure it was fitted to.
+fn max_row_gain(map: &LinearMap) -> f64 {
+    (0..map.rows())
+        .map(|r| map.row(r).iter().map(|c| c * c).sum::<f64>().sqrt())
+        .fold(0.0, f64::max)
+}
+
+/// See [`max_row_gain`]. A step's noise gain of 10 turns 1 % sensor noise into 10 %.
+const MAX_ROW_GAIN: f64 = 10.0;
+
 fn validation_rms(
     map: &LinearMap,
     series: &[f64],
