@@ -83,7 +83,7 @@ pub fn python_with_packages() -> Result<Python, String> {
         Ok(()) => return Ok(system),
         Err(reason) if reason.starts_with("cannot run") => {
             return Err(format!(
-                "{reason}; the Python examples test needs python3 (3.9 or newer) on PATH"
+                "{reason}; the Python examples test needs python3 (3.8 or newer) on PATH"
             ))
         }
         Err(reason) => reason,
