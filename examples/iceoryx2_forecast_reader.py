@@ -1,6 +1,7 @@
 #!/usr/bin/env python3
 """Local shipcast consumer in Python: reads Forecast from iceoryx2 shared memory (zero copy)
-through a ctypes structure with the exact layout of the Rust payload (DESIGN.md 2.1).
+through a ctypes structure with the exact layout of the Rust payload (docs/contracts.md
+section 2.1).
 
 Needs `pip install iceoryx2==0.10.0` and a pipeline on the same machine
 (`cargo run --release -- run`). With `--instance NAME` the pipeline's service names start with

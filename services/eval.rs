@@ -1,5 +1,5 @@
-//! `shipcast eval`: the evaluation protocol (DESIGN.md section 4) on a motion CSV, as a table or
-//! one JSON object per (dof, method) line.
+//! `shipcast eval`: the evaluation protocol (docs/contracts.md section 4) on a motion CSV, as a
+//! table or one JSON object per (dof, method) line.
 
 use crate::progress;
 use anyhow::Context;

@@ -30,7 +30,7 @@ struct Cli {
 enum Command {
     /// Simulate 6-DOF motion of a ship in irregular seas and write a motion CSV.
     Simulate(simulate::Args),
-    /// Evaluate predictors on a motion CSV with the fixed protocol (DESIGN.md section 4).
+    /// Evaluate predictors on a motion CSV with the fixed protocol (docs/contracts.md section 4).
     Eval(eval::Args),
     /// Fit per-DOF models for the predictor service and write them to a model file.
     Train(train::Args),

@@ -51,7 +51,9 @@ pub struct Args {
     /// Output motion CSV.
     #[arg(long)]
     pub out: PathBuf,
-    /// RAO table CSV (schema of ../shared/data/s175/motion_rao.csv) instead of the closed form.
+    /// RAO table CSV (columns speed_mps,heading_deg,omega_rad_s,dof,amplitude,phase_rad; one row
+    /// per DOF of a full speed x heading x frequency grid, 180 deg = head seas) instead of the
+    /// closed form.
     #[arg(long = "rao-table")]
     pub rao_table: Option<PathBuf>,
     /// Ship length the RAO table was computed for [m] (needed with --hull-length).

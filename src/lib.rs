@@ -3,10 +3,10 @@
 //!
 //! The library holds everything; the `shipcast` binary (in `services/`) is thin wiring.
 //! - [`dof`]: the six degrees of freedom and their names.
-//! - [`motion_csv`]: the motion CSV format (DESIGN.md 2.3).
+//! - [`motion_csv`]: the motion CSV format (docs/contracts.md section 2.3).
 //! - [`signal`]: resampling (anti-alias low-pass, decimation).
 //! - [`predict`]: the [`predict::Predictor`] trait and MCA, Wiener, AR-LMS, MLP and baselines.
-//! - [`eval`]: the evaluation protocol (DESIGN.md 4).
+//! - [`eval`]: the evaluation protocol (docs/contracts.md section 4).
 //! - [`engine`]: the forecasting engine the predictor service and `shipcast replay` drive.
 //! - [`model`]: model files (per-DOF fitted predictors and held-out sigma).
 //! - [`sim`]: the ship-motion simulator (sea spectra, RAOs, time series).

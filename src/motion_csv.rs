@@ -1,5 +1,5 @@
-//! The motion CSV format (DESIGN.md 2.3): a header row of unit-carrying column names
-//! (`time_s,surge_m,sway_m,heave_m,roll_rad,pitch_rad,yaw_rad`), then one row per sample.
+//! The motion CSV format (docs/contracts.md section 2.3): a header row of unit-carrying column
+//! names (`time_s,surge_m,sway_m,heave_m,roll_rad,pitch_rad,yaw_rad`), then one row per sample.
 //!
 //! Readers accept any subset of the six DOF columns, in any order, plus extra numeric columns
 //! (`wave_m`, ...). `time_s` is required and must increase strictly. Every value must be a finite

@@ -1,5 +1,6 @@
-//! Wire payloads (DESIGN.md 2.1): `MotionSample` and `Forecast` as fixed-layout `#[repr(C)]`
-//! structs shared over iceoryx2, and the JSON form of `Forecast` sent over zenoh (2.2).
+//! Wire payloads (docs/contracts.md section 2.1): `MotionSample` and `Forecast` as fixed-layout
+//! `#[repr(C)]` structs shared over iceoryx2, and the JSON form of `Forecast` sent over zenoh
+//! (section 2.2).
 //!
 //! The layouts are part of the contract with C, C++ and Python readers: field order, types and
 //! sizes must not change. Every limit of the transports (buffers, history, number of ports) lives

@@ -1,8 +1,9 @@
 //! `shipcast simulate` end to end: files written, determinism, figures and clear errors.
 
+mod fixtures;
+
 use shipcast::motion_csv::MotionData;
 use shipcast::Dof;
-use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 fn simulate(args: &[&str]) -> Output {
@@ -12,10 +13,6 @@ fn simulate(args: &[&str]) -> Output {
         .env("RUST_LOG", "info")
         .output()
         .expect("shipcast runs")
-}
-
-fn s175() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data/s175/motion_rao.csv")
 }
 
 fn std_dev(x: &[f64]) -> f64 {
@@ -84,7 +81,7 @@ fn line_spectrum_table_rao_and_plot_options_work() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("m.csv");
     let svg = dir.path().join("m.svg");
-    let table = s175();
+    let table = fixtures::s175_rao_table();
     let o = simulate(&[
         "--scenario",
         "ss5",

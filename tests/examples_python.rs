@@ -1,16 +1,17 @@
 //! The documented Python consumers (examples/*.py) against a real pipeline, so the examples
 //! cannot rot: each must exit 0 after `--count 3` and print forecast lines whose content is
-//! plausible. Needs python3 with `eclipse-zenoh` and `iceoryx2` (.ci/run installs them); when
-//! they are missing the test fails and names the install command.
+//! plausible. Needs python3; when it lacks `eclipse-zenoh` and `iceoryx2` at the pinned versions,
+//! the test installs them from PyPI into a virtual environment under target/ on its first run
+//! (python_env), and fails with one line naming what to install only when that cannot work.
 
 mod pipeline_support;
+mod python_env;
 
 use pipeline_support::TestPipeline;
+use python_env::Python;
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, ExitStatus, Stdio};
+use std::process::{Child, ExitStatus, Stdio};
 use std::time::{Duration, Instant};
-
-const INSTALL: &str = "python3 -m pip install eclipse-zenoh==1.10.2 iceoryx2==0.10.0";
 
 /// Forecasts each example reads before it exits.
 const COUNT: usize = 3;
@@ -25,20 +26,12 @@ fn example(name: &str) -> PathBuf {
         .join(name)
 }
 
-/// Fail loudly, naming the install command, when python3 or a package is missing: CI installs
-/// them, so a silent skip would hide a broken example.
-fn require_python_packages() {
-    let out = Command::new("python3")
-        .args(["-c", "import zenoh, iceoryx2"])
-        .output()
-        .unwrap_or_else(|e| {
-            panic!("python3 not runnable ({e}); install python3 and then: {INSTALL}")
-        });
-    assert!(
-        out.status.success(),
-        "the Python examples need eclipse-zenoh and iceoryx2; install them with: {INSTALL}\n{}",
-        String::from_utf8_lossy(&out.stderr).trim()
-    );
+/// A python3 with the examples' packages, or a failure naming what to install: a silent skip
+/// would hide a broken example.
+fn require_python_packages() -> Python {
+    let python = python_env::python_with_packages().unwrap_or_else(|e| panic!("{e}"));
+    eprintln!("Python examples run with {}", python.origin);
+    python
 }
 
 /// A running example script whose output goes to files (no pipe can fill up and stall it);
@@ -58,10 +51,11 @@ struct PyOutput {
 }
 
 impl PyProc {
-    fn spawn(label: &str, dir: &Path, script: &str, args: &[&str]) -> Self {
+    fn spawn(python: &Python, label: &str, dir: &Path, script: &str, args: &[&str]) -> Self {
         let stdout = dir.join(format!("{label}.out"));
         let stderr = dir.join(format!("{label}.err"));
-        let child = Command::new("python3")
+        let child = python
+            .command()
             .arg(example(script))
             .args(args)
             .env("PYTHONUNBUFFERED", "1")
@@ -214,7 +208,7 @@ fn check_forecasts(label: &str, out: &PyOutput, angle: &str, lead_s: f64) -> Vec
 /// over zenoh (JSON) and one from iceoryx2 shared memory (ctypes layout).
 #[test]
 fn python_examples_read_forecasts_over_zenoh_and_iceoryx2() {
-    require_python_packages();
+    let python = require_python_packages();
     let p = TestPipeline::new("pyex", "");
     let predictor = p.spawn("predictor", &[]);
     predictor.wait_for("(iceoryx2 and zenoh)");
@@ -222,6 +216,7 @@ fn python_examples_read_forecasts_over_zenoh_and_iceoryx2() {
 
     let count = COUNT.to_string();
     let zenoh = PyProc::spawn(
+        &python,
         "zenoh_forecast_subscriber",
         p.dir.path(),
         "zenoh_forecast_subscriber.py",
@@ -235,6 +230,7 @@ fn python_examples_read_forecasts_over_zenoh_and_iceoryx2() {
         ],
     );
     let iox = PyProc::spawn(
+        &python,
         "iceoryx2_forecast_reader",
         p.dir.path(),
         "iceoryx2_forecast_reader.py",

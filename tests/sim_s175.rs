@@ -1,23 +1,26 @@
-//! The third-party S175 RAO table (../shared/data/s175): its documented limits, and the
-//! closed-form RAOs of the S175 main particulars compared with it in a stated sea.
+//! The third-party S175 RAO table (the fixture tests/fixtures/s175, 0 and 10 kn): its documented
+//! limits, and the closed-form RAOs of the S175 main particulars compared with it in a stated sea.
+
+mod fixtures;
 
 use shipcast::sim::{
     Channel, ClosedFormRao, Hull, Rao, RaoTable, ScaledRaoTable, Scenario, ShipMotion, SimConfig,
     Spreading, G, KNOT_MPS,
 };
 use shipcast::Dof;
-use std::path::Path;
 use std::sync::Arc;
 
 fn table() -> RaoTable {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data/s175/motion_rao.csv");
-    RaoTable::load(&path).expect("S175 table loads")
+    RaoTable::load(&fixtures::s175_rao_table()).expect("S175 table loads")
 }
 
 #[test]
 fn s175_table_has_the_documented_grid_and_low_frequency_limits() {
     let t = table();
-    assert_eq!(t.speeds().len(), 5);
+    // The fixture keeps the original's speeds 0 and 10 kn, with all its headings and frequencies.
+    assert_eq!(t.speeds().len(), 2);
+    assert_eq!(t.speeds()[0], 0.0);
+    assert!((t.speeds()[1] - 10.0 * KNOT_MPS).abs() < 1e-6);
     assert_eq!(t.headings_deg().len(), 36);
     assert_eq!(t.omegas().len(), 36);
     let w = t.omegas()[0];

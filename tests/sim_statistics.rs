@@ -1,5 +1,7 @@
 //! Statistics of simulated records against the spectra they come from (issue 3, "Must show").
 
+mod fixtures;
+
 use shipcast::sim::{
     encounter_omega, Channel, Rao, RaoSpec, ShipMotion, SimConfig, Spectrum, Spreading, KNOT_MPS,
 };
@@ -215,11 +217,7 @@ fn fixed_grid_gives_a_line_spectrum_of_exactly_n_lines() {
 fn rao_table_spec_without_both_lengths_is_rejected() {
     let cfg = SimConfig {
         rao: RaoSpec::Table {
-            path: concat!(
-                env!("CARGO_MANIFEST_DIR"),
-                "/../shared/data/s175/motion_rao.csv"
-            )
-            .into(),
+            path: fixtures::s175_rao_table(),
             table_length_m: Some(175.0),
             hull_length_m: None,
         },

@@ -1,4 +1,4 @@
-//! The evaluation protocol of DESIGN.md section 4, exactly: fit on the training segment
+//! The evaluation protocol of docs/contracts.md section 4, exactly: fit on the training segment
 //! `x[0..T)`, forecast from `x[o - order .. o)` at origins `o = T + order, T + order + stride, ...`
 //! while `o + H <= len`, RMS error per step, normalised by the standard deviation of the test
 //! segment, next to persistence at the same origins.

@@ -1,4 +1,4 @@
-//! The forecast-scoring loop of the evaluation protocol (DESIGN.md section 4), shared by
+//! The forecast-scoring loop of the evaluation protocol (docs/contracts.md section 4), shared by
 //! `shipcast eval` and by the held-out error (sigma) of `shipcast train`.
 
 use crate::predict::{PredictError, Predictor};

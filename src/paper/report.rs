@@ -462,7 +462,7 @@ pub fn render(study: &Study, figures: &[Figure]) -> String {
          service use).\n\
          - Two seas from seed {}: the **realistic dense sea** ({} components, random frequency in \
          each bin) and a **line-spectrum sea** ({} components on a fixed frequency grid).\n\
-         - Protocol (DESIGN.md section 4): {} training values (T), {} test values; forecast \
+         - Protocol (docs/contracts.md section 4): {} training values (T), {} test values; forecast \
          origins T + order, then every {} values ({} s); {} steps (25 s at 2 Hz); MCA's window is \
          the order, split into order - {} past and {} future values; the paper's settings unless \
          said otherwise (MCA shift 10, energy 0.015; LMS gain 0.005; MLP 100 tanh units, {} Rprop \

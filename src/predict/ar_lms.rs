@@ -1,4 +1,4 @@
-//! AR predictor with LMS-learned coefficients (DESIGN.md section 4), updated online.
+//! AR predictor with LMS-learned coefficients (docs/contracts.md section 4), updated online.
 //!
 //! One linear predictor per step h = 1..H maps the last `order` values to the value h steps
 //! ahead. The coefficients start at zero and are learned with least mean squares over the

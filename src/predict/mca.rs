@@ -1,4 +1,4 @@
-//! Minor Component Analysis predictor (Zhao, Xu, Kwan; DESIGN.md section 4).
+//! Minor Component Analysis predictor (Zhao, Xu, Kwan; docs/contracts.md section 4).
 //!
 //! Windows of n = order consecutive values of the training segment, taken every `shift` values,
 //! span (almost) a subspace of R^n. The eigenvectors of R = sum X X^T with the smallest

@@ -1,4 +1,4 @@
-//! Neural-network predictor (DESIGN.md section 4): `order` inputs, `mlp_hidden` tanh hidden
+//! Neural-network predictor (docs/contracts.md section 4): `order` inputs, `mlp_hidden` tanh hidden
 //! units, `horizon` linear outputs, trained full-batch with iRprop- on the windows of the
 //! training segment.
 //!

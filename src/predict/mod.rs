@@ -1,9 +1,9 @@
 //! Ship-motion predictors behind one trait.
 //!
 //! Every predictor maps the last `order` observed values of one degree of freedom to the next
-//! `horizon` values. The protocol (DESIGN.md section 4) is the same for all of them: fit once on a
-//! training segment, then forecast from any window of past values; online methods may also learn
-//! from every value observed after training.
+//! `horizon` values. The protocol (docs/contracts.md section 4) is the same for all of them: fit
+//! once on a training segment, then forecast from any window of past values; online methods may
+//! also learn from every value observed after training.
 //!
 //! `forecast` writes into a caller-provided buffer and never allocates: predictors keep whatever
 //! workspace they need, sized at `fit` time.
@@ -114,7 +114,7 @@ impl FromStr for Method {
 }
 
 /// Everything needed to build any predictor. Defaults are the paper's settings
-/// (DESIGN.md section 4); the improvements the paper lacks are off by default.
+/// (docs/contracts.md section 4); the improvements the paper lacks are off by default.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct PredictorConfig {

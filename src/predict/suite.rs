@@ -83,7 +83,7 @@ fn the_allocation_counter_sees_allocations_on_this_thread_only() {
 // ---------------------------------------------------------------------------------------------
 // Signals and scoring.
 
-/// Sample rate of the test signals [Hz], the evaluation rate of DESIGN.md section 4.
+/// Sample rate of the test signals [Hz], the evaluation rate of docs/contracts.md section 4.
 pub const RATE_HZ: f64 = 2.0;
 
 /// Amplitude, period [s] and phase [rad] of the lines of `sum_of_sinusoids`.
@@ -128,10 +128,10 @@ pub fn noisy_oscillation(len: usize, seed: u64) -> Vec<f64> {
     out
 }
 
-/// Run the evaluation protocol of DESIGN.md section 4 on `x` with training length `train_len`
-/// (the predictor is already fitted): forecasts at origins `train_len + order`, then every
-/// `stride` values; online methods learn from every value as it is observed. Returns the RMS
-/// error over all steps and origins.
+/// Run the evaluation protocol of docs/contracts.md section 4 on `x` with training length
+/// `train_len` (the predictor is already fitted): forecasts at origins `train_len + order`, then
+/// every `stride` values; online methods learn from every value as it is observed. Returns the
+/// RMS error over all steps and origins.
 pub fn rms_over_test(p: &mut impl Predictor, x: &[f64], train_len: usize, stride: usize) -> f64 {
     let (order, horizon) = (p.order(), p.horizon());
     let mut forecast = vec![0.0; horizon];

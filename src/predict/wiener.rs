@@ -1,4 +1,4 @@
-//! Wiener-Hopf multi-step linear predictor (DESIGN.md section 4).
+//! Wiener-Hopf multi-step linear predictor (docs/contracts.md section 4).
 //!
 //! For each step h the predictor `x(t+h) ~ sum_l w_h(l) x(t-l)`, l = 0..order, minimises the
 //! mean squared error under the autocorrelation `r`: the normal equations

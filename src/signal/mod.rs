@@ -1,5 +1,5 @@
-//! Resampling motion records to the evaluation rate (DESIGN.md section 4): a causal anti-alias
-//! FIR low-pass filter followed by decimation by an integer factor.
+//! Resampling motion records to the evaluation rate (docs/contracts.md section 4): a causal
+//! anti-alias FIR low-pass filter followed by decimation by an integer factor.
 //!
 //! The same filter runs offline ([`decimate`], [`resample_motion`]) and live, sample by sample
 //! ([`Decimator`], used by the predictor service for 8 -> 2 Hz), and the batch functions are the

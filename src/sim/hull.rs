@@ -44,7 +44,7 @@ impl Hull {
         }
     }
 
-    /// S175 container ship (../shared/data/s175/main_particulars.json); its roll gyradius there
+    /// S175 container ship (tests/fixtures/s175/main_particulars.json); its roll gyradius there
     /// is the dry one, so the natural period here is shorter than the table's (no added inertia).
     pub fn s175() -> Self {
         Hull {

@@ -1,6 +1,6 @@
 //! Response amplitude operators: the complex motion per metre of wave amplitude.
 //!
-//! Convention (the one of the S175 table in ../shared/data/s175, i.e. MSS / ShipX): body axes
+//! Convention (the one of the S175 table in tests/fixtures/s175, i.e. MSS / ShipX): body axes
 //! x forward, y starboard, z down; roll positive starboard down, pitch positive bow up, yaw
 //! positive bow to starboard. A wave component of direction beta (pi = head seas, 0 = following
 //! seas) travels along (cos beta, sin beta) in body axes. (The table's README calls 90 deg

@@ -1,4 +1,4 @@
-//! RAO tables from seakeeping codes, in the CSV schema of ../shared/data/s175/motion_rao.csv:
+//! RAO tables from seakeeping codes, in the CSV schema of the S175 table (tests/fixtures/s175):
 //! `speed_mps,heading_deg,omega_rad_s,dof,amplitude,phase_rad`, one row per DOF of every
 //! (speed, heading, wave frequency) of a full grid, headings in degrees with 180 = head seas.
 //!

@@ -1,4 +1,5 @@
-//! Service names and zenoh keys (DESIGN.md 2.1, 2.2): `[<instance>/]shipcast/<vessel>/<topic>`.
+//! Service names and zenoh keys (docs/contracts.md sections 2.1, 2.2):
+//! `[<instance>/]shipcast/<vessel>/<topic>`.
 
 use std::fmt;
 

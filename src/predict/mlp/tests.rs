@@ -1,6 +1,8 @@
+//! Behaviour only. Speed is measured elsewhere: one forecast per method and order by
+//! `cargo bench --bench predict`; training and forecast times by `shipcast eval --json`
+//! (`train_seconds`, `predict_seconds`) and `shipcast paper` (Table 2).
+
 use super::*;
-use rand::{Rng, SeedableRng};
-use rand_chacha::ChaCha8Rng;
 
 fn config(order: usize, horizon: usize, hidden: usize, epochs: usize) -> PredictorConfig {
     PredictorConfig {
@@ -169,77 +171,5 @@ fn a_model_file_with_wrong_parameters_is_refused() {
             loaded.forecast(&[0.1; 6], &mut out),
             Err(PredictError::Numerical(_))
         ));
-    }
-}
-
-/// A dense random-phase sea at 2 Hz, heave-like: standard deviation about 0.43 m, as the heave of
-/// the `paper` scenario.
-fn dense_sea(len: usize, seed: u64) -> Vec<f64> {
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let lines: Vec<(f64, f64, f64)> = (0..300)
-        .map(|_| {
-            let omega = rng.random_range(0.4..1.2);
-            (0.035, omega, rng.random_range(0.0..std::f64::consts::TAU))
-        })
-        .collect();
-    (0..len)
-        .map(|i| {
-            let t = i as f64 / 2.0;
-            lines.iter().map(|&(a, w, p)| a * (w * t + p).sin()).sum()
-        })
-        .collect()
-}
-
-/// Training and forecast times of AR and MLP at the paper's orders on 5000 training points.
-/// Prints figures, asserts nothing about speed:
-/// `cargo test --release --lib report_training_and_forecast_times -- --ignored --nocapture`
-#[test]
-#[ignore = "timing report, run by hand"]
-fn report_training_and_forecast_times() {
-    use crate::predict::ArLmsPredictor;
-    use std::time::Instant;
-    let x = dense_sea(6000, 3);
-    let train = &x[..5000];
-    let forecasts = 500;
-    for order in [40, 100, 800] {
-        let base = PredictorConfig {
-            order,
-            ..PredictorConfig::default()
-        };
-        let nlms = PredictorConfig {
-            lms_normalized: true,
-            lms_gain: 0.1,
-            ..base.clone()
-        };
-        let mut candidates: Vec<(&str, Box<dyn Predictor>)> = vec![
-            ("ar-lms", Box::new(ArLmsPredictor::new(&base).unwrap())),
-            ("ar-nlms", Box::new(ArLmsPredictor::new(&nlms).unwrap())),
-            ("mlp", Box::new(MlpPredictor::new(&base).unwrap())),
-        ];
-        for (name, p) in &mut candidates {
-            let start = Instant::now();
-            let fitted = p.fit(train);
-            let train_s = start.elapsed().as_secs_f64();
-            if let Err(e) = fitted {
-                println!("{name}-{order}: fit {train_s:.3} s: {e}");
-                continue;
-            }
-            let mut out = vec![0.0; p.horizon()];
-            let start = Instant::now();
-            for k in 0..forecasts {
-                p.forecast(&x[..5000 + k], &mut out).unwrap();
-            }
-            let forecast_s = start.elapsed().as_secs_f64() / forecasts as f64;
-            let start = Instant::now();
-            for k in 0..forecasts {
-                p.update(&x[..5000 + k]).unwrap();
-            }
-            let update_s = start.elapsed().as_secs_f64() / forecasts as f64;
-            println!(
-                "{name}-{order}: fit {train_s:.3} s, forecast {:.2} us, update {:.2} us",
-                forecast_s * 1e6,
-                update_s * 1e6
-            );
-        }
     }
 }
