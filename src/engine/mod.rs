@@ -264,7 +264,7 @@ impl Engine {
             }
         });
         let mut z2 = [0.0; NUM_DOF];
-        let mut n = 0usize;
+        let mut n = [0usize; NUM_DOF];
         for (f, k) in self.log.due(index) {
             for d in 0..NUM_DOF {
                 self.verifier
@@ -274,20 +274,20 @@ impl Engine {
                     self.calib
                         .observe(d, k, f.raw[d][k].clamp(-cap[d], cap[d]), clipped);
                     let e = x[d] - f.mean[d][k];
+                    // A DOF without motion (sigma 0: a record without that column) has
+                    // nothing to say about the sea.
                     let s = f.sigma_calibrated[d][k];
                     if s > 0.0 {
                         z2[d] += e * e / (s * s);
+                        n[d] += 1;
                     }
                 }
-            }
-            if f.version == version {
-                n += 1;
             }
         }
         self.verifier.tick();
         self.calib.tick();
         for (d, z) in z2.iter().enumerate() {
-            let mean = (n > 0).then(|| z / n as f64);
+            let mean = (n[d] > 0).then(|| z / n[d] as f64);
             if let Some(c) = self.change.observe(d, mean) {
                 self.counts.changes += 1;
                 tracing::info!(
