@@ -51,8 +51,10 @@ fn a_stationary_ar2_process_gets_nominal_coverage() {
         let (c1, c2) = (d.coverage_1sigma[k], d.coverage_2sigma[k]);
         assert!((0.63..=0.73).contains(&c1), "lead {lead_s}: 1 sigma {c1}");
         assert!((0.92..=0.97).contains(&c2), "lead {lead_s}: 2 sigma {c2}");
-        // An AR(2) is predictable a few steps ahead, and never worse than zero.
-        assert!(d.nrmse[k] <= 1.0, "lead {lead_s}: nrmse {}", d.nrmse[k]);
+        // An AR(2) is predictable a few steps ahead, and never worse than zero. At 20 s this
+        // one has almost no skill left (the optimum removes 1.7 % of the variance), so the
+        // delivered error equals zero's up to the noise of estimating beta out of sample.
+        assert!(d.nrmse[k] <= 1.002, "lead {lead_s}: nrmse {}", d.nrmse[k]);
     }
     assert!(d.nrmse[0] < 0.5, "{}", d.nrmse[0]);
     assert!(d.retrains >= 1 && d.swaps >= 1);
