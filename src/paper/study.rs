@@ -13,7 +13,7 @@ use super::skill::overall;
 use crate::eval::{
     evaluate_method, prepare_series, score_forecasts, std_dev, EvalResult, EvalSettings,
 };
-use crate::predict::{AnyPredictor, Method, PredictError, Predictor, PredictorConfig};
+use crate::predict::{AnyPredictor, Averaging, Method, PredictError, Predictor, PredictorConfig};
 use crate::sim::{Scenario, SimConfig};
 use crate::Dof;
 use std::ops::Range;
@@ -397,6 +397,7 @@ impl Context<'_> {
             sample_rate: STUDY_RATE_HZ,
             noise_pct,
             seed: self.plan.seed,
+            average: Averaging::NONE,
         }
     }
 
