@@ -16,7 +16,8 @@ pub mod run;
 
 pub use noise::add_noise;
 pub use protocol::{
-    forecast_sigma, origins, score_averaged_forecasts, score_forecasts, EvalError, Scores,
+    forecast_sigma, origins, score_averaged_forecasts, score_forecasts, score_with_average,
+    EvalError, Scores,
 };
 pub use run::{
     evaluate_method, evaluate_record, origin_count, prepare_series, std_dev, Entry, EvalFailure,

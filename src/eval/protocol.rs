@@ -1,7 +1,7 @@
 //! The forecast-scoring loop of the evaluation protocol (DESIGN.md section 4), shared by
 //! `shipcast eval` and by the held-out error (sigma) of `shipcast train`.
 
-use crate::predict::averaging::ForecastAverager;
+use crate::predict::averaging::{averager_for, AverageMode, Averaging, ForecastAverager};
 use crate::predict::{PredictError, Predictor};
 use std::time::Instant;
 
@@ -175,6 +175,39 @@ pub fn score_averaged_forecasts(
     }
     progress(unreported);
     Ok(sums.into_scores(clean.is_some(), predict_time, forecasts, feed.seconds))
+}
+
+/// Score the fitted `predictor` on `series[first..]` with its forecasts combined as `average`
+/// says ([`score_forecasts`] for K = 1, else [`score_averaged_forecasts`]); weighted
+/// averaging fits its weights on `training` (the training segment, and nothing else) and
+/// returns them per step (newest forecast first, all K available).
+#[allow(clippy::too_many_arguments)]
+pub fn score_with_average(
+    predictor: &mut dyn Predictor,
+    training: &[f64],
+    series: &[f64],
+    first: usize,
+    stride: usize,
+    clean: Option<&[f64]>,
+    average: Averaging,
+    progress: &dyn Fn(u64),
+) -> Result<(Scores, Option<Vec<Vec<f64>>>), EvalError> {
+    if average.is_none() {
+        let scores = score_forecasts(predictor, series, first, stride, clean, progress)?;
+        return Ok((scores, None));
+    }
+    let mut averager = averager_for(average, predictor, training)?;
+    let weights = (average.mode == AverageMode::Weighted).then(|| averager.weights().per_step());
+    let scores = score_averaged_forecasts(
+        predictor,
+        series,
+        first,
+        stride,
+        clean,
+        &mut averager,
+        progress,
+    )?;
+    Ok((scores, weights))
 }
 
 /// Feeds an online predictor every value of the test segment before each origin, in order.

@@ -2,10 +2,10 @@
 //! included, so one infeasible method never hides the results of the others.
 
 use super::noise::add_noise;
-use super::protocol::{origins, score_averaged_forecasts, score_forecasts, EvalError, Scores};
+use super::protocol::{origins, score_with_average, EvalError};
 use crate::dof::Dof;
 use crate::motion_csv::{MotionCsvError, MotionData};
-use crate::predict::averaging::{averager_for, AverageMode, Averaging};
+use crate::predict::averaging::Averaging;
 use crate::predict::{AnyPredictor, McaWeighting, Method, Predictor, PredictorConfig};
 use serde::{Deserialize, Serialize};
 use std::time::Instant;
@@ -174,8 +174,16 @@ pub fn evaluate_method(
     let start = Instant::now();
     predictor.fit(&series[..settings.train])?;
     let train_seconds = start.elapsed().as_secs_f64();
-    let (scores, average_weights) =
-        score_with_averaging(&mut predictor, prepared, settings, progress)?;
+    let (scores, average_weights) = score_with_average(
+        &mut predictor,
+        &series[..settings.train],
+        series,
+        settings.train,
+        settings.stride,
+        prepared.clean.as_deref(),
+        settings.average,
+        progress,
+    )?;
     let test_std = std_dev(&series[settings.train..]);
     let diagnostics = predictor.diagnostics();
     Ok(EvalResult {
@@ -204,46 +212,6 @@ pub fn evaluate_method(
         average: settings.average,
         average_weights,
     })
-}
-
-/// Score the fitted `predictor` on the test segment, its forecasts combined as
-/// `settings.average` says; with weighted averaging also the weights (all K forecasts
-/// available) per step.
-fn score_with_averaging(
-    predictor: &mut AnyPredictor,
-    prepared: &PreparedSeries,
-    settings: &EvalSettings,
-    progress: &dyn Fn(u64),
-) -> Result<(Scores, Option<Vec<Vec<f64>>>), EvalError> {
-    let series = &prepared.series;
-    let clean = prepared.clean.as_deref();
-    if settings.average.is_none() {
-        let scores = score_forecasts(
-            predictor,
-            series,
-            settings.train,
-            settings.stride,
-            clean,
-            progress,
-        )?;
-        return Ok((scores, None));
-    }
-    // The weights see the training segment only.
-    let mut averager = averager_for(settings.average, predictor, &series[..settings.train])?;
-    let weights = (settings.average.mode == AverageMode::Weighted).then(|| {
-        let w = averager.weights();
-        (0..w.horizon()).map(|s| w.at_step(s).to_vec()).collect()
-    });
-    let scores = score_averaged_forecasts(
-        predictor,
-        series,
-        settings.train,
-        settings.stride,
-        clean,
-        &mut averager,
-        progress,
-    )?;
-    Ok((scores, weights))
 }
 
 /// Number of forecasts each (dof, method) will score on a record of `len` samples, or the

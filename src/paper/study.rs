@@ -5,6 +5,7 @@
 //! the cores while they are measured; the rest run on up to two worker threads. Every job is
 //! seeded, so the numbers do not depend on which thread ran it.
 
+use super::averaging::{self, AverageOutcome, AverageSea, AverageSetting, MeasuredSeries};
 use super::bound::Bound;
 use super::paper_values::{TABLE1_STEPS, TABLE2_PREDICTIONS, TABLE2_STEPS, TABLE3_NOISE_PCT};
 use super::plan::Plan;
@@ -121,6 +122,10 @@ pub struct Study {
     pub bounds: Vec<BoundOutcome>,
     pub timings: Vec<Timing>,
     pub traces: Vec<Trace>,
+    /// The averaged forecasts (MCA, heave) on each series.
+    pub averages: Vec<AverageOutcome>,
+    /// What the measured-sea record is, when one was given.
+    pub measured_title: Option<String>,
     /// Wall time of the whole run [s].
     pub elapsed_seconds: f64,
     /// Worker threads used after the timing jobs.
@@ -249,6 +254,10 @@ enum Job {
         dof: Dof,
         noise_pct: f64,
     },
+    Average {
+        sea: AverageSea,
+        setting: AverageSetting,
+    },
 }
 
 enum Output {
@@ -256,6 +265,7 @@ enum Output {
     Bound(BoundOutcome),
     Timing(Timing),
     Trace(Trace),
+    Average(AverageOutcome),
 }
 
 impl Job {
@@ -276,12 +286,15 @@ impl Job {
             Job::Bound { sea, dof, order } => format!("{sea:?} {} bound-{order}", dof.name()),
             Job::Timing { method, horizon } => format!("timing {method}, {horizon} steps"),
             Job::Trace { dof, noise_pct } => format!("trace {} (noise {noise_pct} %)", dof.name()),
+            Job::Average { sea, setting } => {
+                format!("averaged forecasts, {}, {setting:?}", sea.name())
+            }
         }
     }
 }
 
-/// The jobs of a plan; timing jobs first.
-fn jobs(plan: &Plan) -> Vec<Job> {
+/// The jobs of a plan (with the measured-sea record if `measured`); timing jobs first.
+fn jobs(plan: &Plan, measured: bool) -> Vec<Job> {
     let big = plan.big_order();
     let mut jobs = Vec::new();
     for &horizon in &TABLE2_STEPS {
@@ -359,6 +372,14 @@ fn jobs(plan: &Plan) -> Vec<Job> {
         dof: Dof::Heave,
         noise_pct: TRACE_NOISE_PCT,
     });
+    for sea in AverageSea::ALL {
+        if sea == AverageSea::Measured && !measured {
+            continue;
+        }
+        for setting in AverageSetting::ALL {
+            jobs.push(Job::Average { sea, setting });
+        }
+    }
     jobs
 }
 
@@ -376,6 +397,9 @@ struct Context<'a> {
     plan: &'a Plan,
     dense: &'a Sea,
     line: &'a Sea,
+    /// Another realisation of the dense sea (seed + 1).
+    other: &'a Sea,
+    measured: Option<&'a MeasuredSeries>,
 }
 
 impl Context<'_> {
@@ -440,7 +464,31 @@ impl Context<'_> {
                 result: self.timing(method, horizon),
             }),
             Job::Trace { dof, noise_pct } => Output::Trace(self.trace(dof, noise_pct)),
+            Job::Average { sea, setting } => Output::Average(AverageOutcome {
+                sea,
+                setting,
+                result: self.average(sea, setting),
+            }),
         }
+    }
+
+    /// MCA heave with every averaging, trained and tested as `sea` says.
+    fn average(
+        &self,
+        sea: AverageSea,
+        setting: AverageSetting,
+    ) -> Result<averaging::AveragedSeries, String> {
+        let dense = self.dense.series(Dof::Heave);
+        let (train, test) = match sea {
+            AverageSea::Dense => (dense, dense),
+            AverageSea::OtherRealisation => (dense, self.other.series(Dof::Heave)),
+            AverageSea::Measured => {
+                let m = self.measured.ok_or("no measured record given")?;
+                (m.heave.as_slice(), m.heave.as_slice())
+            }
+        };
+        averaging::measure(&setting.config(self.plan), self.plan, train, test)
+            .map_err(|e| e.to_string())
     }
 
     fn bound_predictor(&self, sea: SeaKind, dof: Dof, order: usize) -> Result<Bound, String> {
@@ -573,6 +621,15 @@ pub fn forecasts_at_lead<P: Predictor + ?Sized>(
 
 /// Run the whole study of `plan`.
 pub fn run(plan: &Plan, progress: &dyn Progress) -> anyhow::Result<Study> {
+    run_with(plan, None, progress)
+}
+
+/// Run the whole study of `plan`, with the averaged forecasts also on `measured` if given.
+pub fn run_with(
+    plan: &Plan,
+    measured: Option<&MeasuredSeries>,
+    progress: &dyn Progress,
+) -> anyhow::Result<Study> {
     plan.validate().map_err(anyhow::Error::msg)?;
     let started = Instant::now();
     let len = plan.len();
@@ -586,6 +643,14 @@ pub fn run(plan: &Plan, progress: &dyn Progress) -> anyhow::Result<Study> {
         "line",
         format!("line-spectrum sea ({} components)", plan.line_components),
         &sim_config(SeaKind::Line, plan),
+        len,
+    )?;
+    let mut other_config = sim_config(SeaKind::Dense, plan);
+    other_config.seed = plan.seed.wrapping_add(1);
+    let other = Sea::simulate(
+        "other",
+        "dense sea, another realisation".into(),
+        &other_config,
         len,
     )?;
     let seas = [(SeaKind::Dense, &dense), (SeaKind::Line, &line)]
@@ -607,8 +672,10 @@ pub fn run(plan: &Plan, progress: &dyn Progress) -> anyhow::Result<Study> {
         plan,
         dense: &dense,
         line: &line,
+        other: &other,
+        measured,
     };
-    let jobs = jobs(plan);
+    let jobs = jobs(plan, measured.is_some());
     progress.start(jobs.len() as u64);
     let timing_jobs = jobs
         .iter()
@@ -630,6 +697,8 @@ pub fn run(plan: &Plan, progress: &dyn Progress) -> anyhow::Result<Study> {
         bounds: Vec::new(),
         timings: Vec::new(),
         traces: Vec::new(),
+        averages: Vec::new(),
+        measured_title: measured.map(|m| m.title.clone()),
         elapsed_seconds: 0.0,
         threads,
     };
@@ -651,6 +720,12 @@ pub fn run(plan: &Plan, progress: &dyn Progress) -> anyhow::Result<Study> {
             Output::Bound(b) => study.bounds.push(b),
             Output::Timing(t) => study.timings.push(t),
             Output::Trace(t) => study.traces.push(t),
+            Output::Average(a) => {
+                if let Err(e) = &a.result {
+                    tracing::warn!(sea = a.sea.name(), setting = ?a.setting, "averaged forecasts: {e}");
+                }
+                study.averages.push(a)
+            }
         }
     }
     study.elapsed_seconds = started.elapsed().as_secs_f64();
@@ -724,7 +799,7 @@ mod tests {
         let b = run(&plan, &NoProgress).unwrap();
         assert_eq!(
             a.outcomes.len(),
-            jobs(&plan)
+            jobs(&plan, false)
                 .iter()
                 .filter(|j| matches!(j, Job::Eval { .. }))
                 .count()
@@ -765,7 +840,7 @@ mod tests {
     #[test]
     fn job_list_runs_timing_first_and_covers_every_table() {
         let plan = Plan::quick(1);
-        let jobs = jobs(&plan);
+        let jobs = jobs(&plan, false);
         let timing = jobs
             .iter()
             .take_while(|j| matches!(j, Job::Timing { .. }))

@@ -164,6 +164,13 @@ impl AveragingWeights {
         &self.weights[start..start + n]
     }
 
+    /// [`AveragingWeights::at_step`] for every step.
+    pub fn per_step(&self) -> Vec<Vec<f64>> {
+        (0..self.horizon)
+            .map(|s| self.at_step(s).to_vec())
+            .collect()
+    }
+
     fn at(&self, m: usize, s: usize, j: usize) -> f64 {
         self.weights[((m - 1) * self.horizon + s) * self.k + j]
     }
