@@ -18,6 +18,9 @@ pub struct Args {
     /// the averaged-forecast section is also run on it.
     #[arg(long)]
     measured: Option<PathBuf>,
+    /// Run only the averaged-forecast section and write it as DIR/averaging.md.
+    #[arg(long)]
+    averaging_only: bool,
     /// Seed of the simulated seas, the noise and the MLP.
     #[arg(long, default_value_t = 1)]
     seed: u64,
@@ -38,6 +41,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         .as_deref()
         .map(paper::averaging::MeasuredSeries::read)
         .transpose()?;
+    if args.averaging_only {
+        let section = paper::averaging::run_alone(&plan, measured.as_ref())?;
+        let path = args.out.join("averaging.md");
+        std::fs::write(&path, section).with_context(|| format!("writing {}", path.display()))?;
+        tracing::info!(report = %path.display(), "averaged-forecast section written");
+        return Ok(());
+    }
     let bar = Bar::new();
     let study = paper::run_with(&plan, measured.as_ref(), &bar)?;
     bar.finish();

@@ -72,7 +72,7 @@ fn quick_paper_study_writes_a_complete_finite_report() {
     for row in [
         "| other realisation | MCA-150, paper settings | weighted 10 |",
         "| dense sea | MCA-150, service default",
-        "- other realisation, Service settings: uniform",
+        "- other realisation, service default: uniform",
     ] {
         assert!(
             averaged.contains(row),
@@ -214,4 +214,21 @@ fn measured_record_gets_its_averaged_rows_and_a_bad_one_is_a_one_line_error() {
     assert_eq!(errors.len(), 1, "{stderr}");
     assert!(errors[0].contains("pitch.csv"), "{stderr}");
     assert!(!stderr.contains("panicked"), "{stderr}");
+}
+
+/// `--averaging-only` writes that section alone, as averaging.md, and no report.md.
+#[test]
+fn averaging_only_writes_just_that_section() {
+    let dir = tempfile::tempdir().unwrap();
+    let status = shipcast()
+        .args(["paper", "--quick", "--averaging-only", "--out"])
+        .arg(dir.path())
+        .status()
+        .unwrap();
+    assert!(status.success());
+    let section = std::fs::read_to_string(dir.path().join("averaging.md")).unwrap();
+    assert!(section.starts_with("## Averaged forecasts"), "{section}");
+    assert_eq!(section.matches("| dense sea |").count(), 14, "{section}");
+    assert_eq!(section.matches("| other realisation |").count(), 14);
+    assert!(!dir.path().join("report.md").exists());
 }

@@ -1,7 +1,9 @@
 //! The forecast-scoring loop of the evaluation protocol (DESIGN.md section 4), shared by
 //! `shipcast eval` and by the held-out error (sigma) of `shipcast train`.
 
-use crate::predict::averaging::{averager_for, AverageMode, Averaging, ForecastAverager};
+use crate::predict::averaging::{
+    averager_for, AverageMode, Averaging, ForecastAverager, StepWeights,
+};
 use crate::predict::{PredictError, Predictor};
 use std::time::Instant;
 
@@ -191,7 +193,7 @@ pub fn score_with_average(
     clean: Option<&[f64]>,
     average: Averaging,
     progress: &dyn Fn(u64),
-) -> Result<(Scores, Option<Vec<Vec<f64>>>), EvalError> {
+) -> Result<(Scores, Option<StepWeights>), EvalError> {
     if average.is_none() {
         let scores = score_forecasts(predictor, series, first, stride, clean, progress)?;
         return Ok((scores, None));

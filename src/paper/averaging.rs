@@ -5,8 +5,9 @@
 //! one seed, tested on another) and on a measured-sea motion record when one is given.
 
 use super::plan::Plan;
-use super::seas::STUDY_RATE_HZ;
+use super::seas::{Sea, STUDY_RATE_HZ};
 use super::skill::overall;
+use super::study::{sim_config, SeaKind};
 use super::tables::{num, Table};
 use super::variant::Variant;
 use crate::config::PredictorServiceConfig;
@@ -199,6 +200,82 @@ pub fn measure(
     })
 }
 
+/// The heave series the averaging runs on.
+pub struct Seas<'a> {
+    pub dense: &'a [f64],
+    /// Another realisation of the dense sea.
+    pub other: &'a [f64],
+    pub measured: Option<&'a MeasuredSeries>,
+}
+
+/// The dense sea of the study simulated with the next seed (same length as the study's seas).
+pub fn other_realisation(plan: &Plan) -> anyhow::Result<Sea> {
+    let mut config = sim_config(SeaKind::Dense, plan);
+    config.seed = plan.seed.wrapping_add(1);
+    Sea::simulate(
+        "other",
+        "dense sea, another realisation".into(),
+        &config,
+        plan.len(),
+    )
+}
+
+/// MCA heave with every averaging, trained and tested as `sea` says.
+pub fn outcome(
+    sea: AverageSea,
+    setting: AverageSetting,
+    plan: &Plan,
+    seas: &Seas<'_>,
+) -> AverageOutcome {
+    let series = match sea {
+        AverageSea::Dense => Ok((seas.dense, seas.dense)),
+        AverageSea::OtherRealisation => Ok((seas.dense, seas.other)),
+        AverageSea::Measured => seas
+            .measured
+            .map(|m| (m.heave.as_slice(), m.heave.as_slice()))
+            .ok_or_else(|| "no measured record given".to_string()),
+    };
+    let result = series.and_then(|(train, test)| {
+        measure(&setting.config(plan), plan, train, test).map_err(|e| e.to_string())
+    });
+    AverageOutcome {
+        sea,
+        setting,
+        result,
+    }
+}
+
+/// Only this section of the study (`shipcast paper --averaging-only`): simulate the dense sea
+/// and its other realisation, run every (series, setting), return the section's Markdown.
+pub fn run_alone(plan: &Plan, measured: Option<&MeasuredSeries>) -> anyhow::Result<String> {
+    plan.validate().map_err(anyhow::Error::msg)?;
+    let dense = Sea::simulate(
+        "dense",
+        "realistic dense sea".into(),
+        &sim_config(SeaKind::Dense, plan),
+        plan.len(),
+    )?;
+    let other = other_realisation(plan)?;
+    let seas = Seas {
+        dense: dense.series(Dof::Heave),
+        other: other.series(Dof::Heave),
+        measured,
+    };
+    let mut outcomes = Vec::new();
+    for sea in AverageSea::ALL {
+        if sea == AverageSea::Measured && measured.is_none() {
+            continue;
+        }
+        for setting in AverageSetting::ALL {
+            tracing::info!(sea = sea.name(), setting = ?setting, "averaged forecasts");
+            outcomes.push(outcome(sea, setting, plan, &seas));
+        }
+    }
+    let mut s = String::new();
+    section(&outcomes, plan, measured.map(|m| m.title.as_str()), &mut s);
+    Ok(s)
+}
+
 /// Steps (1-based) of the table's leads at 2 Hz: 5, 10 and 20 s.
 const TABLE_STEPS: [usize; 3] = [10, 20, 40];
 
@@ -279,7 +356,8 @@ pub fn section(
 }
 
 /// Plain words: for each series and setting, whether the best uniform and the best weighted
-/// combination beat the newest forecast over the whole horizon.
+/// combination beat the newest forecast over the whole horizon, and whether that beats
+/// forecasting zero (about the test segment's standard deviation).
 pub fn verdict(outcomes: &[AverageOutcome]) -> String {
     let mut lines = Vec::new();
     for o in outcomes {
@@ -295,20 +373,25 @@ pub fn verdict(outcomes: &[AverageOutcome]) -> String {
                 .min_by(|a, b| a.1.total_cmp(&b.1))
         };
         let say = |mode: AverageMode| match best(mode) {
-            Some((k, e)) if e < base => format!(
-                "{mode} helps (best K = {k}, {:+.1} %)",
-                100.0 * (e / base - 1.0)
-            ),
-            Some((k, e)) => format!(
-                "{mode} does not help (least worse K = {k}, {:+.1} %)",
-                100.0 * (e / base - 1.0)
-            ),
+            Some((k, e)) => {
+                let change = 100.0 * (e / base - 1.0);
+                let effect = if e < base { "helps" } else { "does not help" };
+                let zero = if e >= series.test_std {
+                    ", no better than forecasting zero"
+                } else {
+                    ""
+                };
+                format!("{mode} {effect} (best K = {k}, {change:+.1} %{zero})")
+            }
             None => format!("{mode} not run"),
         };
         lines.push(format!(
-            "- {}, {:?} settings: {}; {}.",
+            "- {}, {}: {}; {}.",
             o.sea.name(),
-            o.setting,
+            match o.setting {
+                AverageSetting::Paper => "paper settings",
+                AverageSetting::Service => "service default",
+            },
             say(AverageMode::Uniform),
             say(AverageMode::Weighted)
         ));

@@ -464,31 +464,17 @@ impl Context<'_> {
                 result: self.timing(method, horizon),
             }),
             Job::Trace { dof, noise_pct } => Output::Trace(self.trace(dof, noise_pct)),
-            Job::Average { sea, setting } => Output::Average(AverageOutcome {
+            Job::Average { sea, setting } => Output::Average(averaging::outcome(
                 sea,
                 setting,
-                result: self.average(sea, setting),
-            }),
+                self.plan,
+                &averaging::Seas {
+                    dense: self.dense.series(Dof::Heave),
+                    other: self.other.series(Dof::Heave),
+                    measured: self.measured,
+                },
+            )),
         }
-    }
-
-    /// MCA heave with every averaging, trained and tested as `sea` says.
-    fn average(
-        &self,
-        sea: AverageSea,
-        setting: AverageSetting,
-    ) -> Result<averaging::AveragedSeries, String> {
-        let dense = self.dense.series(Dof::Heave);
-        let (train, test) = match sea {
-            AverageSea::Dense => (dense, dense),
-            AverageSea::OtherRealisation => (dense, self.other.series(Dof::Heave)),
-            AverageSea::Measured => {
-                let m = self.measured.ok_or("no measured record given")?;
-                (m.heave.as_slice(), m.heave.as_slice())
-            }
-        };
-        averaging::measure(&setting.config(self.plan), self.plan, train, test)
-            .map_err(|e| e.to_string())
     }
 
     fn bound_predictor(&self, sea: SeaKind, dof: Dof, order: usize) -> Result<Bound, String> {
@@ -645,14 +631,7 @@ pub fn run_with(
         &sim_config(SeaKind::Line, plan),
         len,
     )?;
-    let mut other_config = sim_config(SeaKind::Dense, plan);
-    other_config.seed = plan.seed.wrapping_add(1);
-    let other = Sea::simulate(
-        "other",
-        "dense sea, another realisation".into(),
-        &other_config,
-        len,
-    )?;
+    let other = averaging::other_realisation(plan)?;
     let seas = [(SeaKind::Dense, &dense), (SeaKind::Line, &line)]
         .into_iter()
         .map(|(kind, sea)| {

@@ -109,6 +109,9 @@ impl Averaging {
     }
 }
 
+/// Weights per step (0-based), each the weights of the forecasts made 0, 1, ... steps ago.
+pub type StepWeights = Vec<Vec<f64>>;
+
 /// Combination weights for K forecasts over a horizon H: for every number m = 1..K of
 /// forecasts available and every step s, the weights of the m newest forecasts that cover s.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -165,7 +168,7 @@ impl AveragingWeights {
     }
 
     /// [`AveragingWeights::at_step`] for every step.
-    pub fn per_step(&self) -> Vec<Vec<f64>> {
+    pub fn per_step(&self) -> StepWeights {
         (0..self.horizon)
             .map(|s| self.at_step(s).to_vec())
             .collect()
@@ -310,8 +313,8 @@ pub fn fit_weights(
             let ridge = WEIGHT_RIDGE * mean_diag.max(f64::MIN_POSITIVE);
             solution[..n].copy_from_slice(&rhs[s * k..s * k + n]);
             solve_spd_lower(&mut block[..n * n], n, ridge, &mut solution[..n])?;
-            for j in 0..n {
-                *weights.at_mut(m, s, j) = solution[j];
+            for (j, &w) in solution[..n].iter().enumerate() {
+                *weights.at_mut(m, s, j) = w;
             }
         }
     }
@@ -329,7 +332,7 @@ fn solve_spd_lower(a: &mut [f64], n: usize, ridge: f64, x: &mut [f64]) -> Result
         for p in 0..j {
             d -= a[j * n + p] * a[j * n + p];
         }
-        if !(d > 0.0) || !d.is_finite() {
+        if d.is_nan() || d <= 0.0 || d.is_infinite() {
             return Err(PredictError::Numerical(
                 "averaging weights: normal equations not positive definite".into(),
             ));
