@@ -161,3 +161,25 @@ fn fitting_needs_enough_training_values() {
     let e = fit_weights(&mut p, &ramp, 3).unwrap_err();
     assert!(matches!(e, PredictError::TooShort { .. }), "{e}");
 }
+
+#[test]
+fn pushing_forecasts_does_not_allocate() {
+    let ramp: Vec<f64> = (0..200).map(|i| i as f64).collect();
+    let mut p = GainErrorRamp {
+        order: 5,
+        horizon: 6,
+        gain: 0.01,
+    };
+    let mut averager = ForecastAverager::new(fit_weights(&mut p, &ramp, 4).unwrap());
+    let (mut f, mut out) = ([0.0; 6], [0.0; 6]);
+    let allocations = crate::predict::suite::allocations_during(|| {
+        for origin in 5..100 {
+            p.forecast(&ramp[origin - 5..origin], &mut f).unwrap();
+            averager.push(&f, &mut out).unwrap();
+            if origin == 50 {
+                averager.reset();
+            }
+        }
+    });
+    assert_eq!(allocations, 0);
+}
