@@ -5,7 +5,7 @@ use crate::progress;
 use anyhow::Context;
 use shipcast::eval::{self, report, Entry, EvalSettings};
 use shipcast::motion_csv::MotionData;
-use shipcast::predict::{McaWeighting, Method, PredictorConfig};
+use shipcast::predict::{AverageMode, Averaging, McaWeighting, Method, PredictorConfig};
 use shipcast::signal;
 use shipcast::Dof;
 use std::io::Write;
@@ -98,6 +98,15 @@ pub struct Args {
     /// Seed of the noise and of the methods' random choices.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
+    /// Combine each forecast with those of the same instants from the K - 1 origins before it
+    /// (1 = the newest forecast alone; at most the horizon). Forecasts are then made at every
+    /// origin, whatever --stride scores.
+    #[arg(long, default_value_t = 1)]
+    pub average: usize,
+    /// How --average combines them: uniform (the paper's mean) or weighted (least-squares
+    /// weights per step, fitted on the training segment only).
+    #[arg(long, default_value_t = AverageMode::Uniform)]
+    pub average_mode: AverageMode,
     /// One JSON object per (dof, method) line instead of the table.
     #[arg(long)]
     pub json: bool,
@@ -151,6 +160,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         sample_rate: args.sample_rate,
         noise_pct: args.noise_pct,
         seed: args.seed,
+        average: Averaging {
+            k: args.average,
+            mode: args.average_mode,
+        },
     };
     let per_pair = eval::origin_count(data.len(), &config, &settings)?;
     let bar = progress::styled(

@@ -1,4 +1,4 @@
-//! `shipcast paper --out DIR [--quick] [--seed N]`: the paper study (tables and figures of Zhao,
+//! `shipcast paper --out DIR [--quick] [--seed N] [--measured FILE.csv]`: the paper study (tables and figures of Zhao,
 //! Xu and Kwan, section 4), written as `DIR/report.md` and SVG figures, with a progress bar.
 
 use crate::progress::Bar;
@@ -14,6 +14,13 @@ pub struct Args {
     /// Shorter records, smaller orders and fewer MLP epochs: a smoke test in under 2 minutes.
     #[arg(long)]
     quick: bool,
+    /// A measured-sea motion CSV (time_s, heave_m at any rate the filter divides down to 2 Hz):
+    /// the averaged-forecast section is also run on it.
+    #[arg(long)]
+    measured: Option<PathBuf>,
+    /// Run only the averaged-forecast section and write it as DIR/averaging.md.
+    #[arg(long)]
+    averaging_only: bool,
     /// Seed of the simulated seas, the noise and the MLP.
     #[arg(long, default_value_t = 1)]
     seed: u64,
@@ -28,8 +35,21 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     // Fail on an unusable output directory before spending minutes on the study.
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("creating the output directory {}", args.out.display()))?;
+    // Read the measured record before the study, so a bad file costs no minutes.
+    let measured = args
+        .measured
+        .as_deref()
+        .map(paper::averaging::MeasuredSeries::read)
+        .transpose()?;
+    if args.averaging_only {
+        let section = paper::averaging::run_alone(&plan, measured.as_ref())?;
+        let path = args.out.join("averaging.md");
+        std::fs::write(&path, section).with_context(|| format!("writing {}", path.display()))?;
+        tracing::info!(report = %path.display(), "averaged-forecast section written");
+        return Ok(());
+    }
     let bar = Bar::new();
-    let study = paper::run(&plan, &bar)?;
+    let study = paper::run_with(&plan, measured.as_ref(), &bar)?;
     bar.finish();
     let path = paper::report::write(&study, &args.out)?;
     tracing::info!(

@@ -312,3 +312,64 @@ fn train_writes_a_loadable_model_for_every_dof_present() {
     ]);
     assert_one_line_error(&bad, "infeasible");
 }
+
+/// `--average K --average-mode M`: the JSON names the combination, K = 1 prints the same
+/// numbers as no flag, weighted averaging reports its weights, and a K beyond the horizon is a
+/// one-line error.
+#[test]
+fn averaged_forecasts_are_named_and_k_one_changes_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = sea_csv(dir.path(), "sea.csv", 2.0, 500);
+    let json = |extra: &[&str]| -> serde_json::Value {
+        let mut args = vec!["--dof", "heave", "--method", "wiener", "--json"];
+        args.extend_from_slice(extra);
+        let output = eval(&input, &args);
+        assert!(
+            output.status.success(),
+            "{}",
+            String::from_utf8_lossy(&output.stderr)
+        );
+        serde_json::from_slice(&output.stdout).unwrap()
+    };
+    let plain = json(&[]);
+    let one = json(&["--average", "1", "--average-mode", "weighted"]);
+    assert_eq!(plain["rms"], one["rms"]);
+    assert_eq!(
+        plain["average"],
+        serde_json::json!({"k": 1, "mode": "uniform"})
+    );
+    let weighted = json(&["--average", "3", "--average-mode", "weighted"]);
+    assert_eq!(
+        weighted["average"],
+        serde_json::json!({"k": 3, "mode": "weighted"})
+    );
+    assert_eq!(weighted["origins"], plain["origins"]);
+    let weights = weighted["average_weights"].as_array().unwrap();
+    assert_eq!(weights.len(), 6);
+    assert_eq!(weights[0].as_array().unwrap().len(), 3);
+
+    let table = eval(
+        &input,
+        &["--dof", "heave", "--method", "zero", "--average", "4"],
+    );
+    let stdout = String::from_utf8_lossy(&table.stdout);
+    assert!(
+        stdout.contains("forecasts averaged: uniform mean of 4"),
+        "{stdout}"
+    );
+
+    let too_many = eval(&input, &["--dof", "heave", "--average", "7"]);
+    assert_one_line_error(&too_many, "between 1 and the horizon 6");
+    let bad_mode = eval(
+        &input,
+        &[
+            "--dof",
+            "heave",
+            "--average",
+            "2",
+            "--average-mode",
+            "median",
+        ],
+    );
+    assert!(!bad_mode.status.success());
+}

@@ -47,6 +47,7 @@ fn quick_paper_study_writes_a_complete_finite_report() {
         "## Figures",
         "## Appendix",
         "### yaw",
+        "## Averaged forecasts",
     ] {
         assert!(report.contains(heading), "report lacks '{heading}'");
     }
@@ -62,6 +63,26 @@ fn quick_paper_study_writes_a_complete_finite_report() {
         "no weighted-MCA column:\n{horizons}"
     );
     assert!(report.contains("1/lambda weighting, shift 2, validated ridge (not the paper's)"));
+    // The averaged forecasts: every combination on the dense sea and on the other realisation.
+    let averaged = report
+        .split("## Averaged forecasts")
+        .nth(1)
+        .and_then(|s| s.split("\n## ").next())
+        .unwrap();
+    for row in [
+        "| other realisation | MCA-150, paper settings | weighted 10 |",
+        "| dense sea | MCA-150, service default",
+        "- other realisation, service default: uniform",
+    ] {
+        assert!(
+            averaged.contains(row),
+            "averaged section lacks '{row}':\n{averaged}"
+        );
+    }
+    assert!(
+        !averaged.contains("measured sea"),
+        "no measured record was given"
+    );
     for part in [
         "**Why the paper's rule fails",
         "**Why weighting by 1/lambda",
@@ -143,4 +164,71 @@ fn unwritable_output_is_a_one_line_error() {
     assert_eq!(errors.len(), 1, "{stderr}");
     assert!(errors[0].contains("a-file"), "{stderr}");
     assert!(!stderr.contains("panicked"), "{stderr}");
+}
+
+/// `--measured FILE`: the averaged forecasts also run on that record (here a sum of
+/// sinusoids written at 8 Hz, standing in for measured motion); a file without heave is a
+/// one-line error before any study work.
+#[test]
+fn measured_record_gets_its_averaged_rows_and_a_bad_one_is_a_one_line_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let csv = dir.path().join("measured.csv");
+    let mut text = String::from("time_s,heave_m\n");
+    for i in 0..(3000 * 4) {
+        let t = i as f64 / 8.0;
+        let v = (0.61 * t).sin() + 0.4 * (0.93 * t + 1.0).sin() + 0.2 * (0.37 * t).cos();
+        text.push_str(&format!("{t},{v}\n"));
+    }
+    std::fs::write(&csv, text).unwrap();
+    let out = dir.path().join("study");
+    let status = shipcast()
+        .args(["paper", "--quick", "--measured"])
+        .arg(&csv)
+        .arg("--out")
+        .arg(&out)
+        .status()
+        .unwrap();
+    assert!(status.success());
+    let report = std::fs::read_to_string(out.join("report.md")).unwrap();
+    assert!(
+        report.contains("'measured sea': measured.csv"),
+        "no measured note"
+    );
+    assert!(
+        report.contains("| measured sea | MCA-150, paper settings | uniform 5 |"),
+        "no measured rows"
+    );
+
+    let pitch_only = dir.path().join("pitch.csv");
+    std::fs::write(&pitch_only, "time_s,pitch_rad\n0,1\n0.125,2\n").unwrap();
+    let output = shipcast()
+        .args(["paper", "--quick", "--measured"])
+        .arg(&pitch_only)
+        .arg("--out")
+        .arg(dir.path().join("other"))
+        .output()
+        .unwrap();
+    assert!(!output.status.success());
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    let errors: Vec<&str> = stderr.lines().filter(|l| l.starts_with("error:")).collect();
+    assert_eq!(errors.len(), 1, "{stderr}");
+    assert!(errors[0].contains("pitch.csv"), "{stderr}");
+    assert!(!stderr.contains("panicked"), "{stderr}");
+}
+
+/// `--averaging-only` writes that section alone, as averaging.md, and no report.md.
+#[test]
+fn averaging_only_writes_just_that_section() {
+    let dir = tempfile::tempdir().unwrap();
+    let status = shipcast()
+        .args(["paper", "--quick", "--averaging-only", "--out"])
+        .arg(dir.path())
+        .status()
+        .unwrap();
+    assert!(status.success());
+    let section = std::fs::read_to_string(dir.path().join("averaging.md")).unwrap();
+    assert!(section.starts_with("## Averaged forecasts"), "{section}");
+    assert_eq!(section.matches("| dense sea |").count(), 14, "{section}");
+    assert_eq!(section.matches("| other realisation |").count(), 14);
+    assert!(!dir.path().join("report.md").exists());
 }

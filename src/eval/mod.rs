@@ -3,7 +3,8 @@
 //! while `o + H <= len`, RMS error per step, normalised by the standard deviation of the test
 //! segment, next to persistence at the same origins.
 //!
-//! - [`protocol`]: the scoring loop (also gives the held-out sigma for model files).
+//! - [`protocol`]: the scoring loop (also gives the held-out sigma for model files), plain or
+//!   with the forecasts of the same instant averaged.
 //! - [`run`]: one [`Entry`] per (dof, method), with noise and the JSON record.
 //! - [`noise`]: seeded Gaussian measurement noise.
 //! - [`report`]: the human-readable table.
@@ -14,11 +15,16 @@ pub mod report;
 pub mod run;
 
 pub use noise::add_noise;
-pub use protocol::{forecast_sigma, origins, score_forecasts, EvalError, Scores};
+pub use protocol::{
+    forecast_sigma, origins, score_averaged_forecasts, score_forecasts, score_with_average,
+    EvalError, Scores,
+};
 pub use run::{
     evaluate_method, evaluate_record, origin_count, prepare_series, std_dev, Entry, EvalFailure,
     EvalResult, EvalSettings, PreparedSeries, RecordError,
 };
 
+#[cfg(test)]
+mod average_tests;
 #[cfg(test)]
 mod tests;

@@ -26,6 +26,20 @@ fn lead_steps(sample_rate: f64, horizon: usize) -> Vec<(f64, usize)> {
 pub fn table(entries: &[Entry], sample_rate: f64, horizon: usize) -> String {
     let leads = lead_steps(sample_rate, horizon);
     let mut out = String::new();
+    // Every entry of one run shares the averaging; name it when there is one.
+    let averaged = entries.iter().find_map(|e| match e {
+        Entry::Done(r) if !r.average.is_none() => Some(r.average),
+        _ => None,
+    });
+    if let Some(average) = averaged {
+        let _ = writeln!(
+            out,
+            "forecasts averaged: {} (--average {} --average-mode {})",
+            average.describe(),
+            average.k,
+            average.mode
+        );
+    }
     let _ = write!(out, "{:<6} {:<12} {:>7}", "dof", "method", "origins");
     for (lead, _) in &leads {
         let _ = write!(out, " {:>17}", format!("rms/skill {lead} s"));
@@ -79,7 +93,10 @@ pub fn table(entries: &[Entry], sample_rate: f64, horizon: usize) -> String {
 mod tests {
     use super::super::run::{EvalFailure, EvalResult};
     use super::*;
-    use crate::{predict::Method, Dof};
+    use crate::{
+        predict::{Averaging, Method},
+        Dof,
+    };
 
     #[test]
     fn table_shows_leads_within_horizon_and_failures() {
@@ -107,6 +124,8 @@ mod tests {
             energy: None,
             ridge: None,
             mca_weighting: None,
+            average: Averaging::NONE,
+            average_weights: None,
         };
         let failure = EvalFailure {
             dof: Dof::Heave,

@@ -2,9 +2,10 @@
 //! included, so one infeasible method never hides the results of the others.
 
 use super::noise::add_noise;
-use super::protocol::{origins, score_forecasts, EvalError};
+use super::protocol::{origins, score_with_average, EvalError};
 use crate::dof::Dof;
 use crate::motion_csv::{MotionCsvError, MotionData};
+use crate::predict::averaging::Averaging;
 use crate::predict::{AnyPredictor, McaWeighting, Method, Predictor, PredictorConfig};
 use serde::{Deserialize, Serialize};
 use std::time::Instant;
@@ -22,6 +23,9 @@ pub struct EvalSettings {
     pub noise_pct: f64,
     /// Seed of the noise (and of the methods, through `PredictorConfig::seed`).
     pub seed: u64,
+    /// Combination of the forecasts of the same instant from consecutive origins (k = 1: none).
+    #[serde(default)]
+    pub average: Averaging,
 }
 
 /// The result of one method on one DOF (one line of `shipcast eval --json`).
@@ -67,6 +71,14 @@ pub struct EvalResult {
     /// MCA: weights of the eigen-directions (paper or inverse).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub mca_weighting: Option<McaWeighting>,
+    /// How the scored forecasts combine the forecasts of the same instant (k = 1: the newest
+    /// alone, the protocol without averaging).
+    #[serde(default)]
+    pub average: Averaging,
+    /// Weighted averaging: per step, the fitted weights of the forecasts made 0, 1, ... steps
+    /// before the origin (fitted on the training segment only).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub average_weights: Option<Vec<Vec<f64>>>,
 }
 
 /// A (dof, method) pair that could not be evaluated, and why.
@@ -157,16 +169,19 @@ pub fn evaluate_method(
         config.horizon,
         settings.stride,
     )?;
+    settings.average.validate(config.horizon)?;
     let mut predictor = AnyPredictor::new(method, config)?;
     let start = Instant::now();
     predictor.fit(&series[..settings.train])?;
     let train_seconds = start.elapsed().as_secs_f64();
-    let scores = score_forecasts(
+    let (scores, average_weights) = score_with_average(
         &mut predictor,
+        &series[..settings.train],
         series,
         settings.train,
         settings.stride,
         prepared.clean.as_deref(),
+        settings.average,
         progress,
     )?;
     let test_std = std_dev(&series[settings.train..]);
@@ -194,6 +209,8 @@ pub fn evaluate_method(
         energy: diagnostics.energy,
         ridge: diagnostics.ridge,
         mca_weighting: diagnostics.mca_weighting,
+        average: settings.average,
+        average_weights,
     })
 }
 
@@ -204,6 +221,7 @@ pub fn origin_count(
     config: &PredictorConfig,
     settings: &EvalSettings,
 ) -> Result<usize, EvalError> {
+    settings.average.validate(config.horizon)?;
     Ok(origins(
         len,
         settings.train,

@@ -2,23 +2,23 @@
 
 use super::*;
 use crate::motion_csv::{Column, MotionData};
-use crate::predict::{Method, PredictError, Predictor, PredictorConfig};
+use crate::predict::{Averaging, Method, PredictError, Predictor, PredictorConfig};
 use crate::Dof;
 
 /// Forecasts `last + 1 + k + offset` for step k+1; on the ramp x[i] = i that is off by
 /// exactly `offset` at every step. As an online method it checks that updates arrive one value at
 /// a time, in order, and that a forecast at origin o follows the update of x[o-1] and no later.
-struct RampSpy {
+pub(super) struct RampSpy {
     order: usize,
     horizon: usize,
     offset: f64,
     online: bool,
     last_update: Option<f64>,
-    updates: usize,
+    pub(super) updates: usize,
 }
 
 impl RampSpy {
-    fn new(order: usize, horizon: usize, offset: f64, online: bool) -> Self {
+    pub(super) fn new(order: usize, horizon: usize, offset: f64, online: bool) -> Self {
         Self {
             order,
             horizon,
@@ -76,7 +76,7 @@ impl Predictor for RampSpy {
     }
 }
 
-fn ramp(len: usize) -> Vec<f64> {
+pub(super) fn ramp(len: usize) -> Vec<f64> {
     (0..len).map(|i| i as f64).collect()
 }
 
@@ -141,17 +141,18 @@ fn online_updates_skip_values_without_enough_history() {
     assert_eq!(spy.updates, 113 - 25 + 1);
 }
 
-fn settings(train: usize, noise_pct: f64) -> EvalSettings {
+pub(super) fn settings(train: usize, noise_pct: f64) -> EvalSettings {
     EvalSettings {
         train,
         stride: 1,
         sample_rate: 2.0,
         noise_pct,
         seed: 3,
+        average: Averaging::NONE,
     }
 }
 
-fn config(order: usize, horizon: usize) -> PredictorConfig {
+pub(super) fn config(order: usize, horizon: usize) -> PredictorConfig {
     PredictorConfig {
         order,
         horizon,

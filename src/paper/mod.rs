@@ -15,7 +15,9 @@
 //! - [`bound`]: the optimal linear predictor from the exact autocorrelation.
 //! - [`variant`]: the MCA settings compared (paper, improvements, eigenvalue weighting).
 //! - [`improvements`]: the report's section on those settings.
+//! - [`averaging`]: the paper's averaged forecasts (mean of several predictions of one point).
 
+pub mod averaging;
 pub mod bound;
 pub mod figures;
 pub mod improvements;
@@ -30,4 +32,4 @@ pub mod tables;
 pub mod variant;
 
 pub use plan::Plan;
-pub use study::{run, NoProgress, Progress, Study};
+pub use study::{run, run_with, NoProgress, Progress, Study};

@@ -555,6 +555,12 @@ pub fn render(study: &Study, figures: &[Figure]) -> String {
     discussion(study, &mut s);
 
     super::improvements::section(study, &mut s);
+    super::averaging::section(
+        &study.averages,
+        &study.plan,
+        study.measured_title.as_deref(),
+        &mut s,
+    );
 
     let _ = writeln!(
         s,

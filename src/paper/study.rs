@@ -5,6 +5,7 @@
 //! the cores while they are measured; the rest run on up to two worker threads. Every job is
 //! seeded, so the numbers do not depend on which thread ran it.
 
+use super::averaging::{self, AverageOutcome, AverageSea, AverageSetting, MeasuredSeries};
 use super::bound::Bound;
 use super::paper_values::{TABLE1_STEPS, TABLE2_PREDICTIONS, TABLE2_STEPS, TABLE3_NOISE_PCT};
 use super::plan::Plan;
@@ -13,7 +14,7 @@ use super::skill::overall;
 use crate::eval::{
     evaluate_method, prepare_series, score_forecasts, std_dev, EvalResult, EvalSettings,
 };
-use crate::predict::{AnyPredictor, Method, PredictError, Predictor, PredictorConfig};
+use crate::predict::{AnyPredictor, Averaging, Method, PredictError, Predictor, PredictorConfig};
 use crate::sim::{Scenario, SimConfig};
 use crate::Dof;
 use std::ops::Range;
@@ -121,6 +122,10 @@ pub struct Study {
     pub bounds: Vec<BoundOutcome>,
     pub timings: Vec<Timing>,
     pub traces: Vec<Trace>,
+    /// The averaged forecasts (MCA, heave) on each series.
+    pub averages: Vec<AverageOutcome>,
+    /// What the measured-sea record is, when one was given.
+    pub measured_title: Option<String>,
     /// Wall time of the whole run [s].
     pub elapsed_seconds: f64,
     /// Worker threads used after the timing jobs.
@@ -249,6 +254,10 @@ enum Job {
         dof: Dof,
         noise_pct: f64,
     },
+    Average {
+        sea: AverageSea,
+        setting: AverageSetting,
+    },
 }
 
 enum Output {
@@ -256,6 +265,7 @@ enum Output {
     Bound(BoundOutcome),
     Timing(Timing),
     Trace(Trace),
+    Average(AverageOutcome),
 }
 
 impl Job {
@@ -276,12 +286,15 @@ impl Job {
             Job::Bound { sea, dof, order } => format!("{sea:?} {} bound-{order}", dof.name()),
             Job::Timing { method, horizon } => format!("timing {method}, {horizon} steps"),
             Job::Trace { dof, noise_pct } => format!("trace {} (noise {noise_pct} %)", dof.name()),
+            Job::Average { sea, setting } => {
+                format!("averaged forecasts, {}, {setting:?}", sea.name())
+            }
         }
     }
 }
 
-/// The jobs of a plan; timing jobs first.
-fn jobs(plan: &Plan) -> Vec<Job> {
+/// The jobs of a plan (with the measured-sea record if `measured`); timing jobs first.
+fn jobs(plan: &Plan, measured: bool) -> Vec<Job> {
     let big = plan.big_order();
     let mut jobs = Vec::new();
     for &horizon in &TABLE2_STEPS {
@@ -359,6 +372,14 @@ fn jobs(plan: &Plan) -> Vec<Job> {
         dof: Dof::Heave,
         noise_pct: TRACE_NOISE_PCT,
     });
+    for sea in AverageSea::ALL {
+        if sea == AverageSea::Measured && !measured {
+            continue;
+        }
+        for setting in AverageSetting::ALL {
+            jobs.push(Job::Average { sea, setting });
+        }
+    }
     jobs
 }
 
@@ -376,6 +397,9 @@ struct Context<'a> {
     plan: &'a Plan,
     dense: &'a Sea,
     line: &'a Sea,
+    /// Another realisation of the dense sea (seed + 1).
+    other: &'a Sea,
+    measured: Option<&'a MeasuredSeries>,
 }
 
 impl Context<'_> {
@@ -397,6 +421,7 @@ impl Context<'_> {
             sample_rate: STUDY_RATE_HZ,
             noise_pct,
             seed: self.plan.seed,
+            average: Averaging::NONE,
         }
     }
 
@@ -439,6 +464,16 @@ impl Context<'_> {
                 result: self.timing(method, horizon),
             }),
             Job::Trace { dof, noise_pct } => Output::Trace(self.trace(dof, noise_pct)),
+            Job::Average { sea, setting } => Output::Average(averaging::outcome(
+                sea,
+                setting,
+                self.plan,
+                &averaging::Seas {
+                    dense: self.dense.series(Dof::Heave),
+                    other: self.other.series(Dof::Heave),
+                    measured: self.measured,
+                },
+            )),
         }
     }
 
@@ -572,6 +607,15 @@ pub fn forecasts_at_lead<P: Predictor + ?Sized>(
 
 /// Run the whole study of `plan`.
 pub fn run(plan: &Plan, progress: &dyn Progress) -> anyhow::Result<Study> {
+    run_with(plan, None, progress)
+}
+
+/// Run the whole study of `plan`, with the averaged forecasts also on `measured` if given.
+pub fn run_with(
+    plan: &Plan,
+    measured: Option<&MeasuredSeries>,
+    progress: &dyn Progress,
+) -> anyhow::Result<Study> {
     plan.validate().map_err(anyhow::Error::msg)?;
     let started = Instant::now();
     let len = plan.len();
@@ -587,6 +631,7 @@ pub fn run(plan: &Plan, progress: &dyn Progress) -> anyhow::Result<Study> {
         &sim_config(SeaKind::Line, plan),
         len,
     )?;
+    let other = averaging::other_realisation(plan)?;
     let seas = [(SeaKind::Dense, &dense), (SeaKind::Line, &line)]
         .into_iter()
         .map(|(kind, sea)| {
@@ -606,8 +651,10 @@ pub fn run(plan: &Plan, progress: &dyn Progress) -> anyhow::Result<Study> {
         plan,
         dense: &dense,
         line: &line,
+        other: &other,
+        measured,
     };
-    let jobs = jobs(plan);
+    let jobs = jobs(plan, measured.is_some());
     progress.start(jobs.len() as u64);
     let timing_jobs = jobs
         .iter()
@@ -629,6 +676,8 @@ pub fn run(plan: &Plan, progress: &dyn Progress) -> anyhow::Result<Study> {
         bounds: Vec::new(),
         timings: Vec::new(),
         traces: Vec::new(),
+        averages: Vec::new(),
+        measured_title: measured.map(|m| m.title.clone()),
         elapsed_seconds: 0.0,
         threads,
     };
@@ -650,6 +699,12 @@ pub fn run(plan: &Plan, progress: &dyn Progress) -> anyhow::Result<Study> {
             Output::Bound(b) => study.bounds.push(b),
             Output::Timing(t) => study.timings.push(t),
             Output::Trace(t) => study.traces.push(t),
+            Output::Average(a) => {
+                if let Err(e) = &a.result {
+                    tracing::warn!(sea = a.sea.name(), setting = ?a.setting, "averaged forecasts: {e}");
+                }
+                study.averages.push(a)
+            }
         }
     }
     study.elapsed_seconds = started.elapsed().as_secs_f64();
@@ -723,7 +778,7 @@ mod tests {
         let b = run(&plan, &NoProgress).unwrap();
         assert_eq!(
             a.outcomes.len(),
-            jobs(&plan)
+            jobs(&plan, false)
                 .iter()
                 .filter(|j| matches!(j, Job::Eval { .. }))
                 .count()
@@ -764,7 +819,7 @@ mod tests {
     #[test]
     fn job_list_runs_timing_first_and_covers_every_table() {
         let plan = Plan::quick(1);
-        let jobs = jobs(&plan);
+        let jobs = jobs(&plan, false);
         let timing = jobs
             .iter()
             .take_while(|j| matches!(j, Job::Timing { .. }))

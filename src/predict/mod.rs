@@ -13,6 +13,7 @@ use std::fmt;
 use std::str::FromStr;
 
 pub mod ar_lms;
+pub mod averaging;
 pub mod baseline;
 pub mod levinson;
 pub mod linear_map;
@@ -25,6 +26,7 @@ pub mod wiener;
 mod suite;
 
 pub use ar_lms::ArLmsPredictor;
+pub use averaging::{AverageMode, Averaging, AveragingWeights, ForecastAverager};
 pub use baseline::{PersistencePredictor, ZeroPredictor};
 pub use mca::{McaPredictor, McaWeighting};
 pub use mlp::MlpPredictor;
