@@ -7,7 +7,7 @@
 
 use shipcast::sim::rao_plot::{plot_rao_panels, RaoPanel};
 use shipcast::sim::rao_reference::{std_ratio_on_same_waves, validation_sea, ReferenceRaos};
-use shipcast::sim::{ClosedFormRao, Hull, Rao};
+use shipcast::sim::{Channel, ClosedFormRao, Hull, Rao, ShipMotion, SimConfig};
 use shipcast::Dof;
 use std::path::Path;
 
@@ -43,14 +43,24 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let amplitude = |w: f64| rao.response(w, f64::to_radians(heading), 0.0)[dof.index()].norm();
         let floor = 0.1 * curve.peak_amplitude();
         let (mut lo, mut hi, mut at) = (f64::INFINITY, 0.0f64, 0.0);
+        let mut below_half = Vec::new();
         for &(w, v) in curve.points.iter().filter(|p| p.1.norm() > floor) {
             let r = amplitude(w) / v.norm();
             hi = hi.max(r);
             if r < lo {
                 (lo, at) = (r, w);
             }
+            if r < 0.5 {
+                below_half.push(format!("{w:.3}"));
+            }
         }
         println!("  {dof}: closed form / BEM from {lo:.2} (at {at:.3} rad/s) to {hi:.2}");
+        if !below_half.is_empty() {
+            println!(
+                "    below half of the BEM at {} rad/s",
+                below_half.join(", ")
+            );
+        }
         let scale = if dof.is_rotation() {
             180.0 / std::f64::consts::PI
         } else {
@@ -83,6 +93,19 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             ],
         });
     }
+    // What the change means for the default input of `shipcast run` and the paper study.
+    let paper = ShipMotion::new(&SimConfig::default())?;
+    let mut rms = String::from("\npaper scenario (11 kn, 165 deg, cos^2), RMS:");
+    for dof in Dof::ALL {
+        let v = paper.variance(Channel::Motion(dof)).sqrt();
+        let (v, unit) = if dof.is_rotation() {
+            (v.to_degrees(), "deg")
+        } else {
+            (v, "m")
+        };
+        rms += &format!(" {dof} {v:.3} {unit};");
+    }
+    println!("{rms}");
     let out = root.join("docs/results/rao_validation.svg");
     plot_rao_panels(&panels, &out)?;
     println!("\nwrote {}", out.display());

@@ -64,9 +64,11 @@ fn fixture_has_the_documented_grid_and_long_wave_limits() {
 #[test]
 fn no_spurious_notch_where_the_bem_response_matters() {
     // Wherever the BEM amplitude is above 10 % of its peak the closed form gives at least half
-    // of it: the box barge's cancellations (heave 0.06 against 0.31 at 0.66 rad/s) are gone.
+    // of it: the box barge's cancellations (heave 0.06 against 0.31 at 0.66 rad/s) are gone for
+    // pitch and roll.
     // Heave is the known exception: strip-theory cancellation along the hull still leaves it
-    // at 0.37 of the BEM at 0.755 rad/s (the box gave 0.09 there); the bound catches worse.
+    // at 0.37 of the BEM at 0.755 rad/s (the box gave 0.19 of it at 0.66 rad/s); the bound
+    // catches worse.
     let t = bem();
     for (dof, heading) in CASES {
         let c = t.curve(dof, heading).unwrap();
@@ -121,7 +123,7 @@ fn roll_resonance_is_the_wet_one_of_the_bem_solution() {
 #[test]
 fn response_std_within_ten_percent_of_the_bem_in_three_sea_states() {
     // Long-crested JONSWAP, gamma 3.3, Hs 3.05 m, zero speed; heave and pitch in head seas,
-    // roll in beam seas. Two seeds: the ratio is a property of the RAOs, not of the draw.
+    // roll in beam seas. (The variance does not depend on the random phases, so one seed.)
     // Known gap: heave at Tp 7.5 s is 0.66, because the closed form's heave between 0.7 and
     // 1.1 rad/s is about half the BEM's (docs/results/rao_validation.md); the bound records it.
     let t = bem();
@@ -133,11 +135,9 @@ fn response_std_within_ten_percent_of_the_bem_in_three_sea_states() {
             } else {
                 0.9..=1.1
             };
-            for seed in [1, 7] {
-                let r = std_ratio(c, tp, seed);
-                println!("Tp {tp} s {dof} seed {seed}: std ratio {r:.3}");
-                assert!(range.contains(&r), "Tp {tp} s {dof} seed {seed}: {r:.3}");
-            }
+            let r = std_ratio(c, tp, 1);
+            println!("Tp {tp} s {dof}: std ratio {r:.3}");
+            assert!(range.contains(&r), "Tp {tp} s {dof}: {r:.3}");
         }
     }
 }
