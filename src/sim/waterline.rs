@@ -14,8 +14,8 @@
 //! The two distributions have their zeros at different wave numbers, so their sum does not vanish.
 //!
 //! All integrals are over the half length u in [0, 1] (the shapes are fore-aft symmetric), by
-//! Simpson's rule on a fixed grid with the wave phasor advanced by rotation: no allocation and one
-//! sin/cos per call.
+//! Simpson's rule on a fixed grid (the shape tabulated once) with the wave phasor advanced by
+//! rotation: no allocation and one sin/cos per call.
 
 /// Simpson intervals over the half length: resolves k L / 2 up to about 100 (waves of a tenth of
 /// the ship length), beyond which the responses are negligible anyway.
@@ -24,8 +24,8 @@ const INTERVALS: usize = 256;
 /// Normalised longitudinal integrals of one waterline shape.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Waterline {
-    /// Exponent n of w(u) = 1 - |u|^n.
-    exponent: f64,
+    /// w(u) at the Simpson nodes u = i / INTERVALS (computed once: no powf per wave).
+    shape: [f64; INTERVALS + 1],
     /// int_0^1 w du (= C_WP).
     area: f64,
     /// int_0^1 w^2 du.
@@ -53,10 +53,9 @@ pub struct WaveIntegrals {
 impl Waterline {
     /// The power-law waterline with area coefficient `c_wp` in (0, 1).
     pub fn from_area_coefficient(c_wp: f64) -> Self {
-        let exponent = c_wp / (1.0 - c_wp);
-        let n = exponent;
+        let n = c_wp / (1.0 - c_wp);
         Waterline {
-            exponent,
+            shape: std::array::from_fn(|i| 1.0 - (i as f64 / INTERVALS as f64).powf(n)),
             area: n / (n + 1.0),
             // int (1 - u^n)^2 = 1 - 2/(n+1) + 1/(2n+1)
             area_sq: 1.0 - 2.0 / (n + 1.0) + 1.0 / (2.0 * n + 1.0),
@@ -100,7 +99,7 @@ impl Waterline {
         let (sin_step, cos_step) = (s * h).sin_cos();
         let (mut c, mut sn) = (1.0, 0.0);
         let (mut f1, mut f2, mut m1, mut m2) = (0.0, 0.0, 0.0, 0.0);
-        for i in 0..=INTERVALS {
+        for (i, &w) in self.shape.iter().enumerate() {
             let u = i as f64 * h;
             let weight = if i == 0 || i == INTERVALS {
                 1.0
@@ -109,7 +108,6 @@ impl Waterline {
             } else {
                 2.0
             };
-            let w = 1.0 - u.powf(self.exponent);
             let w2 = w * w;
             f1 += weight * w * c;
             f2 += weight * w2 * c;
