@@ -4,11 +4,14 @@
 //! - [`spectrum`]: JONSWAP (DNV) and ITTC spectra.
 //! - [`spreading`]: cos^2 or long-crested seas.
 //! - [`sea`]: the wave components drawn from a seed.
-//! - [`hull`], [`rao`], [`rao_table`]: closed-form RAOs of a hull, or a loaded RAO table.
+//! - [`hull`], [`rao`], [`waterline`], [`rao_table`]: closed-form RAOs of a hull (with the
+//!   waterline integrals they use), or a loaded RAO table; [`rao_reference`]: reference
+//!   curves (a boundary-element solution) to validate them against.
 //! - [`scenario`]: the `paper` and ss3..ss6 presets and [`SimConfig`].
 //! - [`motion`]: [`ShipMotion`], sampled at any instant or streamed at a fixed rate.
 //! - [`autocorr`]: exact variance, autocorrelation and encounter spectra of the record.
-//! - [`plot`]: an SVG figure of the spectra and the first minute of motion.
+//! - [`plot`]: an SVG figure of the spectra and the first minute of motion; [`rao_plot`]: RAO
+//!   curves compared per DOF.
 //!
 //! Axes and signs are those of [`rao`] (x forward, y starboard, z down); wave elevation is
 //! positive up.
@@ -18,11 +21,14 @@ pub mod hull;
 pub mod motion;
 pub mod plot;
 pub mod rao;
+pub mod rao_plot;
+pub mod rao_reference;
 pub mod rao_table;
 pub mod scenario;
 pub mod sea;
 pub mod spectrum;
 pub mod spreading;
+pub mod waterline;
 
 pub use autocorr::Channel;
 pub use hull::Hull;

@@ -9,17 +9,38 @@
 //! of gravity a cos(w_e t + eps), the motion of DOF j is Re(H_j a exp(i (w_e t + eps))), where
 //! w_e = |w - w^2 U cos(beta) / g| is the encounter frequency.
 //!
-//! The closed form (`ClosedFormRao`) follows Jensen, Mansour and Olsen (Ocean Eng. 31, 2004) for
-//! heave and pitch: a homogeneously loaded box barge of length L, draught T and beam C_B B, with
-//! the forcing functions F (heave) and G (pitch) and one damped oscillator with natural frequency
-//! sqrt(g / 2T). Roll is their single-DOF roll oscillator with a fixed damping ratio (the
-//! simplification Fossen's MSS uses) but driven by the effective wave slope, so that its
-//! low-frequency limit is the wave slope k sin(beta). Surge, sway and yaw are our own
-//! approximations: the ship follows the horizontal orbital motion of long waves (surge and sway
-//! -> 1, yaw -> the rotation of the orbital field along the hull, k sin(beta) cos(beta)), reduced by
-//! the Froude-Krylov averaging over the length and beam and the decay exp(-k T) over the draught.
-//! There is no restoring force in these three, hence no resonance.
+//! The closed form (`ClosedFormRao`) is a documented approximation from main particulars, so
+//! any hull can be simulated. It generalises Jensen, Mansour and Olsen (Ocean Eng. 31, 2004):
+//! - Their homogeneous box barge (beam C_B B, draught T) becomes the equivalent hull with the
+//!   ship's waterplane area C_WP L B and volume C_B L B T: mean beam C_WP B, mean depth
+//!   T_m = C_B T / C_WP. With their added mass equal to the displaced mass, the heave natural
+//!   frequency is sqrt(g / 2 T_m) (theirs, sqrt(g / 2 T), is the case C_WP = C_B).
+//! - The Froude-Krylov force is integrated over a power-law waterline of the ship's C_WP rather
+//!   than a uniform box, and the diffraction (added mass) and radiation (damping) parts with the
+//!   beam squared, as strip theory's sectional coefficients scale ([`super::waterline`]). Their
+//!   forcing terms (1 - k T) and A^2 / (k B alpha^3) become these two parts, with A their
+//!   sectional wave-damping amplitude 2 sin(k_e B_m / 2) exp(-k_e T_m). The box's exact
+//!   sinc zeros go; heave still dips to about 0.4 of the boundary-element solution near
+//!   0.75 rad/s for the DTMB 5415 (docs/results/rao_validation.md).
+//! - Pitch has its own natural frequency, sqrt(C55 / (I55 + A55)) with C55 from the waterplane's
+//!   second moment, I55 from the pitch gyradius and A55 from the same added-mass distribution
+//!   (textbook uncoupled pitch, e.g. Lewis (ed.), PNA vol. III, 1989, ch. 8).
+//! - Roll is the single-DOF oscillator with a fixed damping ratio (as in Fossen's MSS) at the wet
+//!   natural frequency (added inertia A44 / I44 of the hull, [`Hull::roll_natural_omega`]),
+//!   driven by the effective wave slope k sin(beta) gamma(k) with gamma = 1 / (1 + k B / 2): the
+//!   excitation of a real hull falls off with frequency as pressure decays over the draught and
+//!   averages over the beam, but algebraically, not as exp(-k T) (an effective wave slope
+//!   coefficient in the sense of Lewis, PNA vol. III, ch. 8; this form is ours, checked against
+//!   the boundary-element solution of the DTMB 5415, docs/results/rao_validation.md).
+//!
+//! Heave and pitch are not coupled (the shapes are fore-aft symmetric). Surge, sway and yaw are
+//! our own approximations: the ship follows the horizontal orbital motion of long waves (surge
+//! and sway -> 1, yaw -> the rotation of the orbital field along the hull,
+//! k sin(beta) cos(beta)), reduced by the Froude-Krylov averaging over the waterline and beam and
+//! the decay exp(-k T) over the draught. There is no restoring force in these three, hence no
+//! resonance.
 
+use super::waterline::Waterline;
 use super::{Hull, G};
 use faer::c64;
 
@@ -44,7 +65,7 @@ pub fn encounter_omega(omega: f64, beta: f64, speed: f64) -> f64 {
     signed_encounter_omega(omega, beta, speed).abs()
 }
 
-/// sin(x)/x, with its limit at 0.
+/// sin(x)/x, with its limit at 0 (averaging over the beam).
 fn sinc(x: f64) -> f64 {
     if x.abs() < 1e-6 {
         1.0 - x * x / 6.0
@@ -53,25 +74,62 @@ fn sinc(x: f64) -> f64 {
     }
 }
 
-/// 3 (sin x - x cos x) / x^3: the first moment of a cosine load over a symmetric span,
-/// normalised to 1 at x = 0 (pitch and yaw moments over the length, roll over the beam).
-fn moment_factor(x: f64) -> f64 {
-    if x.abs() < 1e-3 {
-        1.0 - x * x / 10.0
-    } else {
-        3.0 * (x.sin() - x * x.cos()) / (x * x * x)
-    }
-}
-
 /// Closed-form responses from main dimensions.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ClosedFormRao {
     pub hull: Hull,
+    waterline: Waterline,
+    /// Mean depth of the equivalent hull, C_B T / C_WP [m].
+    mean_depth: f64,
+    /// Mean beam of the equivalent hull, C_WP B [m].
+    mean_beam: f64,
+    /// Heave natural frequency sqrt(g / 2 T_m) [rad/s].
+    heave_omega: f64,
+    /// Pitch natural frequency [rad/s].
+    pitch_omega: f64,
+    /// Lever of the pitch added-mass (diffraction) moment: A55 / (rho L B (L/2)^2 2 int u^2 w)
+    /// over the waterplane's, so that the moment's inertia part is k k_e this [m].
+    pitch_inertia_depth: f64,
+    /// Pitch damping over heave damping in the same normalisation (1 for a box).
+    pitch_damping_factor: f64,
 }
 
 impl ClosedFormRao {
     pub fn new(hull: Hull) -> Self {
-        ClosedFormRao { hull }
+        let waterline = Waterline::from_area_coefficient(hull.waterplane_coefficient);
+        let mean_depth = hull.mean_depth_m();
+        let half = hull.lpp_m / 2.0;
+        // Per unit rho: C55 / g = B (L/2)^3 2 int u^2 w; the displaced volume V carries the
+        // added mass (Jensen et al.), spread like w^2, so A55 = V (L/2)^2 <u^2>_{w^2}.
+        let volume = hull.block_coefficient * hull.lpp_m * hull.beam_m * hull.draft_m;
+        let c55 = hull.beam_m
+            * half.powi(3)
+            * 2.0
+            * waterline.inertia_ratio()
+            * hull.waterplane_coefficient;
+        let inertia55 =
+            volume * (hull.pitch_gyradius_m.powi(2) + half * half * waterline.inertia_sq_ratio());
+        ClosedFormRao {
+            hull,
+            waterline,
+            mean_depth,
+            mean_beam: hull.waterplane_coefficient * hull.beam_m,
+            heave_omega: (G / (2.0 * mean_depth)).sqrt(),
+            pitch_omega: (G * c55 / inertia55).sqrt(),
+            pitch_inertia_depth: mean_depth * waterline.inertia_sq_ratio()
+                / waterline.inertia_ratio(),
+            pitch_damping_factor: waterline.inertia_sq_ratio() / waterline.inertia_ratio(),
+        }
+    }
+
+    /// Undamped heave natural frequency [rad/s].
+    pub fn heave_natural_omega(&self) -> f64 {
+        self.heave_omega
+    }
+
+    /// Undamped pitch natural frequency [rad/s].
+    pub fn pitch_natural_omega(&self) -> f64 {
+        self.pitch_omega
     }
 }
 
@@ -83,52 +141,59 @@ impl Rao for ClosedFormRao {
         }
         let h = &self.hull;
         let (l, t) = (h.lpp_m, h.draft_m);
-        let b = h.block_coefficient * h.beam_m;
+        let (tm, bm) = (self.mean_depth, self.mean_beam);
         let (sb, cb) = beta.sin_cos();
         let k = omega * omega / G;
         let k_e = (k * cb).abs();
         let we_signed = signed_encounter_omega(omega, beta, speed);
         let we = we_signed.abs();
         let alpha = we / omega;
-        let sigma = k_e * l / 2.0;
-        let kappa = (-k_e * t).exp();
+        let along = self.waterline.integrals(k_e * l / 2.0);
+        let kappa = (-k_e * tm).exp();
 
-        // Jensen et al. (2004): sectional damping term A and the forcing correction f.
-        let a_term = 2.0 * (k * b * alpha * alpha / 2.0).sin() * (-k * t * alpha * alpha).exp();
-        // A^2 / (k B alpha^3) and A^2 / (k B alpha^2) vanish as alpha -> 0 (A ~ k B alpha^2).
+        // Jensen et al. (2004): sectional wave-damping amplitude A of the equivalent section;
+        // damping over stiffness at the encounter frequency (damp_eta) and at the wave frequency
+        // (damp_f). A^2 / (k B alpha^2) vanishes as alpha -> 0 (A ~ k B alpha^2).
+        let k_enc = k * alpha * alpha;
+        let a_term = 2.0 * (k_enc * bm / 2.0).sin() * (-k_enc * tm).exp();
         let (damp_f, damp_eta) = if alpha < 1e-6 {
             (0.0, 0.0)
         } else {
-            let q = a_term * a_term / (k * b * alpha * alpha);
+            let q = a_term * a_term / (k_enc * bm);
             (q / alpha, q)
         };
-        let f = ((1.0 - k * t).powi(2) + damp_f * damp_f).sqrt();
-        let heave_force = kappa * f * sinc(sigma);
-        // G of the paper, written as k_e times the normalised moment factor.
-        let pitch_moment = kappa * f * k_e * moment_factor(sigma);
-        let vertical = c64::new(1.0, 0.0) / c64::new(1.0 - 2.0 * k * t * alpha * alpha, damp_eta);
+        // Hydrostatic part over the waterline, inertia and damping parts over its square.
+        let heave_force = c64::new(
+            along.force - k * tm * along.force_sq,
+            damp_f * along.force_sq,
+        ) * kappa;
+        let pd = self.pitch_damping_factor;
+        let pitch_moment = c64::new(
+            along.moment - k * self.pitch_inertia_depth * along.moment_sq,
+            damp_f * pd * along.moment_sq,
+        ) * (kappa * k_e);
+        let oscillator = |r: f64, damping: f64| c64::new(1.0, 0.0) / c64::new(1.0 - r * r, damping);
+        let heave_dyn = oscillator(we / self.heave_omega, damp_eta);
+        let pitch_dyn = oscillator(we / self.pitch_omega, damp_eta * pd);
 
         // Long-wave kinematics (before the conjugation for overtaken waves, see below).
         let minus_i = c64::new(0.0, -1.0);
+        let depth_decay = (-k_e * t).exp();
         let beam_average = sinc(k * sb.abs() * h.beam_m / 2.0);
-        let along = kappa * sinc(sigma) * beam_average;
-        let kin_surge = minus_i * (cb * along);
-        let kin_sway = minus_i * (sb * along);
-        let kin_heave = c64::new(-heave_force, 0.0); // z down: the hull rises with a crest
-        let kin_pitch = minus_i * (cb.signum() * pitch_moment);
-        let roll_slope = k
-            * sb
-            * (-k * t / 2.0).exp()
-            * sinc(sigma)
-            * moment_factor(k * sb.abs() * h.beam_m / 2.0);
+        let horizontal = depth_decay * along.force * beam_average;
+        let kin_surge = minus_i * (cb * horizontal);
+        let kin_sway = minus_i * (sb * horizontal);
+        let kin_heave = -heave_force; // z down: the hull rises with a crest
+        let kin_pitch = minus_i * pitch_moment * cb.signum();
+        let roll_slope = k * sb * along.force / (1.0 + k * h.beam_m / 2.0);
         let kin_roll = c64::new(0.0, roll_slope);
         let kin_yaw = c64::new(
-            -k * sb * cb * kappa * moment_factor(sigma) * beam_average,
+            -k * sb * cb * depth_decay * along.moment * beam_average,
             0.0,
         );
 
         let r = we / h.roll_natural_omega();
-        let roll_dyn = c64::new(1.0, 0.0) / c64::new(1.0 - r * r, 2.0 * h.roll_damping_ratio * r);
+        let roll_dyn = oscillator(r, 2.0 * h.roll_damping_ratio * r);
 
         // The kinematic factors hold for the wave as the moving ship sees it, cos(w_e,signed t);
         // for an overtaken wave (w_e,signed < 0) that is cos(w_e t - eps), so in the common form
@@ -137,9 +202,9 @@ impl Rao for ClosedFormRao {
         [
             adjust(kin_surge),
             adjust(kin_sway),
-            adjust(kin_heave) * vertical,
+            adjust(kin_heave) * heave_dyn,
             adjust(kin_roll) * roll_dyn,
-            adjust(kin_pitch) * vertical,
+            adjust(kin_pitch) * pitch_dyn,
             adjust(kin_yaw),
         ]
     }

@@ -59,6 +59,31 @@ fn lerp(a: &Response, b: &Response, t: f64) -> Response {
     std::array::from_fn(|j| a[j] * (1.0 - t) + b[j] * t)
 }
 
+/// A trimming CSV reader and the index of each of `columns` in its header (any order, extra
+/// columns ignored); errors name `source`. Shared by the RAO table loaders.
+pub(crate) fn csv_with_columns<R: Read, const N: usize>(
+    reader: R,
+    columns: [&str; N],
+    source: &str,
+) -> Result<(csv::Reader<R>, [usize; N]), SimError> {
+    let err = |msg: String| SimError::Table(format!("{source}: {msg}"));
+    let mut rdr = csv::ReaderBuilder::new()
+        .trim(csv::Trim::All)
+        .from_reader(reader);
+    let headers = rdr
+        .headers()
+        .map_err(|e| err(format!("header: {e}")))?
+        .clone();
+    let mut idx = [0usize; N];
+    for (slot, name) in idx.iter_mut().zip(columns) {
+        *slot = headers
+            .iter()
+            .position(|h| h == name)
+            .ok_or_else(|| err(format!("missing column '{name}'")))?;
+    }
+    Ok((rdr, idx))
+}
+
 impl RaoTable {
     /// Loads a table from a CSV file.
     pub fn load(path: &Path) -> Result<Self, SimError> {
@@ -70,20 +95,7 @@ impl RaoTable {
     /// Parses a table; `source` names it in error messages.
     pub fn from_reader(reader: impl Read, source: &str) -> Result<Self, SimError> {
         let err = |msg: String| SimError::Table(format!("{source}: {msg}"));
-        let mut rdr = csv::ReaderBuilder::new()
-            .trim(csv::Trim::All)
-            .from_reader(reader);
-        let headers = rdr
-            .headers()
-            .map_err(|e| err(format!("header: {e}")))?
-            .clone();
-        let mut idx = [0usize; 6];
-        for (slot, name) in idx.iter_mut().zip(COLUMNS) {
-            *slot = headers
-                .iter()
-                .position(|h| h == name)
-                .ok_or_else(|| err(format!("missing column '{name}'")))?;
-        }
+        let (mut rdr, idx) = csv_with_columns(reader, COLUMNS, source)?;
         let mut rows: HashMap<[u64; 3], [Option<c64>; 6]> = HashMap::new();
         let (mut speeds, mut headings, mut omegas) = (Vec::new(), Vec::new(), Vec::new());
         for (i, rec) in rdr.records().enumerate() {
