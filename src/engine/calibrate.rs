@@ -69,7 +69,11 @@ impl PairSums {
         let beta = (s[MX] / s[MM]).clamp(0.0, 1.0);
         // Fraction of sum x^2 that beta * m removes: (2 beta MX - beta^2 MM) / XX.
         let explained = (2.0 * beta * s[MX] - beta * beta * s[MM]) / s[XX];
-        if explained > MIN_EXPLAINED {
+        // Fewer pairs (a new model, a changed sea) mean a noisier estimate of the fraction:
+        // the bar rises as 2 / sqrt(n), which is about two standard errors of the estimate
+        // when neighbouring pairs are strongly correlated.
+        let bar = MIN_EXPLAINED.max(2.0 / s[N].max(1.0).sqrt());
+        if explained > bar {
             beta
         } else {
             0.0

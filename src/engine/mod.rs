@@ -48,6 +48,7 @@ const KEPT_AFTER_CHANGE: f64 = 60.0;
 
 /// Memory of the live RMS of the motion [values] (5 minutes at 2 Hz).
 const RMS_MEMORY: f64 = 600.0;
+const RMS_MEMORY_FAST: f64 = 60.0;
 
 /// Values of live history before the first forecast: the live RMS must mean something.
 const MIN_VALUES_TO_PUBLISH: u64 = 60;
@@ -80,8 +81,10 @@ pub struct Engine {
     calib: Calibrator,
     verifier: Verifier,
     change: ChangeDetector,
-    /// Exponentially weighted mean square of each DOF (the motion's RMS about zero).
+    /// Exponentially weighted mean square of each DOF (the motion's RMS about zero), over
+    /// about 5 minutes and over about 30 s: a growing sea shows in the short one first.
     mean_square: [f64; NUM_DOF],
+    mean_square_fast: [f64; NUM_DOF],
     forecast: Box<Forecast>,
     raw: [[f64; MAX_STEPS]; NUM_DOF],
     pub counters: Counters,
@@ -122,6 +125,7 @@ impl Engine {
             verifier: Verifier::new(window.max(1)),
             change: ChangeDetector::new(CHANGE_MEMORY, config.change_ratio, CHANGE_REFRACTORY),
             mean_square: [0.0; NUM_DOF],
+            mean_square_fast: [0.0; NUM_DOF],
             forecast: Box::default(),
             raw: [[0.0; MAX_STEPS]; NUM_DOF],
             counters: Counters::default(),
@@ -173,7 +177,14 @@ impl Engine {
     /// Live RMS of DOF `d` about zero (exponentially weighted over about 5 minutes): what
     /// predicting zero would score, and the scale of the plausibility bound.
     pub fn live_rms(&self, d: usize) -> f64 {
-        self.mean_square[d].sqrt()
+        self.live_variance(d).sqrt()
+    }
+
+    /// The larger of the slow and the fast mean square: when the sea grows, the bound and a
+    /// no-skill sigma follow within half a minute; when it calms, the slow one keeps them wide
+    /// until the evidence has caught up (the safe side).
+    fn live_variance(&self, d: usize) -> f64 {
+        self.mean_square[d].max(self.mean_square_fast[d])
     }
 
     /// The forecast last produced by [`Self::push`].
@@ -228,6 +239,8 @@ impl Engine {
                 (1.0 / self.values as f64).max(1.0 / RMS_MEMORY)
             };
             self.mean_square[d] += a * (xd * xd - self.mean_square[d]);
+            let fast = a.max(1.0 / RMS_MEMORY_FAST);
+            self.mean_square_fast[d] += fast * (xd * xd - self.mean_square_fast[d]);
         }
         self.take_models();
         self.schedule_retrain();
@@ -256,7 +269,7 @@ impl Engine {
         // skill: the calibrator sees it clipped at the plausibility bound. Verification keeps
         // the value as it came.
         let cap: [f64; NUM_DOF] = std::array::from_fn(|d| {
-            let bound = self.config.plausible_rms_factor * self.mean_square[d].sqrt();
+            let bound = self.config.plausible_rms_factor * self.live_rms(d);
             if bound > 0.0 {
                 bound
             } else {
@@ -411,6 +424,7 @@ impl Engine {
                 }
             }
         }
+        let variance: [f64; NUM_DOF] = std::array::from_fn(|d| self.live_variance(d));
         let entry = self.log.push();
         entry.index = index;
         entry.steps = horizon;
@@ -418,12 +432,12 @@ impl Engine {
         entry.last = *x;
         let f = &mut *self.forecast;
         for d in 0..NUM_DOF {
-            let rms = self.mean_square[d].sqrt();
+            let rms = variance[d].sqrt();
             let bound = self.config.plausible_rms_factor * rms;
             let inflate = self.change.inflation(d);
             let mut plausible = true;
             for k in 0..horizon {
-                let c = self.calib.get(d, k, self.mean_square[d]);
+                let c = self.calib.get(d, k, variance[d]);
                 let raw = self.raw[d][k];
                 let mean = c.beta * raw;
                 let sigma = if c.sigma.is_finite() { c.sigma } else { rms };
