@@ -197,8 +197,9 @@ impl Engine {
     fn install(&mut self, set: ModelSet) {
         for d in 0..NUM_DOF {
             let prior = set.held_out.get(d).map_or(&[][..], Vec::as_slice);
+            // The change detector keeps running: a new model is fitted mostly on the old sea,
+            // so a change under way must not be forgotten at a swap.
             self.calib.reset(d, prior);
-            self.change.reset(d);
         }
         self.models = Some(set);
         self.prepared_for = None;

@@ -151,7 +151,12 @@ fn a_sudden_variance_change_is_detected_and_sigma_follows_within_minutes() {
     let d = run(&data, 3600.0 + 1800.0);
     let config = PredictorServiceConfig::default();
     let (full, _) = replay(&data, &config, None, 0.0, false, &|_| {}).unwrap();
-    assert!(full.counts.changes >= 1, "no change detected");
+    assert!(
+        full.counts.changes >= 1,
+        "no change detected: {:?} {:?}",
+        full.counts,
+        d
+    );
     let k = 19;
     assert!(
         (0.60..=0.76).contains(&d.coverage_1sigma[k]),
