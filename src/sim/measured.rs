@@ -103,6 +103,20 @@ pub fn split_segments(time: &[f64], wave: &[f64]) -> Result<Vec<ElevationSegment
         }
     }
     segments.extend(current);
+    // The interval of each segment from its own span: the decimal times of a long record
+    // (10799.6 s) differ by 0.4 s only to ~1e-12, which would shift late phases measurably.
+    let mut first = 0;
+    for seg in &mut segments {
+        let start = time[first..]
+            .iter()
+            .position(|&t| t == seg.start_s)
+            .map_or(first, |p| first + p);
+        let end = start + seg.values.len() - 1;
+        if end > start && end < time.len() {
+            seg.dt_s = (time[end] - time[start]) / (end - start) as f64;
+        }
+        first = end + 1;
+    }
     Ok(segments)
 }
 
