@@ -368,6 +368,32 @@ mod tests {
     }
 
     #[test]
+    fn a_long_record_with_decimal_times_is_reproduced_at_its_own_instants() {
+        // Times as a record prints them (10799.6): their differences are 0.4 only to ~1e-12.
+        let n = 27000;
+        let time: Vec<f64> = (0..n)
+            .map(|i| format!("{:.1}", i as f64 * 0.4).parse().unwrap())
+            .collect();
+        let omega = TAU * 1234.0 / (n as f64 * 0.4);
+        let wave: Vec<f64> = time.iter().map(|t| (omega * t).cos()).collect();
+        let segments = split_segments(&time, &wave).unwrap();
+        assert_eq!(segments.len(), 1);
+        assert_eq!(segments[0].dt_s, (time[n - 1] - time[0]) / (n - 1) as f64);
+        let rao = ClosedFormRao::new(Hull::dtmb5415());
+        let r = SegmentResponse::new(&segments[0], &rao, PI, 0.0, 0.0)
+            .unwrap()
+            .unwrap();
+        for i in [0, 1, n / 2, n - 2, n - 1] {
+            let got = r.sample_at(time[i]).wave_m;
+            assert!(
+                (got - wave[i]).abs() < 1e-9,
+                "sample {i}: {got} vs {}",
+                wave[i]
+            );
+        }
+    }
+
+    #[test]
     fn a_segment_shorter_than_its_edges_writes_nothing() {
         let seg = sinusoid(0.6, 0.5, 400, 0.0); // 200 s
         let rao = ClosedFormRao::new(Hull::dtmb5415());
