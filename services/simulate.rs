@@ -1,14 +1,45 @@
-//! `shipcast simulate`: draws a seeded irregular sea, passes it through the ship's RAOs and
-//! writes the 6-DOF motion (plus the wave elevation at the CG) as a motion CSV.
+//! `shipcast simulate`: draws a seeded irregular sea (or reads a measured elevation record),
+//! passes it through the ship's RAOs and writes the 6-DOF motion (plus the wave elevation at
+//! the CG) as a motion CSV. Optional course and sea-state changes make the record
+//! non-stationary.
 
 use anyhow::Context;
 use shipcast::motion_csv::MotionCsvWriter;
 use shipcast::sim::plot::plot_overview;
-use shipcast::sim::{Channel, Hull, RaoSpec, Scenario, ShipMotion, SimConfig};
-use std::path::PathBuf;
+use shipcast::sim::{
+    ChangingMotion, Channel, CourseChange, Hull, MotionPoint, RaoSpec, Scenario, SeaChange,
+    ShipMotion, SimConfig,
+};
+use std::fs::File;
+use std::io::BufWriter;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
+mod measured;
+use measured::run_measured;
+
+/// Shown after the options in `--help`.
+const AFTER_HELP: &str = "\
+Measured sea (--elevation FILE): FILE is a CSV with columns time_s,wave_m (other columns are
+ignored); NaN in wave_m or a time jump above 1.5 sample intervals is a gap. Each NaN-free
+segment is Fourier-analysed (mean removed, ends tapered), every Fourier line is taken as a
+long-crested wave from --heading-deg with the elevation measured at the centre of gravity, and
+the linear response is summed at --rate (band-limited interpolation). The first and last
+--edge-s seconds of every segment are not written, so a gap becomes a longer time jump in the
+output, reported in the log. At zero speed this is exact for that model; at speed the ship is
+taken to cross the long-crested field whose fixed-point record is the segment, each line met
+at its encounter frequency (an approximation; wave_m is then the elevation at the moving CG).
+scripts/fetch_wafo.py fetches two measured records (non-commercial licence, never commit them).
+
+Non-stationary records: --course-change-s T --new-heading-deg D [--turn-s R] turns the ship
+(same wave field) so that the mean relative wave direction ramps linearly from --heading-deg to
+D over R s from record time T. --sea-change-s T --new-hs M --new-tp S [--ramp-s R] cross-fades
+(power-preserving) to an independent sea (seed + 1, DNV gamma) of Hs M and Tp S over R s from
+T. Both may be combined. Before T the record equals the stationary simulation; the producer
+uses such a record through `simulate --out F.csv` then `producer --input F.csv`.";
+
 #[derive(clap::Args, Debug)]
+#[command(after_help = AFTER_HELP)]
 pub struct Args {
     /// Named scenario: paper (Hs 3.05 m, Tp 9.7 s), ss3, ss4, ss5, ss6 (Bales 1983); all at
     /// 11 kn with waves 15 deg off the bow unless overridden.
@@ -64,8 +95,62 @@ pub struct Args {
     #[arg(long = "hull-length")]
     pub hull_length: Option<f64>,
     /// Also draw an SVG figure of the spectra and the first minute of motion.
-    #[arg(long)]
+    #[arg(long, conflicts_with_all = ["elevation", "course_change_s", "sea_change_s"])]
     pub plot: Option<PathBuf>,
+    /// Drive the RAOs with this measured wave-elevation CSV (time_s,wave_m) instead of a
+    /// simulated sea: long-crested waves from --heading-deg, elevation at the CG (see below).
+    #[arg(long, conflicts_with_all = ["hs", "tp", "gamma", "components", "spreading", "spectrum", "seed", "duration"])]
+    pub elevation: Option<PathBuf>,
+    /// With --elevation: seconds at each end of every segment that are tapered (outer half)
+    /// and not written.
+    #[arg(
+        long = "edge-s",
+        default_value_t = 120.0,
+        allow_negative_numbers = true
+    )]
+    pub edge_s: f64,
+    /// Record time [s] at which the ship starts turning (needs --new-heading-deg).
+    #[arg(
+        long = "course-change-s",
+        requires = "new_heading_deg",
+        conflicts_with = "elevation",
+        allow_negative_numbers = true
+    )]
+    pub course_change_s: Option<f64>,
+    /// Mean relative wave direction after the turn [deg] (90 = beam seas).
+    #[arg(
+        long = "new-heading-deg",
+        requires = "course_change_s",
+        allow_negative_numbers = true
+    )]
+    pub new_heading_deg: Option<f64>,
+    /// Duration of the turn [s].
+    #[arg(long = "turn-s", default_value_t = 60.0, allow_negative_numbers = true)]
+    pub turn_s: f64,
+    /// Record time [s] at which the sea state starts changing (needs --new-hs and --new-tp).
+    #[arg(long = "sea-change-s", requires_all = ["new_hs", "new_tp"], conflicts_with = "elevation", allow_negative_numbers = true)]
+    pub sea_change_s: Option<f64>,
+    /// Significant wave height of the new sea [m].
+    #[arg(
+        long = "new-hs",
+        requires = "sea_change_s",
+        allow_negative_numbers = true
+    )]
+    pub new_hs: Option<f64>,
+    /// Peak period of the new sea [s].
+    #[arg(
+        long = "new-tp",
+        requires = "sea_change_s",
+        allow_negative_numbers = true
+    )]
+    pub new_tp: Option<f64>,
+    /// Duration of the sea-state cross-fade [s].
+    #[arg(
+        long = "ramp-s",
+        default_value_t = 300.0,
+        allow_negative_numbers = true
+    )]
+    pub ramp_s: f64,
 }
 
 /// The simulator configuration the arguments describe.
@@ -99,42 +184,111 @@ pub fn config_from_args(args: &Args) -> anyhow::Result<SimConfig> {
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
-    if !(args.duration.is_finite() && args.duration > 0.0) {
-        anyhow::bail!("--duration must be positive, got {}", args.duration);
-    }
     if !(args.rate.is_finite() && args.rate > 0.0) {
         anyhow::bail!("--rate must be positive, got {}", args.rate);
     }
+    if let Some(path) = &args.elevation {
+        return run_measured(&args, path);
+    }
+    if !(args.duration.is_finite() && args.duration > 0.0) {
+        anyhow::bail!("--duration must be positive, got {}", args.duration);
+    }
     let cfg = config_from_args(&args)?;
+    let course = args
+        .course_change_s
+        .zip(args.new_heading_deg)
+        .map(|(at_s, d)| CourseChange {
+            at_s,
+            new_heading_deg: d,
+            turn_s: args.turn_s,
+        });
+    let sea = match (args.sea_change_s, args.new_hs, args.new_tp) {
+        (Some(at_s), Some(hs_m), Some(tp_s)) => Some(SeaChange {
+            at_s,
+            hs_m,
+            tp_s,
+            ramp_s: args.ramp_s,
+        }),
+        _ => None,
+    };
+    if course.is_some() || sea.is_some() {
+        return run_changing(&args, &cfg, course, sea);
+    }
+    run_stationary(&args, &cfg)
+}
+
+/// The output file, row count and per-channel sums of squares of a record being written.
+pub(crate) struct RecordOut {
+    writer: MotionCsvWriter<BufWriter<File>>,
+    path: PathBuf,
+    values: [f64; 7],
+    sum_sq: [f64; 7],
+    pub(crate) rows: u64,
+}
+
+impl RecordOut {
+    pub(crate) fn create(path: &Path) -> anyhow::Result<Self> {
+        let columns: Vec<&str> = Channel::ALL.iter().map(|c| c.column()).collect();
+        let writer = MotionCsvWriter::create(path, &columns)
+            .with_context(|| format!("cannot write {}", path.display()))?;
+        Ok(RecordOut {
+            writer,
+            path: path.to_path_buf(),
+            values: [0.0; 7],
+            sum_sq: [0.0; 7],
+            rows: 0,
+        })
+    }
+
+    pub(crate) fn write(&mut self, p: &MotionPoint) -> anyhow::Result<()> {
+        self.values[..6].copy_from_slice(&p.dof);
+        self.values[6] = p.wave_m;
+        for (s, v) in self.sum_sq.iter_mut().zip(&self.values) {
+            *s += v * v;
+        }
+        self.rows += 1;
+        self.writer
+            .write_row(p.time_s, &self.values)
+            .with_context(|| format!("writing {}", self.path.display()))?;
+        Ok(())
+    }
+
+    pub(crate) fn rms(&self, ch: Channel) -> f64 {
+        (self.sum_sq[ch.index()] / self.rows.max(1) as f64).sqrt()
+    }
+
+    pub(crate) fn finish(self) -> anyhow::Result<()> {
+        self.writer
+            .finish()
+            .with_context(|| format!("writing {}", self.path.display()))?;
+        Ok(())
+    }
+}
+
+/// " (x deg)" for a rotation, nothing otherwise.
+pub(crate) fn degrees(ch: Channel, value: f64) -> String {
+    match ch {
+        Channel::Motion(d) if d.is_rotation() => format!(" ({:.3} deg)", value.to_degrees()),
+        _ => String::new(),
+    }
+}
+
+fn run_stationary(args: &Args, cfg: &SimConfig) -> anyhow::Result<()> {
     let started = Instant::now();
-    let motion = ShipMotion::new(&cfg)?;
+    let motion = ShipMotion::new(cfg)?;
     let rows = (args.duration * args.rate).round().max(1.0) as u64;
-    let columns: Vec<&str> = Channel::ALL.iter().map(|c| c.column()).collect();
-    let mut writer = MotionCsvWriter::create(&args.out, &columns)
-        .with_context(|| format!("cannot write {}", args.out.display()))?;
+    let mut out = RecordOut::create(&args.out)?;
     let progress = indicatif::ProgressBar::new(rows);
-    let mut sum_sq = [0.0; 7];
-    let mut values = [0.0; 7];
     for (i, p) in motion
         .stream(args.rate, 0.0)?
         .take(rows as usize)
         .enumerate()
     {
-        values[..6].copy_from_slice(&p.dof);
-        values[6] = p.wave_m;
-        for (s, v) in sum_sq.iter_mut().zip(&values) {
-            *s += v * v;
-        }
-        writer
-            .write_row(p.time_s, &values)
-            .with_context(|| format!("writing {}", args.out.display()))?;
+        out.write(&p)?;
         if i % 8192 == 0 {
             progress.set_position(i as u64);
         }
     }
-    writer
-        .finish()
-        .with_context(|| format!("writing {}", args.out.display()))?;
     progress.finish_and_clear();
     tracing::info!(
         "wrote {rows} rows ({} s at {} Hz, {} wave components) to {} in {:.2} s",
@@ -145,23 +299,120 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         started.elapsed().as_secs_f64()
     );
     for ch in Channel::ALL {
-        let rms = (sum_sq[ch.index()] / rows as f64).sqrt();
+        let rms = out.rms(ch);
         let exact = motion.variance(ch).sqrt();
-        let deg = match ch {
-            Channel::Motion(d) if d.is_rotation() => format!(" ({:.3} deg)", rms.to_degrees()),
-            _ => String::new(),
-        };
         tracing::info!(
-            "{:<10} RMS {rms:.4}{deg}, exact {exact:.4}; peak encounter period {}",
+            "{:<10} RMS {rms:.4}{}, exact {exact:.4}; peak encounter period {}",
             ch.column(),
+            degrees(ch, rms),
             motion
                 .peak_encounter_period(ch)
                 .map_or("none (not excited)".to_string(), |t| format!("{t:.1} s"))
         );
     }
+    out.finish()?;
     if let Some(svg) = &args.plot {
         plot_overview(&motion, svg, 60.0, args.rate)?;
         tracing::info!("figure written to {}", svg.display());
+    }
+    Ok(())
+}
+
+/// A record with a course and/or sea-state change; logs the exact std of the conditions
+/// before and after next to the record's RMS over the stretches before and after the changes.
+fn run_changing(
+    args: &Args,
+    cfg: &SimConfig,
+    course: Option<CourseChange>,
+    sea: Option<SeaChange>,
+) -> anyhow::Result<()> {
+    let started = Instant::now();
+    let motion = ChangingMotion::new(cfg, course, sea)?;
+    let first_change = [course.map(|c| c.at_s), sea.map(|s| s.at_s)]
+        .into_iter()
+        .flatten()
+        .fold(f64::INFINITY, f64::min);
+    let settled = [
+        course.map(|c| c.at_s + c.turn_s),
+        sea.map(|s| s.at_s + s.ramp_s),
+    ]
+    .into_iter()
+    .flatten()
+    .fold(0.0, f64::max);
+    if settled >= args.duration {
+        tracing::warn!(
+            "the record ends at {} s, before the changes are complete ({settled} s)",
+            args.duration
+        );
+    }
+    let rows = (args.duration * args.rate).round().max(1.0) as u64;
+    let mut out = RecordOut::create(&args.out)?;
+    let (mut before, mut after) = ([0.0; 7], [0.0; 7]);
+    let (mut n_before, mut n_after) = (0u64, 0u64);
+    let progress = indicatif::ProgressBar::new(rows);
+    for i in 0..rows {
+        let p = motion.sample_at(i as f64 / args.rate);
+        out.write(&p)?;
+        let (sums, n) = if p.time_s < first_change {
+            (&mut before, &mut n_before)
+        } else if p.time_s >= settled {
+            (&mut after, &mut n_after)
+        } else {
+            continue;
+        };
+        *n += 1;
+        for (s, v) in sums.iter_mut().zip(&out.values) {
+            *s += v * v;
+        }
+        if i % 8192 == 0 {
+            progress.set_position(i);
+        }
+    }
+    progress.finish_and_clear();
+    out.finish()?;
+    let mut final_cfg = match (&sea, motion.final_sea()) {
+        (Some(_), Some(m)) => m.config().clone(),
+        _ => cfg.clone(),
+    };
+    if let Some(c) = &course {
+        final_cfg.heading_deg = c.new_heading_deg;
+    }
+    let final_motion = ShipMotion::new(&final_cfg)?;
+    tracing::info!(
+        "wrote {rows} rows ({} s at {} Hz) to {} in {:.2} s; changes from {first_change} s, \
+         complete at {settled} s{}{}",
+        args.duration,
+        args.rate,
+        args.out.display(),
+        started.elapsed().as_secs_f64(),
+        course.map_or(String::new(), |c| format!(
+            "; course: heading {} -> {} deg over {} s from {} s",
+            cfg.heading_deg, c.new_heading_deg, c.turn_s, c.at_s
+        )),
+        sea.map_or(String::new(), |s| format!(
+            "; sea: Hs {} m, Tp {} s -> Hs {} m, Tp {} s (seed {}) over {} s from {} s",
+            cfg.hs_m, cfg.tp_s, s.hs_m, s.tp_s, final_cfg.seed, s.ramp_s, s.at_s
+        )),
+    );
+    for ch in Channel::ALL {
+        let j = ch.index();
+        let rms = |sum: f64, n: u64| {
+            if n == 0 {
+                "-".to_string()
+            } else {
+                format!("{:.4}", (sum / n as f64).sqrt())
+            }
+        };
+        let exact_before = motion.initial().variance(ch).sqrt();
+        let exact_after = final_motion.variance(ch).sqrt();
+        tracing::info!(
+            "{:<10} before: RMS {} exact {exact_before:.4}{}; after: RMS {} exact {exact_after:.4}{}",
+            ch.column(),
+            rms(before[j], n_before),
+            degrees(ch, exact_before),
+            rms(after[j], n_after),
+            degrees(ch, exact_after),
+        );
     }
     Ok(())
 }

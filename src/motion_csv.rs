@@ -110,6 +110,17 @@ impl MotionData {
 
     /// Read a motion CSV from any reader.
     pub fn read(input: impl Read) -> Result<Self, MotionCsvError> {
+        Self::read_impl(input, false)
+    }
+
+    /// Read a motion CSV whose value columns may hold `NaN` (any case) for a missing sample,
+    /// as measured records mark a gap; `time_s` must still be finite and increasing, and any
+    /// other non-finite text is an error as in [`MotionData::read`].
+    pub fn read_with_gaps(input: impl Read) -> Result<Self, MotionCsvError> {
+        Self::read_impl(input, true)
+    }
+
+    fn read_impl(input: impl Read, nan_is_gap: bool) -> Result<Self, MotionCsvError> {
         let mut reader = csv::ReaderBuilder::new()
             .has_headers(false)
             .flexible(true)
@@ -141,7 +152,12 @@ impl MotionData {
                 });
             }
             for (i, text) in record.iter().enumerate() {
-                values[i].push(parse_value(text, line, &names[i])?);
+                let value = if nan_is_gap && i != time_index && text.eq_ignore_ascii_case("nan") {
+                    f64::NAN
+                } else {
+                    parse_value(text, line, &names[i])?
+                };
+                values[i].push(value);
             }
             let t = values[time_index][values[time_index].len() - 1];
             if let Some(&previous) = time.last() {

@@ -1,9 +1,14 @@
-//! `shipcast simulate` end to end: files written, determinism, figures and clear errors.
+//! `shipcast simulate` end to end: files written, determinism, figures and clear errors; motion
+//! driven by a measured wave record (`--elevation`) and the non-stationary options
+//! (`--course-change-s`, `--sea-change-s`).
 
 mod fixtures;
 
 use shipcast::motion_csv::MotionData;
+use shipcast::sim::{ClosedFormRao, Hull, Rao, Scenario, ShipMotion, SimConfig};
 use shipcast::Dof;
+use std::f64::consts::TAU;
+use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 fn simulate(args: &[&str]) -> Output {
@@ -153,4 +158,245 @@ fn bad_input_exits_with_one_clear_line() {
             "{args:?}: {err}"
         );
     }
+}
+
+/// An elevation CSV at 2.5 Hz; `value(i)` is sample i (None = NaN).
+fn write_elevation(path: &Path, n: usize, value: impl Fn(usize) -> Option<f64>) {
+    let mut text = String::from("time_s,wave_m\n");
+    for i in 0..n {
+        let z = value(i).map_or("NaN".to_string(), |z| z.to_string());
+        text.push_str(&format!("{},{z}\n", i as f64 * 0.4));
+    }
+    std::fs::write(path, text).unwrap();
+}
+
+#[test]
+fn a_measured_cosine_gives_the_rao_amplitude_and_phase_at_the_output_rate() {
+    let dir = tempfile::tempdir().unwrap();
+    let (elev, out) = (dir.path().join("e.csv"), dir.path().join("m.csv"));
+    let n = 3000; // 1200 s at 2.5 Hz
+    let omega = TAU * 150.0 / 1200.0; // on the record's Fourier grid, period 8 s
+    let wave = |t: f64| 1.3 * (omega * t - 0.4).cos();
+    write_elevation(&elev, n, |i| Some(wave(i as f64 * 0.4)));
+    let o = simulate(&[
+        "--elevation",
+        elev.to_str().unwrap(),
+        "--heading-deg",
+        "150",
+        "--speed-kn",
+        "0",
+        "--edge-s",
+        "0",
+        "--rate",
+        "8",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let data = MotionData::read_path(&out).unwrap();
+    assert_eq!(data.len(), 9597); // 0 .. 1199.5 s at 8 Hz
+    assert!((data.time[1] - 0.125).abs() < 1e-12);
+    let h = ClosedFormRao::new(Hull::dtmb5415()).response(omega, 150f64.to_radians(), 0.0);
+    for (i, &t) in data.time.iter().enumerate() {
+        let a = 1.3 * faer::c64::new((omega * t - 0.4).cos(), (omega * t - 0.4).sin());
+        assert!((data.column("wave_m").unwrap()[i] - wave(t)).abs() < 1e-9);
+        for dof in Dof::ALL {
+            let expected = (h[dof.index()] * a).re;
+            let got = data.dof(dof).unwrap()[i];
+            assert!(
+                (got - expected).abs() < 1e-9,
+                "{dof} at {t}: {got} vs {expected}"
+            );
+        }
+    }
+}
+
+#[test]
+fn a_gap_in_the_record_becomes_a_time_jump_in_the_motion() {
+    let dir = tempfile::tempdir().unwrap();
+    let (elev, out) = (dir.path().join("e.csv"), dir.path().join("m.csv"));
+    // 600 s, NaN from 200 s to 300 s.
+    write_elevation(&elev, 1500, |i| {
+        let t = i as f64 * 0.4;
+        (!(200.0..300.0).contains(&t)).then(|| (0.6 * t).sin() + 0.5 * (0.9 * t).cos())
+    });
+    let o = simulate(&[
+        "--elevation",
+        elev.to_str().unwrap(),
+        "--edge-s",
+        "30",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let log = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{log}");
+    let data = MotionData::read_path(&out).unwrap();
+    let jumps: Vec<(f64, f64)> = data
+        .time
+        .windows(2)
+        .filter(|p| p[1] - p[0] > 0.2)
+        .map(|p| (p[0], p[1]))
+        .collect();
+    // Segments 0..199.6 s and 300..599.6 s, each without its 30 s edges.
+    assert_eq!(jumps, vec![(169.5, 330.0)], "{log}");
+    assert_eq!(data.time[0], 30.0);
+    assert_eq!(*data.time.last().unwrap(), 569.5);
+    assert!(
+        log.contains("gap: the output jumps from 169.500 s to 330.000 s"),
+        "{log}"
+    );
+    // The speed (default 11 kn) is stated as an approximation.
+    assert!(log.contains("encounter frequency"), "{log}");
+}
+
+#[test]
+fn bad_elevation_files_exit_with_one_clear_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("m.csv");
+    let write = |name: &str, text: &str| {
+        let p = dir.path().join(name);
+        std::fs::write(&p, text).unwrap();
+        p.to_str().unwrap().to_string()
+    };
+    let not_number = write("a.csv", "time_s,wave_m\n0,1\n0.5,x\n1.0,2\n");
+    let no_wave = write("b.csv", "time_s,heave_m\n0,1\n0.5,2\n");
+    let uneven = write("c.csv", "time_s,wave_m\n0,1\n0.5,2\n1.0,1\n1.7,2\n2.0,1\n");
+    let all_nan = write("d.csv", "time_s,wave_m\n0,NaN\n0.5,nan\n1.0,NaN\n");
+    let short = write("e.csv", "time_s,wave_m\n0,1\n0.5,2\n1.0,1\n1.5,0\n");
+    let infinite = write("f.csv", "time_s,wave_m\n0,1\n0.5,inf\n");
+    let cases: [(&[&str], &str); 8] = [
+        (
+            &["--elevation", &not_number],
+            "line 3, column 'wave_m': 'x' is not a number",
+        ),
+        (&["--elevation", &no_wave], "line 1: no 'wave_m' column"),
+        (&["--elevation", &uneven], "line 5: time step"),
+        (
+            &["--elevation", &all_nan],
+            "no segment is longer than twice --edge-s",
+        ),
+        (
+            &["--elevation", &short],
+            "no segment is longer than twice --edge-s",
+        ),
+        (
+            &["--elevation", &infinite],
+            "line 3, column 'wave_m': non-finite value 'inf'",
+        ),
+        (
+            &["--elevation", "/nonexistent.csv"],
+            "cannot read /nonexistent.csv",
+        ),
+        (&["--elevation", &short, "--hs", "2"], "cannot be used with"),
+    ];
+    for (args, reason) in cases {
+        let mut all = args.to_vec();
+        all.extend(["--out", out.to_str().unwrap()]);
+        let o = simulate(&all);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success(), "{args:?}: {err}");
+        if reason.contains("cannot be used") {
+            // clap's own message (with a usage line).
+            assert!(err.contains(reason), "{args:?}: {err}");
+            continue;
+        }
+        // One error line (the last), after any log lines.
+        let errors: Vec<&str> = err.lines().filter(|l| l.starts_with("error")).collect();
+        assert_eq!(errors.len(), 1, "{args:?}: {err}");
+        assert_eq!(err.lines().last(), Some(errors[0]), "{args:?}: {err}");
+        assert!(
+            errors[0].starts_with("error: ") && errors[0].contains(reason),
+            "{args:?}: {err}"
+        );
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
+    }
+}
+
+fn max_difference(a: &MotionData, b: &MotionData, rows: usize) -> f64 {
+    let mut worst = 0.0f64;
+    for dof in Dof::ALL {
+        let (x, y) = (a.dof(dof).unwrap(), b.dof(dof).unwrap());
+        for i in 0..rows {
+            worst = worst.max((x[i] - y[i]).abs());
+        }
+    }
+    worst
+}
+
+#[test]
+fn course_and_sea_changes_keep_the_record_before_and_reach_the_new_condition_after() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
+    let run = |extra: &[&str], out: &str| {
+        let mut args = vec!["--scenario", "ss4", "--duration", "2400", "--rate", "2"];
+        args.extend(extra);
+        args.extend(["--out", out]);
+        let o = simulate(&args);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        MotionData::read_path(out).unwrap()
+    };
+    let stationary = run(&[], &path("s.csv"));
+    let turned = run(
+        &[
+            "--course-change-s",
+            "600",
+            "--new-heading-deg",
+            "90",
+            "--turn-s",
+            "60",
+        ],
+        &path("c.csv"),
+    );
+    let changed = run(
+        &[
+            "--sea-change-s",
+            "600",
+            "--new-hs",
+            "5.0",
+            "--new-tp",
+            "12.4",
+            "--ramp-s",
+            "300",
+        ],
+        &path("v.csv"),
+    );
+    // 1200 rows = the first 600 s at 2 Hz.
+    assert!(max_difference(&stationary, &turned, 1200) < 1e-8);
+    assert!(max_difference(&stationary, &changed, 1200) < 1e-8);
+    // Well after the change, the std is that of the new condition (exact, from its components).
+    let std_from = |d: &MotionData, dof: Dof, from: usize| {
+        let x = &d.dof(dof).unwrap()[from..];
+        (x.iter().map(|v| v * v).sum::<f64>() / x.len() as f64).sqrt()
+    };
+    let mut beam = SimConfig::scenario(Scenario::Ss4);
+    beam.heading_deg = 90.0;
+    let beam = ShipMotion::new(&beam).unwrap();
+    let roll = shipcast::sim::Channel::Motion(Dof::Roll);
+    let got = std_from(&turned, Dof::Roll, 1500);
+    let exact = beam.variance(roll).sqrt();
+    assert!((got / exact - 1.0).abs() < 0.2, "roll {got} vs {exact}");
+    let mut ss6 = SimConfig::scenario(Scenario::Ss4);
+    (ss6.hs_m, ss6.tp_s, ss6.seed) = (5.0, 12.4, 2);
+    let ss6 = ShipMotion::new(&ss6).unwrap();
+    let heave = shipcast::sim::Channel::Motion(Dof::Heave);
+    let got = std_from(&changed, Dof::Heave, 2000);
+    let exact = ss6.variance(heave).sqrt();
+    assert!((got / exact - 1.0).abs() < 0.2, "heave {got} vs {exact}");
+    // The options are checked.
+    let o = simulate(&["--course-change-s", "10", "--out", &path("x.csv")]);
+    assert!(!o.status.success());
+    let o = simulate(&[
+        "--sea-change-s",
+        "10",
+        "--new-hs",
+        "2",
+        "--new-tp",
+        "-1",
+        "--duration",
+        "20",
+        "--out",
+        &path("x.csv"),
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && err.contains("peak period"), "{err}");
 }

@@ -9,6 +9,8 @@
 //!   curves (a boundary-element solution) to validate them against.
 //! - [`scenario`]: the `paper` and ss3..ss6 presets and [`SimConfig`].
 //! - [`motion`]: [`ShipMotion`], sampled at any instant or streamed at a fixed rate.
+//! - [`changes`]: [`ChangingMotion`], a course change and/or a sea-state change in a record.
+//! - [`measured`]: the ship's response to a measured wave-elevation record.
 //! - [`autocorr`]: exact variance, autocorrelation and encounter spectra of the record.
 //! - [`plot`]: an SVG figure of the spectra and the first minute of motion; [`rao_plot`]: RAO
 //!   curves compared per DOF.
@@ -17,7 +19,9 @@
 //! positive up.
 
 pub mod autocorr;
+pub mod changes;
 pub mod hull;
+pub mod measured;
 pub mod motion;
 pub mod plot;
 pub mod rao;
@@ -31,7 +35,9 @@ pub mod spreading;
 pub mod waterline;
 
 pub use autocorr::Channel;
+pub use changes::{ChangingMotion, CourseChange, SeaChange};
 pub use hull::Hull;
+pub use measured::{split_segments, ElevationSegment, SegmentResponse};
 pub use motion::{build_rao, MotionPoint, MotionStream, ShipMotion};
 pub use rao::{encounter_omega, ClosedFormRao, Rao, Response};
 pub use rao_table::{RaoTable, ScaledRaoTable};

@@ -156,14 +156,7 @@ impl ShipMotion {
 
     /// The motion at any instant `t` [s] (exact evaluation).
     pub fn sample_at(&self, t: f64) -> MotionPoint {
-        let mut acc = [0.0; CHANNELS];
-        for k in &self.coefficients {
-            let (s, c) = (k.omega_e * t).sin_cos();
-            for ((a, re), im) in acc.iter_mut().zip(&k.re).zip(&k.im) {
-                *a += re * c - im * s;
-            }
-        }
-        point(t, &acc)
+        sum_at(&self.coefficients, t)
     }
 
     /// Samples at `rate_hz` starting at `start_s`, endless (take what you need).
@@ -172,7 +165,19 @@ impl ShipMotion {
     }
 }
 
-fn point(t: f64, acc: &[f64; CHANNELS]) -> MotionPoint {
+/// The sum over `coefficients` at instant `t`, evaluated directly (one sin/cos per component).
+pub(crate) fn sum_at(coefficients: &[Coefficients], t: f64) -> MotionPoint {
+    let mut acc = [0.0; CHANNELS];
+    for k in coefficients {
+        let (s, c) = (k.omega_e * t).sin_cos();
+        for ((a, re), im) in acc.iter_mut().zip(&k.re).zip(&k.im) {
+            *a += re * c - im * s;
+        }
+    }
+    point(t, &acc)
+}
+
+pub(crate) fn point(t: f64, acc: &[f64; CHANNELS]) -> MotionPoint {
     MotionPoint {
         time_s: t,
         dof: [acc[0], acc[1], acc[2], acc[3], acc[4], acc[5]],
@@ -180,12 +185,11 @@ fn point(t: f64, acc: &[f64; CHANNELS]) -> MotionPoint {
     }
 }
 
-/// Fixed-rate iterator over a [`ShipMotion`]; never ends, allocates nothing per sample. `M` is
-/// `&ShipMotion` (from [`ShipMotion::stream`]) or an owner such as `ShipMotion` or
-/// `Arc<ShipMotion>` for a stream that moves into a thread (`MotionStream::new`).
+/// Fixed-rate synthesis of a sum of components: the phasor of each component is rotated by
+/// exp(i w_e dt) per sample and re-synchronised from the exact phase every `RESYNC_STEPS`.
+/// Shared by [`MotionStream`] and the measured-sea synthesis (`super::measured`).
 #[derive(Debug)]
-pub struct MotionStream<M: Borrow<ShipMotion>> {
-    motion: M,
+pub(crate) struct Phasors {
     dt: f64,
     start_s: f64,
     step: u64,
@@ -195,9 +199,13 @@ pub struct MotionStream<M: Borrow<ShipMotion>> {
     rotation: Vec<(f64, f64)>,
 }
 
-impl<M: Borrow<ShipMotion>> MotionStream<M> {
-    /// Samples of `motion` at `rate_hz` starting at `start_s`.
-    pub fn new(motion: M, rate_hz: f64, start_s: f64) -> Result<Self, SimError> {
+impl Phasors {
+    /// Samples at `rate_hz` from `start_s` of the sum over `coefficients`.
+    pub(crate) fn new(
+        coefficients: &[Coefficients],
+        rate_hz: f64,
+        start_s: f64,
+    ) -> Result<Self, SimError> {
         if !(rate_hz.is_finite() && rate_hz > 0.0) {
             return Err(SimError::Config(format!(
                 "sample rate must be positive, got {rate_hz} Hz"
@@ -207,8 +215,6 @@ impl<M: Borrow<ShipMotion>> MotionStream<M> {
             return Err(SimError::Config("start time must be finite".into()));
         }
         let dt = 1.0 / rate_hz;
-        let coefficients = &motion.borrow().coefficients;
-        let n = coefficients.len();
         let rotation = coefficients
             .iter()
             .map(|k| {
@@ -216,37 +222,71 @@ impl<M: Borrow<ShipMotion>> MotionStream<M> {
                 (c, s)
             })
             .collect();
-        let mut stream = MotionStream {
-            motion,
+        let mut phasors = Phasors {
             dt,
             start_s,
             step: 0,
-            phasor: vec![(1.0, 0.0); n],
+            phasor: vec![(1.0, 0.0); coefficients.len()],
             rotation,
         };
-        stream.resync();
-        Ok(stream)
+        phasors.resync(coefficients);
+        Ok(phasors)
     }
 
-    fn time(&self) -> f64 {
+    pub(crate) fn time(&self) -> f64 {
         self.start_s + self.step as f64 * self.dt
     }
 
-    fn resync(&mut self) {
+    pub(crate) fn dt(&self) -> f64 {
+        self.dt
+    }
+
+    fn resync(&mut self, coefficients: &[Coefficients]) {
         let t = self.time();
-        for (p, k) in self
-            .phasor
-            .iter_mut()
-            .zip(&self.motion.borrow().coefficients)
-        {
+        for (p, k) in self.phasor.iter_mut().zip(coefficients) {
             let (s, c) = (k.omega_e * t).sin_cos();
             *p = (c, s);
         }
     }
 
+    /// The next sample; `coefficients` must be the ones given to `new`.
+    pub(crate) fn next_point(&mut self, coefficients: &[Coefficients]) -> MotionPoint {
+        if self.step > 0 && self.step % RESYNC_STEPS == 0 {
+            self.resync(coefficients);
+        }
+        let mut acc = [0.0; CHANNELS];
+        for ((p, r), k) in self.phasor.iter_mut().zip(&self.rotation).zip(coefficients) {
+            let (c, s) = *p;
+            for ((a, re), im) in acc.iter_mut().zip(&k.re).zip(&k.im) {
+                *a += re * c - im * s;
+            }
+            *p = (c * r.0 - s * r.1, s * r.0 + c * r.1);
+        }
+        let out = point(self.time(), &acc);
+        self.step += 1;
+        out
+    }
+}
+
+/// Fixed-rate iterator over a [`ShipMotion`]; never ends, allocates nothing per sample. `M` is
+/// `&ShipMotion` (from [`ShipMotion::stream`]) or an owner such as `ShipMotion` or
+/// `Arc<ShipMotion>` for a stream that moves into a thread (`MotionStream::new`).
+#[derive(Debug)]
+pub struct MotionStream<M: Borrow<ShipMotion>> {
+    motion: M,
+    phasors: Phasors,
+}
+
+impl<M: Borrow<ShipMotion>> MotionStream<M> {
+    /// Samples of `motion` at `rate_hz` starting at `start_s`.
+    pub fn new(motion: M, rate_hz: f64, start_s: f64) -> Result<Self, SimError> {
+        let phasors = Phasors::new(&motion.borrow().coefficients, rate_hz, start_s)?;
+        Ok(MotionStream { motion, phasors })
+    }
+
     /// Sampling interval [s].
     pub fn dt(&self) -> f64 {
-        self.dt
+        self.phasors.dt()
     }
 
     /// The simulation being sampled.
@@ -259,25 +299,7 @@ impl<M: Borrow<ShipMotion>> Iterator for MotionStream<M> {
     type Item = MotionPoint;
 
     fn next(&mut self) -> Option<MotionPoint> {
-        if self.step > 0 && self.step % RESYNC_STEPS == 0 {
-            self.resync();
-        }
-        let mut acc = [0.0; CHANNELS];
-        for ((p, r), k) in self
-            .phasor
-            .iter_mut()
-            .zip(&self.rotation)
-            .zip(&self.motion.borrow().coefficients)
-        {
-            let (c, s) = *p;
-            for ((a, re), im) in acc.iter_mut().zip(&k.re).zip(&k.im) {
-                *a += re * c - im * s;
-            }
-            *p = (c * r.0 - s * r.1, s * r.0 + c * r.1);
-        }
-        let out = point(self.time(), &acc);
-        self.step += 1;
-        Some(out)
+        Some(self.phasors.next_point(&self.motion.borrow().coefficients))
     }
 }
 

@@ -1,0 +1,119 @@
+//! `shipcast simulate --elevation`: the ship driven by a measured wave record, segment by
+//! segment (the method is in `shipcast::sim::measured`).
+
+use super::{config_from_args, degrees, Args, RecordOut};
+use anyhow::Context;
+use shipcast::motion_csv::MotionData;
+use shipcast::sim::build_rao;
+use shipcast::sim::measured::{split_segments, SegmentResponse};
+use shipcast::sim::Channel;
+use std::fs::File;
+use std::path::Path;
+use std::time::Instant;
+
+/// Motion driven by a measured elevation record, segment by segment.
+pub(super) fn run_measured(args: &Args, path: &Path) -> anyhow::Result<()> {
+    let started = Instant::now();
+    let cfg = config_from_args(args)?;
+    cfg.validate()?;
+    let file = File::open(path).with_context(|| format!("cannot read {}", path.display()))?;
+    let data = MotionData::read_with_gaps(std::io::BufReader::new(file))
+        .with_context(|| path.display().to_string())?;
+    let wave = data.column("wave_m").with_context(|| {
+        format!(
+            "{}: line 1: no 'wave_m' column (an elevation record has columns time_s,wave_m)",
+            path.display()
+        )
+    })?;
+    let segments = split_segments(&data.time, wave).with_context(|| path.display().to_string())?;
+    let rao = build_rao(&cfg.rao)?;
+    let (beta, speed) = (cfg.heading_deg.to_radians(), cfg.speed_mps());
+    if speed > 0.0 {
+        tracing::info!(
+            "speed {} kn: each Fourier line of the record is met at its encounter frequency \
+             (long-crested frozen-field approximation; wave_m is the elevation at the moving CG)",
+            cfg.speed_kn
+        );
+    }
+    let input_rate = segments.first().map_or(0.0, |s| 1.0 / s.dt_s);
+    if args.rate < input_rate {
+        tracing::warn!(
+            "--rate {} Hz is below the record's {} Hz: the output is sampled without an \
+             anti-alias filter",
+            args.rate,
+            input_rate
+        );
+    }
+    let mut out = RecordOut::create(&args.out)?;
+    let mut previous_end: Option<f64> = None;
+    let (mut written, mut skipped) = (0usize, 0usize);
+    for seg in &segments {
+        let Some(response) = SegmentResponse::new(seg, rao.as_ref(), beta, speed, args.edge_s)?
+        else {
+            skipped += 1;
+            tracing::warn!(
+                "segment {:.2}..{:.2} s ({} samples) is not longer than twice --edge-s {} s: skipped",
+                seg.start_s,
+                seg.end_s(),
+                seg.values.len(),
+                args.edge_s
+            );
+            continue;
+        };
+        let rows_before = out.rows;
+        let mut first_t = None;
+        let mut last_t = 0.0;
+        for p in response.stream(args.rate)? {
+            if let Some(end) = previous_end {
+                if first_t.is_none() {
+                    tracing::info!(
+                        "gap: the output jumps from {end:.3} s to {:.3} s ({:.1} s missing)",
+                        p.time_s,
+                        p.time_s - end
+                    );
+                }
+            }
+            first_t.get_or_insert(p.time_s);
+            last_t = p.time_s;
+            out.write(&p)?;
+        }
+        if out.rows > rows_before {
+            written += 1;
+            previous_end = Some(last_t);
+            tracing::info!(
+                "segment {:.2}..{:.2} s of the record ({} samples at {:.3} Hz): wrote {:.3}..{last_t:.3} s, {} rows",
+                seg.start_s,
+                seg.end_s(),
+                seg.values.len(),
+                1.0 / seg.dt_s,
+                first_t.unwrap_or(last_t),
+                out.rows - rows_before
+            );
+        }
+    }
+    if written == 0 {
+        anyhow::bail!(
+            "{}: no segment is longer than twice --edge-s {} s ({} segments, {} skipped)",
+            path.display(),
+            args.edge_s,
+            segments.len(),
+            skipped
+        );
+    }
+    let rows = out.rows;
+    tracing::info!(
+        "wrote {rows} rows at {} Hz from {} ({written} segments written, {skipped} skipped; \
+         waves from {} deg, {} kn) to {} in {:.2} s",
+        args.rate,
+        path.display(),
+        cfg.heading_deg,
+        cfg.speed_kn,
+        args.out.display(),
+        started.elapsed().as_secs_f64()
+    );
+    for ch in Channel::ALL {
+        let rms = out.rms(ch);
+        tracing::info!("{:<10} RMS {rms:.4}{}", ch.column(), degrees(ch, rms));
+    }
+    out.finish()
+}
