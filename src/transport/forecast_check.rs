@@ -329,7 +329,7 @@ mod tests {
         // JSON cannot carry infinity: serde writes null, which fails to parse.
         let r = gate.check(&received(&infinite, Some("aaa")));
         assert!(matches!(r, Err(Rejection::Payload(_))), "{r:?}");
-        // A value beyond f32 range parses to infinity and is caught by the content check.
+        // A value beyond f32 range is refused by the parser, not turned into infinity.
         let text = String::from_utf8(received(&forecast(4), Some("aaa")).payload).unwrap();
         let huge = text.replacen("\"mean\":[[0.0", "\"mean\":[[1e39", 1);
         assert_ne!(huge, text);
@@ -338,9 +338,15 @@ mod tests {
             publisher: Some("aaa".into()),
         });
         assert!(
-            matches!(r, Err(Rejection::Payload(ref m)) if m.contains("not finite")),
+            matches!(r, Err(Rejection::Payload(ref m)) if m.contains("out of range")),
             "{r:?}"
         );
+        // Non-finite values arrive only through a binary path (iceoryx2); the content check
+        // catches them there.
+        assert!(matches!(
+            check_content(&infinite, 0.5),
+            Err(Rejection::Payload(ref m)) if m.contains("mean of DOF 2 step 1 is not finite")
+        ));
         // steps above the maximum.
         let text = String::from_utf8(received(&forecast(5), Some("aaa")).payload).unwrap();
         let many = text.replacen("\"steps\":4", "\"steps\":129", 1);
