@@ -287,18 +287,21 @@ fn lock(t: &Mutex<ShoreTally>) -> std::sync::MutexGuard<'_, ShoreTally> {
     t.lock().unwrap_or_else(|e| e.into_inner())
 }
 
-/// A client session on `endpoint`, retried until the router listens.
+/// A client session on `endpoint`, once the router listens (a plain TCP probe first, so
+/// zenoh does not log a failed connection per try).
 fn wait_for_client(endpoint: &str, patience: Duration) -> anyhow::Result<zenoh::Session> {
+    let address = endpoint.strip_prefix("tcp/").unwrap_or(endpoint);
     let deadline = Instant::now() + patience;
-    loop {
-        match zn::open(&ZenohSettings {
-            mode: Mode::Client,
-            connect: vec![endpoint.to_string()],
-            ..ZenohSettings::default()
-        }) {
-            Ok(s) => return Ok(s),
-            Err(e) if Instant::now() > deadline => return Err(e.into()),
-            Err(_) => std::thread::sleep(Duration::from_millis(100)),
-        }
+    while std::net::TcpStream::connect(address).is_err() {
+        anyhow::ensure!(
+            Instant::now() < deadline,
+            "the router did not listen on {endpoint} within {patience:?}"
+        );
+        std::thread::sleep(Duration::from_millis(50));
     }
+    Ok(zn::open(&ZenohSettings {
+        mode: Mode::Client,
+        connect: vec![endpoint.to_string()],
+        ..ZenohSettings::default()
+    })?)
 }
