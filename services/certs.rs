@@ -8,7 +8,7 @@
 use anyhow::Context;
 use shipcast::certs::{endpoint_host, server_names, CertAuthority, Validity};
 use shipcast::config::ZenohConfig;
-use shipcast::transport::zenoh::{self as zn};
+use shipcast::transport::zenoh::{self as zn, ZenohSettings};
 use shipcast::transport::zenoh_security::{AccessRules, TlsSettings};
 use shipcast::transport::Names;
 use std::io::Write;
@@ -118,7 +118,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             }),
             ..ZenohConfig::default()
         };
-        let document = zn::config_document(&zenoh.consumer_side());
+        // zenoh's own connection behaviour for other clients: one attempt, a clear failure.
+        let document = zn::config_document(&ZenohSettings {
+            client_connect_patience_ms: None,
+            ..zenoh.consumer_side()
+        });
         let json5 = format!(
             "// zenoh client configuration of station '{station}' of vessel {} (shipcast certs).\n\
              // Client mode, scouting off, mutual TLS with this station's certificate.\n{}\n",

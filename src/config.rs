@@ -15,6 +15,10 @@ use std::path::{Path, PathBuf};
 /// and an uncommon port: a fresh clone runs without touching the network or a local zenohd.
 pub const DEFAULT_ZENOH_ENDPOINT: &str = "tcp/127.0.0.1:17447";
 
+/// How long a secure consumer (a zenoh client) keeps trying to reach the predictor when it
+/// starts: `shipcast run` starts its consumers while the predictor is still starting.
+pub const CLIENT_CONNECT_PATIENCE_MS: u64 = 60_000;
+
 /// Where consumers listen: loopback, port chosen by the system.
 pub const CONSUMER_LISTEN: &str = "tcp/127.0.0.1:0";
 
@@ -111,6 +115,7 @@ impl ZenohConfig {
             auth: self.auth.clone(),
             access: self.access.clone(),
             downsample_egress: None,
+            client_connect_patience_ms: None,
         }
     }
 
@@ -141,6 +146,7 @@ impl ZenohConfig {
             }),
             access: None,
             downsample_egress: None,
+            client_connect_patience_ms: secure.then_some(CLIENT_CONNECT_PATIENCE_MS),
         }
     }
 

@@ -309,3 +309,35 @@ fn with_security_off_the_crane_rejects_a_second_publisher() {
         "{last}"
     );
 }
+
+/// `shipcast run --config DIR/shipcast.toml` uses the generated file as it is: the deck and
+/// the live view are clients with the pipeline's identity, the advisory and status flow
+/// through the predictor's access rules.
+#[test]
+fn run_uses_the_generated_config_as_it_is() {
+    let s = SecureSetup::new("securerun");
+    let logs = tempfile::tempdir().unwrap();
+    let config = s.certs.join("shipcast.toml");
+    let out = std::process::Command::new(pipeline_support::BIN)
+        .args(["run", "--duration", "20", "--config"])
+        .arg(&config)
+        .arg("--log-dir")
+        .arg(logs.path())
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    // The view shows the predictor's status and the deck's advisory, both received over zenoh.
+    assert!(stdout.contains("predictor  model v1"), "{stdout}");
+    assert!(stdout.contains("deck t="), "{stdout}");
+    let crane = std::fs::read_to_string(logs.path().join("crane.log")).unwrap();
+    assert!(crane.contains("crane t="), "{crane}");
+    assert!(
+        crane.contains(" 0 rejected (0 source, 0 seq, 0 payload)"),
+        "{crane}"
+    );
+}

@@ -72,6 +72,9 @@ pub struct ZenohSettings {
     pub access: Option<AccessRules>,
     /// zenoh downsampling of puts sent out of this node (a router towards the shore).
     pub downsample_egress: Option<Downsampling>,
+    /// A client keeps trying its endpoints this long when opening (a consumer started before
+    /// the predictor); none: zenoh's default, one attempt.
+    pub client_connect_patience_ms: Option<u64>,
 }
 
 /// At most `max_hz` puts per second per key on `key_exprs`, towards every link of the node.
@@ -138,6 +141,9 @@ pub fn config_entries(settings: &ZenohSettings) -> Vec<(String, serde_json::Valu
             "open/return_conditions/connect_scouted".into(),
             false.into(),
         ));
+    }
+    if let (Mode::Client, Some(ms)) = (settings.mode, settings.client_connect_patience_ms) {
+        entries.push(("connect/timeout_ms".into(), json!(ms)));
     }
     if let Some(tls) = &settings.tls {
         entries.extend(security::tls_entries(tls, !settings.listen.is_empty()));
