@@ -6,6 +6,11 @@ Needs only `pip install eclipse-zenoh` (1.10) and a running predictor
 
     python3 examples/zenoh_forecast_subscriber.py [--connect tcp/127.0.0.1:17447]
         [--instance NAME] [--vessel ddg51] [--key KEY] [--count N]
+
+Secure setup (docs/security.md): pass the station's configuration written by
+`shipcast certs`, which holds the endpoint, TLS and the station's certificate:
+
+    python3 examples/zenoh_forecast_subscriber.py --config DIR/crane.json5 --vessel ddg51
 """
 
 import argparse
@@ -26,6 +31,9 @@ def main() -> int:
     parser.add_argument("--vessel", default="ddg51")
     parser.add_argument("--key", default="",
                         help="forecast key; default [<instance>/]shipcast/<vessel>/forecast")
+    parser.add_argument("--config", default="",
+                        help="zenoh client configuration (JSON5) from `shipcast certs`; "
+                             "replaces --connect")
     parser.add_argument("--count", type=int, default=0,
                         help="stop after N forecasts (0: run until Ctrl-C)")
     args = parser.parse_args()
@@ -34,10 +42,14 @@ def main() -> int:
         if args.instance:
             args.key = f"{args.instance}/{args.key}"
 
-    config = zenoh.Config()
-    config.insert_json5("mode", '"peer"')
-    config.insert_json5("connect/endpoints", json.dumps([args.connect]))
-    config.insert_json5("scouting/multicast/enabled", "false")
+    if args.config:
+        config = zenoh.Config.from_file(args.config)
+        args.connect = args.config
+    else:
+        config = zenoh.Config()
+        config.insert_json5("mode", '"peer"')
+        config.insert_json5("connect/endpoints", json.dumps([args.connect]))
+        config.insert_json5("scouting/multicast/enabled", "false")
 
     received = 0
     with zenoh.open(config) as session:

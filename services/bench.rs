@@ -19,6 +19,9 @@ pub struct Args {
 enum Command {
     /// One-way latency of shipcast's paths and of raw iceoryx2 and zenoh, on two pinned cores.
     Latency(LatencyArgs),
+    /// N vessels at 2 Hz through one `shipcast router` to one shore subscriber: delivery
+    /// latency, loss, router CPU, and recovery after a router restart.
+    Fleet(FleetArgs),
     /// The answering side of the inter-process zenoh floor, started by `bench latency`.
     #[command(hide = true)]
     ZenohPong(ZenohPongArgs),
@@ -43,6 +46,25 @@ struct ZenohPongArgs {
     /// File for the recorded legs.
     #[arg(long)]
     out: PathBuf,
+}
+
+#[derive(clap::Args, Debug)]
+struct FleetArgs {
+    /// Fleet sizes to run, one after the other.
+    #[arg(long, value_delimiter = ',', default_value = "10,50,200")]
+    vessels: Vec<usize>,
+    /// Measured seconds per fleet size.
+    #[arg(long, default_value_t = 20.0)]
+    seconds: f64,
+    /// Forecasts per second per vessel.
+    #[arg(long, default_value_t = 2.0)]
+    rate: f64,
+    /// Skip the router-restart measurement.
+    #[arg(long)]
+    no_restart: bool,
+    /// Print the rows as a JSON array on stdout.
+    #[arg(long)]
+    json: bool,
 }
 
 #[derive(clap::Args, Debug)]
@@ -77,6 +99,7 @@ struct LatencyArgs {
 pub fn run(args: Args) -> anyhow::Result<()> {
     match args.command {
         Command::Latency(a) => run_latency(a),
+        Command::Fleet(a) => run_fleet(a),
         Command::ZenohPong(a) => {
             let &[mode] = a.mode.modes() else {
                 anyhow::bail!("zenoh-pong: --mode must be event or poll");
@@ -102,6 +125,46 @@ fn own_executable() -> anyhow::Result<PathBuf> {
         return Ok(proc_exe);
     }
     std::env::current_exe().context("locate the shipcast executable")
+}
+
+fn run_fleet(a: FleetArgs) -> anyhow::Result<()> {
+    if !(a.seconds.is_finite() && a.seconds > 0.0 && a.rate.is_finite() && a.rate > 0.0) {
+        anyhow::bail!("--seconds and --rate must be positive");
+    }
+    let exe = own_executable()?;
+    let dir = std::env::temp_dir().join(format!("shipcast-fleet-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).with_context(|| format!("create {}", dir.display()))?;
+    let mut rows = Vec::new();
+    eprintln!(
+        "fleet: vessels at {} Hz -> shipcast router -> 1 shore subscriber, {} s each, loopback TCP",
+        a.rate, a.seconds
+    );
+    eprintln!("vessels  bytes     sent  received  lost   p50 us   p99 us   max us  router CPU %  restart s");
+    for &n in &a.vessels {
+        let r = shipcast::bench::fleet::run(&exe, &dir, n, a.seconds, a.rate, !a.no_restart)?;
+        eprintln!(
+            "{:>7}  {:>5}  {:>7}  {:>8}  {:>4}  {:>7.0}  {:>7.0}  {:>7.0}  {:>12.1}  {}",
+            r.vessels,
+            r.payload_bytes,
+            r.sent,
+            r.received,
+            r.lost,
+            r.p50_us,
+            r.p99_us,
+            r.max_us,
+            r.router_cpu_pct,
+            r.restart_recovery_s
+                .map(|s| format!("{s:.1}"))
+                .unwrap_or_else(|| "-".into())
+        );
+        rows.push(r);
+    }
+    if a.json {
+        println!("{}", serde_json::to_string_pretty(&rows)?);
+    }
+    // The router logs are kept only when a run failed (the error names nothing else to read).
+    let _ = std::fs::remove_dir_all(&dir);
+    Ok(())
 }
 
 fn run_latency(a: LatencyArgs) -> anyhow::Result<()> {

@@ -1,10 +1,12 @@
 //! `shipcast crane`: the remote consumer. Subscribes to the forecast JSON over zenoh (latest
 //! only, ring channel) and prints the crane-tip motion forecast for a configurable tip position.
+//! Only forecasts from the live predictor, with increasing seq and sound content, are used
+//! (`ForecastGate`); every rejection is counted and logged on one line.
 
 use shipcast::config::CommonArgs;
 use shipcast::crane::{summary, tip_track};
 use shipcast::deck::ShipPoint;
-use shipcast::payload::Forecast;
+use shipcast::transport::forecast_check::{ForecastGate, PublisherWatch};
 use shipcast::transport::zenoh::{self as zn, LatestSubscriber, LivelinessWatch};
 use shipcast::transport::{shutdown, Names};
 use std::io::Write;
@@ -32,9 +34,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let session = zn::open(&config.zenoh.consumer_side())?;
     let forecasts = LatestSubscriber::new(&session, &names.forecast())?;
     let alive = LivelinessWatch::new(&session, &Names::liveliness(&names.forecast()))?;
+    let publishers = PublisherWatch::new(&session, &names.forecast())?;
+    let mut gate = ForecastGate::new(1.0 / config.predictor.sample_rate_hz);
     let tip = ShipPoint::new(config.crane.tip_m);
     tracing::info!(tip_m = ?config.crane.tip_m, "crane: following {} over zenoh", names.forecast());
-    let (mut count, mut rejected) = (0u64, 0u64);
+    let mut count = 0u64;
     let mut track = Vec::new();
     let stdout = std::io::stdout();
     while !limit.reached() {
@@ -43,14 +47,16 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             Some(false) => tracing::warn!("crane: predictor gone"),
             None => {}
         }
-        let Some(bytes) = forecasts.recv_timeout(Duration::from_millis(200))? else {
+        publishers.update(&mut gate.live);
+        let Some(received) = forecasts.recv_with_source(Duration::from_millis(200))? else {
             continue;
         };
-        let forecast = match Forecast::from_json(&bytes) {
+        // A token may arrive just after the first forecast of its publisher.
+        publishers.update(&mut gate.live);
+        let forecast = match gate.check(&received) {
             Ok(f) => f,
             Err(e) => {
-                rejected += 1;
-                tracing::warn!(rejected, "crane: {e}");
+                tracing::warn!(rejected = gate.rejected.total(), "crane: rejected: {e}");
                 continue;
             }
         };
@@ -60,6 +66,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }
         count += 1;
     }
-    tracing::info!("crane: stopped after {count} forecasts, {rejected} rejected");
+    let r = gate.rejected;
+    tracing::info!(
+        "crane: stopped after {count} forecasts, {} rejected ({} source, {} seq, {} payload)",
+        r.total(),
+        r.source,
+        r.seq,
+        r.payload
+    );
     Ok(())
 }

@@ -5,6 +5,7 @@ use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 
 mod bench;
+mod certs;
 mod crane;
 mod deck;
 mod eval;
@@ -14,6 +15,7 @@ mod predictor;
 mod producer;
 mod progress;
 mod replay;
+mod router;
 mod run;
 mod simulate;
 mod train;
@@ -50,6 +52,10 @@ enum Command {
     Crane(crane::Args),
     /// Benchmarks of the running system (latency).
     Bench(bench::Args),
+    /// Make a secure setup: a new CA, certificates, shipcast.toml and station zenoh configs.
+    Certs(certs::Args),
+    /// Run a zenoh router for a fleet (vessels connect, shore consumers subscribe).
+    Router(router::Args),
 }
 
 fn main() -> ExitCode {
@@ -67,6 +73,8 @@ fn main() -> ExitCode {
         Command::Deck(a) => deck::run(a),
         Command::Crane(a) => crane::run(a),
         Command::Bench(a) => bench::run(a),
+        Command::Certs(a) => certs::run(a),
+        Command::Router(a) => router::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

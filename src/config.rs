@@ -6,13 +6,18 @@
 use crate::predict::{McaWeighting, Method, PredictorConfig};
 use crate::sim::Scenario;
 use crate::transport::naming::{NameError, Names, DEFAULT_VESSEL};
-use crate::transport::zenoh::ZenohSettings;
+use crate::transport::zenoh::{Mode, ZenohSettings};
+use crate::transport::zenoh_security::{is_inline_pem, AccessRules, TlsSettings, UserPassword};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
 /// zenoh endpoint the predictor listens on by default and the consumers connect to. Loopback
 /// and an uncommon port: a fresh clone runs without touching the network or a local zenohd.
 pub const DEFAULT_ZENOH_ENDPOINT: &str = "tcp/127.0.0.1:17447";
+
+/// How long a secure consumer (a zenoh client) keeps trying to reach the predictor when it
+/// starts: `shipcast run` starts its consumers while the predictor is still starting.
+pub const CLIENT_CONNECT_PATIENCE_MS: u64 = 60_000;
 
 /// Where consumers listen: loopback, port chosen by the system.
 pub const CONSUMER_LISTEN: &str = "tcp/127.0.0.1:0";
@@ -62,7 +67,11 @@ impl Default for PipelineConfig {
     }
 }
 
-/// zenoh endpoints: the predictor listens, consumers connect.
+/// zenoh endpoints and security: the predictor listens, consumers connect.
+///
+/// Plain TCP on loopback is the default, for development and tests. With `tls` set (see
+/// `shipcast certs` and docs/security.md) every link is mutual TLS, consumers are zenoh
+/// clients of the predictor (or of a router), and the predictor enforces `access`.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct ZenohConfig {
@@ -72,6 +81,13 @@ pub struct ZenohConfig {
     pub connect: Vec<String>,
     /// UDP multicast scouting (off by default: explicit endpoints only).
     pub multicast_scouting: bool,
+    /// TLS identity of this configuration's processes (paths relative to the config file, or
+    /// inline PEM).
+    pub tls: Option<TlsSettings>,
+    /// zenoh user/password authentication.
+    pub auth: Option<UserPassword>,
+    /// Access rules the predictor enforces on its links (by certificate common name).
+    pub access: Option<AccessRules>,
 }
 
 impl Default for ZenohConfig {
@@ -80,32 +96,107 @@ impl Default for ZenohConfig {
             listen: vec![DEFAULT_ZENOH_ENDPOINT.to_string()],
             connect: Vec::new(),
             multicast_scouting: false,
+            tls: None,
+            auth: None,
+            access: None,
         }
     }
 }
 
 impl ZenohConfig {
-    /// Settings of the process that publishes (listens on `listen`).
+    /// Settings of the process that publishes (listens on `listen`, enforces `access`).
     pub fn publisher_side(&self) -> ZenohSettings {
         ZenohSettings {
+            mode: Mode::Peer,
             listen: self.listen.clone(),
             connect: self.connect.clone(),
             multicast_scouting: self.multicast_scouting,
+            tls: self.tls.clone(),
+            auth: self.auth.clone(),
+            access: self.access.clone(),
+            downsample_egress: None,
+            client_connect_patience_ms: None,
         }
     }
 
-    /// Settings of a consumer: connects to the publisher's listen endpoints and the extra ones,
-    /// and listens on an ephemeral loopback port. Peers route only their own traffic, so two
-    /// consumers (the deck publishing its advisory, `shipcast run` showing it) must be able to
-    /// connect to each other directly; gossip through the predictor tells them where.
+    /// Settings of a consumer: connects to the publisher's listen endpoints and the extra ones.
+    ///
+    /// Plain: a peer listening on an ephemeral loopback port. Peers route only their own
+    /// traffic, so two consumers (the deck publishing its advisory, `shipcast run` showing it)
+    /// must be able to connect to each other directly; gossip through the predictor tells them
+    /// where. Secure (`tls` set): a client that reaches everything through the node it
+    /// connects to, so nothing goes around that node's access rules.
     pub fn consumer_side(&self) -> ZenohSettings {
         let mut connect = self.listen.clone();
         connect.extend(self.connect.iter().cloned());
+        let secure = self.tls.is_some();
         ZenohSettings {
-            listen: vec![CONSUMER_LISTEN.to_string()],
+            mode: if secure { Mode::Client } else { Mode::Peer },
+            listen: if secure {
+                Vec::new()
+            } else {
+                vec![CONSUMER_LISTEN.to_string()]
+            },
             connect,
-            multicast_scouting: self.multicast_scouting,
+            multicast_scouting: self.multicast_scouting && !secure,
+            tls: self.tls.clone(),
+            auth: self.auth.clone().map(|a| UserPassword {
+                users_file: None,
+                ..a
+            }),
+            access: None,
+            downsample_egress: None,
+            client_connect_patience_ms: secure.then_some(CLIENT_CONNECT_PATIENCE_MS),
         }
+    }
+
+    /// Make the relative paths of certificates, keys and the users file relative to `base`
+    /// (the config file's directory), so the file works from any working directory and in
+    /// `shipcast run`'s children.
+    pub fn resolve_paths(&mut self, base: &Path) {
+        let resolve = |v: &mut String| {
+            if !is_inline_pem(v) && Path::new(v.as_str()).is_relative() {
+                *v = base.join(v.as_str()).to_string_lossy().into_owned();
+            }
+        };
+        if let Some(t) = &mut self.tls {
+            resolve(&mut t.root_ca);
+            resolve(&mut t.certificate);
+            resolve(&mut t.private_key);
+        }
+        if let Some(f) = self.auth.as_mut().and_then(|a| a.users_file.as_mut()) {
+            resolve(f);
+        }
+    }
+
+    /// Check the security settings that parse but cannot work.
+    fn validate(&self) -> Result<(), ConfigError> {
+        let bad = |m: &str| Err(ConfigError::Invalid(format!("zenoh.{m}")));
+        let tls_endpoint = self
+            .listen
+            .iter()
+            .chain(&self.connect)
+            .any(|e| e.starts_with("tls/"));
+        if tls_endpoint && self.tls.is_none() {
+            return bad("tls (root_ca, certificate, private_key) is required for tls/ endpoints");
+        }
+        if self.tls.is_some() && self.multicast_scouting {
+            return bad("multicast_scouting must be off with tls: consumers reach the data only through the node that enforces the access rules");
+        }
+        if let Some(a) = &self.access {
+            if a.key_exprs.is_empty() || a.publishers.is_empty() {
+                return bad("access needs key_exprs and publishers (everything else is denied)");
+            }
+            if self.tls.is_none() {
+                return bad("access names certificate common names, so it needs tls");
+            }
+        }
+        if let Some(a) = &self.auth {
+            if a.user.is_some() != a.password.is_some() {
+                return bad("auth needs both user and password");
+            }
+        }
+        Ok(())
     }
 }
 
@@ -293,6 +384,10 @@ impl PipelineConfig {
             // toml's message spans several lines with a source excerpt; keep it on one line.
             message: e.message().trim().replace('\n', " "),
         })?;
+        let mut config = config;
+        if let Some(dir) = origin.parent() {
+            config.zenoh.resolve_paths(dir);
+        }
         config.validate()?;
         Ok(config)
     }
@@ -319,6 +414,7 @@ impl PipelineConfig {
     /// Check values that parse but cannot work.
     pub fn validate(&self) -> Result<(), ConfigError> {
         self.names()?;
+        self.zenoh.validate()?;
         let bad = |m: String| Err(ConfigError::Invalid(m));
         let p = &self.producer;
         if !(p.rate_hz.is_finite() && p.rate_hz > 0.0) {

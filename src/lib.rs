@@ -43,6 +43,7 @@
 //! ```
 
 pub mod bench;
+pub mod certs;
 pub mod config;
 pub mod crane;
 pub mod deck;

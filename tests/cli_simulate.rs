@@ -8,7 +8,7 @@ use shipcast::motion_csv::MotionData;
 use shipcast::sim::{ClosedFormRao, Hull, Rao, Scenario, ShipMotion, SimConfig};
 use shipcast::Dof;
 use std::f64::consts::TAU;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Command, Output};
 
 fn simulate(args: &[&str]) -> Output {

@@ -11,6 +11,7 @@
 
 pub mod children;
 pub mod consumers;
+pub mod fleet;
 pub mod histogram;
 pub mod latency;
 pub mod machine;

@@ -3,10 +3,13 @@
 
 pub mod clock;
 pub mod counters;
+pub mod forecast_check;
 pub mod iox;
 pub mod naming;
 pub mod shutdown;
 pub mod zenoh;
+pub mod zenoh_router;
+pub mod zenoh_security;
 
 pub use clock::monotonic_ns;
 pub use counters::{Counters, SeqCheck, SeqTracker};

@@ -1,0 +1,68 @@
+//! `shipcast router`: the zenoh router of a fleet. Vessels run `shipcast run --vessel NAME
+//! --zenoh-connect ENDPOINT`; a shore consumer connects to the same endpoint and subscribes to
+//! `shipcast/*/forecast`. With `--config`, the `[zenoh]` security settings of that file (TLS,
+//! authentication, access rules) apply to the router's links.
+
+use shipcast::config::PipelineConfig;
+use shipcast::transport::shutdown;
+use shipcast::transport::zenoh::Downsampling;
+use shipcast::transport::zenoh_router::{FleetRouter, FLEET_FORECASTS};
+use std::path::PathBuf;
+use std::time::Duration;
+
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    /// Endpoint to listen on (repeatable), e.g. tcp/0.0.0.0:7447 or tls/shore.example:7447.
+    #[arg(long, value_name = "ENDPOINT", required = true)]
+    pub listen: Vec<String>,
+    /// Take TLS, authentication and access rules from this file's [zenoh] section (its
+    /// endpoints are not used).
+    #[arg(long, value_name = "FILE.toml")]
+    pub config: Option<PathBuf>,
+    /// At most this many forecasts per second per vessel towards consumers (zenoh
+    /// downsampling); 0 passes every forecast.
+    #[arg(long, value_name = "HZ", default_value_t = 0.0)]
+    pub downsample_hz: f64,
+    /// Forecast key expression whose latest sample per vessel is kept and answers queries.
+    #[arg(long, value_name = "KEYEXPR", default_value = FLEET_FORECASTS)]
+    pub forecasts: String,
+    /// Stop after this many seconds.
+    #[arg(long, value_name = "S")]
+    pub duration: Option<f64>,
+}
+
+pub fn run(args: Args) -> anyhow::Result<()> {
+    if !(args.downsample_hz.is_finite() && args.downsample_hz >= 0.0) {
+        anyhow::bail!("--downsample-hz must be >= 0, got {}", args.downsample_hz);
+    }
+    let duration = match args.duration {
+        None => None,
+        Some(s) if s.is_finite() && s > 0.0 => Some(Duration::from_secs_f64(s)),
+        Some(s) => anyhow::bail!("--duration must be a positive number of seconds, got {s}"),
+    };
+    let config = PipelineConfig::load(args.config.as_deref())?;
+    let mut settings = config.zenoh.publisher_side();
+    settings.listen = args.listen.clone();
+    settings.connect = Vec::new();
+    settings.multicast_scouting = false;
+    if args.downsample_hz > 0.0 {
+        settings.downsample_egress = Some(Downsampling {
+            key_exprs: vec![args.forecasts.clone()],
+            max_hz: args.downsample_hz,
+        });
+    }
+    let router = FleetRouter::start(&settings, &args.forecasts)?;
+    tracing::info!(
+        listen = ?args.listen,
+        tls = settings.tls.is_some(),
+        access = settings.access.is_some(),
+        "router: up, serving the latest of {}",
+        args.forecasts
+    );
+    let limit = shutdown::RunLimit::new(duration);
+    while !limit.reached() {
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    tracing::info!("router: stopped, {} forecast keys seen", router.keys_seen());
+    Ok(())
+}

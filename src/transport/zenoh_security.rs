@@ -1,0 +1,240 @@
+//! zenoh's own security, configured from shipcast settings: TLS with mutual authentication
+//! (`transport_tls`), user/password authentication (`auth_usrpwd`) and access control (zenoh's
+//! ACL, default deny). This module only translates settings into zenoh configuration entries;
+//! zenoh does the enforcing (docs/security.md explains the model).
+
+use serde::{Deserialize, Serialize};
+
+/// A certificate or key: a file path, or the PEM text itself (anything starting with
+/// `-----BEGIN`).
+pub fn is_inline_pem(value: &str) -> bool {
+    value.trim_start().starts_with("-----BEGIN")
+}
+
+/// TLS identity of a node. Every node of a deployment trusts one CA and presents its own
+/// certificate, so both ends of every link are authenticated (mutual TLS).
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TlsSettings {
+    /// The CA that signed every certificate of the deployment (path or inline PEM).
+    pub root_ca: String,
+    /// This node's certificate (path or inline PEM); its common name is the node's identity
+    /// in the access rules.
+    pub certificate: String,
+    /// This node's private key (path or inline PEM).
+    pub private_key: String,
+}
+
+/// zenoh's user/password authentication. A node that listens checks connecting nodes against
+/// `users_file` (`user:password` per line); a node that connects presents `user`/`password`.
+#[derive(Debug, Clone, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct UserPassword {
+    pub user: Option<String>,
+    pub password: Option<String>,
+    /// Path of the `user:password` file the listening side accepts.
+    pub users_file: Option<String>,
+}
+
+/// Access rules held by the node consumers connect to (the predictor, or the router of a
+/// fleet). zenoh applies them to that node's links, so consumers must reach the data only
+/// through it: they run in client mode with scouting off.
+#[derive(Debug, Clone, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct AccessRules {
+    /// Key expressions covered, e.g. `shipcast/ddg51/**`. Everything else is denied.
+    pub key_exprs: Vec<String>,
+    /// Certificate common names that may publish (put, declare tokens and queryables) and
+    /// subscribe: the vessel's pipeline.
+    pub publishers: Vec<String>,
+    /// Certificate common names that may only subscribe, query and watch liveliness.
+    pub subscribers: Vec<String>,
+}
+
+const ALL_MESSAGES: [&str; 9] = [
+    "put",
+    "delete",
+    "declare_subscriber",
+    "query",
+    "declare_queryable",
+    "reply",
+    "liveliness_token",
+    "declare_liveliness_subscriber",
+    "liveliness_query",
+];
+
+/// What a subscriber may send to the node holding the rules.
+const SUBSCRIBER_INGRESS: [&str; 4] = [
+    "declare_subscriber",
+    "query",
+    "declare_liveliness_subscriber",
+    "liveliness_query",
+];
+
+/// What the node holding the rules may send to a subscriber.
+const SUBSCRIBER_EGRESS: [&str; 3] = ["put", "reply", "liveliness_token"];
+
+impl AccessRules {
+    /// zenoh's `access_control` section (JSON), default deny.
+    pub fn to_zenoh_json(&self) -> serde_json::Value {
+        use serde_json::json;
+        let rule = |id: &str, messages: &[&str], flows: &[&str]| {
+            json!({
+                "id": id,
+                "messages": messages,
+                "flows": flows,
+                "permission": "allow",
+                "key_exprs": self.key_exprs,
+            })
+        };
+        let mut rules = Vec::new();
+        let mut subjects = Vec::new();
+        let mut policies = Vec::new();
+        if !self.publishers.is_empty() {
+            rules.push(rule("publish", &ALL_MESSAGES, &["ingress", "egress"]));
+            subjects.push(json!({"id": "publishers", "cert_common_names": self.publishers}));
+            policies.push(
+                json!({"id": "publishers", "rules": ["publish"], "subjects": ["publishers"]}),
+            );
+        }
+        if !self.subscribers.is_empty() {
+            rules.push(rule("subscribe-in", &SUBSCRIBER_INGRESS, &["ingress"]));
+            rules.push(rule("subscribe-out", &SUBSCRIBER_EGRESS, &["egress"]));
+            subjects.push(json!({"id": "subscribers", "cert_common_names": self.subscribers}));
+            policies.push(json!({
+                "id": "subscribers",
+                "rules": ["subscribe-in", "subscribe-out"],
+                "subjects": ["subscribers"],
+            }));
+        }
+        json!({
+            "enabled": true,
+            "default_permission": "deny",
+            "rules": rules,
+            "subjects": subjects,
+            "policies": policies,
+        })
+    }
+}
+
+/// Base64 of a PEM text, as zenoh's `*_base64` TLS keys expect.
+fn base64_of(text: &str) -> String {
+    use base64::Engine;
+    base64::engine::general_purpose::STANDARD.encode(text.as_bytes())
+}
+
+/// One TLS file entry: `name` with a path, or `name_base64` with inline PEM.
+fn tls_entry(name: &str, value: &str) -> (String, serde_json::Value) {
+    if is_inline_pem(value) {
+        (
+            format!("transport/link/tls/{name}_base64"),
+            base64_of(value).into(),
+        )
+    } else {
+        (format!("transport/link/tls/{name}"), value.into())
+    }
+}
+
+/// zenoh configuration entries (key path, JSON value) for TLS. `listens` adds the listening
+/// side's certificate and key.
+pub fn tls_entries(tls: &TlsSettings, listens: bool) -> Vec<(String, serde_json::Value)> {
+    let mut out = vec![
+        tls_entry("root_ca_certificate", &tls.root_ca),
+        tls_entry("connect_certificate", &tls.certificate),
+        tls_entry("connect_private_key", &tls.private_key),
+        // Both ends present certificates: a listener requires one from every node that
+        // connects, and a connecting node sends its own only when this is on.
+        ("transport/link/tls/enable_mtls".into(), true.into()),
+        // The certificate of the node connected to must name the host of the endpoint.
+        (
+            "transport/link/tls/verify_name_on_connect".into(),
+            true.into(),
+        ),
+        // A link whose certificate expires is closed, not kept on the old handshake.
+        (
+            "transport/link/tls/close_link_on_expiration".into(),
+            true.into(),
+        ),
+    ];
+    if listens {
+        out.push(tls_entry("listen_certificate", &tls.certificate));
+        out.push(tls_entry("listen_private_key", &tls.private_key));
+    }
+    out
+}
+
+/// zenoh configuration entries for user/password authentication.
+pub fn usrpwd_entries(auth: &UserPassword) -> Vec<(String, serde_json::Value)> {
+    let mut out = Vec::new();
+    for (key, value) in [
+        ("user", &auth.user),
+        ("password", &auth.password),
+        ("dictionary_file", &auth.users_file),
+    ] {
+        if let Some(v) = value {
+            out.push((format!("transport/auth/usrpwd/{key}"), v.clone().into()));
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn inline_pem_goes_base64_and_paths_stay_paths() {
+        let tls = TlsSettings {
+            root_ca: "/etc/ca.pem".into(),
+            certificate: "-----BEGIN CERTIFICATE-----\nAAAA\n-----END CERTIFICATE-----\n".into(),
+            private_key: "key.pem".into(),
+        };
+        let entries = tls_entries(&tls, false);
+        let get = |k: &str| entries.iter().find(|(key, _)| key == k).map(|(_, v)| v);
+        assert_eq!(
+            get("transport/link/tls/root_ca_certificate"),
+            Some(&"/etc/ca.pem".into())
+        );
+        let b64 = get("transport/link/tls/connect_certificate_base64")
+            .and_then(|v| v.as_str())
+            .unwrap();
+        use base64::Engine;
+        let decoded = base64::engine::general_purpose::STANDARD
+            .decode(b64)
+            .unwrap();
+        assert_eq!(decoded, tls.certificate.as_bytes());
+        assert_eq!(get("transport/link/tls/enable_mtls"), Some(&true.into()));
+        assert!(get("transport/link/tls/listen_certificate").is_none());
+        assert!(tls_entries(&tls, true)
+            .iter()
+            .any(|(k, _)| k == "transport/link/tls/listen_private_key"));
+    }
+
+    #[test]
+    fn access_rules_are_accepted_by_zenoh_and_deny_by_default() {
+        let rules = AccessRules {
+            key_exprs: vec!["shipcast/ddg51/**".into()],
+            publishers: vec!["ddg51-predictor".into()],
+            subscribers: vec!["crane".into(), "shore".into()],
+        };
+        let json = rules.to_zenoh_json();
+        assert_eq!(json["default_permission"], "deny");
+        let mut config = zenoh::Config::default();
+        config
+            .insert_json5("access_control", &json.to_string())
+            .unwrap();
+        // Subscribers get no rule that lets them put.
+        let subscriber_rules: Vec<&serde_json::Value> = json["rules"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .filter(|r| r["id"].as_str().unwrap().starts_with("subscribe"))
+            .collect();
+        assert_eq!(subscriber_rules.len(), 2);
+        for r in subscriber_rules {
+            let puts_in = r["flows"] == serde_json::json!(["ingress"])
+                && r["messages"].as_array().unwrap().iter().any(|m| m == "put");
+            assert!(!puts_in, "{r}");
+        }
+    }
+}

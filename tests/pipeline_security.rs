@@ -1,0 +1,354 @@
+//! The secure setup with real processes on 127.0.0.1 (`shipcast certs`, then the predictor,
+//! producer and crane): clients without credentials or with another CA's certificate are
+//! refused, a valid station that puts a fake forecast is refused by the predictor's access
+//! rules and the crane never sees it, while the legitimate forecasts keep arriving. And with
+//! security off, the crane itself rejects the injection of issue 14.
+
+mod pipeline_support;
+
+use pipeline_support::{run_ok, Proc, TestPipeline, PATIENCE};
+use shipcast::payload::Forecast;
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+use zenoh::Wait;
+
+/// The injected forecast of issue 14: an unrelated, repeated seq and 9.99 m heave everywhere.
+const FAKE_SEQ: u64 = 987654321;
+
+fn fake_forecast_json() -> Vec<u8> {
+    let mut f = Forecast {
+        seq: FAKE_SEQ,
+        time_s: 1.0e6,
+        dt_s: 0.5,
+        steps: 40,
+        ..Forecast::default()
+    };
+    f.mean[2][..40].fill(9.99);
+    let mut out = Vec::new();
+    f.write_json(&mut out).expect("serialise");
+    out
+}
+
+const FAST_PIPELINE: &str = "\n[producer]\nspeed = 20.0\nbackfill_s = 0.0\n\n[predictor]\norder = 100\nholdout = 300\nretrain_window = 1000\nwarmup_s = 900.0\nretrain_every_s = 0.0\n";
+
+/// `shipcast certs` for a unique instance on a free loopback port, with a fast predictor.
+struct SecureSetup {
+    pipeline: TestPipeline,
+    certs: PathBuf,
+    endpoint: String,
+}
+
+impl SecureSetup {
+    fn new(tag: &str) -> Self {
+        let pipeline = TestPipeline::new(tag, "");
+        let endpoint = pipeline.endpoint.replacen("tcp/", "tls/", 1);
+        let certs = pipeline.path("certs");
+        make_certs(&certs, &pipeline.instance, &endpoint, &["crane", "shore"]);
+        let toml = certs.join("shipcast.toml");
+        let text = std::fs::read_to_string(&toml).expect("shipcast.toml");
+        std::fs::write(&toml, format!("{text}{FAST_PIPELINE}")).expect("write shipcast.toml");
+        Self {
+            pipeline,
+            certs,
+            endpoint,
+        }
+    }
+
+    /// `shipcast <service> --config <file in the certs dir> <args>`.
+    fn spawn(&self, service: &str, config: &str, args: &[&str]) -> Proc {
+        let path = self.certs.join(config);
+        let mut all = vec![service, "--config", path.to_str().expect("utf-8")];
+        all.extend_from_slice(args);
+        Proc::spawn(service, &all)
+    }
+
+    fn forecast_key(&self) -> String {
+        self.pipeline.names().forecast()
+    }
+}
+
+fn make_certs(dir: &Path, instance: &str, endpoint: &str, stations: &[&str]) {
+    let mut args = vec![
+        "certs",
+        "--out",
+        dir.to_str().expect("utf-8"),
+        "--instance",
+        instance,
+        "--listen",
+        endpoint,
+    ];
+    for s in stations {
+        args.extend(["--station", s]);
+    }
+    run_ok(&args);
+}
+
+/// A zenoh session from a station's generated client configuration, loaded the way any zenoh
+/// client loads it.
+fn station_session(json5: &Path) -> zenoh::Result<zenoh::Session> {
+    zenoh::open(zenoh::Config::from_file(json5)?).wait()
+}
+
+/// Wait until the crane has printed `n` more forecast lines than `from`.
+fn wait_crane_lines(crane: &Proc, from: usize, n: usize) {
+    let deadline = Instant::now() + PATIENCE;
+    while crane.stdout().len() < from + n {
+        assert!(
+            Instant::now() < deadline,
+            "crane stopped printing forecasts; stderr:\n{}",
+            crane.stderr().join("\n")
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+#[test]
+fn certs_writes_loadable_configs_and_a_new_ca_each_time() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let (a, b) = (dir.path().join("a"), dir.path().join("b"));
+    make_certs(&a, "tcerts", "tls/127.0.0.1:7447", &["crane"]);
+    make_certs(&b, "tcerts", "tls/127.0.0.1:7447", &["crane"]);
+    let ca = |d: &Path| std::fs::read_to_string(d.join("ca.pem")).expect("ca.pem");
+    assert_ne!(ca(&a), ca(&b), "two runs must give two unrelated CAs");
+    // shipcast.toml loads as it is, from another working directory, with the security on.
+    let config = shipcast::config::PipelineConfig::load(Some(&a.join("shipcast.toml")))
+        .expect("shipcast.toml loads");
+    let access = config.zenoh.access.as_ref().expect("access rules");
+    assert_eq!(access.publishers, ["ddg51-pipeline"]);
+    assert_eq!(access.subscribers, ["crane"]);
+    assert_eq!(access.key_exprs, ["tcerts/shipcast/ddg51/**"]);
+    let tls = config.zenoh.tls.as_ref().expect("tls");
+    assert!(Path::new(&tls.root_ca).is_absolute() && Path::new(&tls.root_ca).exists());
+    // The station's files load: zenoh's own parser for the JSON5, ours for the TOML.
+    zenoh::Config::from_file(a.join("crane.json5")).expect("crane.json5 loads in zenoh");
+    let station = shipcast::config::PipelineConfig::load(Some(&a.join("crane.toml")))
+        .expect("crane.toml loads");
+    assert_eq!(
+        station.zenoh.consumer_side().mode,
+        shipcast::transport::zenoh::Mode::Client
+    );
+    // Private keys are readable by their owner only.
+    use std::os::unix::fs::PermissionsExt;
+    for secret in ["pipeline.key", "crane.json5", "crane.toml"] {
+        let mode = std::fs::metadata(a.join(secret))
+            .expect("file")
+            .permissions()
+            .mode();
+        assert_eq!(mode & 0o077, 0, "{secret} is readable by others: {mode:o}");
+    }
+    // A directory that already holds a CA is not overwritten.
+    let ca_before = ca(&a);
+    let out = std::process::Command::new(pipeline_support::BIN)
+        .args([
+            "certs",
+            "--out",
+            a.to_str().unwrap(),
+            "--listen",
+            "tls/127.0.0.1:7447",
+        ])
+        .output()
+        .expect("run certs");
+    assert!(!out.status.success());
+    assert_eq!(ca(&a), ca_before);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("already holds a ca.pem"), "{stderr}");
+    assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
+}
+
+#[test]
+fn only_the_pipeline_publishes_and_strangers_are_refused() {
+    let s = SecureSetup::new("secure");
+    let predictor = s.spawn("predictor", "shipcast.toml", &[]);
+    predictor.wait_for("(iceoryx2 and zenoh)");
+    let crane = s.spawn("crane", "crane.toml", &[]);
+    let _producer = s.spawn("producer", "shipcast.toml", &["--wait-subscriber-s", "30"]);
+    crane.wait_for("crane t=");
+
+    // No credentials at all: plain TCP to the TLS port.
+    let mut plain = zenoh::Config::default();
+    plain.insert_json5("mode", "\"client\"").unwrap();
+    let tcp = s.endpoint.replacen("tls/", "tcp/", 1);
+    plain
+        .insert_json5("connect/endpoints", &format!("[\"{tcp}\"]"))
+        .unwrap();
+    assert!(
+        zenoh::open(plain).wait().is_err(),
+        "a plain TCP client was let in"
+    );
+    // TLS trusting the right CA but without a certificate of its own.
+    let mut anonymous = zenoh::Config::default();
+    for (k, v) in [
+        ("mode", "\"client\"".to_string()),
+        ("connect/endpoints", format!("[\"{}\"]", s.endpoint)),
+        (
+            "transport/link/tls/root_ca_certificate",
+            format!("\"{}\"", s.certs.join("ca.pem").display()),
+        ),
+    ] {
+        anonymous.insert_json5(k, &v).unwrap();
+    }
+    assert!(
+        zenoh::open(anonymous).wait().is_err(),
+        "a client without a certificate was let in"
+    );
+    // A station certificate from another CA (another `shipcast certs` run).
+    let other = s.pipeline.path("other-ca");
+    make_certs(&other, &s.pipeline.instance, &s.endpoint, &["crane"]);
+    assert!(
+        station_session(&other.join("crane.json5")).is_err(),
+        "a certificate from another CA was let in"
+    );
+
+    // A valid station: it may subscribe, and receives the forecasts...
+    let shore = station_session(&s.certs.join("shore.json5")).expect("station connects");
+    let key = s.forecast_key();
+    let sub = shore.declare_subscriber(key.clone()).wait().unwrap();
+    let got = sub.recv_timeout(PATIENCE).unwrap().expect("a forecast");
+    // ...and knows the predictor's id, so it can imitate it perfectly.
+    let predictor_id = got
+        .attachment()
+        .and_then(|a| a.try_to_string().ok().map(|t| t.into_owned()))
+        .expect("publisher id attached");
+    let before = crane.stdout().len();
+    // The put comes from a second session: a session's own subscribers get its puts locally.
+    let attacker = station_session(&s.certs.join("shore.json5")).expect("station connects");
+    let publisher = attacker.declare_publisher(key).wait().unwrap();
+    let fake = fake_forecast_json();
+    for _ in 0..10 {
+        publisher
+            .put(fake.clone())
+            .attachment(predictor_id.clone().into_bytes())
+            .wait()
+            .unwrap();
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    // Legitimate forecasts keep arriving through and after the attempt.
+    wait_crane_lines(&crane, before, 40);
+    let lines = crane.stdout();
+    assert!(
+        !lines.iter().any(|l| l.contains(&format!("seq {FAKE_SEQ}"))),
+        "the fake forecast reached the crane"
+    );
+    assert!(
+        !crane
+            .stderr()
+            .iter()
+            .any(|l| l.contains("crane: rejected") && !l.contains("live predictor (none)")),
+        "the predictor let the put through (the crane had to reject it):\n{}",
+        crane.stderr().join("\n")
+    );
+    // The other station session received the genuine stream only.
+    let mut seen = 0;
+    while let Ok(Some(sample)) = sub.try_recv() {
+        let f = Forecast::from_json(&sample.payload().to_bytes()).unwrap();
+        assert_ne!(f.seq, FAKE_SEQ, "a station received the fake forecast");
+        seen += 1;
+    }
+    assert!(seen >= 5, "the station stopped receiving: {seen} forecasts");
+}
+
+#[test]
+fn with_security_off_the_crane_rejects_a_second_publisher() {
+    let p = TestPipeline::new("inject", "[producer]\nspeed = 20.0\nbackfill_s = 0.0\n");
+    let predictor = p.spawn("predictor", &[]);
+    predictor.wait_for("(iceoryx2 and zenoh)");
+    let crane = p.spawn("crane", &[]);
+    let _producer = p.spawn("producer", &["--wait-subscriber-s", "30"]);
+    crane.wait_for("crane t=");
+
+    // The outsider of issue 14: an anonymous zenoh client on the predictor's endpoint.
+    let mut config = zenoh::Config::default();
+    config.insert_json5("mode", "\"client\"").unwrap();
+    config
+        .insert_json5("connect/endpoints", &format!("[\"{}\"]", p.endpoint))
+        .unwrap();
+    let outsider = zenoh::open(config)
+        .wait()
+        .expect("plain TCP is open to all");
+    let publisher = outsider
+        .declare_publisher(p.names().forecast())
+        .wait()
+        .unwrap();
+    let fake = fake_forecast_json();
+    let before = crane.stdout().len();
+    for i in 0..10 {
+        let put = publisher.put(fake.clone());
+        // Half without an id, half claiming the outsider's own.
+        let put = if i % 2 == 0 {
+            put
+        } else {
+            put.attachment(outsider.zid().to_string().into_bytes())
+        };
+        put.wait().unwrap();
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    wait_crane_lines(&crane, before, 40);
+    assert!(
+        !crane
+            .stdout()
+            .iter()
+            .any(|l| l.contains(&format!("seq {FAKE_SEQ}"))),
+        "the crane used the fake forecast"
+    );
+    // Each fake one rejected, on one line each, as not from the live predictor (a genuine
+    // forecast that beats the predictor's token at start-up would say "(none)" instead).
+    let rejected: Vec<String> = crane
+        .stderr()
+        .into_iter()
+        .filter(|l| l.contains("crane: rejected") && !l.contains("live predictor (none)"))
+        .collect();
+    assert_eq!(rejected.len(), 10, "{}", crane.stderr().join("\n"));
+    assert!(
+        rejected
+            .iter()
+            .all(|l| l.contains("without a publisher id") || l.contains("not the live predictor")),
+        "{rejected:?}"
+    );
+    drop(publisher);
+    drop(outsider);
+    let mut crane = crane;
+    let status = crane.terminate();
+    assert!(status.success());
+    let last = crane.wait_for("crane: stopped after");
+    assert!(last.contains(" source, 0 seq, 0 payload)"), "{last}");
+    let source_rejections: u64 = last
+        .split_once(" rejected (")
+        .and_then(|(_, r)| r.split_whitespace().next())
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("no rejection counts in: {last}"));
+    assert!(source_rejections >= 10, "{last}");
+}
+
+/// `shipcast run --config DIR/shipcast.toml` uses the generated file as it is: the deck and
+/// the live view are clients with the pipeline's identity, the advisory and status flow
+/// through the predictor's access rules.
+#[test]
+fn run_uses_the_generated_config_as_it_is() {
+    let s = SecureSetup::new("securerun");
+    let logs = tempfile::tempdir().unwrap();
+    let config = s.certs.join("shipcast.toml");
+    let out = std::process::Command::new(pipeline_support::BIN)
+        .args(["run", "--duration", "20", "--config"])
+        .arg(&config)
+        .arg("--log-dir")
+        .arg(logs.path())
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    // The view shows the predictor's status and the deck's advisory, both received over zenoh.
+    assert!(stdout.contains("predictor  model v1"), "{stdout}");
+    assert!(stdout.contains("deck t="), "{stdout}");
+    let crane = std::fs::read_to_string(logs.path().join("crane.log")).unwrap();
+    assert!(crane.contains("crane t="), "{crane}");
+    assert!(crane.contains(" 0 seq, 0 payload)"), "{crane}");
+    // At the end the predictor stops first: a forecast still queued at the crane then comes
+    // from a publisher whose token is gone, and is rightly rejected. Nothing else is.
+    for line in crane.lines().filter(|l| l.contains("crane: rejected")) {
+        assert!(line.contains("not the live predictor (none)"), "{line}");
+    }
+}
