@@ -1,0 +1,96 @@
+#!/usr/bin/env python3
+"""Replay the predictor's engine over the four records of the robustness study and print what
+an operator needs to know: error relative to predicting zero at every lead, coverage of the
+sigma bands, the largest error, and how fast the error recovers after a change of sea.
+
+Run from the repository root after `cargo build --release` and `python3 scripts/fetch_wafo.py`
+(the measured record is non-commercial data and never committed). Records are written to
+--work (default target/replay-study). Python standard library only.
+"""
+import argparse
+import json
+import math
+import os
+import subprocess
+import sys
+
+BIN = os.path.join("target", "release", "shipcast")
+
+RECORDS = [
+    # name, simulate arguments, time of the change [s] or None
+    ("paper sea, start-up model from another seed",
+     ["--scenario", "paper", "--duration", "3600", "--seed", "1"], None),
+    ("Gullfaks C measured waves (North Sea 1989), 0 kn",
+     ["--elevation", "data/wafo/gfaks89.csv", "--heading-deg", "165", "--speed-kn", "0"], None),
+    ("course change head -> beam seas at 1800 s",
+     ["--scenario", "paper", "--heading-deg", "180", "--duration", "3600", "--seed", "1",
+      "--course-change-s", "1800", "--new-heading-deg", "90", "--turn-s", "60"], 1800.0),
+    ("sea-state change SS4 -> Hs 5 m Tp 12.4 s at 1800 s",
+     ["--scenario", "ss4", "--duration", "3600", "--seed", "1", "--sea-change-s", "1800",
+      "--new-hs", "5.0", "--new-tp", "12.4", "--ramp-s", "300"], 1800.0),
+]
+
+LEADS = [5.0, 10.0, 20.0]
+
+
+def run(args):
+    out = subprocess.run([BIN] + args, capture_output=True, text=True)
+    if out.returncode != 0:
+        sys.exit(f"replay_study: shipcast {' '.join(args)} failed: {out.stderr.strip()}")
+    return out.stdout
+
+
+def replay(path, skip_s):
+    text = run(["replay", "--input", path, "--skip-s", str(skip_s), "--json"])
+    return [json.loads(line) for line in text.splitlines() if line.strip()]
+
+
+def recovery_minutes(trace, change_s, window=3):
+    """Minutes after the change until the 10 s error, over `window`-minute windows, stays
+    within 20 % of its new steady state (the last 15 minutes of the record)."""
+    vals = [(i, v) for i, v in enumerate(trace) if v is not None and not math.isnan(v)]
+    if not vals:
+        return float("nan")
+    last = [v for i, v in vals[-15:]]
+    steady = math.sqrt(sum(v * v for v in last) / len(last))
+    start = int(change_s // 60)
+    by_min = {i: v for i, v in vals}
+    ends = sorted(i for i in by_min if i >= start + window - 1)
+    def win(end):
+        w = [by_min[j] for j in range(end - window + 1, end + 1) if j in by_min]
+        return math.sqrt(sum(v * v for v in w) / len(w)) if w else float("nan")
+    for end in ends:
+        if all(abs(win(e) / steady - 1.0) <= 0.2 for e in ends if e >= end):
+            return end + 1 - start
+    return float("nan")
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--work", default=os.path.join("target", "replay-study"))
+    a = ap.parse_args()
+    os.makedirs(a.work, exist_ok=True)
+    for i, (name, sim, change_s) in enumerate(RECORDS):
+        path = os.path.join(a.work, f"record{i + 1}.csv")
+        if "--elevation" in sim and not os.path.exists(sim[sim.index("--elevation") + 1]):
+            print(f"\n## {name}: skipped (run python3 scripts/fetch_wafo.py first)")
+            continue
+        run(["simulate"] + sim + ["--rate", "8", "--out", path])
+        first = replay(path, 60.0)
+        later = replay(path, 1200.0)
+        print(f"\n## {name}\n")
+        print("| dof | NRMSE 5/10/20 s | max NRMSE, any lead | max error / RMS | "
+              "1 sigma 5/10/20 s (after 20 min) | 2 sigma 5/10/20 s | implausible | recovery [min] |")
+        print("|---|---|---|---|---|---|---|---|")
+        for d, l in zip(first, later):
+            k = [int(round(t / 0.5)) - 1 for t in LEADS]
+            fmt = lambda xs: " / ".join(f"{x:.3f}" for x in xs)
+            rec = recovery_minutes(d["rms_10s_by_minute"], change_s) if change_s else None
+            print(f"| {d['dof']} | {fmt(d['nrmse'][j] for j in k)} | {max(d['nrmse']):.3f} | "
+                  f"{d['max_abs_error'] / d['std']:.2f} | {fmt(l['coverage_1sigma'][j] for j in k)} | "
+                  f"{fmt(l['coverage_2sigma'][j] for j in k)} | {d['implausible']} | "
+                  f"{'-' if rec is None else f'{rec:.0f}'} |")
+
+
+if __name__ == "__main__":
+    main()
