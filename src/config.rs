@@ -252,6 +252,11 @@ pub struct PredictorServiceConfig {
     pub model: Option<PathBuf>,
     /// Simulated history used for the start-up model [s of record time].
     pub warmup_s: f64,
+    /// Anti-alias filter of the decimation: "minimum" (default: the same magnitude as the
+    /// evaluation's linear-phase filter with half its delay, so forecasts reach 0.5 s further
+    /// ahead of the newest sample; docs/results/filter_delay.md) or "linear" (the evaluation
+    /// protocol's, delay 1.0 s at 8 -> 2 Hz).
+    pub filter: crate::signal::FilterPhase,
     /// Fit the first model on live data once this much live history is held [s of record
     /// time]; until a model has been verified on this sea, forecasts say "no skill".
     pub first_fit_s: f64,
@@ -295,6 +300,7 @@ impl Default for PredictorServiceConfig {
             sample_rate_hz: 2.0,
             model: None,
             warmup_s: 3000.0,
+            filter: crate::signal::FilterPhase::Minimum,
             first_fit_s: 240.0,
             retrain_every_s: 300.0,
             retrain_window: 6000,

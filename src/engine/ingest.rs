@@ -88,8 +88,9 @@ impl Ingest {
         input_rate_hz: f64,
         capacity: usize,
         max_fill: u64,
+        phase: crate::signal::FilterPhase,
     ) -> Result<Self, crate::signal::ResampleError> {
-        let decimator = Decimator::new(factor)?;
+        let decimator = Decimator::with_phase(factor, phase)?;
         let delay_s = decimator.delay_s(input_rate_hz);
         Ok(Self {
             decimators: vec![decimator; NUM_DOF],
@@ -250,7 +251,7 @@ mod tests {
     #[test]
     fn clean_stream_gives_exactly_the_batch_decimation() {
         let input = samples(400);
-        let mut ingest = Ingest::new(4, 8.0, 1000, 8).unwrap();
+        let mut ingest = Ingest::new(4, 8.0, 1000, 8, crate::signal::FilterPhase::Linear).unwrap();
         let mut c = Counters::default();
         let mut last = None;
         for s in &input {
@@ -278,7 +279,7 @@ mod tests {
         let dup = input[80];
         input.insert(82, dup);
         input.remove(120); // one lost sample
-        let mut ingest = Ingest::new(4, 8.0, 1000, 8).unwrap();
+        let mut ingest = Ingest::new(4, 8.0, 1000, 8, crate::signal::FilterPhase::Linear).unwrap();
         let mut c = Counters::default();
         for s in &input {
             ingest.push(s, &mut c);

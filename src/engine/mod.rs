@@ -115,7 +115,7 @@ impl Engine {
             .retrain_window
             .max(order + config.horizon)
             .max(config.order + config.horizon);
-        let ingest = Ingest::new(factor, input_rate_hz, capacity, MAX_FILL)?;
+        let ingest = Ingest::new(factor, input_rate_hz, capacity, MAX_FILL, config.filter)?;
         let window = (config.verification_window_s * config.sample_rate_hz).round() as usize;
         let mut engine = Self {
             ingest,

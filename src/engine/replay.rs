@@ -35,7 +35,13 @@ pub struct DofReplay {
     pub coverage_1sigma: Vec<f64>,
     pub coverage_2sigma: Vec<f64>,
     pub max_abs_error: f64,
+    /// RMS error of the 10 s step per minute of record time (by issue time; NaN where nothing
+    /// was scored): how the error evolves, e.g. how fast it recovers after a change of sea.
+    pub rms_10s_by_minute: Vec<f64>,
 }
+
+/// The step whose error `rms_10s_by_minute` follows [s].
+pub const TRACE_LEAD_S: f64 = 10.0;
 
 /// The whole replay.
 #[derive(Debug, Clone, Serialize)]
@@ -107,6 +113,12 @@ pub fn replay(
     let delay = engine.delay_s();
     let mut sums = vec![[StepSums::default(); MAX_STEPS]; NUM_DOF];
     let mut max_abs = [0.0f64; NUM_DOF];
+    let trace_k = ((TRACE_LEAD_S / dt).round() as usize).max(1) - 1;
+    let minutes = (data.time.last().copied().unwrap_or(0.0) / 60.0)
+        .ceil()
+        .max(0.0) as usize
+        + 1;
+    let mut trace = vec![vec![(0.0f64, 0u64); minutes]; NUM_DOF];
     let mut scored = 0u64;
     let mut kept = Vec::new();
     let mut unreported = 0u64;
@@ -159,6 +171,11 @@ pub fn replay(
                 acc.in1 += f64::from(u8::from(e.abs() <= s));
                 acc.in2 += f64::from(u8::from(e.abs() <= 2.0 * s));
                 max_abs[d] = max_abs[d].max(e.abs());
+                if k == trace_k {
+                    let minute = ((f.time_s / 60.0).floor().max(0.0) as usize).min(minutes - 1);
+                    trace[d][minute].0 += e * e;
+                    trace[d][minute].1 += 1;
+                }
             }
         }
     }
@@ -193,6 +210,16 @@ pub fn replay(
                 coverage_1sigma: per(&|a| if a.n > 0.0 { a.in1 / a.n } else { f64::NAN }),
                 coverage_2sigma: per(&|a| if a.n > 0.0 { a.in2 / a.n } else { f64::NAN }),
                 max_abs_error: max_abs[d],
+                rms_10s_by_minute: trace[d]
+                    .iter()
+                    .map(|&(ss, n)| {
+                        if n > 0 {
+                            (ss / n as f64).sqrt()
+                        } else {
+                            f64::NAN
+                        }
+                    })
+                    .collect(),
             }
         })
         .collect();

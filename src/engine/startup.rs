@@ -4,7 +4,7 @@
 use super::models::{self, ModelSet};
 use crate::config::PipelineConfig;
 use crate::payload::{MAX_STEPS, NUM_DOF};
-use crate::signal::decimate;
+use crate::signal::decimate_with;
 use crate::sim::{ShipMotion, SimConfig};
 use anyhow::Context;
 use std::time::Instant;
@@ -38,7 +38,7 @@ pub fn initial_models(config: &PipelineConfig) -> anyhow::Result<Option<ModelSet
     let factor = config.decimation_factor()?;
     let series = raw
         .iter()
-        .map(|x| decimate(x, factor))
+        .map(|x| decimate_with(x, factor, q.filter))
         .collect::<Result<Vec<_>, _>>()?;
     let t = Instant::now();
     let mut set = models::fit(&series, q, 1).context("training on simulated history")?;

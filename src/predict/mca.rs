@@ -223,6 +223,7 @@ impl McaPredictor {
         let spectrum = Spectrum::of_windows(&train[..cut], self.order, self.shift)?;
         let mut forecast = vec![0.0; self.horizon];
         let mut best: Option<(f64, f64, f64)> = None;
+        let mut best_key: Option<(f64, f64)> = None;
         for (energy, ridge) in self.candidates() {
             let model = match spectrum.model(self.weighting, energy, self.horizon, ridge) {
                 Ok(m) => m,
@@ -232,15 +233,7 @@ impl McaPredictor {
                 }
             };
             let gain = max_row_gain(&model.prediction);
-            if gain > MAX_ROW_GAIN {
-                tracing::debug!(
-                    energy,
-                    ridge,
-                    gain,
-                    "MCA candidate rejected: prediction map too large"
-                );
-                continue;
-            }
+            let bounded = gain <= MAX_ROW_GAIN;
             // Every origin, not only those aligned with the training windows: a map fitted on windows
             // at `shift` can exploit structure that exists only at those offsets (band-limited,
             // interpolated records), and would then fail at every other origin.
@@ -252,8 +245,12 @@ impl McaPredictor {
                 minor_components = model.minor_components,
                 "MCA candidate"
             );
-            if rms.is_finite() && best.is_none_or(|(_, _, b)| rms < b) {
+            // A candidate within the gain bound beats any outside it; among those outside
+            // (only when none is within), the smaller map wins.
+            let key = if bounded { (0.0, rms) } else { (gain, rms) };
+            if rms.is_finite() && best_key.is_none_or(|b: (f64, f64)| key < b) {
                 best = Some((energy, ridge, rms));
+                best_key = Some(key);
             }
         }
         let (energy, ridge, rms) = best.ok_or_else(|| {
@@ -274,11 +271,11 @@ fn validation_needed(order: usize, horizon: usize) -> usize {
     t
 }
 
-/// RMS error of the forecasts issued at origins `cut, cut + stride, ...` of `series`.
 /// Largest Euclidean norm of a row of the prediction map: how much a forecast step can amplify
-/// white noise on the past values. Validation rejects candidates above `MAX_ROW_GAIN`: a map that
+/// white noise on the past values. Validation prefers candidates within `MAX_ROW_GAIN`: a map that
 /// large reaches its validation score by cancelling big coefficients against each other, which
-/// holds only on data with the exact structure it was fitted to.
+/// holds only on data with the exact structure it was fitted to. When every candidate is above
+/// it, the one with the smallest map is taken.
 fn max_row_gain(map: &LinearMap) -> f64 {
     (0..map.rows())
         .map(|r| map.row(r).iter().map(|c| c * c).sum::<f64>().sqrt())
@@ -288,6 +285,7 @@ fn max_row_gain(map: &LinearMap) -> f64 {
 /// See [`max_row_gain`]. A step's noise gain of 10 turns 1 % sensor noise into 10 %.
 const MAX_ROW_GAIN: f64 = 10.0;
 
+/// RMS error of the forecasts issued at origins `cut, cut + stride, ...` of `series`.
 fn validation_rms(
     map: &LinearMap,
     series: &[f64],

@@ -1,6 +1,6 @@
 //! Streaming decimation with the anti-alias filter of [`super::fir::design_lowpass`].
 
-use super::fir::{delay_samples, design_lowpass};
+use super::fir::FilterPhase;
 use super::ResampleError;
 
 /// Largest decimation factor accepted (the filter has `4 * factor + 1` taps).
@@ -28,18 +28,25 @@ pub struct Decimator {
     /// Pushes left until the next output.
     until_output: usize,
     factor: usize,
+    delay: usize,
 }
 
 impl Decimator {
-    /// A decimator by `factor` (1 passes every sample through unchanged).
+    /// A decimator by `factor` with the evaluation protocol's linear-phase filter (1 passes
+    /// every sample through unchanged).
     pub fn new(factor: usize) -> Result<Self, ResampleError> {
+        Self::with_phase(factor, FilterPhase::Linear)
+    }
+
+    /// A decimator by `factor` with the filter of the given phase response.
+    pub fn with_phase(factor: usize, phase: FilterPhase) -> Result<Self, ResampleError> {
         if factor == 0 {
             return Err(ResampleError::ZeroFactor);
         }
         if factor > MAX_FACTOR {
             return Err(ResampleError::FactorTooLarge(factor));
         }
-        let mut weights = design_lowpass(factor);
+        let mut weights = phase.taps(factor);
         weights.reverse();
         let len = weights.len();
         Ok(Self {
@@ -48,6 +55,7 @@ impl Decimator {
             pos: 0,
             until_output: len,
             factor,
+            delay: phase.delay_samples(factor),
         })
     }
 
@@ -88,13 +96,24 @@ impl Decimator {
 
     /// Delay of an output behind the newest input it used, in input samples.
     pub fn delay_samples(&self) -> usize {
-        delay_samples(self.factor)
+        self.delay
     }
 
     /// Delay in seconds at `input_rate` Hz.
     pub fn delay_s(&self, input_rate: f64) -> f64 {
         self.delay_samples() as f64 / input_rate
     }
+}
+
+/// Decimate a whole series with the filter of `phase`: exactly [`Decimator::with_phase`] run over
+/// `series`, collecting its outputs.
+pub fn decimate_with(
+    series: &[f64],
+    factor: usize,
+    phase: FilterPhase,
+) -> Result<Vec<f64>, ResampleError> {
+    let mut decimator = Decimator::with_phase(factor, phase)?;
+    Ok(series.iter().filter_map(|&x| decimator.push(x)).collect())
 }
 
 /// Decimate a whole series: exactly [`Decimator`] run over `series`, collecting its outputs.

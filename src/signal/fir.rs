@@ -68,6 +68,92 @@ pub fn magnitude(taps: &[f64], freq: f64) -> f64 {
     re.hypot(im)
 }
 
+/// Phase response of the anti-alias filter.
+///
+/// `Linear` is the evaluation protocol's filter (docs/contracts.md section 4): a decimated value
+/// is the motion exactly `2 * factor` input samples before the newest input. `Minimum` has the
+/// same magnitude response with the smallest delay a causal filter of that length can have:
+/// about `factor` input samples in the band where ship motion lives (0.46-0.49 s at 8 -> 2 Hz,
+/// against 1.0 s), so every forecast step reaches half a second further ahead of the newest
+/// sample for the same error (docs/results/filter_delay.md).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum FilterPhase {
+    #[default]
+    Linear,
+    Minimum,
+}
+
+impl FilterPhase {
+    /// The filter's taps for decimation by `factor`, in time order (oldest input first is
+    /// `taps.reverse()`; `taps[n]` weighs the input `n` samples before the newest).
+    pub fn taps(self, factor: usize) -> Vec<f64> {
+        match self {
+            Self::Linear => design_lowpass(factor),
+            Self::Minimum => design_lowpass_min_phase(factor),
+        }
+    }
+
+    /// Delay of a decimated value behind the newest input, in input samples: exact for the
+    /// linear-phase filter; for the minimum-phase one its group delay at zero frequency,
+    /// rounded to a whole sample (its delay over the motion band differs by under half a
+    /// sample).
+    pub fn delay_samples(self, factor: usize) -> usize {
+        match self {
+            Self::Linear => delay_samples(factor),
+            Self::Minimum => {
+                let taps = design_lowpass_min_phase(factor);
+                let moment: f64 = taps.iter().enumerate().map(|(n, h)| n as f64 * h).sum();
+                (moment / taps.iter().sum::<f64>()).round().max(0.0) as usize
+            }
+        }
+    }
+}
+
+/// The minimum-phase filter with the magnitude response of [`design_lowpass`] (same length),
+/// by the real-cepstrum method: fold the cepstrum of log |H| onto positive quefrencies, which
+/// moves every zero inside the unit circle, and exponentiate back. log |H| is floored at 1e-6 of
+/// its peak because the linear-phase filter has zeros on the unit circle. Taps normalised to
+/// unit DC gain; `factor` 1 gives the identity.
+pub fn design_lowpass_min_phase(factor: usize) -> Vec<f64> {
+    use rustfft::num_complex::Complex;
+    let h = design_lowpass(factor);
+    if h.len() == 1 {
+        return h;
+    }
+    let n = (64 * h.len()).next_power_of_two().max(1024);
+    let mut planner = rustfft::FftPlanner::<f64>::new();
+    let (fft, ifft) = (planner.plan_fft_forward(n), planner.plan_fft_inverse(n));
+    let mut buf: Vec<Complex<f64>> = (0..n)
+        .map(|i| Complex::new(h.get(i).copied().unwrap_or(0.0), 0.0))
+        .collect();
+    fft.process(&mut buf);
+    let peak = buf.iter().map(|c| c.norm()).fold(0.0, f64::max);
+    for c in buf.iter_mut() {
+        *c = Complex::new(c.norm().max(1e-6 * peak).ln(), 0.0);
+    }
+    ifft.process(&mut buf);
+    let scale = 1.0 / n as f64;
+    for (i, c) in buf.iter_mut().enumerate() {
+        let fold = match i {
+            0 => 1.0,
+            i if i < n / 2 => 2.0,
+            i if i == n / 2 => 1.0,
+            _ => 0.0,
+        };
+        *c *= fold * scale;
+    }
+    fft.process(&mut buf);
+    for c in buf.iter_mut() {
+        *c = c.exp();
+    }
+    ifft.process(&mut buf);
+    let mut taps: Vec<f64> = buf[..h.len()].iter().map(|c| c.re * scale).collect();
+    let sum: f64 = taps.iter().sum();
+    taps.iter_mut().for_each(|t| *t /= sum);
+    taps
+}
+
 /// Modified Bessel function of the first kind, order zero, by its power series (converges
 /// quickly for the small arguments a Kaiser window uses).
 fn bessel_i0(x: f64) -> f64 {
@@ -123,6 +209,31 @@ mod tests {
         }
         assert_eq!(design_lowpass(1), vec![1.0]);
         assert_eq!(delay_samples(1), 0);
+    }
+
+    #[test]
+    fn minimum_phase_filter_keeps_the_magnitude_and_halves_the_delay() {
+        for factor in [2, 4, 8] {
+            let lin = design_lowpass(factor);
+            let min = design_lowpass_min_phase(factor);
+            assert_eq!(min.len(), lin.len());
+            assert!((min.iter().sum::<f64>() - 1.0).abs() < 1e-12);
+            // Same magnitude (the truncation to the original length costs a little).
+            for i in 0..=400 {
+                let f = 0.5 * i as f64 / 400.0;
+                let (a, b) = (magnitude(&lin, f), magnitude(&min, f));
+                assert!((a - b).abs() < 2e-3, "factor {factor} f {f}: {a} vs {b}");
+            }
+            // Energy first: the delay at DC is about half the linear-phase filter's.
+            let delay = FilterPhase::Minimum.delay_samples(factor);
+            assert!(
+                delay >= factor / 2 && delay <= factor + 1,
+                "factor {factor}: {delay}"
+            );
+            assert!(delay < delay_samples(factor));
+        }
+        assert_eq!(design_lowpass_min_phase(1), vec![1.0]);
+        assert_eq!(FilterPhase::Minimum.delay_samples(1), 0);
     }
 
     #[test]

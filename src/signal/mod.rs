@@ -10,5 +10,6 @@ pub mod decimator;
 pub mod fir;
 pub mod resample;
 
-pub use decimator::{decimate, Decimator};
+pub use decimator::{decimate, decimate_with, Decimator};
+pub use fir::FilterPhase;
 pub use resample::{decimation_factor, resample_motion, sample_rate, ResampleError};
