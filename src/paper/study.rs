@@ -40,6 +40,10 @@ pub enum SeaKind {
     Dense,
     /// The paper scenario as a line spectrum of few components on a fixed grid.
     Line,
+    /// Another realisation of the dense sea (seed + 1), for testing only: the model is fitted
+    /// on the training segment of [`SeaKind::Dense`] and scored here at every origin (stride
+    /// 1); the bound is this realisation's own.
+    OtherRealisation,
 }
 
 /// One method on one series.
@@ -337,6 +341,35 @@ fn jobs(plan: &Plan, measured: bool) -> Vec<Job> {
             noise_pct: 0.0,
         });
     }
+    // The improvements section out of sample: fitted on the dense sea, tested on another
+    // realisation at every origin, with that realisation's bound.
+    for dof in Dof::ALL {
+        for variant in [Variant::Paper].into_iter().chain(Variant::IMPROVED) {
+            jobs.push(eval(
+                SeaKind::OtherRealisation,
+                dof,
+                big,
+                Method::Mca,
+                variant,
+                0.0,
+            ));
+        }
+        for method in [Method::Wiener, Method::Zero] {
+            jobs.push(eval(
+                SeaKind::OtherRealisation,
+                dof,
+                big,
+                method,
+                Variant::Paper,
+                0.0,
+            ));
+        }
+        jobs.push(Job::Bound {
+            sea: SeaKind::OtherRealisation,
+            dof,
+            order: big,
+        });
+    }
     // The line-spectrum sea: heave, every order and method.
     for &order in &plan.orders {
         for method in PAPER_METHODS.into_iter().chain(REFERENCES) {
@@ -407,6 +440,30 @@ impl Context<'_> {
         match kind {
             SeaKind::Dense => self.dense,
             SeaKind::Line => self.line,
+            SeaKind::OtherRealisation => self.other,
+        }
+    }
+
+    /// Spacing of the scored origins: every origin on the other realisation.
+    fn stride(&self, sea: SeaKind) -> usize {
+        match sea {
+            SeaKind::OtherRealisation => 1,
+            _ => self.plan.stride,
+        }
+    }
+
+    /// The series a method of `sea` is evaluated on: for the other realisation, the training
+    /// segment of the dense sea followed by the other realisation's test segment (the first
+    /// origin is `order` values into it, so no forecast window straddles the junction).
+    fn eval_series(&self, sea: SeaKind, dof: Dof) -> std::borrow::Cow<'_, [f64]> {
+        match sea {
+            SeaKind::OtherRealisation => {
+                let train = self.plan.train;
+                let mut spliced = self.dense.series(dof)[..train].to_vec();
+                spliced.extend_from_slice(&self.other.series(dof)[train..]);
+                spliced.into()
+            }
+            _ => self.sea(sea).series(dof).into(),
         }
     }
 
@@ -414,10 +471,10 @@ impl Context<'_> {
         variant.config(self.plan, order, horizon)
     }
 
-    fn settings(&self, noise_pct: f64) -> EvalSettings {
+    fn settings(&self, sea: SeaKind, noise_pct: f64) -> EvalSettings {
         EvalSettings {
             train: self.plan.train,
-            stride: self.plan.stride,
+            stride: self.stride(sea),
             sample_rate: STUDY_RATE_HZ,
             noise_pct,
             seed: self.plan.seed,
@@ -435,9 +492,9 @@ impl Context<'_> {
                 variant,
                 noise_pct,
             } => {
-                let settings = self.settings(noise_pct);
+                let settings = self.settings(sea, noise_pct);
                 let config = self.config(order, self.plan.horizon, variant);
-                let result = prepare_series(self.sea(sea).series(dof), dof, &settings)
+                let result = prepare_series(&self.eval_series(sea, dof), dof, &settings)
                     .and_then(|prepared| {
                         evaluate_method(&prepared, dof, method, &config, &settings, &|_| {})
                     })
@@ -492,7 +549,7 @@ impl Context<'_> {
             &mut bound.predictor,
             self.sea(sea).series(dof),
             self.plan.train,
-            self.plan.stride,
+            self.stride(sea),
             None,
             &|_| {},
         )
@@ -544,7 +601,7 @@ impl Context<'_> {
                 .map(|i| (i as f64 / STUDY_RATE_HZ, x[i]))
                 .collect()
         };
-        let settings = self.settings(noise_pct);
+        let settings = self.settings(SeaKind::Dense, noise_pct);
         let prepared = prepare_series(clean, dof, &settings).map_err(|e| e.to_string());
         let observed = match &prepared {
             Ok(p) if noise_pct > 0.0 => Some(points(&p.series)),
@@ -632,21 +689,25 @@ pub fn run_with(
         len,
     )?;
     let other = averaging::other_realisation(plan)?;
-    let seas = [(SeaKind::Dense, &dense), (SeaKind::Line, &line)]
-        .into_iter()
-        .map(|(kind, sea)| {
-            let mut test_std = [0.0; 6];
-            for dof in Dof::ALL {
-                test_std[dof.index()] = std_dev(&sea.series(dof)[plan.train..]);
-            }
-            SeaInfo {
-                kind,
-                title: sea.title.clone(),
-                components: sea.components(),
-                test_std,
-            }
-        })
-        .collect();
+    let seas = [
+        (SeaKind::Dense, &dense),
+        (SeaKind::Line, &line),
+        (SeaKind::OtherRealisation, &other),
+    ]
+    .into_iter()
+    .map(|(kind, sea)| {
+        let mut test_std = [0.0; 6];
+        for dof in Dof::ALL {
+            test_std[dof.index()] = std_dev(&sea.series(dof)[plan.train..]);
+        }
+        SeaInfo {
+            kind,
+            title: sea.title.clone(),
+            components: sea.components(),
+            test_std,
+        }
+    })
+    .collect();
     let ctx = Context {
         plan,
         dense: &dense,
@@ -791,7 +852,13 @@ mod tests {
                 }
                 (Err(ex), Err(ey)) => {
                     assert_eq!(ex, ey);
-                    assert!(x.method == Method::Mca && x.order <= plan.horizon, "{ex}");
+                    // MCA fails where infeasible, and the paper's rule with a validated
+                    // energy and no ridge where every candidate's prediction map exceeds the
+                    // predictor's bound on its size.
+                    let infeasible = x.method == Method::Mca && x.order <= plan.horizon;
+                    let unbounded =
+                        x.variant == Variant::Validated && ex.contains("no candidate setting");
+                    assert!(infeasible || unbounded, "{ex}");
                 }
                 _ => panic!("{:?} {} {}: one run failed", x.dof, x.method, x.order),
             }
