@@ -41,6 +41,9 @@ pub(super) fn cell(v: Result<f64, String>, sig: usize) -> String {
     match v {
         Ok(v) => num(v, sig),
         Err(e) if e.contains("infeasible") => "infeasible (H >= n)".into(),
+        // The predictor's validation rejected every candidate (each map beyond its size
+        // bound or unusable): a designed outcome, not a crash.
+        Err(e) if e.contains("no candidate setting") => "no candidate passed validation".into(),
         Err(e) => format!("failed: {}", e.chars().take(80).collect::<String>()),
     }
 }
@@ -565,6 +568,9 @@ pub fn render(study: &Study, figures: &[Figure]) -> String {
         study.measured_title.as_deref(),
         &mut s,
     );
+    if let Some(record) = &study.measured_record {
+        super::measured::section(&study.measured, &study.plan, record, &mut s);
+    }
 
     let _ = writeln!(
         s,

@@ -7,6 +7,7 @@
 
 use super::averaging::{self, AverageOutcome, AverageSea, AverageSetting, MeasuredSeries};
 use super::bound::Bound;
+use super::measured::{self, MeasuredOutcome, MeasuredRow};
 use super::paper_values::{TABLE1_STEPS, TABLE2_PREDICTIONS, TABLE2_STEPS, TABLE3_NOISE_PCT};
 use super::plan::Plan;
 use super::seas::{Sea, STUDY_RATE_HZ};
@@ -130,6 +131,9 @@ pub struct Study {
     pub averages: Vec<AverageOutcome>,
     /// What the measured-sea record is, when one was given.
     pub measured_title: Option<String>,
+    /// The measured-sea section's rows and record, when one was given.
+    pub measured: Vec<MeasuredOutcome>,
+    pub measured_record: Option<measured::RecordInfo>,
     /// Wall time of the whole run [s].
     pub elapsed_seconds: f64,
     /// Worker threads used after the timing jobs.
@@ -262,6 +266,7 @@ enum Job {
         sea: AverageSea,
         setting: AverageSetting,
     },
+    Measured(MeasuredRow),
 }
 
 enum Output {
@@ -270,6 +275,7 @@ enum Output {
     Timing(Timing),
     Trace(Trace),
     Average(AverageOutcome),
+    Measured(MeasuredOutcome),
 }
 
 impl Job {
@@ -293,6 +299,7 @@ impl Job {
             Job::Average { sea, setting } => {
                 format!("averaged forecasts, {}, {setting:?}", sea.name())
             }
+            Job::Measured(row) => format!("measured sea, {row:?}"),
         }
     }
 }
@@ -413,6 +420,9 @@ fn jobs(plan: &Plan, measured: bool) -> Vec<Job> {
             jobs.push(Job::Average { sea, setting });
         }
     }
+    if measured {
+        jobs.extend(MeasuredRow::ALL.map(Job::Measured));
+    }
     jobs
 }
 
@@ -531,6 +541,13 @@ impl Context<'_> {
                     measured: self.measured,
                 },
             )),
+            Job::Measured(row) => Output::Measured(match self.measured {
+                Some(record) => measured::outcome(row, self.plan, record),
+                None => MeasuredOutcome {
+                    row,
+                    result: Err("no measured record given".into()),
+                },
+            }),
         }
     }
 
@@ -739,6 +756,8 @@ pub fn run_with(
         traces: Vec::new(),
         averages: Vec::new(),
         measured_title: measured.map(|m| m.title.clone()),
+        measured: Vec::new(),
+        measured_record: measured.map(measured::RecordInfo::of),
         elapsed_seconds: 0.0,
         threads,
     };
@@ -765,6 +784,12 @@ pub fn run_with(
                     tracing::warn!(sea = a.sea.name(), setting = ?a.setting, "averaged forecasts: {e}");
                 }
                 study.averages.push(a)
+            }
+            Output::Measured(m) => {
+                if let Err(e) = &m.result {
+                    tracing::warn!(row = ?m.row, "measured sea: {e}");
+                }
+                study.measured.push(m)
             }
         }
     }
