@@ -25,6 +25,16 @@ fn tables(report: &str) -> Vec<(usize, Vec<usize>)> {
     out
 }
 
+/// A failed run that printed exactly one error line, naming `needle`, and no panic.
+fn assert_one_line_error(output: &std::process::Output, needle: &str) {
+    assert!(!output.status.success());
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    let errors: Vec<&str> = stderr.lines().filter(|l| l.starts_with("error:")).collect();
+    assert_eq!(errors.len(), 1, "{stderr}");
+    assert!(errors[0].contains(needle), "{stderr}");
+    assert!(!stderr.contains("panicked"), "{stderr}");
+}
+
 #[test]
 fn quick_paper_study_writes_a_complete_finite_report() {
     let dir = tempfile::tempdir().unwrap();
@@ -44,6 +54,7 @@ fn quick_paper_study_writes_a_complete_finite_report() {
         "## Line-spectrum sea against realistic dense sea",
         "## Improvements to MCA",
         "tested on another realisation",
+        "| paper: 0.5 s / 5 s / 20 s |",
         "## Useful horizon",
         "## Figures",
         "## Appendix",
@@ -167,11 +178,7 @@ fn unwritable_output_is_a_one_line_error() {
         .output()
         .unwrap();
     assert_eq!(output.status.code(), Some(2));
-    let stderr = String::from_utf8_lossy(&output.stderr);
-    let errors: Vec<&str> = stderr.lines().filter(|l| l.starts_with("error:")).collect();
-    assert_eq!(errors.len(), 1, "{stderr}");
-    assert!(errors[0].contains("a-file"), "{stderr}");
-    assert!(!stderr.contains("panicked"), "{stderr}");
+    assert_one_line_error(&output, "a-file");
 }
 
 /// `--measured FILE`: the averaged forecasts also run on that record (here a sum of
@@ -266,12 +273,7 @@ fn measured_record_gets_its_averaged_rows_and_a_bad_one_is_a_one_line_error() {
         .arg(dir.path().join("other"))
         .output()
         .unwrap();
-    assert!(!output.status.success());
-    let stderr = String::from_utf8_lossy(&output.stderr);
-    let errors: Vec<&str> = stderr.lines().filter(|l| l.starts_with("error:")).collect();
-    assert_eq!(errors.len(), 1, "{stderr}");
-    assert!(errors[0].contains("pitch.csv"), "{stderr}");
-    assert!(!stderr.contains("panicked"), "{stderr}");
+    assert_one_line_error(&output, "pitch.csv");
 
     // A record with a value that is not a number: one line, before any study work, also for
     // the measured-sea section alone.
@@ -286,12 +288,7 @@ fn measured_record_gets_its_averaged_rows_and_a_bad_one_is_a_one_line_error() {
             .arg(dir.path().join("garbled"))
             .output()
             .unwrap();
-        assert!(!output.status.success());
-        let stderr = String::from_utf8_lossy(&output.stderr);
-        let errors: Vec<&str> = stderr.lines().filter(|l| l.starts_with("error:")).collect();
-        assert_eq!(errors.len(), 1, "{stderr}");
-        assert!(errors[0].contains("garbled.csv"), "{stderr}");
-        assert!(!stderr.contains("panicked"), "{stderr}");
+        assert_one_line_error(&output, "garbled.csv");
     }
     assert!(!dir.path().join("garbled").join("report.md").exists());
 }
