@@ -192,6 +192,18 @@ fn against_wiener(study: &Study, variant: Variant) -> Option<String> {
         )
     };
     let beats = inv.iter().zip(w).filter(|(x, y)| x < y).count();
+    let zero = method_curve(study, TEST, heave, Method::Zero, Variant::Paper).ok()?;
+    let against_zero = first_lead_not_better(inv, zero).map_or_else(
+        || "it stays better than predicting zero at every lead".to_string(),
+        |l| {
+            format!(
+                "it does no better than predicting zero from {} s on (zero over the whole \
+                 horizon: {} m)",
+                num(l, 3),
+                num(overall(zero), 3)
+            )
+        },
+    );
     let dofs_better = Dof::ALL
         .into_iter()
         .filter(|&d| {
@@ -207,7 +219,7 @@ fn against_wiener(study: &Study, variant: Variant) -> Option<String> {
     Some(format!(
         "{} has an RMS error of {} m over the {} steps, against Wiener's {} m and the bound's {} m \
          (measured at the same origins): {gap}; it beats Wiener at {beats} of the {} steps, and \
-         over the whole horizon in {dofs_better} of the 6 DOF.",
+         over the whole horizon in {dofs_better} of the 6 DOF; {against_zero}.",
         variant.name(),
         num(inv_all, 3),
         study.plan.horizon,
@@ -342,6 +354,19 @@ fn discussion(study: &Study, s: &mut String) {
         );
     }
     let changes = realisation_changes(study);
+    let reference_rise = changes
+        .iter()
+        .filter(|(label, _, _)| label == "zero" || label.starts_with("bound"))
+        .map(|(_, a, b)| b / a)
+        .fold(f64::NEG_INFINITY, f64::max);
+    let methods: Vec<&(String, f64, f64)> = changes
+        .iter()
+        .filter(|(label, _, _)| label != "zero" && !label.starts_with("bound"))
+        .collect();
+    let above = methods
+        .iter()
+        .filter(|(_, a, b)| b / a > reference_rise)
+        .count();
     if let (Some(most), Some(least)) = (changes.first(), changes.last()) {
         let list = changes
             .iter()
@@ -363,8 +388,11 @@ fn discussion(study: &Study, s: &mut String) {
              that of the best any linear predictor of this order can do on it; the sea state is \
              the same, so a method that learned the sea and not the realisation changes by about \
              as much as they do, and what a row changes beyond them is what testing on the \
-             training realisation hid.\n",
-            most.0, least.0
+             training realisation hid. Here {above} of the {} methods rise by more than both \
+             zero and the bound.\n",
+            most.0,
+            least.0,
+            methods.len()
         );
     }
     let _ = writeln!(
