@@ -15,12 +15,15 @@ pub struct Args {
     #[arg(long)]
     quick: bool,
     /// A measured-sea motion CSV (time_s, heave_m at any rate the filter divides down to 2 Hz):
-    /// the averaged-forecast section is also run on it.
+    /// the averaged-forecast section is also run on it, and the measured-sea section added.
     #[arg(long)]
     measured: Option<PathBuf>,
     /// Run only the averaged-forecast section and write it as DIR/averaging.md.
     #[arg(long)]
     averaging_only: bool,
+    /// Run only the measured-sea section (needs --measured) and write it as DIR/measured.md.
+    #[arg(long, requires = "measured")]
+    measured_only: bool,
     /// Seed of the simulated seas, the noise and the MLP.
     #[arg(long, default_value_t = 1)]
     seed: u64,
@@ -46,6 +49,16 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         let path = args.out.join("averaging.md");
         std::fs::write(&path, section).with_context(|| format!("writing {}", path.display()))?;
         tracing::info!(report = %path.display(), "averaged-forecast section written");
+        return Ok(());
+    }
+    if args.measured_only {
+        let Some(record) = measured.as_ref() else {
+            anyhow::bail!("--measured-only needs --measured FILE.csv");
+        };
+        let section = paper::measured::run_alone(&plan, record);
+        let path = args.out.join("measured.md");
+        std::fs::write(&path, section).with_context(|| format!("writing {}", path.display()))?;
+        tracing::info!(report = %path.display(), "measured-sea section written");
         return Ok(());
     }
     let bar = Bar::new();

@@ -25,6 +25,16 @@ fn tables(report: &str) -> Vec<(usize, Vec<usize>)> {
     out
 }
 
+/// A failed run that printed exactly one error line, naming `needle`, and no panic.
+fn assert_one_line_error(output: &std::process::Output, needle: &str) {
+    assert!(!output.status.success());
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    let errors: Vec<&str> = stderr.lines().filter(|l| l.starts_with("error:")).collect();
+    assert_eq!(errors.len(), 1, "{stderr}");
+    assert!(errors[0].contains(needle), "{stderr}");
+    assert!(!stderr.contains("panicked"), "{stderr}");
+}
+
 #[test]
 fn quick_paper_study_writes_a_complete_finite_report() {
     let dir = tempfile::tempdir().unwrap();
@@ -43,6 +53,8 @@ fn quick_paper_study_writes_a_complete_finite_report() {
         "## Table 3:",
         "## Line-spectrum sea against realistic dense sea",
         "## Improvements to MCA",
+        "tested on another realisation",
+        "| paper: 0.5 s / 5 s / 20 s |",
         "## Useful horizon",
         "## Figures",
         "## Appendix",
@@ -83,7 +95,14 @@ fn quick_paper_study_writes_a_complete_finite_report() {
         !averaged.contains("measured sea"),
         "no measured record was given"
     );
+    assert!(
+        !report.contains("## Measured sea"),
+        "no measured record was given"
+    );
     for part in [
+        "| all steps, same realisation |",
+        "**Same realisation against another.**",
+        "**How close it gets, out of sample.**",
         "**Why the paper's rule fails",
         "**Why weighting by 1/lambda",
         "**Caveat.**",
@@ -159,11 +178,7 @@ fn unwritable_output_is_a_one_line_error() {
         .output()
         .unwrap();
     assert_eq!(output.status.code(), Some(2));
-    let stderr = String::from_utf8_lossy(&output.stderr);
-    let errors: Vec<&str> = stderr.lines().filter(|l| l.starts_with("error:")).collect();
-    assert_eq!(errors.len(), 1, "{stderr}");
-    assert!(errors[0].contains("a-file"), "{stderr}");
-    assert!(!stderr.contains("panicked"), "{stderr}");
+    assert_one_line_error(&output, "a-file");
 }
 
 /// `--measured FILE`: the averaged forecasts also run on that record (here a sum of
@@ -198,6 +213,56 @@ fn measured_record_gets_its_averaged_rows_and_a_bad_one_is_a_one_line_error() {
         report.contains("| measured sea | MCA-150, paper settings | uniform 5 |"),
         "no measured rows"
     );
+    // The measured-sea section: every method and the engine, with finite numbers.
+    let section = report
+        .split("## Measured sea: measured.csv")
+        .nth(1)
+        .and_then(|s| s.split("\n## ").next())
+        .expect("no measured-sea section");
+    for row in [
+        "| MCA-150, paper settings |",
+        "| shipcast MCA-150, 1/lambda weighting, shift 2, validated ridge (not the paper's) |",
+        "| Wiener-100 |",
+        "| Wiener-150 |",
+        "| persistence |",
+        "| zero |",
+        "| engine as the service runs it (default configuration, delivered) |",
+        "| within +-1 sigma (nominal 68.3 %) |",
+        "| within +-2 sigma (nominal 95.4 %) |",
+        "**Which method wins.** On this record",
+    ] {
+        assert!(
+            section.contains(row),
+            "measured section lacks '{row}':\n{section}"
+        );
+    }
+    assert!(!section.contains("failed:"), "{section}");
+    let numbers: Vec<f64> = section
+        .lines()
+        .filter(|l| {
+            l.starts_with("| ")
+                && !l.starts_with("| :")
+                && !l.starts_with("| method")
+                && !l.starts_with("| engine, heave")
+        })
+        .flat_map(|l| {
+            l.split('|')
+                .skip(2)
+                .take(3)
+                .map(str::to_string)
+                .collect::<Vec<_>>()
+        })
+        .map(|c| {
+            let c = c.trim().trim_end_matches(" %");
+            c.parse::<f64>()
+                .unwrap_or_else(|_| panic!("'{c}' is not a number:\n{section}"))
+        })
+        .collect();
+    assert_eq!(numbers.len(), 9 * 3, "{section}");
+    assert!(
+        numbers.iter().all(|v| v.is_finite() && *v >= 0.0),
+        "{numbers:?}"
+    );
 
     let pitch_only = dir.path().join("pitch.csv");
     std::fs::write(&pitch_only, "time_s,pitch_rad\n0,1\n0.125,2\n").unwrap();
@@ -208,12 +273,63 @@ fn measured_record_gets_its_averaged_rows_and_a_bad_one_is_a_one_line_error() {
         .arg(dir.path().join("other"))
         .output()
         .unwrap();
+    assert_one_line_error(&output, "pitch.csv");
+
+    // A record with a value that is not a number: one line, before any study work, also for
+    // the measured-sea section alone.
+    let garbled = dir.path().join("garbled.csv");
+    std::fs::write(&garbled, "time_s,heave_m\n0,1\n0.125,abc\n0.25,2\n").unwrap();
+    for extra in [None, Some("--measured-only")] {
+        let output = shipcast()
+            .args(["paper", "--quick", "--measured"])
+            .arg(&garbled)
+            .args(extra)
+            .arg("--out")
+            .arg(dir.path().join("garbled"))
+            .output()
+            .unwrap();
+        assert_one_line_error(&output, "garbled.csv");
+    }
+    assert!(!dir.path().join("garbled").join("report.md").exists());
+}
+
+/// `--measured-only` writes the measured-sea section alone, as measured.md, and needs
+/// `--measured`.
+#[test]
+fn measured_only_writes_just_that_section() {
+    let dir = tempfile::tempdir().unwrap();
+    let csv = dir.path().join("swell.csv");
+    let mut text = String::from("time_s,heave_m\n");
+    for i in 0..(2400 * 4) {
+        let t = i as f64 / 8.0;
+        let v = 0.8 * (0.55 * t).sin() + 0.3 * (1.1 * t + 0.5).sin();
+        text.push_str(&format!("{t},{v}\n"));
+    }
+    std::fs::write(&csv, text).unwrap();
+    let status = shipcast()
+        .args(["paper", "--quick", "--measured-only", "--measured"])
+        .arg(&csv)
+        .arg("--out")
+        .arg(dir.path())
+        .status()
+        .unwrap();
+    assert!(status.success());
+    let section = std::fs::read_to_string(dir.path().join("measured.md")).unwrap();
+    assert!(
+        section.starts_with("## Measured sea: swell.csv"),
+        "{section}"
+    );
+    assert!(section.contains("**Which method wins.**"), "{section}");
+    assert!(!dir.path().join("report.md").exists());
+
+    let output = shipcast()
+        .args(["paper", "--quick", "--measured-only", "--out"])
+        .arg(dir.path().join("none"))
+        .output()
+        .unwrap();
     assert!(!output.status.success());
     let stderr = String::from_utf8_lossy(&output.stderr);
-    let errors: Vec<&str> = stderr.lines().filter(|l| l.starts_with("error:")).collect();
-    assert_eq!(errors.len(), 1, "{stderr}");
-    assert!(errors[0].contains("pitch.csv"), "{stderr}");
-    assert!(!stderr.contains("panicked"), "{stderr}");
+    assert!(stderr.contains("--measured"), "{stderr}");
 }
 
 /// `--averaging-only` writes that section alone, as averaging.md, and no report.md.

@@ -24,6 +24,8 @@ pub struct MeasuredSeries {
     /// What the report calls it (the file name).
     pub title: String,
     pub heave: Vec<f64>,
+    /// The record as read, at its own rate (what the engine's replay runs on).
+    pub data: MotionData,
 }
 
 impl MeasuredSeries {
@@ -43,7 +45,7 @@ impl MeasuredSeries {
             || path.display().to_string(),
             |n| n.to_string_lossy().into_owned(),
         );
-        Ok(Self { title, heave })
+        Ok(Self { title, heave, data })
     }
 }
 

@@ -16,11 +16,13 @@
 //! - [`variant`]: the MCA settings compared (paper, improvements, eigenvalue weighting).
 //! - [`improvements`]: the report's section on those settings.
 //! - [`averaging`]: the paper's averaged forecasts (mean of several predictions of one point).
+//! - [`measured`]: the methods and the engine on a measured-sea record.
 
 pub mod averaging;
 pub mod bound;
 pub mod figures;
 pub mod improvements;
+pub mod measured;
 pub mod paper_values;
 pub mod plan;
 pub mod plots;

@@ -154,6 +154,7 @@ fn rms_figure(study: &Study, sea: SeaKind, dir: &Path) -> anyhow::Result<Option<
     let file = match sea {
         SeaKind::Dense => "rms_vs_lead_dense.svg",
         SeaKind::Line => "rms_vs_lead_line.svg",
+        SeaKind::OtherRealisation => "rms_vs_lead_other.svg",
     }
     .to_string();
     let title = format!("Heave RMS error against lead time, {name}");

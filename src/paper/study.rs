@@ -7,6 +7,7 @@
 
 use super::averaging::{self, AverageOutcome, AverageSea, AverageSetting, MeasuredSeries};
 use super::bound::Bound;
+use super::measured::{self, MeasuredOutcome, MeasuredRow};
 use super::paper_values::{TABLE1_STEPS, TABLE2_PREDICTIONS, TABLE2_STEPS, TABLE3_NOISE_PCT};
 use super::plan::Plan;
 use super::seas::{Sea, STUDY_RATE_HZ};
@@ -40,6 +41,10 @@ pub enum SeaKind {
     Dense,
     /// The paper scenario as a line spectrum of few components on a fixed grid.
     Line,
+    /// Another realisation of the dense sea (seed + 1), for testing only: the model is fitted
+    /// on the training segment of [`SeaKind::Dense`] and scored here at every origin (stride
+    /// 1); the bound is this realisation's own.
+    OtherRealisation,
 }
 
 /// One method on one series.
@@ -126,6 +131,9 @@ pub struct Study {
     pub averages: Vec<AverageOutcome>,
     /// What the measured-sea record is, when one was given.
     pub measured_title: Option<String>,
+    /// The measured-sea section's rows and record, when one was given.
+    pub measured: Vec<MeasuredOutcome>,
+    pub measured_record: Option<measured::RecordInfo>,
     /// Wall time of the whole run [s].
     pub elapsed_seconds: f64,
     /// Worker threads used after the timing jobs.
@@ -258,6 +266,7 @@ enum Job {
         sea: AverageSea,
         setting: AverageSetting,
     },
+    Measured(MeasuredRow),
 }
 
 enum Output {
@@ -266,6 +275,7 @@ enum Output {
     Timing(Timing),
     Trace(Trace),
     Average(AverageOutcome),
+    Measured(MeasuredOutcome),
 }
 
 impl Job {
@@ -289,6 +299,7 @@ impl Job {
             Job::Average { sea, setting } => {
                 format!("averaged forecasts, {}, {setting:?}", sea.name())
             }
+            Job::Measured(row) => format!("measured sea, {row:?}"),
         }
     }
 }
@@ -337,6 +348,35 @@ fn jobs(plan: &Plan, measured: bool) -> Vec<Job> {
             noise_pct: 0.0,
         });
     }
+    // The improvements section out of sample: fitted on the dense sea, tested on another
+    // realisation at every origin, with that realisation's bound.
+    for dof in Dof::ALL {
+        for variant in [Variant::Paper].into_iter().chain(Variant::IMPROVED) {
+            jobs.push(eval(
+                SeaKind::OtherRealisation,
+                dof,
+                big,
+                Method::Mca,
+                variant,
+                0.0,
+            ));
+        }
+        for method in [Method::Wiener, Method::Zero] {
+            jobs.push(eval(
+                SeaKind::OtherRealisation,
+                dof,
+                big,
+                method,
+                Variant::Paper,
+                0.0,
+            ));
+        }
+        jobs.push(Job::Bound {
+            sea: SeaKind::OtherRealisation,
+            dof,
+            order: big,
+        });
+    }
     // The line-spectrum sea: heave, every order and method.
     for &order in &plan.orders {
         for method in PAPER_METHODS.into_iter().chain(REFERENCES) {
@@ -380,6 +420,9 @@ fn jobs(plan: &Plan, measured: bool) -> Vec<Job> {
             jobs.push(Job::Average { sea, setting });
         }
     }
+    if measured {
+        jobs.extend(MeasuredRow::ALL.map(Job::Measured));
+    }
     jobs
 }
 
@@ -407,6 +450,30 @@ impl Context<'_> {
         match kind {
             SeaKind::Dense => self.dense,
             SeaKind::Line => self.line,
+            SeaKind::OtherRealisation => self.other,
+        }
+    }
+
+    /// Spacing of the scored origins: every origin on the other realisation.
+    fn stride(&self, sea: SeaKind) -> usize {
+        match sea {
+            SeaKind::OtherRealisation => 1,
+            _ => self.plan.stride,
+        }
+    }
+
+    /// The series a method of `sea` is evaluated on: for the other realisation, the training
+    /// segment of the dense sea followed by the other realisation's test segment (the first
+    /// origin is `order` values into it, so no forecast window straddles the junction).
+    fn eval_series(&self, sea: SeaKind, dof: Dof) -> std::borrow::Cow<'_, [f64]> {
+        match sea {
+            SeaKind::OtherRealisation => {
+                let train = self.plan.train;
+                let mut spliced = self.dense.series(dof)[..train].to_vec();
+                spliced.extend_from_slice(&self.other.series(dof)[train..]);
+                spliced.into()
+            }
+            _ => self.sea(sea).series(dof).into(),
         }
     }
 
@@ -414,10 +481,10 @@ impl Context<'_> {
         variant.config(self.plan, order, horizon)
     }
 
-    fn settings(&self, noise_pct: f64) -> EvalSettings {
+    fn settings(&self, sea: SeaKind, noise_pct: f64) -> EvalSettings {
         EvalSettings {
             train: self.plan.train,
-            stride: self.plan.stride,
+            stride: self.stride(sea),
             sample_rate: STUDY_RATE_HZ,
             noise_pct,
             seed: self.plan.seed,
@@ -435,9 +502,9 @@ impl Context<'_> {
                 variant,
                 noise_pct,
             } => {
-                let settings = self.settings(noise_pct);
+                let settings = self.settings(sea, noise_pct);
                 let config = self.config(order, self.plan.horizon, variant);
-                let result = prepare_series(self.sea(sea).series(dof), dof, &settings)
+                let result = prepare_series(&self.eval_series(sea, dof), dof, &settings)
                     .and_then(|prepared| {
                         evaluate_method(&prepared, dof, method, &config, &settings, &|_| {})
                     })
@@ -474,6 +541,13 @@ impl Context<'_> {
                     measured: self.measured,
                 },
             )),
+            Job::Measured(row) => Output::Measured(match self.measured {
+                Some(record) => measured::outcome(row, self.plan, record),
+                None => MeasuredOutcome {
+                    row,
+                    result: Err("no measured record given".into()),
+                },
+            }),
         }
     }
 
@@ -492,7 +566,7 @@ impl Context<'_> {
             &mut bound.predictor,
             self.sea(sea).series(dof),
             self.plan.train,
-            self.plan.stride,
+            self.stride(sea),
             None,
             &|_| {},
         )
@@ -544,7 +618,7 @@ impl Context<'_> {
                 .map(|i| (i as f64 / STUDY_RATE_HZ, x[i]))
                 .collect()
         };
-        let settings = self.settings(noise_pct);
+        let settings = self.settings(SeaKind::Dense, noise_pct);
         let prepared = prepare_series(clean, dof, &settings).map_err(|e| e.to_string());
         let observed = match &prepared {
             Ok(p) if noise_pct > 0.0 => Some(points(&p.series)),
@@ -632,21 +706,25 @@ pub fn run_with(
         len,
     )?;
     let other = averaging::other_realisation(plan)?;
-    let seas = [(SeaKind::Dense, &dense), (SeaKind::Line, &line)]
-        .into_iter()
-        .map(|(kind, sea)| {
-            let mut test_std = [0.0; 6];
-            for dof in Dof::ALL {
-                test_std[dof.index()] = std_dev(&sea.series(dof)[plan.train..]);
-            }
-            SeaInfo {
-                kind,
-                title: sea.title.clone(),
-                components: sea.components(),
-                test_std,
-            }
-        })
-        .collect();
+    let seas = [
+        (SeaKind::Dense, &dense),
+        (SeaKind::Line, &line),
+        (SeaKind::OtherRealisation, &other),
+    ]
+    .into_iter()
+    .map(|(kind, sea)| {
+        let mut test_std = [0.0; 6];
+        for dof in Dof::ALL {
+            test_std[dof.index()] = std_dev(&sea.series(dof)[plan.train..]);
+        }
+        SeaInfo {
+            kind,
+            title: sea.title.clone(),
+            components: sea.components(),
+            test_std,
+        }
+    })
+    .collect();
     let ctx = Context {
         plan,
         dense: &dense,
@@ -678,6 +756,8 @@ pub fn run_with(
         traces: Vec::new(),
         averages: Vec::new(),
         measured_title: measured.map(|m| m.title.clone()),
+        measured: Vec::new(),
+        measured_record: measured.map(measured::RecordInfo::of),
         elapsed_seconds: 0.0,
         threads,
     };
@@ -704,6 +784,12 @@ pub fn run_with(
                     tracing::warn!(sea = a.sea.name(), setting = ?a.setting, "averaged forecasts: {e}");
                 }
                 study.averages.push(a)
+            }
+            Output::Measured(m) => {
+                if let Err(e) = &m.result {
+                    tracing::warn!(row = ?m.row, "measured sea: {e}");
+                }
+                study.measured.push(m)
             }
         }
     }
@@ -791,7 +877,13 @@ mod tests {
                 }
                 (Err(ex), Err(ey)) => {
                     assert_eq!(ex, ey);
-                    assert!(x.method == Method::Mca && x.order <= plan.horizon, "{ex}");
+                    // MCA fails where infeasible, and the paper's rule with a validated
+                    // energy and no ridge where every candidate's prediction map exceeds the
+                    // predictor's bound on its size.
+                    let infeasible = x.method == Method::Mca && x.order <= plan.horizon;
+                    let unbounded =
+                        x.variant == Variant::Validated && ex.contains("no candidate setting");
+                    assert!(infeasible || unbounded, "{ex}");
                 }
                 _ => panic!("{:?} {} {}: one run failed", x.dof, x.method, x.order),
             }
