@@ -128,6 +128,7 @@ pub fn decimate(series: &[f64], factor: usize) -> Result<Vec<f64>, ResampleError
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::signal::fir::design_lowpass;
     use std::f64::consts::PI;
 
     fn sine(freq: f64, rate: f64, n: usize) -> Vec<f64> {
