@@ -14,7 +14,7 @@ import os
 import subprocess
 import sys
 
-BIN = os.path.join("target", "release", "shipcast")
+BIN = os.environ.get("SHIPCAST_BIN", os.path.join("target", "release", "shipcast"))
 
 RECORDS = [
     # name, simulate arguments, time of the change [s] or None
