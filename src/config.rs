@@ -485,7 +485,7 @@ impl PipelineConfig {
                 q.warmup_s
             ));
         }
-        if q.candidate_orders.iter().any(|&o| o == 0) {
+        if q.candidate_orders.contains(&0) {
             return bad("predictor.candidate_orders must all be at least 1".into());
         }
         if q.retrain_window > 1_000_000 || q.order > 100_000 {

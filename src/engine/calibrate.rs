@@ -63,7 +63,8 @@ impl PairSums {
     /// beta is the plain least-squares value: a well-fitted model is left exactly as it is.
     pub fn beta(&self) -> f64 {
         let s = &self.0;
-        if !(s[MM] > 0.0) || !s[MX].is_finite() || !(s[XX] > 0.0) {
+        // NaN sums (never expected) count as no evidence.
+        if s[MM].is_nan() || s[MM] <= 0.0 || !s[MX].is_finite() || s[XX].is_nan() || s[XX] <= 0.0 {
             return 0.0;
         }
         let beta = (s[MX] / s[MM]).clamp(0.0, 1.0);
@@ -83,7 +84,7 @@ impl PairSums {
     /// Mean squared error of `beta * m` (and of zero, at beta 0).
     pub fn mse(&self, beta: f64) -> f64 {
         let s = &self.0;
-        if !(s[N] > 0.0) {
+        if s[N].is_nan() || s[N] <= 0.0 {
             return f64::NAN;
         }
         ((s[XX] - 2.0 * beta * s[MX] + beta * beta * s[MM]) / s[N]).max(0.0)

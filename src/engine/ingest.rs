@@ -40,6 +40,10 @@ impl Ring {
         self.len
     }
 
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
     /// The newest `n` values, oldest first, or None if fewer are stored.
     pub fn last(&self, n: usize) -> Option<&[f64]> {
         if n > self.len {
@@ -108,6 +112,10 @@ impl Ingest {
     /// Values stored per DOF.
     pub fn len(&self) -> usize {
         self.history[0].len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.history[0].is_empty()
     }
 
     /// The newest `n` values of DOF `d`.

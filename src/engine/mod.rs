@@ -345,7 +345,7 @@ impl Engine {
         let new_total: f64 = new.score.iter().sum();
         let old_total: f64 = outcome.running_score.iter().sum();
         // NaN for the running model means it could not be scored on this data: take the new.
-        let better = !(old_total <= new_total);
+        let better = old_total.is_nan() || old_total > new_total;
         tracing::info!(
             reason = outcome.reason,
             new_score = new_total / NUM_DOF as f64,
@@ -432,8 +432,8 @@ impl Engine {
         entry.version = version;
         entry.last = *x;
         let f = &mut *self.forecast;
-        for d in 0..NUM_DOF {
-            let rms = variance[d].sqrt();
+        for (d, var) in variance.iter().enumerate() {
+            let rms = var.sqrt();
             let bound = self.config.plausible_rms_factor * rms;
             let inflate = self.change.inflation(d);
             let mut plausible = true;

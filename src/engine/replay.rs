@@ -75,7 +75,7 @@ fn median_rate(time: &[f64]) -> anyhow::Result<f64> {
     let mut steps: Vec<f64> = time.windows(2).map(|p| p[1] - p[0]).collect();
     steps.sort_by(f64::total_cmp);
     let median = steps[steps.len() / 2];
-    if !(median > 0.0) {
+    if median.is_nan() || median <= 0.0 {
         anyhow::bail!("the record's time does not increase");
     }
     Ok(1.0 / median)
@@ -138,7 +138,7 @@ pub fn replay(
             continue;
         };
         if keep_forecasts {
-            kept.push(f.clone());
+            kept.push(*f);
         }
         if f.time_s < skip_s {
             continue;

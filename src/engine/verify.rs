@@ -182,7 +182,8 @@ impl Verifier {
 /// reaches it ends the trustworthy horizon (0 if step 1 already does; the whole horizon if none).
 pub fn skill_horizon(rms: &[f64], zero_rms: &[f64], dt_s: f64) -> f64 {
     for (k, (e, z)) in rms.iter().zip(zero_rms).enumerate() {
-        if !(e < &(0.7 * z)) {
+        // A NaN error (nothing scored) ends the horizon too.
+        if e.is_nan() || *e >= 0.7 * z {
             return k as f64 * dt_s;
         }
     }
