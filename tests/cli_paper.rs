@@ -83,8 +83,8 @@ fn quick_paper_study_writes_a_complete_finite_report() {
         .unwrap();
     for row in [
         "| other realisation | MCA-150, paper settings | weighted 10 |",
-        "| dense sea | MCA-150, service default",
-        "- other realisation, service default: uniform",
+        "| dense sea | MCA-150, shipcast weighted",
+        "- other realisation, weighted MCA: uniform",
     ] {
         assert!(
             averaged.contains(row),

@@ -10,7 +10,6 @@ use super::skill::overall;
 use super::study::{sim_config, SeaKind};
 use super::tables::{num, Table};
 use super::variant::Variant;
-use crate::config::PredictorServiceConfig;
 use crate::eval::{score_with_average, std_dev, EvalError};
 use crate::motion_csv::MotionData;
 use crate::predict::{AnyPredictor, AverageMode, Averaging, Method, Predictor, PredictorConfig};
@@ -84,26 +83,31 @@ impl AverageSea {
 pub enum AverageSetting {
     /// The paper's settings at the big order.
     Paper,
-    /// The predictor service's default tuning at its order (at most the plan's big order).
-    Service,
+    /// shipcast's eigenvalue-weighted MCA (inverse weighting, shift 2, validated ridge) at
+    /// order 400 (at most the plan's big order): the predictor service's default when this
+    /// section was written; the service now defaults to a validated Wiener predictor.
+    WeightedMca,
 }
 
+/// Order of the weighted-MCA rows (the service's former default).
+const WEIGHTED_MCA_ORDER: usize = 400;
+
 impl AverageSetting {
-    pub const ALL: [AverageSetting; 2] = [AverageSetting::Paper, AverageSetting::Service];
+    pub const ALL: [AverageSetting; 2] = [AverageSetting::Paper, AverageSetting::WeightedMca];
 
     /// The predictor configuration of this setting in `plan`.
     pub fn config(self, plan: &Plan) -> PredictorConfig {
         match self {
             AverageSetting::Paper => Variant::Paper.config(plan, plan.big_order(), plan.horizon),
-            AverageSetting::Service => {
-                let service = PredictorServiceConfig::default();
-                PredictorConfig {
-                    order: service.order.min(plan.big_order()),
-                    horizon: plan.horizon,
-                    seed: plan.seed,
-                    ..service.tuning
-                }
-            }
+            AverageSetting::WeightedMca => PredictorConfig {
+                order: WEIGHTED_MCA_ORDER.min(plan.big_order()),
+                horizon: plan.horizon,
+                seed: plan.seed,
+                mca_weighting: crate::predict::McaWeighting::Inverse,
+                mca_shift: 2,
+                mca_validate_energy: true,
+                ..PredictorConfig::default()
+            },
         }
     }
 
@@ -111,8 +115,8 @@ impl AverageSetting {
         let c = self.config(plan);
         match self {
             AverageSetting::Paper => format!("MCA-{}, paper settings", c.order),
-            AverageSetting::Service => format!(
-                "MCA-{}, service default ({} weighting, shift {}, validated)",
+            AverageSetting::WeightedMca => format!(
+                "MCA-{}, shipcast weighted ({} weighting, shift {}, validated)",
                 c.order, c.mca_weighting, c.mca_shift
             ),
         }
@@ -392,7 +396,7 @@ pub fn verdict(outcomes: &[AverageOutcome]) -> String {
             o.sea.name(),
             match o.setting {
                 AverageSetting::Paper => "paper settings",
-                AverageSetting::Service => "service default",
+                AverageSetting::WeightedMca => "weighted MCA",
             },
             say(AverageMode::Uniform),
             say(AverageMode::Weighted)
