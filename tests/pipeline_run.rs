@@ -3,7 +3,7 @@
 
 mod pipeline_support;
 
-use pipeline_support::{TestPipeline, BIN};
+use pipeline_support::{run_ok, TestPipeline, BIN};
 use std::process::Command;
 
 #[test]
@@ -12,27 +12,18 @@ fn run_shows_forecasts_and_advisory_and_stops_after_duration() {
     // configuration a fresh clone runs with.
     let p = TestPipeline::new("run", "");
     let dir = tempfile::tempdir().unwrap();
-    let out = Command::new(BIN)
-        .args([
-            "run",
-            "--instance",
-            &p.instance,
-            "--zenoh-listen",
-            &p.endpoint,
-            "--duration",
-            "15",
-        ])
-        .arg("--log-dir")
-        .arg(dir.path())
-        .output()
-        .unwrap();
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    assert!(
-        out.status.success(),
-        "{stdout}\n{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    // Default config: order 400, 240 s of backfill, so forecasts start within seconds.
+    let stdout = run_ok(&[
+        "run",
+        "--instance",
+        &p.instance,
+        "--zenoh-listen",
+        &p.endpoint,
+        "--duration",
+        "15",
+        "--log-dir",
+        dir.path().to_str().unwrap(),
+    ]);
+    // Default config: 240 s of backfill, so forecasts start within seconds.
     assert!(stdout.contains("forecast   t="), "{stdout}");
     assert!(stdout.contains("deck t="), "{stdout}");
     assert!(stdout.contains("predictor  model v1"), "{stdout}");

@@ -327,19 +327,15 @@ fn run_uses_the_generated_config_as_it_is() {
     let s = SecureSetup::new("securerun");
     let logs = tempfile::tempdir().unwrap();
     let config = s.certs.join("shipcast.toml");
-    let out = std::process::Command::new(pipeline_support::BIN)
-        .args(["run", "--duration", "20", "--config"])
-        .arg(&config)
-        .arg("--log-dir")
-        .arg(logs.path())
-        .output()
-        .unwrap();
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    assert!(
-        out.status.success(),
-        "{stdout}\n{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let stdout = run_ok(&[
+        "run",
+        "--duration",
+        "20",
+        "--config",
+        config.to_str().unwrap(),
+        "--log-dir",
+        logs.path().to_str().unwrap(),
+    ]);
     // The view shows the predictor's status and the deck's advisory, both received over zenoh.
     assert!(stdout.contains("predictor  model v1"), "{stdout}");
     assert!(stdout.contains("deck t="), "{stdout}");

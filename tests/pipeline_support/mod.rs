@@ -253,14 +253,17 @@ pub fn counter(line: &str, key: &str) -> u64 {
         .unwrap_or_else(|| panic!("no '{key} N' in: {line}"))
 }
 
-/// Run a `shipcast` command to completion, panicking with its stderr if it fails.
-pub fn run_ok(args: &[&str]) {
+/// Run a `shipcast` command to completion, panicking with its output if it fails; returns its
+/// stdout.
+pub fn run_ok(args: &[&str]) -> String {
     let out = Command::new(BIN).args(args).output().expect("run shipcast");
+    let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
     assert!(
         out.status.success(),
-        "shipcast {args:?} failed:\n{}",
+        "shipcast {args:?} failed:\n{stdout}\n{}",
         String::from_utf8_lossy(&out.stderr)
     );
+    stdout
 }
 
 /// Receive forecasts on `sub` until `n` arrived or [`PATIENCE`] ran out; the caller asserts on
