@@ -446,19 +446,9 @@ impl PipelineConfig {
         if q.order == 0 {
             return bad("predictor.order must be at least 1".into());
         }
-        if !(q.sample_rate_hz.is_finite() && q.sample_rate_hz > 0.0) {
-            return bad(format!(
-                "predictor.sample_rate_hz must be positive, got {}",
-                q.sample_rate_hz
-            ));
-        }
-        if !(q.stale_after_s.is_finite() && q.stale_after_s > 0.0) {
-            return bad(format!(
-                "predictor.stale_after_s must be positive, got {}",
-                q.stale_after_s
-            ));
-        }
         for (name, v) in [
+            ("predictor.sample_rate_hz", q.sample_rate_hz),
+            ("predictor.stale_after_s", q.stale_after_s),
             ("predictor.first_fit_s", q.first_fit_s),
             ("predictor.verification_window_s", q.verification_window_s),
             ("predictor.plausible_rms_factor", q.plausible_rms_factor),
