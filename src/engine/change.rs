@@ -38,12 +38,6 @@ impl ChangeDetector {
         }
     }
 
-    /// Start again for DOF `d` (new model or new record).
-    pub fn reset(&mut self, d: usize) {
-        self.ewma[d] = 1.0;
-        self.quiet_until[d] = self.seen[d] + self.refractory;
-    }
-
     /// The mean (e / sigma)^2 of the steps verified at this value; None if none was.
     pub fn observe(&mut self, d: usize, mean_z2: Option<f64>) -> Option<Change> {
         let z2 = mean_z2.filter(|z| z.is_finite())?;
