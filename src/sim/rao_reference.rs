@@ -7,7 +7,7 @@
 //! in [`super::rao_table`]; outside the tabulated range the edge value is used.
 
 use super::rao::{Rao, Response};
-use super::rao_table::csv_with_columns;
+use super::rao_table::{csv_with_columns, open_table};
 use super::SimError;
 use crate::Dof;
 use faer::c64;
@@ -66,9 +66,7 @@ pub struct ReferenceRaos {
 impl ReferenceRaos {
     /// Loads a table from a CSV file.
     pub fn load(path: &Path) -> Result<Self, SimError> {
-        let file = std::fs::File::open(path)
-            .map_err(|e| SimError::Table(format!("cannot open {}: {e}", path.display())))?;
-        Self::from_reader(file, &path.display().to_string())
+        Self::from_reader(open_table(path)?, &path.display().to_string())
     }
 
     /// Parses a table; `source` names it in error messages.

@@ -59,6 +59,12 @@ fn lerp(a: &Response, b: &Response, t: f64) -> Response {
     std::array::from_fn(|j| a[j] * (1.0 - t) + b[j] * t)
 }
 
+/// Opens a table file; the error names it. Shared by the RAO table loaders.
+pub(crate) fn open_table(path: &Path) -> Result<std::fs::File, SimError> {
+    std::fs::File::open(path)
+        .map_err(|e| SimError::Table(format!("cannot open {}: {e}", path.display())))
+}
+
 /// A trimming CSV reader and the index of each of `columns` in its header (any order, extra
 /// columns ignored); errors name `source`. Shared by the RAO table loaders.
 pub(crate) fn csv_with_columns<R: Read, const N: usize>(
@@ -87,9 +93,7 @@ pub(crate) fn csv_with_columns<R: Read, const N: usize>(
 impl RaoTable {
     /// Loads a table from a CSV file.
     pub fn load(path: &Path) -> Result<Self, SimError> {
-        let file = std::fs::File::open(path)
-            .map_err(|e| SimError::Table(format!("cannot open {}: {e}", path.display())))?;
-        Self::from_reader(file, &path.display().to_string())
+        Self::from_reader(open_table(path)?, &path.display().to_string())
     }
 
     /// Parses a table; `source` names it in error messages.
