@@ -9,9 +9,10 @@
 
 use super::calibrate::PairSums;
 use crate::config::PredictorServiceConfig;
+use crate::eval::{EvalError, OnlineFeed};
 use crate::model::ModelFile;
 use crate::payload::{MAX_STEPS, NUM_DOF};
-use crate::predict::{AnyPredictor, Method, PredictError, Predictor};
+use crate::predict::{AnyPredictor, Method, Predictor};
 use crate::Dof;
 use anyhow::Context;
 use std::path::Path;
@@ -56,28 +57,21 @@ impl ModelSet {
 }
 
 /// Held-out pair sums of a fitted predictor on `series[split..]`, origins at every value from
-/// `split` on (values before `split` are only the forecasts' input, never scored), and the mean over steps of the
-/// recalibrated error relative to the held-out variance.
+/// `split` on (values before `split` are only the forecasts' input, never scored; an online
+/// method learns from each held-out value before the origins after it, as in the evaluation),
+/// and the mean over steps of the recalibrated error relative to the held-out variance.
 pub fn held_out_pairs(
     p: &mut AnyPredictor,
     series: &[f64],
     split: usize,
-) -> Result<(Vec<PairSums>, f64), PredictError> {
+) -> Result<(Vec<PairSums>, f64), EvalError> {
     let (order, horizon) = (p.order(), p.horizon());
     let mut sums = vec![PairSums::default(); horizon];
     let mut out = vec![0.0; horizon];
-    let history = order + horizon;
-    let mut next_update = split;
+    let mut feed = OnlineFeed::new(p, split);
     let first = split.max(order);
     for origin in first..=series.len().saturating_sub(horizon) {
-        if p.is_online() {
-            while next_update < origin {
-                if next_update + 1 >= history {
-                    p.update(&series[next_update + 1 - history..=next_update])?;
-                }
-                next_update += 1;
-            }
-        }
+        feed.catch_up(p, series, origin)?;
         p.forecast(&series[origin - order..origin], &mut out)?;
         for (k, (m, x)) in out.iter().zip(&series[origin..]).enumerate() {
             sums[k].add(*m, *x);

@@ -17,7 +17,7 @@ pub mod run;
 pub use noise::add_noise;
 pub use protocol::{
     forecast_sigma, origins, score_averaged_forecasts, score_forecasts, score_with_average,
-    EvalError, Scores,
+    EvalError, OnlineFeed, Scores,
 };
 pub use run::{
     evaluate_method, evaluate_record, origin_count, prepare_series, std_dev, Entry, EvalFailure,

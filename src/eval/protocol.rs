@@ -213,7 +213,8 @@ pub fn score_with_average(
 }
 
 /// Feeds an online predictor every value of the test segment before each origin, in order.
-struct OnlineFeed {
+/// Also used where the engine scores a fresh fit on held-out live data.
+pub struct OnlineFeed {
     online: bool,
     next_update: usize,
     /// Total wall time of the updates [s].
@@ -221,7 +222,7 @@ struct OnlineFeed {
 }
 
 impl OnlineFeed {
-    fn new(predictor: &dyn Predictor, first: usize) -> Self {
+    pub fn new(predictor: &dyn Predictor, first: usize) -> Self {
         Self {
             online: predictor.is_online(),
             next_update: first,
@@ -230,7 +231,7 @@ impl OnlineFeed {
     }
 
     /// Update with every value `series[t]`, `t < origin`, not yet given.
-    fn catch_up(
+    pub fn catch_up(
         &mut self,
         predictor: &mut dyn Predictor,
         series: &[f64],
