@@ -386,15 +386,19 @@ impl Engine {
         };
         let Some(reason) = reason else { return };
         let take = self.ingest.len().min(q.retrain_window);
+        // Checked before copying the history: while a fit is still running, or the data allow
+        // no order yet, a due retrain waits without copying anything on every value.
+        if !self.retrainer.is_ready()
+            || !models::any_feasible_order(q, take, models::holdout_for(q, take))
+        {
+            return;
+        }
         let Some(series) = (0..NUM_DOF)
             .map(|d| self.ingest.last(d, take).map(<[f64]>::to_vec))
             .collect::<Option<Vec<_>>>()
         else {
             return;
         };
-        if models::feasible_orders(q, take, models::holdout_for(q, take)).is_empty() {
-            return;
-        }
         let job = Job {
             series,
             version: self.next_version,

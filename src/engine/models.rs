@@ -84,21 +84,35 @@ pub fn held_out_pairs(
 
 /// Orders worth trying on `len` values with `holdout` of them held out.
 pub fn feasible_orders(config: &PredictorServiceConfig, len: usize, holdout: usize) -> Vec<usize> {
+    let mut orders: Vec<usize> = feasible(config, len, holdout).collect();
+    orders.sort_unstable();
+    orders.dedup();
+    orders
+}
+
+/// True if any order is worth trying (no allocation: the engine asks on the forecasting thread).
+pub fn any_feasible_order(config: &PredictorServiceConfig, len: usize, holdout: usize) -> bool {
+    feasible(config, len, holdout).next().is_some()
+}
+
+/// The candidate orders, unsorted and possibly repeated, that `len` values with `holdout` held
+/// out allow.
+fn feasible(
+    config: &PredictorServiceConfig,
+    len: usize,
+    holdout: usize,
+) -> impl Iterator<Item = usize> + '_ {
     let train = len.saturating_sub(holdout);
-    let mut orders: Vec<usize> = config
+    config
         .candidate_orders
         .iter()
         .copied()
         .chain(std::iter::once(config.order))
         .filter(|&o| o >= 1 && o <= config.order)
-        .filter(|&o| {
+        .filter(move |&o| {
             train >= TRAIN_PER_ORDER * o && holdout >= o + config.horizon + MIN_HOLDOUT_ORIGINS
         })
         .filter(|&o| config.method != Method::Mca || o > config.horizon)
-        .collect();
-    orders.sort_unstable();
-    orders.dedup();
-    orders
 }
 
 /// The held-out part of a window of `len` values.

@@ -6,7 +6,9 @@
 use super::models::{self, ModelSet};
 use crate::config::PredictorServiceConfig;
 use crate::payload::NUM_DOF;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{self, Receiver, SyncSender, TrySendError};
+use std::sync::Arc;
 use std::time::Instant;
 
 /// What a retrain is asked to do.
@@ -50,6 +52,8 @@ pub enum Retrainer {
     Background {
         jobs: SyncSender<Job>,
         done: Receiver<Outcome>,
+        /// Set while the thread fits.
+        busy: Arc<AtomicBool>,
     },
     /// In the caller's step, finished before the step returns (replay).
     Inline {
@@ -63,10 +67,13 @@ impl Retrainer {
         // One job at a time: a request while a fit is running is skipped, not queued.
         let (jobs, job_rx) = mpsc::sync_channel::<Job>(0);
         let (done_tx, done) = mpsc::channel();
+        let busy = Arc::new(AtomicBool::new(false));
+        let busy_in_thread = Arc::clone(&busy);
         std::thread::Builder::new()
             .name("retrain".into())
             .spawn(move || {
                 for job in job_rx {
+                    busy_in_thread.store(true, Ordering::Release);
                     let values = job.series.first().map_or(0, Vec::len);
                     match run_job(job, &config) {
                         Ok(outcome) => {
@@ -81,15 +88,24 @@ impl Retrainer {
                         }
                         Err(e) => tracing::warn!("predictor: retraining failed: {e:#}"),
                     }
+                    busy_in_thread.store(false, Ordering::Release);
                 }
             })?;
-        Ok(Self::Background { jobs, done })
+        Ok(Self::Background { jobs, done, busy })
     }
 
     pub fn inline(config: PredictorServiceConfig) -> Self {
         Self::Inline {
             config: Box::new(config),
             done: None,
+        }
+    }
+
+    /// False while a background fit is running (a request now would be dropped).
+    pub fn is_ready(&self) -> bool {
+        match self {
+            Self::Background { busy, .. } => !busy.load(Ordering::Acquire),
+            Self::Inline { .. } => true,
         }
     }
 
