@@ -8,15 +8,15 @@
 use criterion::{criterion_group, criterion_main, Criterion};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use shipcast::bench::machine::remove_iox_leftovers;
-use shipcast::bench::stamps::{ReceiveStamp, StampPublisher, StampReader, StampTally};
-use shipcast::config::PipelineConfig;
-use shipcast::payload::{Forecast, MotionSample, MAX_STEPS, NUM_DOF};
-use shipcast::payload_json::ForecastJsonEncoder;
-use shipcast::predict::{McaPredictor, Predictor, PredictorConfig};
-use shipcast::signal::decimator::Decimator;
-use shipcast::transport::iox::{self, IoxPublisher, IoxSubscriber, Sizing, WaitMode};
-use shipcast::transport::Names;
+use shipcast_bench::machine::remove_iox_leftovers;
+use shipcast_bench::stamps::{ReceiveStamp, StampPublisher, StampReader, StampTally};
+use shipcast_pipeline::config::PipelineConfig;
+use shipcast_pipeline::transport::iox::{self, IoxPublisher, IoxSubscriber, Sizing, WaitMode};
+use shipcast_pipeline::transport::Names;
+use shipcast_predict::{McaPredictor, Predictor, PredictorConfig};
+use shipcast_series::decimator::Decimator;
+use shipcast_wire::payload::{Forecast, MotionSample, MAX_STEPS, NUM_DOF};
+use shipcast_wire::payload_json::ForecastJsonEncoder;
 use std::hint::black_box;
 
 /// A ship-motion-like test series: a few incommensurate swell components plus noise, so the MCA

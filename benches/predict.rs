@@ -8,7 +8,7 @@
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use shipcast::predict::{AnyPredictor, McaPredictor, Method, Predictor, PredictorConfig};
+use shipcast_predict::{AnyPredictor, McaPredictor, Method, Predictor, PredictorConfig};
 use std::hint::black_box;
 use std::time::Duration;
 

@@ -5,8 +5,8 @@
 //! Run: `cargo bench --bench sim`.
 
 use criterion::{criterion_group, criterion_main, Criterion};
-use shipcast::sim::{ShipMotion, SimConfig};
-use shipcast::Dof;
+use shipcast_sim::{ShipMotion, SimConfig};
+use shipcast_wire::Dof;
 use std::hint::black_box;
 
 fn bench_sim(c: &mut Criterion) {

@@ -5,10 +5,10 @@
 //!
 //! Run from the repository root: `cargo run --release --example rao_validation`.
 
-use shipcast::sim::rao_plot::{plot_rao_panels, RaoPanel};
-use shipcast::sim::rao_reference::{std_ratio_on_same_waves, validation_sea, ReferenceRaos};
-use shipcast::sim::{Channel, ClosedFormRao, Hull, Rao, ShipMotion, SimConfig};
-use shipcast::Dof;
+use shipcast_sim::rao_plot::{plot_rao_panels, RaoPanel};
+use shipcast_sim::rao_reference::{std_ratio_on_same_waves, validation_sea, ReferenceRaos};
+use shipcast_sim::{Channel, ClosedFormRao, Hull, Rao, ShipMotion, SimConfig};
+use shipcast_wire::Dof;
 use std::path::Path;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {

@@ -4,7 +4,7 @@
 Issue 11 item 7. Standard library only (the study machine has no numpy).
 
 The predictor decimates 8 Hz -> 2 Hz with the causal linear-phase FIR of
-src/signal/fir.rs `design_lowpass(4)` (17 taps, delay exactly 8 input samples = 1.0 s). This
+crates/series/src/fir.rs `design_lowpass(4)` (17 taps, delay exactly 8 input samples = 1.0 s). This
 script
 
 1. reproduces those taps with the Rust formula and prints them;
@@ -12,7 +12,7 @@ script
    zero-padded DFT), truncates it to 17 taps, and reports its group delay at the motion
    frequencies and its pass-band error and stop-band attenuation next to the original's;
 3. for each motion CSV (8 Hz, header with `heave_m`): filters the heave causally with each filter,
-   decimates to 2 Hz exactly like src/signal/decimator.rs (output j uses inputs 4j ..= 4j+16, its
+   decimates to 2 Hz exactly like crates/series/src/decimator.rs (output j uses inputs 4j ..= 4j+16, its
    newest input is 4j+16), and for real leads L after the newest input fits a linear predictor of
    the last P decimated values for the RAW heave at newest-input time + L (least squares on the
    first TRAIN decimated values, Cholesky), scored at every later origin as RMS error / std of the
@@ -52,7 +52,7 @@ class StudyError(Exception):
 
 
 def bessel_i0(x):
-    """Power series of I0, as in src/signal/fir.rs."""
+    """Power series of I0, as in crates/series/src/fir.rs."""
     total, term, half = 1.0, 1.0, x / 2.0
     for k in range(1, 100):
         term *= (half / k) ** 2
@@ -63,7 +63,7 @@ def bessel_i0(x):
 
 
 def design_lowpass(factor):
-    """The taps of src/signal/fir.rs `design_lowpass`, oldest-input weight first."""
+    """The taps of crates/series/src/fir.rs `design_lowpass`, oldest-input weight first."""
     delay = 2 * factor
     cutoff = 0.5 / factor
     norm = bessel_i0(KAISER_BETA)

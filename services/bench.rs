@@ -3,10 +3,11 @@
 
 use crate::progress::Bar;
 use anyhow::Context;
-use shipcast::bench::latency::{self, FORECAST_BYTES, MOTION_BYTES};
-use shipcast::bench::pingpong_zenoh_processes::{self, PongArgs};
-use shipcast::bench::plan::parse_cores;
-use shipcast::bench::{ModeSelect, Plan};
+use shipcast_bench::latency;
+use shipcast_bench::pingpong_zenoh_processes::{self, PongArgs};
+use shipcast_bench::plan::parse_cores;
+use shipcast_bench::report_builder::{forecast_json_bytes, FORECAST_BYTES, MOTION_BYTES};
+use shipcast_bench::{ModeSelect, Plan};
 use std::path::PathBuf;
 
 #[derive(clap::Args, Debug)]
@@ -141,7 +142,7 @@ fn run_fleet(a: FleetArgs) -> anyhow::Result<()> {
     );
     eprintln!("vessels  bytes     sent  received  lost   p50 us   p99 us   max us  router CPU %  restart s");
     for &n in &a.vessels {
-        let r = shipcast::bench::fleet::run(&exe, &dir, n, a.seconds, a.rate, !a.no_restart)?;
+        let r = shipcast_bench::fleet::run(&exe, &dir, n, a.seconds, a.rate, !a.no_restart)?;
         eprintln!(
             "{:>7}  {:>5}  {:>7}  {:>8}  {:>4}  {:>7.0}  {:>7.0}  {:>7.0}  {:>12.1}  {}",
             r.vessels,
@@ -181,7 +182,7 @@ fn run_latency(a: LatencyArgs) -> anyhow::Result<()> {
     let report = latency::run(&plan, a.mode.modes(), &bar);
     bar.finish();
     let report = report?;
-    let targets = report.targets(MOTION_BYTES, FORECAST_BYTES, latency::forecast_json_bytes());
+    let targets = report.targets(MOTION_BYTES, FORECAST_BYTES, forecast_json_bytes());
     if a.json {
         // The table goes to stderr too, so one run gives both the JSON and the readable form.
         eprint!("{}\n{}\n{}", report.header(), report.table(), targets);

@@ -6,11 +6,11 @@
 //! steps.
 
 use anyhow::Context;
-use shipcast::certs::{endpoint_host, server_names, CertAuthority, Validity};
-use shipcast::config::ZenohConfig;
-use shipcast::transport::zenoh::{self as zn, ZenohSettings};
-use shipcast::transport::zenoh_security::{AccessRules, TlsSettings};
-use shipcast::transport::Names;
+use shipcast_pipeline::certs::{endpoint_host, server_names, CertAuthority, Validity};
+use shipcast_pipeline::config::ZenohConfig;
+use shipcast_pipeline::transport::zenoh::{self as zn, ZenohSettings};
+use shipcast_pipeline::transport::zenoh_security::{AccessRules, TlsSettings};
+use shipcast_pipeline::transport::Names;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
@@ -23,7 +23,7 @@ pub struct Args {
     #[arg(long, value_name = "NAME")]
     pub instance: Option<String>,
     /// Vessel name (keys `shipcast/<vessel>/...`).
-    #[arg(long, value_name = "NAME", default_value = shipcast::transport::naming::DEFAULT_VESSEL)]
+    #[arg(long, value_name = "NAME", default_value = shipcast_pipeline::transport::naming::DEFAULT_VESSEL)]
     pub vessel: String,
     /// Endpoint the predictor listens on, e.g. tls/10.0.0.5:7447.
     #[arg(long, value_name = "ENDPOINT")]

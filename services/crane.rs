@@ -3,12 +3,12 @@
 //! Only forecasts from the live predictor, with increasing seq and sound content, are used
 //! (`ForecastGate`); every rejection is counted and logged on one line.
 
-use shipcast::config::CommonArgs;
-use shipcast::crane::{summary, tip_track};
-use shipcast::deck::ShipPoint;
-use shipcast::transport::forecast_check::{ForecastGate, PublisherWatch};
-use shipcast::transport::zenoh::{self as zn, LatestSubscriber, LivelinessWatch};
-use shipcast::transport::{shutdown, Names};
+use shipcast_pipeline::config::CommonArgs;
+use shipcast_pipeline::crane::{summary, tip_track};
+use shipcast_pipeline::deck::ShipPoint;
+use shipcast_pipeline::transport::forecast_check::{ForecastGate, PublisherWatch};
+use shipcast_pipeline::transport::zenoh::{self as zn, LatestSubscriber, LivelinessWatch};
+use shipcast_pipeline::transport::{shutdown, Names};
 use std::io::Write;
 use std::time::Duration;
 

@@ -2,12 +2,12 @@
 //! landing advisory (windows where roll, pitch and deck vertical velocity stay within limits,
 //! with confidence) and publishes it as JSON on zenoh `.../advisory/deck`.
 
-use shipcast::config::CommonArgs;
-use shipcast::deck::DeckAdvisor;
-use shipcast::payload::Forecast;
-use shipcast::transport::iox::{self, IoxSubscriber, Sizing, WaitMode};
-use shipcast::transport::zenoh::{self as zn, JsonPublisher};
-use shipcast::transport::{shutdown, Names};
+use shipcast_pipeline::config::CommonArgs;
+use shipcast_pipeline::deck::DeckAdvisor;
+use shipcast_pipeline::transport::iox::{self, IoxSubscriber, Sizing, WaitMode};
+use shipcast_pipeline::transport::zenoh::{self as zn, JsonPublisher};
+use shipcast_pipeline::transport::{shutdown, Names};
+use shipcast_wire::payload::Forecast;
 use std::io::Write;
 use std::time::{Duration, Instant};
 

@@ -3,11 +3,11 @@
 
 use crate::progress;
 use anyhow::Context;
-use shipcast::eval::{self, report, Entry, EvalSettings};
-use shipcast::motion_csv::MotionData;
-use shipcast::predict::{AverageMode, Averaging, McaWeighting, Method, PredictorConfig};
-use shipcast::signal;
-use shipcast::Dof;
+use shipcast_eval::{self as eval, report, Entry, EvalSettings};
+use shipcast_predict::{AverageMode, Averaging, McaWeighting, Method, PredictorConfig};
+use shipcast_series as signal;
+use shipcast_series::motion_csv::MotionData;
+use shipcast_wire::Dof;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 

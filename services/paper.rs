@@ -3,7 +3,7 @@
 
 use crate::progress::Bar;
 use anyhow::Context;
-use shipcast::paper::{self, Plan};
+use shipcast_paper::{self as paper, Plan};
 use std::path::PathBuf;
 
 #[derive(clap::Args, Debug)]

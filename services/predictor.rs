@@ -4,17 +4,17 @@
 //! retrains from recent live data and hands over new models without pausing the forecasts.
 
 use serde::Serialize;
-use shipcast::bench::pinning::pin_current;
-use shipcast::bench::stamps::{PublishStages, ReceiveStamp, StampPublisher};
-use shipcast::config::{CommonArgs, PipelineConfig};
-use shipcast::engine::models::ModelSet;
-use shipcast::engine::retrain::Retrainer;
-use shipcast::engine::{Engine, EngineCounts};
-use shipcast::payload::{Forecast, MotionSample};
-use shipcast::payload_json::ForecastJsonEncoder;
-use shipcast::transport::iox::{self, IoxPublisher, IoxSubscriber, Sizing, WaitMode};
-use shipcast::transport::zenoh::{self as zn, JsonPublisher};
-use shipcast::transport::{monotonic_ns, shutdown, Counters, Names};
+use shipcast_bench::pinning::pin_current;
+use shipcast_bench::stamps::{PublishStages, ReceiveStamp, StampPublisher};
+use shipcast_pipeline::config::{CommonArgs, PipelineConfig};
+use shipcast_pipeline::engine::models::ModelSet;
+use shipcast_pipeline::engine::retrain::Retrainer;
+use shipcast_pipeline::engine::{Engine, EngineCounts};
+use shipcast_pipeline::transport::iox::{self, IoxPublisher, IoxSubscriber, Sizing, WaitMode};
+use shipcast_pipeline::transport::zenoh::{self as zn, JsonPublisher};
+use shipcast_pipeline::transport::{monotonic_ns, shutdown, Counters, Names};
+use shipcast_wire::payload::{Forecast, MotionSample};
+use shipcast_wire::payload_json::ForecastJsonEncoder;
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
@@ -87,7 +87,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let limit = shutdown::RunLimit::new(args.common.duration()?);
     let names = config.names()?;
 
-    let models = shipcast::engine::startup::initial_models(&config)?;
+    let models = shipcast_pipeline::engine::startup::initial_models(&config)?;
     if let Some(m) = &models {
         tracing::info!(
             models = %m.describe(),

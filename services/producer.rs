@@ -2,13 +2,13 @@
 //! paced in real time, faster by `--speed F`, or as fast as possible (`--speed 0`).
 
 use anyhow::Context;
-use shipcast::config::{CommonArgs, ProducerConfig};
-use shipcast::motion_csv::MotionData;
-use shipcast::payload::MotionSample;
-use shipcast::sim::{MotionStream, Scenario, ShipMotion, SimConfig};
-use shipcast::transport::iox::{self, IoxPublisher, Sizing};
-use shipcast::transport::{monotonic_ns, shutdown};
-use shipcast::Dof;
+use shipcast_pipeline::config::{CommonArgs, ProducerConfig};
+use shipcast_pipeline::transport::iox::{self, IoxPublisher, Sizing};
+use shipcast_pipeline::transport::{monotonic_ns, shutdown};
+use shipcast_series::motion_csv::MotionData;
+use shipcast_sim::{MotionStream, Scenario, ShipMotion, SimConfig};
+use shipcast_wire::payload::MotionSample;
+use shipcast_wire::Dof;
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 

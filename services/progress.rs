@@ -2,7 +2,7 @@
 //! so logs and CI output stay clean).
 
 use indicatif::{ProgressBar, ProgressStyle};
-use shipcast::progress::Progress;
+use shipcast_eval::progress::Progress;
 use std::io::IsTerminal;
 
 /// A bar with elapsed time, position and the job just finished.

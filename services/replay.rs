@@ -4,10 +4,10 @@
 
 use crate::progress;
 use anyhow::Context;
-use shipcast::config::PipelineConfig;
-use shipcast::engine::replay::{replay, ReplayReport};
-use shipcast::engine::startup::initial_models;
-use shipcast::motion_csv::MotionData;
+use shipcast_pipeline::config::PipelineConfig;
+use shipcast_pipeline::engine::replay::{replay, ReplayReport};
+use shipcast_pipeline::engine::startup::initial_models;
+use shipcast_series::motion_csv::MotionData;
 use std::io::Write;
 use std::path::PathBuf;
 

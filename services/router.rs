@@ -3,10 +3,10 @@
 //! `shipcast/*/forecast`. With `--config`, the `[zenoh]` security settings of that file (TLS,
 //! authentication, access rules) apply to the router's links.
 
-use shipcast::config::PipelineConfig;
-use shipcast::transport::shutdown;
-use shipcast::transport::zenoh::Downsampling;
-use shipcast::transport::zenoh_router::{FleetRouter, FLEET_FORECASTS};
+use shipcast_pipeline::config::PipelineConfig;
+use shipcast_pipeline::transport::shutdown;
+use shipcast_pipeline::transport::zenoh::Downsampling;
+use shipcast_pipeline::transport::zenoh_router::{FleetRouter, FLEET_FORECASTS};
 use std::path::PathBuf;
 use std::time::Duration;
 

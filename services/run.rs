@@ -3,11 +3,11 @@
 //! deck advisory, predictor counters), and stops them all on Ctrl-C or after `--duration`.
 
 use anyhow::Context;
-use shipcast::config::CommonArgs;
-use shipcast::deck::Advisory;
-use shipcast::payload::Forecast;
-use shipcast::transport::shutdown;
-use shipcast::transport::zenoh::{self as zn, LatestSubscriber};
+use shipcast_pipeline::config::CommonArgs;
+use shipcast_pipeline::deck::Advisory;
+use shipcast_pipeline::transport::shutdown;
+use shipcast_pipeline::transport::zenoh::{self as zn, LatestSubscriber};
+use shipcast_wire::payload::Forecast;
 use std::io::{IsTerminal, Write};
 use std::os::unix::process::CommandExt;
 use std::path::{Path, PathBuf};

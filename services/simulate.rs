@@ -4,9 +4,9 @@
 //! non-stationary.
 
 use anyhow::Context;
-use shipcast::motion_csv::MotionCsvWriter;
-use shipcast::sim::plot::plot_overview;
-use shipcast::sim::{
+use shipcast_series::motion_csv::MotionCsvWriter;
+use shipcast_sim::plot::plot_overview;
+use shipcast_sim::{
     ChangingMotion, Channel, CourseChange, Hull, MotionPoint, RaoSpec, Scenario, SeaChange,
     ShipMotion, SimConfig,
 };

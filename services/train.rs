@@ -2,8 +2,8 @@
 //! predictor service.
 
 use crate::eval::{load_resampled, PredictorArgs};
-use shipcast::model::{train_models, TrainOptions};
-use shipcast::predict::Method;
+use shipcast_eval::model::{train_models, TrainOptions};
+use shipcast_predict::Method;
 use std::path::PathBuf;
 
 #[derive(clap::Args, Debug)]
@@ -49,7 +49,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let model = train_models(&data, &dofs, &options)?;
     model.save(&args.out)?;
     for m in &model.dofs {
-        let diagnostics = shipcast::predict::Predictor::diagnostics(&m.predictor);
+        let diagnostics = shipcast_predict::Predictor::diagnostics(&m.predictor);
         tracing::info!(
             dof = %m.dof,
             samples = m.samples,

@@ -1,9 +1,9 @@
 //! The latency harness end to end: every path and mode reports a count, nothing is lost, and
 //! the percentiles are ordered. No timing thresholds: the figures depend on the machine.
 
-use shipcast::bench::latency;
-use shipcast::bench::plan::{Mode, Path, Plan, Source};
-use shipcast::progress::NoProgress;
+use shipcast_bench::latency;
+use shipcast_bench::plan::{Mode, Path, Plan, Source};
+use shipcast_eval::progress::NoProgress;
 use std::collections::BTreeSet;
 use std::process::Command;
 

@@ -290,7 +290,7 @@ fn train_writes_a_loadable_model_for_every_dof_present() {
         "{}",
         String::from_utf8_lossy(&output.stderr)
     );
-    let model = shipcast::model::ModelFile::load(&out).unwrap();
+    let model = shipcast_eval::model::ModelFile::load(&out).unwrap();
     assert_eq!(model.dofs.len(), 6);
     assert_eq!(model.sample_rate, 2.0);
     assert_eq!(model.config.order, 40);

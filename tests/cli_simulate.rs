@@ -4,9 +4,9 @@
 
 mod fixtures;
 
-use shipcast::motion_csv::MotionData;
-use shipcast::sim::{ClosedFormRao, Hull, Rao, Scenario, ShipMotion, SimConfig};
-use shipcast::Dof;
+use shipcast_series::motion_csv::MotionData;
+use shipcast_sim::{ClosedFormRao, Hull, Rao, Scenario, ShipMotion, SimConfig};
+use shipcast_wire::Dof;
 use std::f64::consts::TAU;
 use std::path::Path;
 use std::process::{Command, Output};
@@ -371,14 +371,14 @@ fn course_and_sea_changes_keep_the_record_before_and_reach_the_new_condition_aft
     let mut beam = SimConfig::scenario(Scenario::Ss4);
     beam.heading_deg = 90.0;
     let beam = ShipMotion::new(&beam).unwrap();
-    let roll = shipcast::sim::Channel::Motion(Dof::Roll);
+    let roll = shipcast_sim::Channel::Motion(Dof::Roll);
     let got = std_from(&turned, Dof::Roll, 1500);
     let exact = beam.variance(roll).sqrt();
     assert!((got / exact - 1.0).abs() < 0.2, "roll {got} vs {exact}");
     let mut ss6 = SimConfig::scenario(Scenario::Ss4);
     (ss6.hs_m, ss6.tp_s, ss6.seed) = (5.0, 12.4, 2);
     let ss6 = ShipMotion::new(&ss6).unwrap();
-    let heave = shipcast::sim::Channel::Motion(Dof::Heave);
+    let heave = shipcast_sim::Channel::Motion(Dof::Heave);
     let got = std_from(&changed, Dof::Heave, 2000);
     let exact = ss6.variance(heave).sqrt();
     assert!((got / exact - 1.0).abs() < 0.2, "heave {got} vs {exact}");

@@ -4,9 +4,9 @@
 mod pipeline_support;
 
 use pipeline_support::{counter, TestPipeline};
-use shipcast::payload::{limits, Forecast, MotionSample};
-use shipcast::transport::iox::{self, IoxSubscriber, Sizing, WaitMode};
-use shipcast::transport::{Counters, SeqTracker};
+use shipcast_pipeline::transport::iox::{self, IoxSubscriber, Sizing, WaitMode};
+use shipcast_pipeline::transport::{Counters, SeqTracker};
+use shipcast_wire::payload::{limits, Forecast, MotionSample};
 use std::time::{Duration, Instant};
 
 /// Wait until `pred` holds for a forecast received on `sub`; panics after a minute.

@@ -5,14 +5,14 @@
 mod pipeline_support;
 
 use pipeline_support::{collect_forecasts, counter, run_ok, TestPipeline};
-use shipcast::config::PipelineConfig;
-use shipcast::engine::replay::replay;
-use shipcast::engine::startup::initial_models;
-use shipcast::motion_csv::MotionData;
-use shipcast::payload::{Forecast, MotionSample};
-use shipcast::transport::iox::{self, IoxSubscriber, Sizing, WaitMode};
-use shipcast::transport::zenoh::{self as zn, LatestSubscriber};
-use shipcast::transport::{Counters, SeqTracker};
+use shipcast_pipeline::config::PipelineConfig;
+use shipcast_pipeline::engine::replay::replay;
+use shipcast_pipeline::engine::startup::initial_models;
+use shipcast_pipeline::transport::iox::{self, IoxSubscriber, Sizing, WaitMode};
+use shipcast_pipeline::transport::zenoh::{self as zn, LatestSubscriber};
+use shipcast_pipeline::transport::{Counters, SeqTracker};
+use shipcast_series::motion_csv::MotionData;
+use shipcast_wire::payload::{Forecast, MotionSample};
 use std::collections::HashMap;
 use std::time::{Duration, Instant};
 

@@ -6,8 +6,8 @@
 mod pipeline_support;
 
 use pipeline_support::{Proc, TestPipeline, PATIENCE};
-use shipcast::payload::Forecast;
-use shipcast::transport::zenoh::{self as zn, Mode, ZenohSettings};
+use shipcast_pipeline::transport::zenoh::{self as zn, Mode, ZenohSettings};
+use shipcast_wire::payload::Forecast;
 use std::time::{Duration, Instant};
 use zenoh::Wait;
 

@@ -7,7 +7,7 @@
 mod pipeline_support;
 
 use pipeline_support::{run_ok, Proc, TestPipeline, PATIENCE};
-use shipcast::payload::Forecast;
+use shipcast_wire::payload::Forecast;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 use zenoh::Wait;
@@ -111,7 +111,7 @@ fn certs_writes_loadable_configs_and_a_new_ca_each_time() {
     let ca = |d: &Path| std::fs::read_to_string(d.join("ca.pem")).expect("ca.pem");
     assert_ne!(ca(&a), ca(&b), "two runs must give two unrelated CAs");
     // shipcast.toml loads as it is, from another working directory, with the security on.
-    let config = shipcast::config::PipelineConfig::load(Some(&a.join("shipcast.toml")))
+    let config = shipcast_pipeline::config::PipelineConfig::load(Some(&a.join("shipcast.toml")))
         .expect("shipcast.toml loads");
     let access = config.zenoh.access.as_ref().expect("access rules");
     assert_eq!(access.publishers, ["ddg51-pipeline"]);
@@ -121,11 +121,11 @@ fn certs_writes_loadable_configs_and_a_new_ca_each_time() {
     assert!(Path::new(&tls.root_ca).is_absolute() && Path::new(&tls.root_ca).exists());
     // The station's files load: zenoh's own parser for the JSON5, ours for the TOML.
     zenoh::Config::from_file(a.join("crane.json5")).expect("crane.json5 loads in zenoh");
-    let station = shipcast::config::PipelineConfig::load(Some(&a.join("crane.toml")))
+    let station = shipcast_pipeline::config::PipelineConfig::load(Some(&a.join("crane.toml")))
         .expect("crane.toml loads");
     assert_eq!(
         station.zenoh.consumer_side().mode,
-        shipcast::transport::zenoh::Mode::Client
+        shipcast_pipeline::transport::zenoh::Mode::Client
     );
     // Private keys are readable by their owner only.
     use std::os::unix::fs::PermissionsExt;

@@ -2,11 +2,11 @@
 //! hull at zero speed (tests/fixtures/dtmb5415-bem, Capytaine, 10 % critical roll damping):
 //! frequency by frequency and in response std in long-crested JONSWAP seas.
 
-use shipcast::sim::rao_reference::{
+use shipcast_sim::rao_reference::{
     std_ratio_on_same_waves, validation_sea, ReferenceCurve, ReferenceRaos,
 };
-use shipcast::sim::{ClosedFormRao, Hull, Rao};
-use shipcast::Dof;
+use shipcast_sim::{ClosedFormRao, Hull, Rao};
+use shipcast_wire::Dof;
 use std::path::Path;
 
 fn bem() -> ReferenceRaos {

@@ -1,6 +1,6 @@
 //! Bad input to the simulator gives clear errors, never a panic.
 
-use shipcast::sim::{RaoSpec, Scenario, ShipMotion, SimConfig, SpectrumKind, Spreading};
+use shipcast_sim::{RaoSpec, Scenario, ShipMotion, SimConfig, SpectrumKind, Spreading};
 use std::io::Write;
 
 fn error_of(cfg: SimConfig) -> String {

@@ -1,11 +1,11 @@
 //! Closed-form RAOs of the default hull: long-wave limits and roll resonance (see also
 //! tests/sim_bem.rs for the comparison with a boundary-element solution).
 
-use shipcast::sim::rao_reference::{CurveRao, ReferenceRaos};
-use shipcast::sim::{
+use shipcast_sim::rao_reference::{CurveRao, ReferenceRaos};
+use shipcast_sim::{
     Channel, ClosedFormRao, Hull, Rao, Scenario, ShipMotion, SimConfig, Spreading, G,
 };
-use shipcast::Dof;
+use shipcast_wire::Dof;
 use std::f64::consts::PI;
 use std::path::Path;
 use std::sync::Arc;

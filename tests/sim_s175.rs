@@ -3,11 +3,11 @@
 
 mod fixtures;
 
-use shipcast::sim::{
+use shipcast_sim::{
     Channel, ClosedFormRao, Hull, Rao, RaoTable, ScaledRaoTable, Scenario, ShipMotion, SimConfig,
     Spreading, G, KNOT_MPS,
 };
-use shipcast::Dof;
+use shipcast_wire::Dof;
 use std::sync::Arc;
 
 fn table() -> RaoTable {

@@ -2,10 +2,10 @@
 
 mod fixtures;
 
-use shipcast::sim::{
+use shipcast_sim::{
     encounter_omega, Channel, Rao, RaoSpec, ShipMotion, SimConfig, Spectrum, Spreading, KNOT_MPS,
 };
-use shipcast::Dof;
+use shipcast_wire::Dof;
 use std::f64::consts::PI;
 
 /// Time-average variance of every channel over `seconds` sampled at `rate` Hz.

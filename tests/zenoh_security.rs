@@ -2,9 +2,9 @@
 //! with mutual TLS and a user/password file admits a station with a valid certificate and the
 //! right password, and refuses an expired certificate, a wrong password and no password.
 
-use shipcast::certs::{CertAuthority, Identity, Validity};
-use shipcast::transport::zenoh::{self as zn, Mode, ZenohSettings};
-use shipcast::transport::zenoh_security::{TlsSettings, UserPassword};
+use shipcast_pipeline::certs::{CertAuthority, Identity, Validity};
+use shipcast_pipeline::transport::zenoh::{self as zn, Mode, ZenohSettings};
+use shipcast_pipeline::transport::zenoh_security::{TlsSettings, UserPassword};
 use time::{Duration, OffsetDateTime};
 
 fn tls(ca: &CertAuthority, id: &Identity) -> TlsSettings {

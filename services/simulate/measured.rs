@@ -1,12 +1,12 @@
 //! `shipcast simulate --elevation`: the ship driven by a measured wave record, segment by
-//! segment (the method is in `shipcast::sim::measured`).
+//! segment (the method is in `shipcast_sim::measured`).
 
 use super::{config_from_args, degrees, Args, RecordOut};
 use anyhow::Context;
-use shipcast::motion_csv::MotionData;
-use shipcast::sim::build_rao;
-use shipcast::sim::measured::{split_segments, SegmentResponse};
-use shipcast::sim::Channel;
+use shipcast_series::motion_csv::MotionData;
+use shipcast_sim::build_rao;
+use shipcast_sim::measured::{split_segments, SegmentResponse};
+use shipcast_sim::Channel;
 use std::fs::File;
 use std::path::Path;
 use std::time::Instant;

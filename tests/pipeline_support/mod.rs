@@ -37,7 +37,8 @@ impl TestPipeline {
     pub fn new(tag: &str, extra_toml: &str) -> Self {
         let dir = tempfile::tempdir().expect("temp dir");
         let instance = unique_instance(tag);
-        let endpoint = shipcast::transport::zenoh::free_loopback_endpoint().expect("a free port");
+        let endpoint =
+            shipcast_pipeline::transport::zenoh::free_loopback_endpoint().expect("a free port");
         let text = format!(
             "instance = \"{instance}\"\n{extra_toml}\n[zenoh]\nlisten = [\"{endpoint}\"]\nmulticast_scouting = false\n"
         );
@@ -71,8 +72,9 @@ impl TestPipeline {
         Proc::spawn(service, &all)
     }
 
-    pub fn names(&self) -> shipcast::transport::Names {
-        shipcast::transport::Names::new(Some(&self.instance), "ddg51").expect("valid names")
+    pub fn names(&self) -> shipcast_pipeline::transport::Names {
+        shipcast_pipeline::transport::Names::new(Some(&self.instance), "ddg51")
+            .expect("valid names")
     }
 }
 
@@ -269,9 +271,9 @@ pub fn run_ok(args: &[&str]) -> String {
 /// Receive forecasts on `sub` until `n` arrived or [`PATIENCE`] ran out; the caller asserts on
 /// what came.
 pub fn collect_forecasts(
-    sub: &shipcast::transport::iox::IoxSubscriber<shipcast::payload::Forecast>,
+    sub: &shipcast_pipeline::transport::iox::IoxSubscriber<shipcast_wire::payload::Forecast>,
     n: usize,
-) -> Vec<shipcast::payload::Forecast> {
+) -> Vec<shipcast_wire::payload::Forecast> {
     let mut got = Vec::with_capacity(n);
     let deadline = Instant::now() + PATIENCE;
     while got.len() < n && Instant::now() < deadline {

@@ -1,0 +1,414 @@
+//! Model files: per-DOF fitted predictors and their held-out error, written by `shipcast train`
+//! and loaded by the predictor service.
+//!
+//! One JSON object: `format_version`, `method`, `sample_rate` [Hz], the `config`
+//! (a [`PredictorConfig`]), `holdout_fraction`, and `dofs`, one [`DofModel`] per DOF with the
+//! fitted `predictor` ([`AnyPredictor`], tagged by `method`) and `sigma`, the RMS error per step
+//! measured on data the model measured did not see. Unknown keys are errors, so a typo or a file
+//! from a newer shipcast is reported rather than half-read.
+
+use crate::{forecast_sigma, origins, EvalError};
+use serde::{Deserialize, Serialize};
+use shipcast_predict::{AnyPredictor, Method, PredictError, Predictor, PredictorConfig};
+use shipcast_series::motion_csv::{MotionCsvError, MotionData};
+use shipcast_wire::dof::Dof;
+use std::path::{Path, PathBuf};
+
+/// Version of the model file format this build reads and writes.
+pub const MODEL_FORMAT_VERSION: u32 = 1;
+
+/// A model file.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ModelFile {
+    pub format_version: u32,
+    pub method: Method,
+    /// Rate of the series the models forecast [Hz]; one step is 1 / sample_rate seconds.
+    pub sample_rate: f64,
+    pub config: PredictorConfig,
+    /// Fraction at the end of each series held out to measure sigma.
+    pub holdout_fraction: f64,
+    pub dofs: Vec<DofModel>,
+}
+
+/// The model of one DOF.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DofModel {
+    pub dof: Dof,
+    /// Samples the final model was fitted on (the whole series).
+    pub samples: usize,
+    /// Expected RMS error per step h = 1..H, from a model fitted on the series without its
+    /// held-out end and scored on that end.
+    pub sigma: Vec<f64>,
+    /// Forecasts behind `sigma`.
+    pub sigma_origins: usize,
+    /// Fitted on the whole series.
+    pub predictor: AnyPredictor,
+}
+
+/// Why a model could not be trained, saved or loaded.
+///
+/// Inner errors are fields named `error`, not `source`: the message already includes them, and
+/// a `source` would make error-chain printers (`anyhow`'s `{:#}`) repeat them.
+#[derive(Debug, thiserror::Error)]
+pub enum ModelError {
+    #[error("{path}: {error}")]
+    Io {
+        path: PathBuf,
+        error: std::io::Error,
+    },
+    #[error("{path}: {error}")]
+    Json {
+        path: PathBuf,
+        error: serde_json::Error,
+    },
+    #[error("{path}: not a shipcast model file (no 'format_version')")]
+    NoVersion { path: PathBuf },
+    #[error(
+        "{path}: model format version {found}, this shipcast reads version {MODEL_FORMAT_VERSION}"
+    )]
+    Version { path: PathBuf, found: u64 },
+    #[error("{path}: {reason}")]
+    Invalid { path: PathBuf, reason: String },
+    #[error(transparent)]
+    Csv(#[from] MotionCsvError),
+    #[error("{dof}: {error}")]
+    Eval { dof: Dof, error: EvalError },
+    #[error("{dof}: {error}")]
+    Predict { dof: Dof, error: PredictError },
+    #[error("hold-out fraction {0} must lie strictly between 0 and 1")]
+    BadHoldout(f64),
+    #[error("no DOF to train")]
+    NoDof,
+}
+
+/// How `train_models` fits and measures.
+#[derive(Clone, Debug)]
+pub struct TrainOptions {
+    pub method: Method,
+    pub config: PredictorConfig,
+    /// Rate of the record [Hz] (the record must already be at this rate).
+    pub sample_rate: f64,
+    /// Fraction at the end of each series held out to measure sigma (0.2: fit on the first
+    /// 80 %, measure on the last 20 %, then refit on all).
+    pub holdout_fraction: f64,
+    /// Spacing of the forecast origins on the held-out part.
+    pub sigma_stride: usize,
+}
+
+/// Fit one model per DOF in `dofs`: measure sigma on the held-out end of the series with a model
+/// fitted on the rest, then refit on the whole series.
+pub fn train_models(
+    data: &MotionData,
+    dofs: &[Dof],
+    options: &TrainOptions,
+) -> Result<ModelFile, ModelError> {
+    let holdout = options.holdout_fraction;
+    if !(holdout > 0.0 && holdout < 1.0) {
+        return Err(ModelError::BadHoldout(holdout));
+    }
+    if dofs.is_empty() {
+        return Err(ModelError::NoDof);
+    }
+    let config = &options.config;
+    let mut models = Vec::with_capacity(dofs.len());
+    for &dof in dofs {
+        let series = data.dof(dof)?;
+        let split = ((1.0 - holdout) * series.len() as f64).floor() as usize;
+        let eval_err = |error| ModelError::Eval { dof, error };
+        let predict_err = |error| ModelError::Predict { dof, error };
+        let sigma_origins = origins(
+            series.len(),
+            split,
+            config.order,
+            config.horizon,
+            options.sigma_stride,
+        )
+        .map_err(eval_err)?
+        .count();
+
+        let mut held_out = AnyPredictor::new(options.method, config).map_err(predict_err)?;
+        held_out.fit(&series[..split]).map_err(predict_err)?;
+        let sigma =
+            forecast_sigma(&mut held_out, series, split, options.sigma_stride).map_err(eval_err)?;
+
+        let mut predictor = AnyPredictor::new(options.method, config).map_err(predict_err)?;
+        predictor.fit(series).map_err(predict_err)?;
+        tracing::debug!(%dof, sigma_first = sigma[0], sigma_last = sigma[sigma.len() - 1], "model fitted");
+        models.push(DofModel {
+            dof,
+            samples: series.len(),
+            sigma,
+            sigma_origins,
+            predictor,
+        });
+    }
+    Ok(ModelFile {
+        format_version: MODEL_FORMAT_VERSION,
+        method: options.method,
+        sample_rate: options.sample_rate,
+        config: config.clone(),
+        holdout_fraction: holdout,
+        dofs: models,
+    })
+}
+
+impl ModelFile {
+    /// The model of `dof`, if the file has one.
+    pub fn dof(&self, dof: Dof) -> Option<&DofModel> {
+        self.dofs.iter().find(|m| m.dof == dof)
+    }
+
+    /// Write the file (compact JSON: prediction matrices are large).
+    pub fn save(&self, path: impl AsRef<Path>) -> Result<(), ModelError> {
+        let path = path.as_ref();
+        let io_err = |error| ModelError::Io {
+            path: path.to_path_buf(),
+            error,
+        };
+        let json = serde_json::to_vec(self).map_err(|error| ModelError::Json {
+            path: path.to_path_buf(),
+            error,
+        })?;
+        std::fs::write(path, json).map_err(io_err)
+    }
+
+    /// Read and check a model file.
+    pub fn load(path: impl AsRef<Path>) -> Result<Self, ModelError> {
+        let path = path.as_ref();
+        let text = std::fs::read_to_string(path).map_err(|error| ModelError::Io {
+            path: path.to_path_buf(),
+            error,
+        })?;
+        Self::from_json(&text, path)
+    }
+
+    /// Parse and check a model file's text; `path` only names it in errors.
+    pub fn from_json(text: &str, path: &Path) -> Result<Self, ModelError> {
+        let json_err = |error| ModelError::Json {
+            path: path.to_path_buf(),
+            error,
+        };
+        // The version first, so that a file of another version says so instead of failing on
+        // whichever field changed.
+        #[derive(Deserialize)]
+        struct VersionOnly {
+            format_version: Option<serde_json::Value>,
+        }
+        let probe: VersionOnly = serde_json::from_str(text).map_err(json_err)?;
+        match probe.format_version.as_ref().map(serde_json::Value::as_u64) {
+            None => {
+                return Err(ModelError::NoVersion {
+                    path: path.to_path_buf(),
+                })
+            }
+            Some(Some(v)) if v == u64::from(MODEL_FORMAT_VERSION) => {}
+            Some(found) => {
+                return Err(ModelError::Version {
+                    path: path.to_path_buf(),
+                    found: found.unwrap_or(0),
+                })
+            }
+        }
+        let model: ModelFile = serde_json::from_str(text).map_err(json_err)?;
+        model.check().map_err(|reason| ModelError::Invalid {
+            path: path.to_path_buf(),
+            reason,
+        })?;
+        Ok(model)
+    }
+
+    /// Consistency a hand-edited or corrupted file may lack.
+    fn check(&self) -> Result<(), String> {
+        if !(self.sample_rate > 0.0 && self.sample_rate.is_finite()) {
+            return Err(format!("sample_rate {} must be positive", self.sample_rate));
+        }
+        if self.dofs.is_empty() {
+            return Err("no DOF models".into());
+        }
+        for (i, m) in self.dofs.iter().enumerate() {
+            if self.dofs[..i].iter().any(|o| o.dof == m.dof) {
+                return Err(format!("{} appears twice", m.dof));
+            }
+            let p = &m.predictor;
+            if p.method() != self.method
+                || p.order() != self.config.order
+                || p.horizon() != self.config.horizon
+            {
+                return Err(format!(
+                    "{}: predictor {} order {} horizon {} does not match the file's {} order {} horizon {}",
+                    m.dof, p.method(), p.order(), p.horizon(),
+                    self.method, self.config.order, self.config.horizon
+                ));
+            }
+            if m.sigma.len() != self.config.horizon {
+                return Err(format!(
+                    "{}: {} sigma values for horizon {}",
+                    m.dof,
+                    m.sigma.len(),
+                    self.config.horizon
+                ));
+            }
+            if m.sigma.iter().any(|s| !(s.is_finite() && *s >= 0.0)) {
+                return Err(format!(
+                    "{}: sigma holds a negative or non-finite value",
+                    m.dof
+                ));
+            }
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use shipcast_series::motion_csv::Column;
+
+    fn record(len: usize) -> MotionData {
+        let wave = |scale: f64| -> Vec<f64> {
+            (0..len)
+                .map(|i| scale * ((i as f64 * 0.3).sin() + 0.4 * (i as f64 * 0.17 + 1.0).cos()))
+                .collect()
+        };
+        MotionData {
+            time: (0..len).map(|i| i as f64 * 0.5).collect(),
+            columns: vec![
+                Column {
+                    name: "heave_m".into(),
+                    values: wave(1.0),
+                },
+                Column {
+                    name: "roll_rad".into(),
+                    values: wave(0.05),
+                },
+            ],
+        }
+    }
+
+    fn options(method: Method) -> TrainOptions {
+        TrainOptions {
+            method,
+            config: PredictorConfig {
+                order: 40,
+                horizon: 6,
+                ..PredictorConfig::default()
+            },
+            sample_rate: 2.0,
+            holdout_fraction: 0.2,
+            sigma_stride: 1,
+        }
+    }
+
+    #[test]
+    fn persistence_sigma_is_its_held_out_error_and_the_file_round_trips() {
+        let data = record(500);
+        let model = train_models(
+            &data,
+            &[Dof::Heave, Dof::Roll],
+            &options(Method::Persistence),
+        )
+        .unwrap();
+        let heave = data.dof(Dof::Heave).unwrap();
+        // Held out: origins 400 + 40 ..= 494.
+        let origins: Vec<usize> = (440..=494).collect();
+        let m = model.dof(Dof::Heave).unwrap();
+        assert_eq!(m.sigma_origins, origins.len());
+        for h in 1..=6 {
+            let expected = (origins
+                .iter()
+                .map(|&o| (heave[o - 1] - heave[o + h - 1]).powi(2))
+                .sum::<f64>()
+                / origins.len() as f64)
+                .sqrt();
+            assert!((m.sigma[h - 1] - expected).abs() < 1e-12);
+        }
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("model.json");
+        model.save(&path).unwrap();
+        let loaded = ModelFile::load(&path).unwrap();
+        assert_eq!(loaded.dofs.len(), 2);
+        assert_eq!(loaded.config, model.config);
+        assert_eq!(
+            loaded.dof(Dof::Roll).unwrap().sigma,
+            model.dof(Dof::Roll).unwrap().sigma
+        );
+    }
+
+    #[test]
+    fn loaded_wiener_model_forecasts_like_the_saved_one() {
+        let data = record(600);
+        let mut model = train_models(&data, &[Dof::Heave], &options(Method::Wiener)).unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("w.json");
+        model.save(&path).unwrap();
+        let mut loaded = ModelFile::load(&path).unwrap();
+        let past = &data.dof(Dof::Heave).unwrap()[500..540];
+        let (mut a, mut b) = (vec![0.0; 6], vec![0.0; 6]);
+        model.dofs[0].predictor.forecast(past, &mut a).unwrap();
+        loaded.dofs[0].predictor.forecast(past, &mut b).unwrap();
+        assert_eq!(a, b);
+        // A sum of two sinusoids is predictable: sigma far below the signal's size.
+        assert!(
+            model.dofs[0].sigma.iter().all(|s| *s < 0.05),
+            "{:?}",
+            model.dofs[0].sigma
+        );
+    }
+
+    #[test]
+    fn bad_files_and_bad_requests_give_clear_errors() {
+        let data = record(500);
+        let model = train_models(&data, &[Dof::Heave], &options(Method::Zero)).unwrap();
+        let good = serde_json::to_value(&model).unwrap();
+        let path = Path::new("m.json");
+        let load = |v: &serde_json::Value| {
+            ModelFile::from_json(&v.to_string(), path)
+                .unwrap_err()
+                .to_string()
+        };
+
+        let mut v = good.clone();
+        v["format_version"] = 7.into();
+        assert!(load(&v).contains("model format version 7, this shipcast reads version 1"));
+        let mut v = good.clone();
+        v.as_object_mut().unwrap().remove("format_version");
+        assert!(load(&v).contains("no 'format_version'"));
+        let mut v = good.clone();
+        v["colour"] = "red".into();
+        assert!(load(&v).contains("unknown field `colour`"), "{}", load(&v));
+        let mut v = good.clone();
+        v["config"]["oder"] = 3.into();
+        assert!(load(&v).contains("unknown field `oder`"));
+        let mut v = good.clone();
+        v["dofs"][0]["sigma"] = serde_json::json!([0.1]);
+        assert!(load(&v).contains("1 sigma values for horizon 6"));
+        let mut v = good.clone();
+        v["config"]["horizon"] = 7.into();
+        assert!(load(&v).contains("does not match"));
+        assert!(ModelFile::from_json("{", path).is_err());
+        assert!(ModelFile::load("/nonexistent/m.json")
+            .unwrap_err()
+            .to_string()
+            .contains("/nonexistent/m.json"));
+
+        assert!(train_models(&data, &[Dof::Pitch], &options(Method::Zero))
+            .unwrap_err()
+            .to_string()
+            .contains("pitch_rad"));
+        let short = train_models(&record(120), &[Dof::Heave], &options(Method::Zero)).unwrap_err();
+        assert!(
+            short
+                .to_string()
+                .starts_with("heave: series of 120 samples is too short"),
+            "{short}"
+        );
+        let mut bad = options(Method::Zero);
+        bad.holdout_fraction = 1.0;
+        assert!(matches!(
+            train_models(&data, &[Dof::Heave], &bad),
+            Err(ModelError::BadHoldout(_))
+        ));
+    }
+}

@@ -1,0 +1,692 @@
+//! The pipeline configuration (`--config FILE.toml`) shared by `shipcast run` and every service.
+//!
+//! Every key has a default, so an empty file (or none) is a working pipeline; an unknown key is
+//! an error that names it. Command-line flags override the file.
+
+use crate::transport::naming::{NameError, Names, DEFAULT_VESSEL};
+use crate::transport::zenoh::{Mode, ZenohSettings};
+use crate::transport::zenoh_security::{is_inline_pem, AccessRules, TlsSettings, UserPassword};
+use serde::{Deserialize, Serialize};
+use shipcast_predict::{McaWeighting, Method, PredictorConfig};
+use shipcast_sim::Scenario;
+use std::path::{Path, PathBuf};
+
+/// zenoh endpoint the predictor listens on by default and the consumers connect to. Loopback
+/// and an uncommon port: a fresh clone runs without touching the network or a local zenohd.
+pub const DEFAULT_ZENOH_ENDPOINT: &str = "tcp/127.0.0.1:17447";
+
+/// How long a secure consumer (a zenoh client) keeps trying to reach the predictor when it
+/// starts: `shipcast run` starts its consumers while the predictor is still starting.
+pub const CLIENT_CONNECT_PATIENCE_MS: u64 = 60_000;
+
+/// Where consumers listen: loopback, port chosen by the system.
+pub const CONSUMER_LISTEN: &str = "tcp/127.0.0.1:0";
+
+/// Why a configuration could not be loaded.
+#[derive(Debug, thiserror::Error)]
+pub enum ConfigError {
+    #[error("config {path}: {source}")]
+    Read {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+    #[error("config {path}: {message}")]
+    Parse { path: PathBuf, message: String },
+    #[error("config: {0}")]
+    Invalid(String),
+    #[error("config: {0}")]
+    Name(#[from] NameError),
+}
+
+/// The whole pipeline.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct PipelineConfig {
+    /// Optional prefix of every service name and key, keeping parallel pipelines apart.
+    pub instance: Option<String>,
+    /// Vessel name in service names and keys.
+    pub vessel: String,
+    pub zenoh: ZenohConfig,
+    pub producer: ProducerConfig,
+    pub predictor: PredictorServiceConfig,
+    pub deck: DeckConfig,
+    pub crane: CraneConfig,
+}
+
+impl Default for PipelineConfig {
+    fn default() -> Self {
+        Self {
+            instance: None,
+            vessel: DEFAULT_VESSEL.to_string(),
+            zenoh: ZenohConfig::default(),
+            producer: ProducerConfig::default(),
+            predictor: PredictorServiceConfig::default(),
+            deck: DeckConfig::default(),
+            crane: CraneConfig::default(),
+        }
+    }
+}
+
+/// zenoh endpoints and security: the predictor listens, consumers connect.
+///
+/// Plain TCP on loopback is the default, for development and tests. With `tls` set (see
+/// `shipcast certs` and docs/security.md) every link is mutual TLS, consumers are zenoh
+/// clients of the predictor (or of a router), and the predictor enforces `access`.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ZenohConfig {
+    /// Endpoints the publishing side (predictor) listens on.
+    pub listen: Vec<String>,
+    /// Extra endpoints every process connects to (a router or remote peer).
+    pub connect: Vec<String>,
+    /// UDP multicast scouting (off by default: explicit endpoints only).
+    pub multicast_scouting: bool,
+    /// TLS identity of this configuration's processes (paths relative to the config file, or
+    /// inline PEM).
+    pub tls: Option<TlsSettings>,
+    /// zenoh user/password authentication.
+    pub auth: Option<UserPassword>,
+    /// Access rules the predictor enforces on its links (by certificate common name).
+    pub access: Option<AccessRules>,
+}
+
+impl Default for ZenohConfig {
+    fn default() -> Self {
+        Self {
+            listen: vec![DEFAULT_ZENOH_ENDPOINT.to_string()],
+            connect: Vec::new(),
+            multicast_scouting: false,
+            tls: None,
+            auth: None,
+            access: None,
+        }
+    }
+}
+
+impl ZenohConfig {
+    /// Settings of the process that publishes (listens on `listen`, enforces `access`).
+    pub fn publisher_side(&self) -> ZenohSettings {
+        ZenohSettings {
+            mode: Mode::Peer,
+            listen: self.listen.clone(),
+            connect: self.connect.clone(),
+            multicast_scouting: self.multicast_scouting,
+            tls: self.tls.clone(),
+            auth: self.auth.clone(),
+            access: self.access.clone(),
+            downsample_egress: None,
+            client_connect_patience_ms: None,
+        }
+    }
+
+    /// Settings of a consumer: connects to the publisher's listen endpoints and the extra ones.
+    ///
+    /// Plain: a peer listening on an ephemeral loopback port. Peers route only their own
+    /// traffic, so two consumers (the deck publishing its advisory, `shipcast run` showing it)
+    /// must be able to connect to each other directly; gossip through the predictor tells them
+    /// where. Secure (`tls` set): a client that reaches everything through the node it
+    /// connects to, so nothing goes around that node's access rules.
+    pub fn consumer_side(&self) -> ZenohSettings {
+        let mut connect = self.listen.clone();
+        connect.extend(self.connect.iter().cloned());
+        let secure = self.tls.is_some();
+        ZenohSettings {
+            mode: if secure { Mode::Client } else { Mode::Peer },
+            listen: if secure {
+                Vec::new()
+            } else {
+                vec![CONSUMER_LISTEN.to_string()]
+            },
+            connect,
+            multicast_scouting: self.multicast_scouting && !secure,
+            tls: self.tls.clone(),
+            auth: self.auth.clone().map(|a| UserPassword {
+                users_file: None,
+                ..a
+            }),
+            access: None,
+            downsample_egress: None,
+            client_connect_patience_ms: secure.then_some(CLIENT_CONNECT_PATIENCE_MS),
+        }
+    }
+
+    /// Make the relative paths of certificates, keys and the users file relative to `base`
+    /// (the config file's directory), so the file works from any working directory and in
+    /// `shipcast run`'s children.
+    pub fn resolve_paths(&mut self, base: &Path) {
+        let resolve = |v: &mut String| {
+            if !is_inline_pem(v) && Path::new(v.as_str()).is_relative() {
+                *v = base.join(v.as_str()).to_string_lossy().into_owned();
+            }
+        };
+        if let Some(t) = &mut self.tls {
+            resolve(&mut t.root_ca);
+            resolve(&mut t.certificate);
+            resolve(&mut t.private_key);
+        }
+        if let Some(f) = self.auth.as_mut().and_then(|a| a.users_file.as_mut()) {
+            resolve(f);
+        }
+    }
+
+    /// Check the security settings that parse but cannot work.
+    fn validate(&self) -> Result<(), ConfigError> {
+        let bad = |m: &str| Err(ConfigError::Invalid(format!("zenoh.{m}")));
+        let tls_endpoint = self
+            .listen
+            .iter()
+            .chain(&self.connect)
+            .any(|e| e.starts_with("tls/"));
+        if tls_endpoint && self.tls.is_none() {
+            return bad("tls (root_ca, certificate, private_key) is required for tls/ endpoints");
+        }
+        if self.tls.is_some() && self.multicast_scouting {
+            return bad("multicast_scouting must be off with tls: consumers reach the data only through the node that enforces the access rules");
+        }
+        if let Some(a) = &self.access {
+            if a.key_exprs.is_empty() || a.publishers.is_empty() {
+                return bad("access needs key_exprs and publishers (everything else is denied)");
+            }
+            if self.tls.is_none() {
+                return bad("access names certificate common names, so it needs tls");
+            }
+        }
+        if let Some(a) = &self.auth {
+            if a.user.is_some() != a.password.is_some() {
+                return bad("auth needs both user and password");
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Where motion comes from and how fast it is published.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ProducerConfig {
+    /// Replay this motion CSV instead of simulating.
+    pub input: Option<PathBuf>,
+    /// Simulated sea and ship.
+    pub scenario: Scenario,
+    pub seed: u64,
+    /// Sample rate of the simulator [Hz].
+    pub rate_hz: f64,
+    /// Pacing: 1 = real time, 100 = a hundred times faster, 0 = as fast as possible.
+    pub speed: f64,
+    /// Stop after this much record time [s]; none = endless (simulator) or end of file.
+    pub record_s: Option<f64>,
+    /// Publish the first this-many seconds of record at `backfill_speed` before pacing at
+    /// `speed`: a sensor handing over its recent log, so forecasts can start without waiting
+    /// for `order` values of history in real time.
+    pub backfill_s: f64,
+    pub backfill_speed: f64,
+}
+
+impl Default for ProducerConfig {
+    fn default() -> Self {
+        Self {
+            input: None,
+            scenario: Scenario::Paper,
+            seed: 1,
+            rate_hz: 8.0,
+            speed: 1.0,
+            record_s: None,
+            backfill_s: 240.0,
+            backfill_speed: 50.0,
+        }
+    }
+}
+
+/// The forecasting service.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct PredictorServiceConfig {
+    pub method: Method,
+    /// Past values per forecast (MCA window length n, of which n - horizon are past values).
+    pub order: usize,
+    /// Forecast steps (at most 128).
+    pub horizon: usize,
+    /// Rate the motion is decimated to before forecasting [Hz]; must divide the input rate.
+    pub sample_rate_hz: f64,
+    /// Start from this model file (`shipcast train`) instead of training on simulated history.
+    pub model: Option<PathBuf>,
+    /// Simulated history used for the start-up model [s of record time].
+    pub warmup_s: f64,
+    /// Anti-alias filter of the decimation: "minimum" (default: the same magnitude as the
+    /// evaluation's linear-phase filter with half its delay, so forecasts reach 0.5 s further
+    /// ahead of the newest sample; docs/results/filter_delay.md) or "linear" (the evaluation
+    /// protocol's, delay 1.0 s at 8 -> 2 Hz).
+    pub filter: shipcast_series::FilterPhase,
+    /// Fit the first model on live data once this much live history is held [s of record
+    /// time]; until a model has been verified on this sea, forecasts say "no skill".
+    pub first_fit_s: f64,
+    /// Retrain from live data every this many seconds of record time (0 = never, including
+    /// the first live fit).
+    pub retrain_every_s: f64,
+    /// Live history kept for retraining [values at sample_rate_hz]; the newest `holdout`
+    /// values (at most a third of what is held) score the candidates and are not trained on.
+    pub retrain_window: usize,
+    pub holdout: usize,
+    /// Orders tried at every fit (those up to `order` that the data allow); the best on the
+    /// held-out values wins, per DOF.
+    pub candidate_orders: Vec<usize>,
+    /// Rolling window of record time over which forecasts are verified and recalibrated [s].
+    pub verification_window_s: f64,
+    /// A forecast mean beyond this many times the live RMS of the motion is never delivered.
+    pub plausible_rms_factor: f64,
+    /// Live squared errors this many times what sigma claims (or 1 / this) mean the sea has
+    /// changed: recalibrate and retrain at once.
+    pub change_ratio: f64,
+    /// Report the producer as stale after this much record time without samples [s].
+    pub stale_after_s: f64,
+    /// Spin on the subscriber instead of sleeping until woken (lowest latency, one core busy).
+    pub busy_poll: bool,
+    /// Further predictor settings (MCA shift and energy, LMS gain ...); order and horizon
+    /// above take precedence.
+    pub tuning: PredictorConfig,
+}
+
+impl Default for PredictorServiceConfig {
+    fn default() -> Self {
+        Self {
+            // Chosen out of sample (train on one stretch or realisation, score on another, at
+            // every origin; README "Honest accuracy"): the Wiener predictor with its order
+            // validated per DOF is the most robust on measured seas, where the
+            // eigenvalue-weighted MCA learns one realisation's wave components and fails on
+            // band-limited records.
+            method: Method::Wiener,
+            order: 200,
+            horizon: 50,
+            sample_rate_hz: 2.0,
+            model: None,
+            warmup_s: 3000.0,
+            filter: shipcast_series::FilterPhase::Minimum,
+            first_fit_s: 240.0,
+            retrain_every_s: 300.0,
+            retrain_window: 6000,
+            holdout: 1000,
+            candidate_orders: vec![25, 50, 100, 200],
+            verification_window_s: 1200.0,
+            plausible_rms_factor: 5.0,
+            change_ratio: 3.0,
+            stale_after_s: 2.0,
+            busy_poll: false,
+            tuning: PredictorConfig {
+                mca_weighting: McaWeighting::Inverse,
+                mca_shift: 2,
+                mca_validate_energy: true,
+                ..PredictorConfig::default()
+            },
+        }
+    }
+}
+
+impl PredictorServiceConfig {
+    /// The predictor settings with this section's order and horizon.
+    pub fn predictor_config(&self) -> PredictorConfig {
+        PredictorConfig {
+            order: self.order,
+            horizon: self.horizon,
+            ..self.tuning.clone()
+        }
+    }
+}
+
+/// Helideck landing advisory.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct DeckConfig {
+    /// Helideck point from the centre of gravity [m], ship axes x forward, y starboard, z down.
+    pub point_m: [f64; 3],
+    pub roll_limit_deg: f64,
+    pub pitch_limit_deg: f64,
+    /// Limit of the deck point's vertical velocity [m/s].
+    pub vertical_velocity_limit_mps: f64,
+    /// Shortest window worth reporting [s].
+    pub min_window_s: f64,
+    /// Publish the advisory on zenoh `.../advisory/deck`.
+    pub publish: bool,
+}
+
+impl Default for DeckConfig {
+    fn default() -> Self {
+        Self {
+            // Flight deck of a DDG-51: near the stern, on the centre line, about 5 m above CG.
+            point_m: [-62.0, 0.0, -5.0],
+            roll_limit_deg: 2.5,
+            pitch_limit_deg: 1.5,
+            vertical_velocity_limit_mps: 1.0,
+            min_window_s: 2.0,
+            publish: true,
+        }
+    }
+}
+
+/// Crane-tip forecast.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct CraneConfig {
+    /// Crane tip from the centre of gravity [m], ship axes x forward, y starboard, z down.
+    pub tip_m: [f64; 3],
+    /// Print one line every this many forecasts.
+    pub print_every: u64,
+}
+
+impl Default for CraneConfig {
+    fn default() -> Self {
+        Self {
+            // An alongside transfer rig: amidships, 15 m outboard to starboard, 20 m up.
+            tip_m: [10.0, 15.0, -20.0],
+            print_every: 1,
+        }
+    }
+}
+
+impl PipelineConfig {
+    /// Parse TOML text; `origin` names the source in errors.
+    pub fn from_toml(text: &str, origin: &Path) -> Result<Self, ConfigError> {
+        let config: PipelineConfig = toml::from_str(text).map_err(|e| ConfigError::Parse {
+            path: origin.to_path_buf(),
+            // toml's message spans several lines with a source excerpt; keep it on one line.
+            message: e.message().trim().replace('\n', " "),
+        })?;
+        let mut config = config;
+        if let Some(dir) = origin.parent() {
+            config.zenoh.resolve_paths(dir);
+        }
+        config.validate()?;
+        Ok(config)
+    }
+
+    /// Load `path`, or the defaults when none is given.
+    pub fn load(path: Option<&Path>) -> Result<Self, ConfigError> {
+        match path {
+            None => Ok(Self::default()),
+            Some(p) => {
+                let text = std::fs::read_to_string(p).map_err(|source| ConfigError::Read {
+                    path: p.to_path_buf(),
+                    source,
+                })?;
+                Self::from_toml(&text, p)
+            }
+        }
+    }
+
+    /// The service names and keys of this pipeline.
+    pub fn names(&self) -> Result<Names, ConfigError> {
+        Ok(Names::new(self.instance.as_deref(), &self.vessel)?)
+    }
+
+    /// Check values that parse but cannot work.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        self.names()?;
+        self.zenoh.validate()?;
+        let bad = |m: String| Err(ConfigError::Invalid(m));
+        let p = &self.producer;
+        if !(p.rate_hz.is_finite() && p.rate_hz > 0.0) {
+            return bad(format!(
+                "producer.rate_hz must be positive, got {}",
+                p.rate_hz
+            ));
+        }
+        if !(p.speed.is_finite() && p.speed >= 0.0) {
+            return bad(format!(
+                "producer.speed must be >= 0 (0 = as fast as possible), got {}",
+                p.speed
+            ));
+        }
+        let q = &self.predictor;
+        if q.horizon == 0 || q.horizon > shipcast_wire::payload::MAX_STEPS {
+            return bad(format!(
+                "predictor.horizon must be 1..={}, got {}",
+                shipcast_wire::payload::MAX_STEPS,
+                q.horizon
+            ));
+        }
+        if q.order == 0 {
+            return bad("predictor.order must be at least 1".into());
+        }
+        for (name, v) in [
+            ("predictor.sample_rate_hz", q.sample_rate_hz),
+            ("predictor.stale_after_s", q.stale_after_s),
+            ("predictor.first_fit_s", q.first_fit_s),
+            ("predictor.verification_window_s", q.verification_window_s),
+            ("predictor.plausible_rms_factor", q.plausible_rms_factor),
+        ] {
+            if !(v.is_finite() && v > 0.0) {
+                return bad(format!("{name} must be positive, got {v}"));
+            }
+        }
+        if !(q.retrain_every_s.is_finite() && q.retrain_every_s >= 0.0) {
+            return bad(format!(
+                "predictor.retrain_every_s must be >= 0 (0 = never), got {}",
+                q.retrain_every_s
+            ));
+        }
+        if !(q.change_ratio.is_finite() && q.change_ratio > 1.0) {
+            return bad(format!(
+                "predictor.change_ratio must be above 1, got {}",
+                q.change_ratio
+            ));
+        }
+        if !(q.warmup_s.is_finite() && q.warmup_s >= 0.0 && q.warmup_s <= 86_400.0) {
+            return bad(format!(
+                "predictor.warmup_s must be 0..=86400, got {}",
+                q.warmup_s
+            ));
+        }
+        if q.candidate_orders.contains(&0) {
+            return bad("predictor.candidate_orders must all be at least 1".into());
+        }
+        if q.retrain_window > 1_000_000 || q.order > 100_000 {
+            return bad(format!(
+                "predictor.retrain_window ({}) must be at most 1000000 and order ({}) at most 100000",
+                q.retrain_window, q.order
+            ));
+        }
+        let d = &self.deck;
+        for (name, v) in [
+            ("deck.roll_limit_deg", d.roll_limit_deg),
+            ("deck.pitch_limit_deg", d.pitch_limit_deg),
+            (
+                "deck.vertical_velocity_limit_mps",
+                d.vertical_velocity_limit_mps,
+            ),
+        ] {
+            if !(v.is_finite() && v > 0.0) {
+                return bad(format!("{name} must be positive, got {v}"));
+            }
+        }
+        Ok(())
+    }
+
+    /// Decimation factor from the producer rate to the predictor rate.
+    pub fn decimation_factor(&self) -> Result<usize, ConfigError> {
+        decimation_factor(self.producer.rate_hz, self.predictor.sample_rate_hz)
+    }
+}
+
+/// Integer ratio of two rates, or an error naming them.
+pub fn decimation_factor(input_hz: f64, output_hz: f64) -> Result<usize, ConfigError> {
+    let ratio = input_hz / output_hz;
+    let factor = ratio.round();
+    if !(factor >= 1.0 && (ratio - factor).abs() < 1e-9) {
+        return Err(ConfigError::Invalid(format!(
+            "input rate {input_hz} Hz is not an integer multiple of the forecast rate {output_hz} Hz"
+        )));
+    }
+    Ok(factor as usize)
+}
+
+/// Flags every pipeline subcommand accepts; they override the config file.
+#[derive(clap::Args, Debug, Clone, Default)]
+pub struct CommonArgs {
+    /// Pipeline configuration (TOML); every key has a default.
+    #[arg(long, value_name = "FILE.toml")]
+    pub config: Option<PathBuf>,
+    /// Prefix of every service name and zenoh key (keeps parallel pipelines apart).
+    #[arg(long, value_name = "NAME")]
+    pub instance: Option<String>,
+    /// Vessel name in service names and keys.
+    #[arg(long, value_name = "NAME")]
+    pub vessel: Option<String>,
+    /// zenoh endpoint the predictor listens on (repeatable; replaces the configured ones).
+    #[arg(long, value_name = "ENDPOINT")]
+    pub zenoh_listen: Vec<String>,
+    /// zenoh endpoint to connect to (repeatable; replaces the configured ones).
+    #[arg(long, value_name = "ENDPOINT")]
+    pub zenoh_connect: Vec<String>,
+    /// Pacing of the producer: 1 = real time, 0 = as fast as possible.
+    #[arg(long, value_name = "F")]
+    pub speed: Option<f64>,
+    /// Stop after this many seconds of wall-clock time.
+    #[arg(long, value_name = "S")]
+    pub duration: Option<f64>,
+}
+
+impl CommonArgs {
+    /// The config file (or the defaults) with the flags applied, validated.
+    pub fn load(&self) -> Result<PipelineConfig, ConfigError> {
+        let mut config = PipelineConfig::load(self.config.as_deref())?;
+        if let Some(i) = &self.instance {
+            config.instance = Some(i.clone());
+        }
+        if let Some(v) = &self.vessel {
+            config.vessel = v.clone();
+        }
+        if !self.zenoh_listen.is_empty() {
+            config.zenoh.listen = self.zenoh_listen.clone();
+        }
+        if !self.zenoh_connect.is_empty() {
+            config.zenoh.connect = self.zenoh_connect.clone();
+        }
+        if let Some(s) = self.speed {
+            config.producer.speed = s;
+        }
+        config.validate()?;
+        Ok(config)
+    }
+
+    /// Wall-clock limit, if any.
+    pub fn duration(&self) -> Result<Option<std::time::Duration>, ConfigError> {
+        match self.duration {
+            None => Ok(None),
+            Some(s) if s.is_finite() && s > 0.0 => Ok(Some(std::time::Duration::from_secs_f64(s))),
+            Some(s) => Err(ConfigError::Invalid(format!(
+                "--duration must be a positive number of seconds, got {s}"
+            ))),
+        }
+    }
+}
+
+impl PipelineConfig {
+    /// The configuration as TOML, as `shipcast run` hands it to its children.
+    pub fn to_toml(&self) -> Result<String, ConfigError> {
+        toml::to_string(self).map_err(|e| ConfigError::Invalid(format!("serialise: {e}")))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn empty_file_gives_the_defaults() {
+        let c = PipelineConfig::from_toml("", Path::new("x.toml")).unwrap();
+        assert_eq!(c, PipelineConfig::default());
+        assert_eq!(c.names().unwrap().forecast(), "shipcast/ddg51/forecast");
+        assert_eq!(c.decimation_factor().unwrap(), 4);
+    }
+
+    #[test]
+    fn keys_override_defaults() {
+        let text = r#"
+            instance = "t7"
+            vessel = "s175"
+            [producer]
+            speed = 100.0
+            [predictor]
+            order = 100
+            busy_poll = true
+            [predictor.tuning]
+            mca_energy = 0.02
+            [zenoh]
+            listen = ["tcp/127.0.0.1:7000"]
+        "#;
+        let c = PipelineConfig::from_toml(text, Path::new("x.toml")).unwrap();
+        assert_eq!(c.names().unwrap().motion(), "t7/shipcast/s175/motion");
+        assert_eq!(c.producer.speed, 100.0);
+        let pc = c.predictor.predictor_config();
+        assert_eq!((pc.order, pc.horizon, pc.mca_energy), (100, 50, 0.02));
+        assert!(c.predictor.busy_poll);
+        assert_eq!(c.zenoh.consumer_side().connect, vec!["tcp/127.0.0.1:7000"]);
+        assert_eq!(c.zenoh.consumer_side().listen, vec![CONSUMER_LISTEN]);
+    }
+
+    #[test]
+    fn unknown_key_is_an_error_naming_it() {
+        let err = PipelineConfig::from_toml("[deck]\nroll_limt_deg = 3", Path::new("p.toml"))
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("roll_limt_deg"), "{err}");
+        assert!(err.starts_with("config p.toml"), "{err}");
+        assert!(!err.contains('\n'), "{err}");
+        let err = PipelineConfig::from_toml("colour = 1", Path::new("p.toml"))
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("colour"), "{err}");
+    }
+
+    #[test]
+    fn toml_round_trip_and_flags_override_the_file() {
+        let mut c = PipelineConfig {
+            instance: Some("abc".into()),
+            ..PipelineConfig::default()
+        };
+        c.producer.input = Some("/tmp/x.csv".into());
+        c.predictor.model = Some("/tmp/m.json".into());
+        let text = c.to_toml().unwrap();
+        assert_eq!(PipelineConfig::from_toml(&text, Path::new("t")).unwrap(), c);
+
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("p.toml");
+        std::fs::write(&path, "vessel = \"s175\"\n[producer]\nspeed = 5.0\n").unwrap();
+        let args = CommonArgs {
+            config: Some(path),
+            instance: Some("i1".into()),
+            zenoh_listen: vec!["tcp/127.0.0.1:9".into()],
+            speed: Some(100.0),
+            ..CommonArgs::default()
+        };
+        let c = args.load().unwrap();
+        assert_eq!(c.vessel, "s175");
+        assert_eq!(c.instance.as_deref(), Some("i1"));
+        assert_eq!(c.producer.speed, 100.0);
+        assert_eq!(c.zenoh.listen, vec!["tcp/127.0.0.1:9"]);
+        let bad = CommonArgs {
+            duration: Some(-1.0),
+            ..CommonArgs::default()
+        };
+        assert!(bad
+            .duration()
+            .unwrap_err()
+            .to_string()
+            .contains("--duration"));
+    }
+
+    #[test]
+    fn impossible_values_are_refused() {
+        for (text, needle) in [
+            ("[predictor]\nhorizon = 200", "horizon"),
+            ("[producer]\nspeed = -1.0", "speed"),
+            ("vessel = \"a/b\"", "vessel"),
+            ("[predictor]\nsample_rate_hz = 3.0", "multiple"),
+        ] {
+            let r = PipelineConfig::from_toml(text, Path::new("p.toml"))
+                .and_then(|c| c.decimation_factor().map(|_| c));
+            let err = r.unwrap_err().to_string();
+            assert!(err.contains(needle), "{text}: {err}");
+        }
+        assert!(PipelineConfig::load(Some(Path::new("/nonexistent/x.toml"))).is_err());
+    }
+}

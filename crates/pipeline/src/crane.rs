@@ -1,0 +1,101 @@
+//! Crane-tip motion forecast: where the tip of a crane (a point fixed on the ship) will be over
+//! the forecast horizon, for the operator transferring cargo between ships.
+
+use crate::deck::ShipPoint;
+use glam::DVec3;
+use serde::{Deserialize, Serialize};
+use shipcast_wire::payload::Forecast;
+
+/// Predicted tip displacement at one step (ship axes: x forward, y starboard, z down).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct TipStep {
+    /// Seconds after the forecast's `time_s`.
+    pub ahead_s: f64,
+    /// Displacement from the tip's rest position [m].
+    pub displacement_m: [f64; 3],
+    /// Linearised standard deviation of the vertical displacement [m].
+    pub vertical_sigma_m: f64,
+}
+
+/// The tip displacement at every step of a forecast, written into `out` (cleared first, so a
+/// reused vector does not allocate once it has grown to the horizon).
+pub fn tip_track(tip: &ShipPoint, forecast: &Forecast, out: &mut Vec<TipStep>) {
+    out.clear();
+    for k in 0..forecast.valid_steps() {
+        let dof: [f64; 6] = std::array::from_fn(|d| forecast.mean[d][k] as f64);
+        let d: DVec3 = tip.displacement(dof);
+        out.push(TipStep {
+            ahead_s: (k + 1) as f64 * forecast.dt_s,
+            displacement_m: d.to_array(),
+            vertical_sigma_m: tip.vertical_sigma(
+                forecast.sigma[2][k] as f64,
+                forecast.sigma[3][k] as f64,
+                forecast.sigma[4][k] as f64,
+            ),
+        });
+    }
+}
+
+/// One console line: the tip's vertical motion (positive up) at a few look-ahead times and the
+/// largest excursion over the horizon.
+pub fn summary(forecast: &Forecast, track: &[TipStep]) -> String {
+    let mut line = format!(
+        "crane t={:.1}s v{} seq {}:",
+        forecast.time_s, forecast.model_version, forecast.seq
+    );
+    for target in [5.0, 10.0, 20.0] {
+        if let Some(s) = track.iter().find(|s| s.ahead_s >= target - 1e-9) {
+            line.push_str(&format!(
+                " +{:.0}s up {:+.2}±{:.2} m",
+                s.ahead_s, -s.displacement_m[2], s.vertical_sigma_m
+            ));
+        }
+    }
+    let max_h = track
+        .iter()
+        .map(|s| s.displacement_m[0].hypot(s.displacement_m[1]))
+        .fold(0.0, f64::max);
+    let max_v = track
+        .iter()
+        .map(|s| s.displacement_m[2].abs())
+        .fold(0.0, f64::max);
+    line.push_str(&format!(
+        " | max horizontal {max_h:.2} m, vertical {max_v:.2} m"
+    ));
+    line
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn tip_track_follows_roll_and_is_summarised() {
+        let tip = ShipPoint::new([0.0, 15.0, -20.0]);
+        let mut f = Forecast {
+            time_s: 10.0,
+            dt_s: 0.5,
+            steps: 40,
+            ..Forecast::default()
+        };
+        for k in 0..40 {
+            f.mean[3][k] = 0.01 * k as f32; // roll, starboard down
+            f.sigma[2][k] = 0.1;
+        }
+        let mut track = Vec::new();
+        tip_track(&tip, &f, &mut track);
+        assert_eq!(track.len(), 40);
+        assert_eq!(track[9].ahead_s, 5.0);
+        // Roll phi moves a point (y, z) to (y cos - z sin, y sin + z cos).
+        let phi = 0.01f32 * 9.0;
+        let phi = phi as f64;
+        let expect_z = 15.0 * phi.sin() - 20.0 * phi.cos() + 20.0;
+        assert!((track[9].displacement_m[2] - expect_z).abs() < 1e-6);
+        assert!((track[0].vertical_sigma_m - 0.1).abs() < 1e-6);
+        let line = summary(&f, &track);
+        assert!(
+            line.contains("+5s up") && line.contains("+20s up"),
+            "{line}"
+        );
+    }
+}

@@ -1,0 +1,264 @@
+//! Recalibration of the raw model output from verified forecasts, per DOF and step.
+//!
+//! For each step the calibrator keeps, over the rolling window, the sums of the raw model mean
+//! m and the value x that then happened: n, sum x^2, sum m^2, sum m x. The delivered mean is
+//! `beta * m` with `beta = clamp(sum m x / sum m^2, 0, 1)`, the least-squares shrinkage towards
+//! zero, and the delivered sigma is the RMS error that this shrunk forecast had:
+//! `(sum x^2 - 2 beta sum m x + beta^2 sum m^2) / n`. Because that error is a convex function of
+//! beta that equals the error of predicting zero at beta = 0 and falls until the unclamped
+//! optimum, a shrunk forecast is never worse than zero on the evidence it was fitted to.
+//!
+//! The evidence starts from a prior: the new model's scores on held-out data of this sea when it
+//! was fitted on live data, or "no skill" (beta 0, sigma = the motion's std) for a model that
+//! has never been scored on this sea (a start-up model from the simulator or a file). A model
+//! change replaces the window's evidence, because it was about the previous model.
+
+use super::rolling::RollingSums;
+use shipcast_wire::payload::{MAX_STEPS, NUM_DOF};
+
+/// Index of each sum in [`RollingSums`] entries.
+const N: usize = 0;
+const XX: usize = 1;
+const MM: usize = 2;
+const MX: usize = 3;
+
+/// Fraction of the zero forecast's squared error below which a model counts as no skill.
+pub const MIN_EXPLAINED: f64 = 0.08;
+
+/// Sums of (m, x) pairs of one step: the form both the prior and the window take.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct PairSums(pub [f64; 4]);
+
+impl PairSums {
+    /// A prior that knows only the motion's variance: n pseudo-values, no skill.
+    pub fn no_skill(n: f64, variance: f64) -> Self {
+        Self([n, n * variance, 0.0, 0.0])
+    }
+
+    pub fn add(&mut self, m: f64, x: f64) {
+        let s = &mut self.0;
+        s[N] += 1.0;
+        s[XX] += x * x;
+        s[MM] += m * m;
+        s[MX] += m * x;
+    }
+
+    /// The same evidence counted as at most `n` values.
+    pub fn capped(self, n: f64) -> Self {
+        if self.0[N] <= n || self.0[N] == 0.0 {
+            return self;
+        }
+        let f = n / self.0[N];
+        Self(self.0.map(|v| v * f))
+    }
+
+    fn plus(self, o: [f64; 4]) -> Self {
+        Self(std::array::from_fn(|i| self.0[i] + o[i]))
+    }
+
+    /// Least-squares shrinkage in [0, 1]; 0 where the model removes at most `MIN_EXPLAINED`
+    /// of the zero forecast's squared error. That fraction is itself estimated from strongly
+    /// correlated errors, so below the threshold skill is indistinguishable from none, and a
+    /// small beta fitted to noise would let the delivered error creep above zero's. Above it,
+    /// beta is the plain least-squares value: a well-fitted model is left exactly as it is.
+    pub fn beta(&self) -> f64 {
+        let s = &self.0;
+        // NaN sums (never expected) count as no evidence.
+        if s[MM].is_nan() || s[MM] <= 0.0 || !s[MX].is_finite() || s[XX].is_nan() || s[XX] <= 0.0 {
+            return 0.0;
+        }
+        let beta = (s[MX] / s[MM]).clamp(0.0, 1.0);
+        // Fraction of sum x^2 that beta * m removes: (2 beta MX - beta^2 MM) / XX.
+        let explained = (2.0 * beta * s[MX] - beta * beta * s[MM]) / s[XX];
+        // Fewer pairs (a new model, a changed sea) mean a noisier estimate of the fraction:
+        // the bar rises as 2 / sqrt(n), which is about two standard errors of the estimate
+        // when neighbouring pairs are strongly correlated.
+        let bar = MIN_EXPLAINED.max(2.0 / s[N].max(1.0).sqrt());
+        if explained > bar {
+            beta
+        } else {
+            0.0
+        }
+    }
+
+    /// Mean squared error of `beta * m` (and of zero, at beta 0).
+    pub fn mse(&self, beta: f64) -> f64 {
+        let s = &self.0;
+        if s[N].is_nan() || s[N] <= 0.0 {
+            return f64::NAN;
+        }
+        ((s[XX] - 2.0 * beta * s[MX] + beta * beta * s[MM]) / s[N]).max(0.0)
+    }
+
+    pub fn count(&self) -> f64 {
+        self.0[N]
+    }
+}
+
+/// What the calibrator tells for one step.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Calibration {
+    pub beta: f64,
+    pub sigma: f64,
+}
+
+/// Per-DOF, per-step shrinkage and sigma from a prior and the rolling window of verified pairs.
+#[derive(Debug, Clone)]
+pub struct Calibrator {
+    window: RollingSums<4>,
+    /// None: "no skill", worth `no_skill_weight` values at the motion's live variance (known
+    /// only when asked: at start-up there is none yet).
+    prior: Vec<[Option<PairSums>; MAX_STEPS]>,
+    no_skill_weight: [f64; NUM_DOF],
+    /// Largest weight (in values) a prior may carry.
+    prior_cap: f64,
+}
+
+impl Calibrator {
+    /// A window of `window_values` record values; priors count as at most `prior_cap` values.
+    pub fn new(window_values: usize, prior_cap: f64) -> Self {
+        Self {
+            window: RollingSums::new(window_values, 20),
+            prior: vec![[None; MAX_STEPS]; NUM_DOF],
+            no_skill_weight: [prior_cap; NUM_DOF],
+            prior_cap,
+        }
+    }
+
+    /// A new model for DOF `d`: forget the old model's evidence and start from `prior` (one
+    /// entry per step; steps beyond it, and an empty prior, start from "no skill").
+    pub fn reset(&mut self, d: usize, prior: &[PairSums]) {
+        self.window.clear(d);
+        self.no_skill_weight[d] = self.prior_cap;
+        for (k, p) in self.prior[d].iter_mut().enumerate() {
+            *p = prior.get(k).map(|s| s.capped(self.prior_cap));
+        }
+    }
+
+    /// The raw forecast `m` of step index `k` turned out to be `x`.
+    #[inline]
+    pub fn observe(&mut self, d: usize, k: usize, m: f64, x: f64) {
+        self.window.add(d, k, [1.0, x * x, m * m, m * x]);
+    }
+
+    /// One new record value was scored.
+    pub fn tick(&mut self) {
+        self.window.tick();
+    }
+
+    /// The sea changed for DOF `d`: what is known counts as `keep` values at most.
+    pub fn discount(&mut self, d: usize, keep: f64) {
+        for p in self.prior[d].iter_mut().flatten() {
+            *p = p.capped(keep);
+        }
+        self.no_skill_weight[d] = self.no_skill_weight[d].min(keep);
+        let n = (0..MAX_STEPS)
+            .map(|k| self.window.get(d, k)[N])
+            .fold(0.0, f64::max);
+        if n > keep {
+            self.window.discount(d, keep / n);
+        }
+    }
+
+    /// Evidence of DOF `d`, step index `k`: prior plus window; `variance` is the motion's
+    /// live mean square, which a "no skill" prior stands for.
+    pub fn sums(&self, d: usize, k: usize, variance: f64) -> PairSums {
+        let prior = self.prior[d][k]
+            .unwrap_or_else(|| PairSums::no_skill(self.no_skill_weight[d], variance));
+        prior.plus(self.window.get(d, k))
+    }
+
+    #[inline]
+    pub fn get(&self, d: usize, k: usize, variance: f64) -> Calibration {
+        let s = self.sums(d, k, variance);
+        let beta = s.beta();
+        Calibration {
+            beta,
+            sigma: s.mse(beta).sqrt(),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    #[test]
+    fn shrinkage_never_raises_the_error_of_a_well_fitted_model() {
+        // Analytic case: x = m exactly. beta must be 1 and the error 0, so shrinking changes
+        // nothing; and for x = m + independent noise, beta -> 1 as well.
+        let mut s = PairSums::default();
+        for i in 0..500 {
+            let m = (i as f64 * 0.3).sin();
+            s.add(m, m);
+        }
+        assert_eq!(s.beta(), 1.0);
+        assert!(s.mse(s.beta()) < 1e-24);
+        let mut rng = ChaCha8Rng::seed_from_u64(3);
+        let mut s = PairSums::default();
+        for i in 0..20000 {
+            let m = (i as f64 * 0.37).sin();
+            s.add(m, m + 0.2 * (rng.random::<f64>() - 0.5));
+        }
+        assert!((s.beta() - 1.0).abs() < 0.01, "{}", s.beta());
+        assert!(s.mse(s.beta()) <= s.mse(1.0) + 1e-12);
+    }
+
+    #[test]
+    fn a_useless_model_is_shrunk_to_zero_and_never_worse_than_zero() {
+        // m unrelated to x, and m with the wrong sign: both beta 0, error = predicting zero.
+        let mut rng = ChaCha8Rng::seed_from_u64(5);
+        for sign in [1.0, -1.0] {
+            let mut s = PairSums::default();
+            for _ in 0..5000 {
+                let x: f64 = rng.random::<f64>() - 0.5;
+                let m = if sign > 0.0 {
+                    100.0 * (rng.random::<f64>() - 0.5)
+                } else {
+                    -3.0 * x
+                };
+                s.add(m, x);
+            }
+            let beta = s.beta();
+            assert!(s.mse(beta) <= s.mse(0.0) + 1e-15, "sign {sign}");
+            if sign < 0.0 {
+                assert_eq!(beta, 0.0);
+            } else {
+                assert!(beta < 0.01);
+            }
+        }
+    }
+
+    #[test]
+    fn overconfident_model_gets_the_error_it_really_has() {
+        // m = 2 x: beta 0.5 recovers x exactly; a half-skilled model m = x + e gets beta
+        // var(x) / (var(x) + var(e)) and sigma of the optimal shrunk forecast.
+        let mut s = PairSums::default();
+        for i in 0..1000 {
+            let x = (i as f64 * 0.1).sin();
+            s.add(2.0 * x, x);
+        }
+        assert!((s.beta() - 0.5).abs() < 1e-12);
+        assert!(s.mse(s.beta()) < 1e-20);
+    }
+
+    #[test]
+    fn no_skill_prior_gives_zero_and_the_motion_std_until_evidence_comes() {
+        let mut c = Calibrator::new(2400, 120.0);
+        c.reset(2, &[]);
+        let cal = c.get(2, 10, 4.0);
+        assert_eq!(cal.beta, 0.0);
+        assert!((cal.sigma - 2.0).abs() < 1e-12);
+        // Perfect evidence outweighs the prior as it accumulates.
+        for i in 0..5000 {
+            let x = 2.0 * (i as f64 * 0.2).sin();
+            c.observe(2, 10, x, x);
+            c.tick();
+        }
+        let cal = c.get(2, 10, 4.0);
+        assert!(cal.beta > 0.9, "{cal:?}");
+        assert!(cal.sigma < 0.7, "{cal:?}");
+    }
+}

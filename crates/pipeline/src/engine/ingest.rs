@@ -1,0 +1,317 @@
+//! From motion samples to the per-DOF history the predictors read: accounting (seq gaps,
+//! rejects), gap filling, 8 -> 2 Hz decimation with the evaluation's filter, and a ring of the
+//! most recent decimated values that always yields a contiguous window without copying.
+
+use crate::transport::{Counters, SeqCheck, SeqTracker};
+use shipcast_series::Decimator;
+use shipcast_wire::payload::{MotionSample, NUM_DOF};
+
+/// The newest `capacity` values of one series. Values are written twice (at `pos` and
+/// `pos + capacity`) so the last n are always one contiguous slice.
+#[derive(Debug, Clone)]
+pub struct Ring {
+    buf: Vec<f64>,
+    pos: usize,
+    len: usize,
+}
+
+impl Ring {
+    pub fn new(capacity: usize) -> Self {
+        Self {
+            buf: vec![0.0; 2 * capacity.max(1)],
+            pos: 0,
+            len: 0,
+        }
+    }
+
+    fn capacity(&self) -> usize {
+        self.buf.len() / 2
+    }
+
+    pub fn push(&mut self, x: f64) {
+        let cap = self.capacity();
+        self.buf[self.pos] = x;
+        self.buf[self.pos + cap] = x;
+        self.pos = (self.pos + 1) % cap;
+        self.len = (self.len + 1).min(cap);
+    }
+
+    pub fn len(&self) -> usize {
+        self.len
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    /// The newest `n` values, oldest first, or None if fewer are stored.
+    pub fn last(&self, n: usize) -> Option<&[f64]> {
+        if n > self.len {
+            return None;
+        }
+        let end = self.pos + self.capacity();
+        Some(&self.buf[end - n..end])
+    }
+
+    pub fn clear(&mut self) {
+        self.len = 0;
+    }
+}
+
+/// A new decimated value of all six DOF.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct NewValue {
+    /// Record time the decimated value stands for (newest input minus the filter delay).
+    pub time_s: f64,
+    /// The newest motion sample used.
+    pub source_seq: u64,
+    pub source_stamp_ns: u64,
+}
+
+/// Turns accepted samples into decimated per-DOF history.
+pub struct Ingest {
+    decimators: Vec<Decimator>,
+    history: Vec<Ring>,
+    tracker: SeqTracker,
+    last_good: Option<[f64; NUM_DOF]>,
+    /// Record time of the last accepted sample: a jump in time is a gap even when seq has none
+    /// (a CSV record with a hole in it).
+    last_time: Option<f64>,
+    input_rate_hz: f64,
+    /// Incremented whenever the history restarts (forecasts pending before it never verify).
+    generation: u64,
+    delay_s: f64,
+    /// Longest run of missing/rejected samples bridged by holding the last value; a longer
+    /// gap breaks the record and the history starts again.
+    max_fill: u64,
+}
+
+impl Ingest {
+    pub fn new(
+        factor: usize,
+        input_rate_hz: f64,
+        capacity: usize,
+        max_fill: u64,
+        phase: shipcast_series::FilterPhase,
+    ) -> Result<Self, shipcast_series::ResampleError> {
+        let decimator = Decimator::with_phase(factor, phase)?;
+        let delay_s = decimator.delay_s(input_rate_hz);
+        Ok(Self {
+            decimators: vec![decimator; NUM_DOF],
+            history: vec![Ring::new(capacity); NUM_DOF],
+            tracker: SeqTracker::new(),
+            last_good: None,
+            last_time: None,
+            input_rate_hz,
+            generation: 0,
+            delay_s,
+            max_fill,
+        })
+    }
+
+    /// Values stored per DOF.
+    pub fn len(&self) -> usize {
+        self.history[0].len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.history[0].is_empty()
+    }
+
+    /// The newest `n` values of DOF `d`.
+    pub fn last(&self, d: usize, n: usize) -> Option<&[f64]> {
+        self.history[d].last(n)
+    }
+
+    /// Restarts of the history so far.
+    pub fn generation(&self) -> u64 {
+        self.generation
+    }
+
+    /// Delay of a decimated value behind the newest input it used [s].
+    pub fn delay_s(&self) -> f64 {
+        self.delay_s
+    }
+
+    /// Forget everything: the next sample starts a new record.
+    fn restart(&mut self) {
+        self.generation += 1;
+        self.decimators.iter_mut().for_each(Decimator::reset);
+        self.history.iter_mut().for_each(Ring::clear);
+        self.last_good = None;
+    }
+
+    /// Push six values through the decimators; true if a new decimated value came out.
+    fn push_values(&mut self, dof: &[f64; NUM_DOF]) -> bool {
+        let mut produced = false;
+        for (d, (dec, hist)) in self
+            .decimators
+            .iter_mut()
+            .zip(&mut self.history)
+            .enumerate()
+        {
+            if let Some(y) = dec.push(dof[d]) {
+                hist.push(y);
+                produced = true;
+            }
+        }
+        produced
+    }
+
+    /// Account for one received sample and feed it on; returns the new decimated value it
+    /// completed, if any.
+    pub fn push(&mut self, sample: &MotionSample, counters: &mut Counters) -> Option<NewValue> {
+        let verdict = self.tracker.check(sample);
+        counters.count(verdict);
+        let mut produced = false;
+        match verdict {
+            SeqCheck::OutOfOrder => return None,
+            SeqCheck::NonFinite => {
+                // Keep the fixed-rate grid: bridge the bad sample with the last good values,
+                // and count its slot as filled so the next good sample is no gap in time.
+                self.last_time = self.last_time.map(|t| t + 1.0 / self.input_rate_hz);
+                if let Some(held) = self.last_good {
+                    produced = self.push_values(&held);
+                }
+                return produced.then(|| self.new_value(sample));
+            }
+            SeqCheck::NewRun => {
+                tracing::info!("predictor: new producer run (seq 0): history restarts");
+                self.restart();
+            }
+            SeqCheck::Accepted { lost } if lost.max(self.missing_by_time(sample.time_s)) > 0 => {
+                let lost = lost.max(self.missing_by_time(sample.time_s));
+                match self.last_good {
+                    Some(held) if lost <= self.max_fill => {
+                        for _ in 0..lost {
+                            produced |= self.push_values(&held);
+                        }
+                    }
+                    _ => {
+                        tracing::warn!(lost, "predictor: gap too long to bridge: history restarts");
+                        self.restart();
+                    }
+                }
+            }
+            SeqCheck::Accepted { .. } => {}
+        }
+        produced |= self.push_values(&sample.dof);
+        self.last_good = Some(sample.dof);
+        self.last_time = Some(sample.time_s);
+        produced.then(|| self.new_value(sample))
+    }
+
+    /// Samples missing between the last accepted one and `time_s` by the record clock.
+    fn missing_by_time(&self, time_s: f64) -> u64 {
+        match self.last_time {
+            Some(t) => {
+                let steps = ((time_s - t) * self.input_rate_hz).round();
+                if steps.is_finite() && steps > 1.0 {
+                    steps as u64 - 1
+                } else {
+                    0
+                }
+            }
+            None => 0,
+        }
+    }
+
+    fn new_value(&self, sample: &MotionSample) -> NewValue {
+        NewValue {
+            time_s: sample.time_s - self.delay_s,
+            source_seq: sample.seq,
+            source_stamp_ns: sample.stamp_ns,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use shipcast_series::decimate;
+
+    #[test]
+    fn ring_keeps_the_newest_values_contiguous() {
+        let mut r = Ring::new(4);
+        assert_eq!(r.last(1), None);
+        for x in 0..10 {
+            r.push(x as f64);
+        }
+        assert_eq!(r.len(), 4);
+        assert_eq!(r.last(4).unwrap(), &[6.0, 7.0, 8.0, 9.0]);
+        assert_eq!(r.last(2).unwrap(), &[8.0, 9.0]);
+        assert_eq!(r.last(5), None);
+        r.clear();
+        assert_eq!(r.last(1), None);
+    }
+
+    fn samples(n: usize) -> Vec<MotionSample> {
+        (0..n)
+            .map(|i| MotionSample {
+                seq: i as u64,
+                stamp_ns: 1000 + i as u64,
+                time_s: i as f64 * 0.125,
+                dof: std::array::from_fn(|d| ((i as f64) * 0.1 * (d + 1) as f64).sin()),
+            })
+            .collect()
+    }
+
+    #[test]
+    fn clean_stream_gives_exactly_the_batch_decimation() {
+        let input = samples(400);
+        let mut ingest =
+            Ingest::new(4, 8.0, 1000, 8, shipcast_series::FilterPhase::Linear).unwrap();
+        let mut c = Counters::default();
+        let mut last = None;
+        for s in &input {
+            if let Some(v) = ingest.push(s, &mut c) {
+                last = Some(v);
+            }
+        }
+        for d in 0..NUM_DOF {
+            let series: Vec<f64> = input.iter().map(|s| s.dof[d]).collect();
+            let batch = decimate(&series, 4).unwrap();
+            assert_eq!(ingest.last(d, batch.len()).unwrap(), &batch[..]);
+        }
+        let v = last.unwrap();
+        // Outputs come at inputs 16, 20, ..., 396 (the filter holds 17 taps).
+        assert_eq!(v.source_seq, 396);
+        // Label: the newest input's time minus the filter delay (2 * factor samples).
+        assert!((v.time_s - (396.0 * 0.125 - 1.0)).abs() < 1e-12, "{v:?}");
+        assert_eq!(c.received, 400);
+    }
+
+    #[test]
+    fn bad_samples_are_bridged_counted_and_long_gaps_restart() {
+        let mut input = samples(200);
+        input[50].dof[2] = f64::NAN;
+        let dup = input[80];
+        input.insert(82, dup);
+        input.remove(120); // one lost sample
+        let mut ingest =
+            Ingest::new(4, 8.0, 1000, 8, shipcast_series::FilterPhase::Linear).unwrap();
+        let mut c = Counters::default();
+        for s in &input {
+            ingest.push(s, &mut c);
+        }
+        assert_eq!((c.rejected_nonfinite, c.rejected_order, c.lost), (1, 1, 1));
+        // The grid is kept: as many decimated values as for 200 clean samples.
+        assert_eq!(ingest.len(), (200 - 17) / 4 + 1);
+        for d in 0..NUM_DOF {
+            assert!(ingest
+                .last(d, ingest.len())
+                .unwrap()
+                .iter()
+                .all(|v| v.is_finite()));
+        }
+        // A gap of 20 samples (2.5 s) cannot be bridged: the history restarts.
+        let late = MotionSample {
+            seq: 220,
+            time_s: 220.0 * 0.125,
+            ..MotionSample::default()
+        };
+        ingest.push(&late, &mut c);
+        assert_eq!(ingest.len(), 0);
+        assert_eq!(c.lost, 21);
+    }
+}

@@ -1,0 +1,536 @@
+//! The forecasting engine: from motion samples to published forecasts, with everything that
+//! makes a forecast safe to act on. The predictor service drives it from iceoryx2 samples and
+//! `shipcast replay` from a motion CSV; both run this same code.
+//!
+//! Per new decimated value (2 Hz) the engine:
+//! 1. scores the steps of earlier forecasts that this value completes (live verification, and
+//!    the evidence the calibrator learns from);
+//! 2. watches for errors leaving sigma (a changed sea), and then retrains at once;
+//! 3. updates online models, schedules retraining (first fit after `first_fit_s` of live data,
+//!    then every `retrain_every_s`, on a window that grows up to `retrain_window`);
+//! 4. forecasts with the running model, shrinks the mean per step towards zero by the verified
+//!    regression coefficient and sets sigma to the error that shrunk forecast really had;
+//! 5. never delivers an implausible mean (non-finite, or beyond `plausible_rms_factor` times
+//!    the live RMS of the motion): that DOF falls back to "no skill" (mean 0, sigma = RMS), and
+//!    the event is counted and logged.
+
+pub mod calibrate;
+pub mod change;
+pub mod ingest;
+pub mod models;
+pub mod replay;
+pub mod retrain;
+pub mod rolling;
+pub mod startup;
+pub mod verify;
+
+use crate::config::PredictorServiceConfig;
+use crate::transport::{monotonic_ns, Counters};
+use calibrate::Calibrator;
+use change::{Change, ChangeDetector};
+use ingest::{Ingest, NewValue};
+use models::ModelSet;
+use retrain::{Job, Retrainer};
+use serde::Serialize;
+use shipcast_predict::Predictor;
+use shipcast_wire::payload::{Forecast, MotionSample, MAX_STEPS, NUM_DOF};
+use shipcast_wire::Dof;
+use verify::{ForecastLog, VerificationReport, Verifier};
+
+/// Longest run of lost or rejected input samples bridged by holding the last value (1 s at
+/// 8 Hz); longer gaps restart the history.
+pub const MAX_FILL: u64 = 8;
+
+/// Weight, in values, of a prior in the calibration (a model's held-out evidence, or the "no
+/// skill" start) once live evidence comes in; and what is kept after a change of sea.
+const PRIOR_VALUES: f64 = 240.0;
+const KEPT_AFTER_CHANGE: f64 = 60.0;
+
+/// Memory of the live RMS of the motion [values] (5 minutes at 2 Hz).
+const RMS_MEMORY: f64 = 600.0;
+const RMS_MEMORY_FAST: f64 = 60.0;
+
+/// Values of live history before the first forecast: the live RMS must mean something.
+const MIN_VALUES_TO_PUBLISH: u64 = 60;
+
+/// Memory and refractory time of the change detector [values]: two minutes, longer than a
+/// wave group, whose passing must not count as a change of sea.
+const CHANGE_MEMORY: f64 = 240.0;
+const CHANGE_REFRACTORY: u64 = 240;
+
+/// Counts of what the engine did, for status, logs and replay.
+#[derive(Debug, Clone, Copy, Default, Serialize)]
+pub struct EngineCounts {
+    pub forecasts: u64,
+    /// DOF forecasts replaced by the fallback because they were implausible.
+    pub implausible: [u64; NUM_DOF],
+    pub retrains: u64,
+    pub swaps: u64,
+    /// Retrained models kept out because the running one scored better.
+    pub kept_running: u64,
+    pub changes: u64,
+}
+
+/// The engine's state.
+pub struct Engine {
+    config: PredictorServiceConfig,
+    ingest: Ingest,
+    models: Option<ModelSet>,
+    retrainer: Retrainer,
+    log: ForecastLog,
+    calib: Calibrator,
+    verifier: Verifier,
+    change: ChangeDetector,
+    /// Exponentially weighted mean square of each DOF (the motion's RMS about zero), over
+    /// about 5 minutes and over about 30 s: a growing sea shows in the short one first.
+    mean_square: [f64; NUM_DOF],
+    mean_square_fast: [f64; NUM_DOF],
+    forecast: Box<Forecast>,
+    raw: [[f64; MAX_STEPS]; NUM_DOF],
+    pub counters: Counters,
+    pub counts: EngineCounts,
+    /// Decimated values so far (the index of the newest is `values - 1`).
+    values: u64,
+    generation: u64,
+    last_fit_at: Option<u64>,
+    retrain_due: Option<&'static str>,
+    next_version: u32,
+    prepared_for: Option<(u64, u32)>,
+    last_time_s: f64,
+    last_implausible_log: [u64; NUM_DOF],
+}
+
+impl Engine {
+    /// An engine for input at `input_rate_hz`, starting from `models` (None: no skill until
+    /// the first live fit), retraining on `retrainer`.
+    pub fn new(
+        config: PredictorServiceConfig,
+        input_rate_hz: f64,
+        models: Option<ModelSet>,
+        retrainer: Retrainer,
+    ) -> anyhow::Result<Self> {
+        let factor = crate::config::decimation_factor(input_rate_hz, config.sample_rate_hz)?;
+        let order = models.as_ref().map_or(0, ModelSet::order);
+        let capacity = config
+            .retrain_window
+            .max(order + config.horizon)
+            .max(config.order + config.horizon);
+        let ingest = Ingest::new(factor, input_rate_hz, capacity, MAX_FILL, config.filter)?;
+        let window = (config.verification_window_s * config.sample_rate_hz).round() as usize;
+        let mut engine = Self {
+            ingest,
+            retrainer,
+            log: ForecastLog::default(),
+            calib: Calibrator::new(window.max(1), PRIOR_VALUES),
+            verifier: Verifier::new(window.max(1)),
+            change: ChangeDetector::new(CHANGE_MEMORY, config.change_ratio, CHANGE_REFRACTORY),
+            mean_square: [0.0; NUM_DOF],
+            mean_square_fast: [0.0; NUM_DOF],
+            forecast: Box::default(),
+            raw: [[0.0; MAX_STEPS]; NUM_DOF],
+            counters: Counters::default(),
+            counts: EngineCounts::default(),
+            values: 0,
+            generation: 0,
+            last_fit_at: None,
+            retrain_due: None,
+            next_version: models.as_ref().map_or(1, |m| m.version + 1),
+            prepared_for: None,
+            last_time_s: f64::NAN,
+            last_implausible_log: [0; NUM_DOF],
+            models: None,
+            config,
+        };
+        if let Some(m) = models {
+            engine.install(m);
+        }
+        Ok(engine)
+    }
+
+    pub fn config(&self) -> &PredictorServiceConfig {
+        &self.config
+    }
+
+    pub fn models(&self) -> Option<&ModelSet> {
+        self.models.as_ref()
+    }
+
+    pub fn model_version(&self) -> u32 {
+        self.models.as_ref().map_or(0, |m| m.version)
+    }
+
+    /// Values of live history held.
+    pub fn history_len(&self) -> usize {
+        self.ingest.len()
+    }
+
+    pub fn last_time_s(&self) -> f64 {
+        self.last_time_s
+    }
+
+    /// Delay of the decimated values behind the newest sample [s] (the lead of step k is
+    /// `k * dt_s - delay_s` after the newest sample).
+    pub fn delay_s(&self) -> f64 {
+        self.ingest.delay_s()
+    }
+
+    /// Live RMS of DOF `d` about zero (exponentially weighted over about 5 minutes): what
+    /// predicting zero would score, and the scale of the plausibility bound.
+    pub fn live_rms(&self, d: usize) -> f64 {
+        self.live_variance(d).sqrt()
+    }
+
+    /// The larger of the slow and the fast mean square: when the sea grows, the bound and a
+    /// no-skill sigma follow within half a minute; when it calms, the slow one keeps them wide
+    /// until the evidence has caught up (the safe side).
+    fn live_variance(&self, d: usize) -> f64 {
+        self.mean_square[d].max(self.mean_square_fast[d])
+    }
+
+    /// The forecast last produced by [`Self::push`].
+    pub fn forecast(&self) -> &Forecast {
+        &self.forecast
+    }
+
+    /// Put a new model set in service: the calibration restarts from its held-out evidence
+    /// (or from "no skill" if it has none from this sea).
+    fn install(&mut self, set: ModelSet) {
+        for d in 0..NUM_DOF {
+            let prior = set.held_out.get(d).map_or(&[][..], Vec::as_slice);
+            // The change detector keeps running: a new model is fitted mostly on the old sea,
+            // so a change under way must not be forgotten at a swap.
+            self.calib.reset(d, prior);
+        }
+        self.models = Some(set);
+        self.prepared_for = None;
+    }
+
+    /// Feed one motion sample. Returns the new forecast if this sample completed one.
+    pub fn push(&mut self, sample: &MotionSample) -> anyhow::Result<Option<&Forecast>> {
+        let Some(v) = self.ingest.push(sample, &mut self.counters) else {
+            return Ok(None);
+        };
+        if self.on_value(v)? {
+            Ok(Some(&self.forecast))
+        } else {
+            Ok(None)
+        }
+    }
+
+    fn on_value(&mut self, v: NewValue) -> anyhow::Result<bool> {
+        if self.ingest.generation() != self.generation {
+            // The record broke: pending forecasts will never be verified against it.
+            self.generation = self.ingest.generation();
+            self.log.clear();
+            self.last_fit_at = None;
+        }
+        self.last_time_s = v.time_s;
+        let index = self.values;
+        self.values += 1;
+        let mut x = [0.0; NUM_DOF];
+        for (d, xd) in x.iter_mut().enumerate() {
+            *xd = self.ingest.last(d, 1).map_or(0.0, |s| s[0]);
+        }
+        // Scored before the value enters the live RMS, which bounds its weight in calibration.
+        self.score(index, &x);
+        for (d, xd) in x.iter().enumerate() {
+            let a = if self.values <= 1 {
+                1.0
+            } else {
+                (1.0 / self.values as f64).max(1.0 / RMS_MEMORY)
+            };
+            self.mean_square[d] += a * (xd * xd - self.mean_square[d]);
+            let fast = a.max(1.0 / RMS_MEMORY_FAST);
+            self.mean_square_fast[d] += fast * (xd * xd - self.mean_square_fast[d]);
+        }
+        self.take_models();
+        self.schedule_retrain();
+        if let Some(m) = self.models.as_mut() {
+            let horizon = m.horizon();
+            for (d, p) in m.predictors.iter_mut().enumerate() {
+                if p.is_online() {
+                    if let Some(recent) = self.ingest.last(d, p.order() + horizon) {
+                        p.update(recent)?;
+                    }
+                }
+            }
+        }
+        if self.values < MIN_VALUES_TO_PUBLISH {
+            return Ok(false);
+        }
+        self.compose(index, &x, v)?;
+        Ok(true)
+    }
+
+    /// Score what the new value completes; learn from it; watch for a changed sea.
+    fn score(&mut self, index: u64, x: &[f64; NUM_DOF]) {
+        let version = self.model_version();
+        // A spike (a sensor fault, or a value far beyond what the motion has done) would
+        // dominate the calibration's sums for a whole window and shrink every step to no
+        // skill: the calibrator sees it clipped at the plausibility bound. Verification keeps
+        // the value as it came.
+        let cap: [f64; NUM_DOF] = std::array::from_fn(|d| {
+            let bound = self.config.plausible_rms_factor * self.live_rms(d);
+            if bound > 0.0 {
+                bound
+            } else {
+                f64::INFINITY
+            }
+        });
+        let mut z2 = [0.0; NUM_DOF];
+        let mut n = [0usize; NUM_DOF];
+        for (f, k) in self.log.due(index) {
+            for d in 0..NUM_DOF {
+                self.verifier
+                    .observe(d, k, f.mean[d][k], f.sigma[d][k], f.last[d], x[d]);
+                if f.version == version {
+                    let clipped = x[d].clamp(-cap[d], cap[d]);
+                    self.calib
+                        .observe(d, k, f.raw[d][k].clamp(-cap[d], cap[d]), clipped);
+                    let e = x[d] - f.mean[d][k];
+                    // A DOF without motion (sigma 0: a record without that column) has
+                    // nothing to say about the sea.
+                    let s = f.sigma_calibrated[d][k];
+                    if s > 0.0 {
+                        z2[d] += e * e / (s * s);
+                        n[d] += 1;
+                    }
+                }
+            }
+        }
+        self.verifier.tick();
+        self.calib.tick();
+        for (d, z) in z2.iter().enumerate() {
+            let mean = (n[d] > 0).then(|| z / n[d] as f64);
+            if let Some(c) = self.change.observe(d, mean) {
+                self.counts.changes += 1;
+                tracing::info!(
+                    dof = Dof::ALL[d].name(),
+                    time_s = self.last_time_s,
+                    "predictor: live errors left sigma ({}): recalibrating and retraining on recent data",
+                    match c {
+                        Change::Rougher => "larger than claimed",
+                        Change::Calmer => "much smaller than claimed",
+                    }
+                );
+                self.calib.discount(d, KEPT_AFTER_CHANGE);
+                self.retrain_due.get_or_insert("sea changed");
+            }
+        }
+    }
+
+    /// Pick up a finished retrain; it replaces the running models only where it scored better
+    /// on the newest data.
+    fn take_models(&mut self) {
+        let Some(outcome) = self.retrainer.take() else {
+            return;
+        };
+        self.counts.retrains += 1;
+        let new = outcome.set;
+        let Some(running) = self.models.as_ref() else {
+            tracing::info!(
+                version = new.version,
+                models = %new.describe(),
+                seconds = outcome.seconds,
+                "predictor: first model fitted on live data in use"
+            );
+            self.counts.swaps += 1;
+            self.install(new);
+            return;
+        };
+        if running.horizon() != new.horizon() {
+            tracing::warn!("predictor: retrained model has another horizon: ignored");
+            return;
+        }
+        let new_total: f64 = new.score.iter().sum();
+        let old_total: f64 = outcome.running_score.iter().sum();
+        // NaN for the running model means it could not be scored on this data: take the new.
+        let better = old_total.is_nan() || old_total > new_total;
+        tracing::info!(
+            reason = outcome.reason,
+            new_score = new_total / NUM_DOF as f64,
+            running_score = old_total / NUM_DOF as f64,
+            seconds = outcome.seconds,
+            "predictor: retrained on live history ({}); {}",
+            new.describe(),
+            if better {
+                "the new model replaces the running one"
+            } else {
+                "the running model scores better and stays"
+            }
+        );
+        if better {
+            self.counts.swaps += 1;
+            self.install(new);
+        } else {
+            self.counts.kept_running += 1;
+        }
+    }
+
+    /// Ask for a retrain when one is due: the first after `first_fit_s` of live data, then
+    /// every `retrain_every_s`, or at once when the sea changed.
+    fn schedule_retrain(&mut self) {
+        let q = &self.config;
+        if q.retrain_every_s <= 0.0 {
+            return;
+        }
+        let rate = q.sample_rate_hz;
+        let len = self.ingest.len() as u64;
+        let first = (q.first_fit_s * rate).round() as u64;
+        let every = (q.retrain_every_s * rate).round() as u64;
+        let reason = match (self.retrain_due, self.last_fit_at) {
+            (Some(r), _) => Some(r),
+            (None, None) if len >= first.max(1) => Some("first fit on live data"),
+            (None, Some(at)) if every > 0 && self.values >= at + every => Some("scheduled"),
+            _ => None,
+        };
+        let Some(reason) = reason else { return };
+        let take = self.ingest.len().min(q.retrain_window);
+        // Checked before copying the history: while a fit is still running, or the data allow
+        // no order yet, a due retrain waits without copying anything on every value.
+        if !self.retrainer.is_ready()
+            || !models::any_feasible_order(q, take, models::holdout_for(q, take))
+        {
+            return;
+        }
+        let Some(series) = (0..NUM_DOF)
+            .map(|d| self.ingest.last(d, take).map(<[f64]>::to_vec))
+            .collect::<Option<Vec<_>>>()
+        else {
+            return;
+        };
+        let job = Job {
+            series,
+            version: self.next_version,
+            running: self.models.clone(),
+            reason,
+        };
+        if self.retrainer.request(job) {
+            self.next_version += 1;
+            self.last_fit_at = Some(self.values);
+            self.retrain_due = None;
+            // An inline retrain is done already: use it for this very forecast.
+            self.take_models();
+        }
+    }
+
+    /// Forecast, recalibrate, check and fill `self.forecast`.
+    fn compose(&mut self, index: u64, x: &[f64; NUM_DOF], v: NewValue) -> anyhow::Result<()> {
+        let horizon = self.config.horizon.min(MAX_STEPS);
+        let horizon = self.models.as_ref().map_or(horizon, ModelSet::horizon);
+        let version = self.model_version();
+        for d in 0..NUM_DOF {
+            let raw = &mut self.raw[d][..horizon];
+            raw.fill(0.0);
+            if let Some(m) = self.models.as_mut() {
+                let p = &mut m.predictors[d];
+                if let Some(past) = self.ingest.last(d, p.order()) {
+                    p.forecast(past, raw)?;
+                }
+            }
+        }
+        let variance: [f64; NUM_DOF] = std::array::from_fn(|d| self.live_variance(d));
+        let entry = self.log.push();
+        entry.index = index;
+        entry.steps = horizon;
+        entry.version = version;
+        entry.last = *x;
+        let f = &mut *self.forecast;
+        for (d, var) in variance.iter().enumerate() {
+            let rms = var.sqrt();
+            let bound = self.config.plausible_rms_factor * rms;
+            let inflate = self.change.inflation(d);
+            let mut plausible = true;
+            for k in 0..horizon {
+                let c = self.calib.get(d, k, variance[d]);
+                let raw = self.raw[d][k];
+                let mean = c.beta * raw;
+                let sigma = if c.sigma.is_finite() { c.sigma } else { rms };
+                entry.raw[d][k] = if raw.is_finite() { raw } else { 0.0 };
+                entry.mean[d][k] = mean;
+                entry.sigma_calibrated[d][k] = sigma;
+                entry.sigma[d][k] = sigma * inflate;
+                plausible &= mean.is_finite() && mean.abs() <= bound;
+            }
+            if !plausible {
+                self.counts.implausible[d] += 1;
+                for k in 0..horizon {
+                    entry.mean[d][k] = 0.0;
+                    entry.sigma[d][k] = rms.max(entry.sigma[d][k]);
+                }
+                // One line per DOF per minute of record time at most.
+                if self.values >= self.last_implausible_log[d] + 120
+                    || self.counts.implausible[d] == 1
+                {
+                    self.last_implausible_log[d] = self.values;
+                    tracing::warn!(
+                        dof = Dof::ALL[d].name(),
+                        time_s = v.time_s,
+                        count = self.counts.implausible[d],
+                        "predictor: implausible forecast (beyond {} x the live RMS {:.3}) replaced by no-skill",
+                        self.config.plausible_rms_factor,
+                        rms
+                    );
+                }
+            }
+            for k in 0..MAX_STEPS {
+                let (m, s) = if k < horizon {
+                    (entry.mean[d][k], entry.sigma[d][k])
+                } else {
+                    (0.0, 0.0)
+                };
+                f.mean[d][k] = m as f32;
+                f.sigma[d][k] = s as f32;
+            }
+        }
+        f.seq = self.counts.forecasts;
+        f.source_seq = v.source_seq;
+        f.source_stamp_ns = v.source_stamp_ns;
+        f.time_s = v.time_s;
+        f.dt_s = 1.0 / self.config.sample_rate_hz;
+        f.steps = horizon as u32;
+        f.model_version = version;
+        f.issued_stamp_ns = monotonic_ns();
+        self.counts.forecasts += 1;
+        Ok(())
+    }
+
+    /// Let every model do ahead the part of the next forecast that the history so far
+    /// determines (`Predictor::prepare`); once per new value and model.
+    pub fn prepare_next(&mut self) -> anyhow::Result<()> {
+        let now = (self.values, self.model_version());
+        if self.prepared_for == Some(now) {
+            return Ok(());
+        }
+        if let Some(m) = self.models.as_mut() {
+            for (d, p) in m.predictors.iter_mut().enumerate() {
+                if let Some(known) = self.ingest.last(d, p.order()) {
+                    p.prepare(known)?;
+                }
+            }
+        }
+        self.prepared_for = Some(now);
+        Ok(())
+    }
+
+    /// Pick up a retrain finished in the background (the service calls this between samples).
+    pub fn poll_models(&mut self) {
+        self.take_models();
+    }
+
+    /// Live scores over the verification window.
+    pub fn verification(&self) -> VerificationReport {
+        let horizon = self
+            .models
+            .as_ref()
+            .map_or(self.config.horizon, ModelSet::horizon);
+        self.verifier.report(
+            horizon,
+            1.0 / self.config.sample_rate_hz,
+            self.config.verification_window_s,
+        )
+    }
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,235 @@
+//! `shipcast replay`: the engine run over a recorded motion CSV as fast as possible, exactly as
+//! the service would have run it (start, verification, recalibration, retraining, swaps; the
+//! retraining inline, so the result is deterministic), and every delivered forecast scored
+//! against the record itself.
+//!
+//! Step k of a forecast is scored against the record's value at `time_s + k * dt_s` (the
+//! recorded sample, not the filtered one). Only forecasts issued at record time >= `skip_s`
+//! whose every step falls on a recorded sample are scored.
+
+use super::retrain::Retrainer;
+use super::{Engine, EngineCounts};
+use crate::config::PredictorServiceConfig;
+use crate::engine::models::ModelSet;
+use serde::Serialize;
+use shipcast_series::motion_csv::MotionData;
+use shipcast_wire::payload::{Forecast, MotionSample, MAX_STEPS, NUM_DOF};
+use shipcast_wire::Dof;
+
+/// Scores of one DOF over a replay.
+#[derive(Debug, Clone, Serialize)]
+pub struct DofReplay {
+    pub dof: &'static str,
+    pub forecasts: u64,
+    pub scored: u64,
+    pub retrains: u64,
+    pub swaps: u64,
+    pub implausible: u64,
+    /// RMS of the record's values at the scored steps (what predicting zero scores).
+    pub std: f64,
+    pub rms: Vec<f64>,
+    pub zero_rms: Vec<f64>,
+    pub persistence_rms: Vec<f64>,
+    pub nrmse: Vec<f64>,
+    pub mean_sigma: Vec<f64>,
+    pub coverage_1sigma: Vec<f64>,
+    pub coverage_2sigma: Vec<f64>,
+    pub max_abs_error: f64,
+    /// RMS error of the 10 s step per minute of record time (by issue time; NaN where nothing
+    /// was scored): how the error evolves, e.g. how fast it recovers after a change of sea.
+    pub rms_10s_by_minute: Vec<f64>,
+}
+
+/// The step whose error `rms_10s_by_minute` follows [s].
+pub const TRACE_LEAD_S: f64 = 10.0;
+
+/// The whole replay.
+#[derive(Debug, Clone, Serialize)]
+pub struct ReplayReport {
+    pub input_rate_hz: f64,
+    pub dt_s: f64,
+    pub counts: EngineCounts,
+    pub dofs: Vec<DofReplay>,
+}
+
+/// Running sums of one DOF and step.
+#[derive(Debug, Clone, Copy, Default)]
+struct StepSums {
+    n: f64,
+    ee: f64,
+    xx: f64,
+    pp: f64,
+    sigma: f64,
+    in1: f64,
+    in2: f64,
+}
+
+/// Sample rate of a record that may hold gaps: one over the median step.
+fn median_rate(time: &[f64]) -> anyhow::Result<f64> {
+    if time.len() < 2 {
+        anyhow::bail!(
+            "the record holds {} samples; at least 2 are needed",
+            time.len()
+        );
+    }
+    let mut steps: Vec<f64> = time.windows(2).map(|p| p[1] - p[0]).collect();
+    steps.sort_by(f64::total_cmp);
+    let median = steps[steps.len() / 2];
+    if median.is_nan() || median <= 0.0 {
+        anyhow::bail!("the record's time does not increase");
+    }
+    Ok(1.0 / median)
+}
+
+/// Index of the sample at time `t`, if one was recorded there (within a quarter step).
+fn sample_at(time: &[f64], t: f64, step: f64) -> Option<usize> {
+    let i = time.partition_point(|&x| x < t - 0.25 * step);
+    (i < time.len() && (time[i] - t).abs() <= 0.25 * step).then_some(i)
+}
+
+/// Run the engine over `data` from `models` (None: no skill until the first live fit).
+/// `progress` is told how many samples were fed since its last call. With `keep_forecasts`
+/// every delivered forecast is also returned (6 KB each: for tests and short records).
+pub fn replay(
+    data: &MotionData,
+    config: &PredictorServiceConfig,
+    models: Option<ModelSet>,
+    skip_s: f64,
+    keep_forecasts: bool,
+    progress: &dyn Fn(u64),
+) -> anyhow::Result<(ReplayReport, Vec<Forecast>)> {
+    let rate = median_rate(&data.time)?;
+    let rate = (rate * 1e6).round() / 1e6;
+    let mut engine = Engine::new(
+        config.clone(),
+        rate,
+        models,
+        Retrainer::inline(config.clone()),
+    )?;
+    let present: Vec<Dof> = data.dofs();
+    let columns: Vec<Option<&[f64]>> = Dof::ALL.iter().map(|&d| data.dof(d).ok()).collect();
+    let step_in = 1.0 / rate;
+    let dt = 1.0 / config.sample_rate_hz;
+    let delay = engine.delay_s();
+    let mut sums = vec![[StepSums::default(); MAX_STEPS]; NUM_DOF];
+    let mut max_abs = [0.0f64; NUM_DOF];
+    let trace_k = ((TRACE_LEAD_S / dt).round() as usize).max(1) - 1;
+    let minutes = (data.time.last().copied().unwrap_or(0.0) / 60.0)
+        .ceil()
+        .max(0.0) as usize
+        + 1;
+    let mut trace = vec![vec![(0.0f64, 0u64); minutes]; NUM_DOF];
+    let mut scored = 0u64;
+    let mut kept = Vec::new();
+    let mut unreported = 0u64;
+    for (i, &t) in data.time.iter().enumerate() {
+        let sample = MotionSample {
+            seq: i as u64,
+            stamp_ns: 0,
+            time_s: t,
+            dof: std::array::from_fn(|d| columns[d].map_or(0.0, |c| c[i])),
+        };
+        unreported += 1;
+        if unreported == 4096 {
+            progress(unreported);
+            unreported = 0;
+        }
+        let Some(f) = engine.push(&sample)? else {
+            continue;
+        };
+        if keep_forecasts {
+            kept.push(*f);
+        }
+        if f.time_s < skip_s {
+            continue;
+        }
+        let steps = f.steps as usize;
+        let Some(idx): Option<Vec<usize>> = (1..=steps)
+            .map(|k| sample_at(&data.time, f.time_s + k as f64 * dt, step_in))
+            .collect()
+        else {
+            continue;
+        };
+        // The newest sample the forecast used is persistence's forecast.
+        let last = sample_at(&data.time, f.time_s + delay, step_in).unwrap_or(i);
+        scored += 1;
+        for &dof in &present {
+            let d = dof.index();
+            let Some(col) = columns[d] else { continue };
+            for (k, &j) in idx.iter().enumerate() {
+                let x = col[j];
+                let m = f64::from(f.mean[d][k]);
+                let s = f64::from(f.sigma[d][k]);
+                let e = x - m;
+                let p = x - col[last];
+                let acc = &mut sums[d][k];
+                acc.n += 1.0;
+                acc.ee += e * e;
+                acc.xx += x * x;
+                acc.pp += p * p;
+                acc.sigma += s;
+                acc.in1 += f64::from(u8::from(e.abs() <= s));
+                acc.in2 += f64::from(u8::from(e.abs() <= 2.0 * s));
+                max_abs[d] = max_abs[d].max(e.abs());
+                if k == trace_k {
+                    let minute = ((f.time_s / 60.0).floor().max(0.0) as usize).min(minutes - 1);
+                    trace[d][minute].0 += e * e;
+                    trace[d][minute].1 += 1;
+                }
+            }
+        }
+    }
+    progress(unreported);
+    let steps = engine.forecast().steps as usize;
+    let counts = engine.counts;
+    let dofs = present
+        .iter()
+        .map(|&dof| {
+            let d = dof.index();
+            let s = &sums[d][..steps];
+            let per = |f: &dyn Fn(&StepSums) -> f64| -> Vec<f64> { s.iter().map(f).collect() };
+            let root = |a: f64, n: f64| if n > 0.0 { (a / n).sqrt() } else { f64::NAN };
+            let rms = per(&|a| root(a.ee, a.n));
+            let zero_rms = per(&|a| root(a.xx, a.n));
+            let (xx, n) = s
+                .iter()
+                .fold((0.0, 0.0), |acc, a| (acc.0 + a.xx, acc.1 + a.n));
+            DofReplay {
+                dof: dof.name(),
+                forecasts: counts.forecasts,
+                scored,
+                retrains: counts.retrains,
+                swaps: counts.swaps,
+                implausible: counts.implausible[d],
+                std: root(xx, n),
+                nrmse: rms.iter().zip(&zero_rms).map(|(a, b)| a / b).collect(),
+                rms,
+                zero_rms,
+                persistence_rms: per(&|a| root(a.pp, a.n)),
+                mean_sigma: per(&|a| if a.n > 0.0 { a.sigma / a.n } else { f64::NAN }),
+                coverage_1sigma: per(&|a| if a.n > 0.0 { a.in1 / a.n } else { f64::NAN }),
+                coverage_2sigma: per(&|a| if a.n > 0.0 { a.in2 / a.n } else { f64::NAN }),
+                max_abs_error: max_abs[d],
+                rms_10s_by_minute: trace[d]
+                    .iter()
+                    .map(|&(ss, n)| {
+                        if n > 0 {
+                            (ss / n as f64).sqrt()
+                        } else {
+                            f64::NAN
+                        }
+                    })
+                    .collect(),
+            }
+        })
+        .collect();
+    Ok((
+        ReplayReport {
+            input_rate_hz: rate,
+            dt_s: dt,
+            counts,
+            dofs,
+        },
+        kept,
+    ))
+}

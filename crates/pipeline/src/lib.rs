@@ -1,0 +1,15 @@
+//! The running system: what the `shipcast` services are made of.
+//!
+//! - [`config`]: the pipeline TOML configuration (schema, defaults, validation).
+//! - [`transport`]: service names, iceoryx2 and zenoh plumbing, security, receive checks.
+//! - [`engine`]: the forecasting engine the predictor service, `shipcast replay` and the latency
+//!   bench drive (ingest, model set, retraining, verification, calibration).
+//! - [`deck`], [`crane`]: ship-point geometry, landing advisory, crane-tip forecast.
+//! - [`certs`]: the CA and certificates of a secure setup (`shipcast certs`).
+
+pub mod certs;
+pub mod config;
+pub mod crane;
+pub mod deck;
+pub mod engine;
+pub mod transport;

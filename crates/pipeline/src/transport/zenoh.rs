@@ -1,0 +1,438 @@
+//! zenoh plumbing with the synchronous `.wait()` API (no async runtime in our code): a session
+//! with explicit endpoints (and, when configured, zenoh's TLS, authentication and access
+//! control: see `zenoh_security`), JSON publishers that name themselves, liveliness tokens, and
+//! "latest value" subscribers backed by a ring channel so a slow consumer never blocks zenoh's
+//! receive thread.
+
+use crate::transport::zenoh_security::{self as security, AccessRules, TlsSettings, UserPassword};
+use serde::{Deserialize, Serialize};
+use shipcast_wire::payload::limits;
+use std::time::Duration;
+use zenoh::bytes::{Encoding, ZBytes};
+use zenoh::handlers::{FifoChannelHandler, RingChannel, RingChannelHandler};
+use zenoh::liveliness::LivelinessToken;
+use zenoh::pubsub::{Publisher, Subscriber};
+use zenoh::qos::CongestionControl;
+use zenoh::sample::{Sample, SampleKind};
+use zenoh::{Session, Wait};
+
+/// A zenoh failure, with what was being done.
+#[derive(Debug, thiserror::Error)]
+#[error("zenoh: {context}: {detail}")]
+pub struct ZenohError {
+    pub context: String,
+    pub detail: String,
+}
+
+fn err<E: std::fmt::Display>(context: impl Into<String>) -> impl FnOnce(E) -> ZenohError {
+    move |e| ZenohError {
+        context: context.into(),
+        detail: e.to_string(),
+    }
+}
+
+/// zenoh's role for a session: a peer (the predictor, plain-TCP consumers), a client that
+/// reaches everything through the one node it connects to (secure consumers), or a router
+/// (`shipcast router`, the hub of a fleet).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Mode {
+    #[default]
+    Peer,
+    Client,
+    Router,
+}
+
+impl Mode {
+    fn as_str(self) -> &'static str {
+        match self {
+            Mode::Peer => "peer",
+            Mode::Client => "client",
+            Mode::Router => "router",
+        }
+    }
+}
+
+/// How a process joins the zenoh network.
+#[derive(Debug, Clone, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ZenohSettings {
+    pub mode: Mode,
+    /// Endpoints to listen on, e.g. `tcp/127.0.0.1:17447`. Empty: do not listen.
+    pub listen: Vec<String>,
+    /// Endpoints of peers or routers to connect to.
+    pub connect: Vec<String>,
+    /// Find peers by UDP multicast scouting (off: only the explicit endpoints are used).
+    pub multicast_scouting: bool,
+    /// Mutual TLS (used by `tls/` endpoints).
+    pub tls: Option<TlsSettings>,
+    /// User/password authentication.
+    pub auth: Option<UserPassword>,
+    /// Access control enforced by this node on its links.
+    pub access: Option<AccessRules>,
+    /// zenoh downsampling of puts sent out of this node (a router towards the shore).
+    pub downsample_egress: Option<Downsampling>,
+    /// A client keeps trying its endpoints this long when opening (a consumer started before
+    /// the predictor); none: zenoh's default, one attempt.
+    pub client_connect_patience_ms: Option<u64>,
+}
+
+/// At most `max_hz` puts per second per key on `key_exprs`, towards every link of the node.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Downsampling {
+    pub key_exprs: Vec<String>,
+    pub max_hz: f64,
+}
+
+impl Eq for Downsampling {}
+
+impl ZenohSettings {
+    /// Listen on `endpoint` only, scouting off (the bench and tests on loopback).
+    pub fn listen_on(endpoint: &str) -> Self {
+        Self {
+            listen: vec![endpoint.to_string()],
+            ..Self::default()
+        }
+    }
+
+    /// Connect to `endpoint` only, scouting off.
+    pub fn connect_to(endpoint: &str) -> Self {
+        Self {
+            connect: vec![endpoint.to_string()],
+            ..Self::default()
+        }
+    }
+}
+
+/// A TCP endpoint on 127.0.0.1 with a port that is free now (the OS picks it; it is released
+/// before zenoh binds it), e.g. `tcp/127.0.0.1:40123`.
+pub fn free_loopback_endpoint() -> Result<String, ZenohError> {
+    let port = std::net::TcpListener::bind("127.0.0.1:0")
+        .and_then(|l| l.local_addr())
+        .map_err(err("find a free TCP port on 127.0.0.1"))?
+        .port();
+    Ok(format!("tcp/127.0.0.1:{port}"))
+}
+
+/// The zenoh configuration entries (key path, JSON value) of `settings`.
+pub fn config_entries(settings: &ZenohSettings) -> Vec<(String, serde_json::Value)> {
+    use serde_json::json;
+    let mut entries: Vec<(String, serde_json::Value)> = vec![
+        ("mode".into(), settings.mode.as_str().into()),
+        ("listen/endpoints".into(), json!(settings.listen)),
+        ("connect/endpoints".into(), json!(settings.connect)),
+        (
+            "scouting/multicast/enabled".into(),
+            settings.multicast_scouting.into(),
+        ),
+        // Peers learn of other peers by gossip and connect to them directly; off for clients
+        // and routers, so nothing goes around the node that holds the access rules.
+        (
+            "scouting/gossip/enabled".into(),
+            (settings.mode == Mode::Peer).into(),
+        ),
+    ];
+    if settings.mode == Mode::Peer {
+        // Return from open once the explicit endpoints are connected instead of waiting for
+        // every peer learnt by gossip (a 500 ms wait and a warning when one is slow to
+        // answer). Declarations propagate asynchronously either way.
+        entries.push((
+            "open/return_conditions/connect_scouted".into(),
+            false.into(),
+        ));
+    }
+    if let (Mode::Client, Some(ms)) = (settings.mode, settings.client_connect_patience_ms) {
+        entries.push(("connect/timeout_ms".into(), json!(ms)));
+    }
+    if let Some(tls) = &settings.tls {
+        entries.extend(security::tls_entries(tls, !settings.listen.is_empty()));
+    }
+    if let Some(auth) = &settings.auth {
+        entries.extend(security::usrpwd_entries(auth));
+    }
+    if let Some(access) = &settings.access {
+        entries.push(("access_control".into(), access.to_zenoh_json()));
+    }
+    if let Some(d) = &settings.downsample_egress {
+        entries.push((
+            "downsampling".into(),
+            json!([{
+                "id": "towards-consumers",
+                "messages": ["put"],
+                "flows": ["egress"],
+                "rules": d.key_exprs.iter().map(|k| json!({"key_expr": k, "freq": d.max_hz})).collect::<Vec<_>>(),
+            }]),
+        ));
+    }
+    entries
+}
+
+/// `settings` as one nested zenoh configuration document (JSON, which is also JSON5), as a
+/// zenoh client in any language loads it (`zenoh.Config.from_file` in Python).
+pub fn config_document(settings: &ZenohSettings) -> serde_json::Value {
+    fn insert(
+        map: &mut serde_json::Map<String, serde_json::Value>,
+        path: &[&str],
+        value: serde_json::Value,
+    ) {
+        match path {
+            [] => {}
+            [last] => {
+                map.insert(last.to_string(), value);
+            }
+            [first, rest @ ..] => {
+                let child = map
+                    .entry(first.to_string())
+                    .or_insert_with(|| serde_json::Value::Object(Default::default()));
+                // Entries never put a value where another one has a section.
+                if let Some(section) = child.as_object_mut() {
+                    insert(section, rest, value);
+                }
+            }
+        }
+    }
+    let mut root = serde_json::Map::new();
+    for (key, value) in config_entries(settings) {
+        let path: Vec<&str> = key.split('/').collect();
+        insert(&mut root, &path, value);
+    }
+    serde_json::Value::Object(root)
+}
+
+/// The zenoh configuration of `settings`.
+pub fn zenoh_config(settings: &ZenohSettings) -> Result<zenoh::Config, ZenohError> {
+    let mut config = zenoh::Config::default();
+    for (key, value) in config_entries(settings) {
+        let text = value.to_string();
+        config.insert_json5(&key, &text).map_err(err(format!(
+            "config {key} = {}",
+            // Keys may be inline; never print them.
+            if key.contains("private_key") || key.contains("password") {
+                "<secret>"
+            } else {
+                &text
+            }
+        )))?;
+    }
+    Ok(config)
+}
+
+/// Open a session with exactly the configured endpoints.
+pub fn open(settings: &ZenohSettings) -> Result<Session, ZenohError> {
+    let config = zenoh_config(settings)?;
+    zenoh::open(config).wait().map_err(err(format!(
+        "open {} session (listen {:?}, connect {:?}{})",
+        settings.mode.as_str(),
+        settings.listen,
+        settings.connect,
+        if settings.tls.is_some() { ", TLS" } else { "" }
+    )))
+}
+
+/// Publishes JSON payloads (encoding `application/json`) on one key.
+///
+/// Publishers are express: each put is written to the link from the calling thread instead of
+/// waiting in zenoh's batching queue for its transmit task. Our messages are few (a forecast
+/// every 0.5 s) and latency is what consumers pay for, so batching only adds a thread hop (about
+/// 40 µs at the median on two cores, where that task shares the predictor's core).
+///
+/// Each put carries the publishing session's zenoh id as its attachment, and the publisher
+/// holds the liveliness token `Names::publisher_token(key, zid)`: a consumer accepts a payload
+/// only from the publisher whose token is alive (`SourceCheck`).
+pub struct JsonPublisher {
+    publisher: Publisher<'static>,
+    publisher_id: ZBytes,
+    _token: LivelinessToken,
+}
+
+impl JsonPublisher {
+    pub fn new(session: &Session, key: &str) -> Result<Self, ZenohError> {
+        let publisher = session
+            .declare_publisher(key.to_string())
+            .encoding(Encoding::APPLICATION_JSON)
+            // A slow, full or vanished remote link drops forecasts instead of blocking the
+            // publishing thread (zenoh's default for puts, stated because it matters).
+            .congestion_control(CongestionControl::Drop)
+            .express(true)
+            .wait()
+            .map_err(err(format!("declare publisher on '{key}'")))?;
+        let zid = session.zid().to_string();
+        let token = liveliness_token(session, &publisher_token(key, &zid))?;
+        Ok(Self {
+            publisher,
+            publisher_id: ZBytes::from(zid.into_bytes()),
+            _token: token,
+        })
+    }
+
+    /// Publish one JSON document.
+    pub fn put(&self, json: &[u8]) -> Result<(), ZenohError> {
+        self.publisher
+            .put(json.to_vec())
+            // A reference-counted copy of the id, no allocation of its bytes.
+            .attachment(self.publisher_id.clone())
+            .wait()
+            .map_err(err(format!("put on '{}'", self.publisher.key_expr())))
+    }
+
+    /// Serialise `value` as JSON and publish it.
+    pub fn put_serialize<T: Serialize>(&self, value: &T) -> Result<(), ZenohError> {
+        let bytes = serde_json::to_vec(value).map_err(err("serialise JSON"))?;
+        self.put(&bytes)
+    }
+
+    /// True once at least one subscriber matches (declarations propagate asynchronously).
+    pub fn has_subscribers(&self) -> bool {
+        self.publisher
+            .matching_status()
+            .wait()
+            .map(|s| s.matching())
+            .unwrap_or(false)
+    }
+}
+
+/// Liveliness token that a publisher of `key` holds while it lives, naming its session.
+pub fn publisher_token(key: &str, zid: &str) -> String {
+    format!("{key}/publisher/{zid}")
+}
+
+/// Declare the liveliness token of a service; it stays alive while the returned value lives.
+pub fn liveliness_token(session: &Session, key: &str) -> Result<LivelinessToken, ZenohError> {
+    session
+        .liveliness()
+        .declare_token(key.to_string())
+        .wait()
+        .map_err(err(format!("declare liveliness token '{key}'")))
+}
+
+/// One payload and the publisher id it carried (`JsonPublisher` attaches its session's zenoh
+/// id; other publishers may attach nothing, or anything).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Received {
+    pub payload: Vec<u8>,
+    pub publisher: Option<String>,
+}
+
+/// Keeps the newest few payloads of one key; older ones are dropped, never queued without bound.
+pub struct LatestSubscriber {
+    subscriber: Subscriber<RingChannelHandler<Sample>>,
+}
+
+impl LatestSubscriber {
+    pub fn new(session: &Session, key: &str) -> Result<Self, ZenohError> {
+        let subscriber = session
+            .declare_subscriber(key.to_string())
+            .with(RingChannel::new(limits::ZENOH_RING))
+            .wait()
+            .map_err(err(format!("declare subscriber on '{key}'")))?;
+        Ok(Self { subscriber })
+    }
+
+    /// Wait up to `timeout` for the next payload.
+    pub fn recv_timeout(&self, timeout: Duration) -> Result<Option<Vec<u8>>, ZenohError> {
+        let sample = self
+            .subscriber
+            .recv_timeout(timeout)
+            .map_err(err("receive"))?;
+        Ok(sample.map(|s| s.payload().to_bytes().into_owned()))
+    }
+
+    /// Wait up to `timeout` for the next payload, with the zenoh id its publisher attached.
+    pub fn recv_with_source(&self, timeout: Duration) -> Result<Option<Received>, ZenohError> {
+        let sample = self
+            .subscriber
+            .recv_timeout(timeout)
+            .map_err(err("receive"))?;
+        Ok(sample.map(|s| Received {
+            payload: s.payload().to_bytes().into_owned(),
+            publisher: s
+                .attachment()
+                .and_then(|a| a.try_to_string().ok().map(|t| t.into_owned())),
+        }))
+    }
+
+    /// The newest payload waiting, if any, discarding older ones.
+    pub fn latest(&self) -> Result<Option<Vec<u8>>, ZenohError> {
+        let mut newest = None;
+        while let Some(s) = self.subscriber.try_recv().map_err(err("receive"))? {
+            newest = Some(s);
+        }
+        Ok(newest.map(|s| s.payload().to_bytes().into_owned()))
+    }
+}
+
+/// Follows the liveliness token of a service: reports when it appears and disappears.
+pub struct LivelinessWatch {
+    subscriber: Subscriber<FifoChannelHandler<Sample>>,
+}
+
+impl LivelinessWatch {
+    pub fn new(session: &Session, key: &str) -> Result<Self, ZenohError> {
+        let subscriber = session
+            .liveliness()
+            .declare_subscriber(key.to_string())
+            .history(true)
+            .wait()
+            .map_err(err(format!("watch liveliness of '{key}'")))?;
+        Ok(Self { subscriber })
+    }
+
+    /// The latest change since the last call: Some(true) alive, Some(false) gone.
+    pub fn poll(&self) -> Option<bool> {
+        let mut state = None;
+        while let Ok(Some(s)) = self.subscriber.try_recv() {
+            state = Some(s.kind() == SampleKind::Put);
+        }
+        state
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::time::Instant;
+
+    #[test]
+    fn json_flows_between_two_peers_on_explicit_endpoints() {
+        let endpoint = free_loopback_endpoint().unwrap();
+        let a = open(&ZenohSettings::listen_on(&endpoint)).unwrap();
+        let b = open(&ZenohSettings::connect_to(&endpoint)).unwrap();
+        let key = format!("unit-{}/shipcast/x/forecast", std::process::id());
+        let sub = LatestSubscriber::new(&b, &key).unwrap();
+        let watch = LivelinessWatch::new(&b, &format!("{key}/alive")).unwrap();
+        let publisher = JsonPublisher::new(&a, &key).unwrap();
+        let token = liveliness_token(&a, &format!("{key}/alive")).unwrap();
+        let deadline = Instant::now() + Duration::from_secs(10);
+        while !publisher.has_subscribers() && Instant::now() < deadline {
+            std::thread::sleep(Duration::from_millis(10));
+        }
+        publisher.put(br#"{"x":1}"#).unwrap();
+        let got = sub.recv_timeout(Duration::from_secs(5)).unwrap();
+        assert_eq!(got.as_deref(), Some(&br#"{"x":1}"#[..]));
+        let mut alive = None;
+        while alive.is_none() && Instant::now() < deadline {
+            alive = watch.poll();
+            std::thread::sleep(Duration::from_millis(10));
+        }
+        assert_eq!(alive, Some(true));
+        drop(token);
+        let mut alive = None;
+        while alive != Some(false) && Instant::now() < deadline {
+            alive = watch.poll().or(alive);
+            std::thread::sleep(Duration::from_millis(10));
+        }
+        assert_eq!(alive, Some(false));
+    }
+
+    #[test]
+    fn bad_endpoint_is_a_clear_error() {
+        let e = open(&ZenohSettings {
+            listen: vec!["nonsense".into()],
+            ..ZenohSettings::default()
+        })
+        .err()
+        .unwrap();
+        assert!(e.to_string().starts_with("zenoh: "), "{e}");
+    }
+}

@@ -1,0 +1,19 @@
+//! Motion time series: the motion CSV format ([`motion_csv`], docs/contracts.md section 2.3) and
+//! the resampling every consumer of a record shares.
+//!
+//! Resampling motion records to the evaluation rate (docs/contracts.md section 4): a causal
+//! anti-alias FIR low-pass filter followed by decimation by an integer factor.
+//!
+//! The same filter runs offline ([`decimate`], [`resample_motion`]) and live, sample by sample
+//! ([`Decimator`], used by the predictor service for 8 -> 2 Hz), and the batch functions are the
+//! streaming decimator run over the series, so evaluation and service see identical values.
+//! The filter, its delay and its attenuation are documented on [`fir::design_lowpass`].
+
+pub mod decimator;
+pub mod fir;
+pub mod motion_csv;
+pub mod resample;
+
+pub use decimator::{decimate, decimate_with, Decimator};
+pub use fir::FilterPhase;
+pub use resample::{decimation_factor, resample_motion, sample_rate, ResampleError};

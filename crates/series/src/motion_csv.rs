@@ -1,0 +1,562 @@
+//! The motion CSV format (docs/contracts.md section 2.3): a header row of unit-carrying column
+//! names (`time_s,surge_m,sway_m,heave_m,roll_rad,pitch_rad,yaw_rad`), then one row per sample.
+//!
+//! Readers accept any subset of the six DOF columns, in any order, plus extra numeric columns
+//! (`wave_m`, ...). `time_s` is required and must increase strictly. Every value must be a finite
+//! number: a motion CSV is a numeric table, so a text column is rejected like a typo would be.
+//! Errors name the line (1-based, the header is line 1) and the column.
+//!
+//! [`MotionCsvWriter`] writes the same format row by row (the simulator streams hours of data),
+//! with values printed in Rust's shortest round-trip form, so reading back gives the same `f64`s.
+
+use shipcast_wire::dof::Dof;
+use std::fs::File;
+use std::io::{self, BufWriter, Read, Write};
+use std::path::Path;
+
+/// Name of the time column.
+pub const TIME_COLUMN: &str = "time_s";
+
+/// Why a motion CSV could not be read or written.
+#[derive(Debug, thiserror::Error)]
+pub enum MotionCsvError {
+    #[error(transparent)]
+    Io(#[from] io::Error),
+    #[error("empty file: no header row")]
+    Empty,
+    #[error("no data rows after the header")]
+    NoRows,
+    #[error("line 1: no '{TIME_COLUMN}' column (columns: {columns})")]
+    MissingTime { columns: String },
+    #[error("line 1: column '{column}' appears twice")]
+    DuplicateColumn { column: String },
+    #[error("line 1: column {index} has an empty name")]
+    EmptyColumnName { index: usize },
+    #[error("line {line}: truncated row: {got} of {expected} fields")]
+    Truncated {
+        line: u64,
+        expected: usize,
+        got: usize,
+    },
+    #[error("line {line}: {got} fields, the header has {expected}")]
+    TooManyFields {
+        line: u64,
+        expected: usize,
+        got: usize,
+    },
+    #[error("line {line}, column '{column}': missing value")]
+    Missing { line: u64, column: String },
+    #[error("line {line}, column '{column}': '{text}' is not a number")]
+    NotANumber {
+        line: u64,
+        column: String,
+        text: String,
+    },
+    #[error("line {line}, column '{column}': non-finite value '{text}'")]
+    NonFinite {
+        line: u64,
+        column: String,
+        text: String,
+    },
+    #[error("line {line}, column '{TIME_COLUMN}': time {time} does not increase (previous row: {previous})")]
+    TimeNotIncreasing { line: u64, time: f64, previous: f64 },
+    #[error("line {line}: malformed CSV: {message}")]
+    Malformed { line: u64, message: String },
+    #[error("no '{column}' column for {dof} (columns: {columns})")]
+    DofAbsent {
+        dof: Dof,
+        column: &'static str,
+        columns: String,
+    },
+    #[error("column name '{0}' cannot be written (empty, or holds a comma, quote or line break)")]
+    BadColumnName(String),
+    #[error("row {row}: {got} values for {expected} columns")]
+    RowWidth {
+        row: u64,
+        expected: usize,
+        got: usize,
+    },
+    #[error("row {row}: non-finite value {value} in column '{column}'")]
+    WriteNonFinite {
+        row: u64,
+        column: String,
+        value: f64,
+    },
+    #[error("row {row}: time {time} does not increase (previous row: {previous})")]
+    WriteTimeNotIncreasing { row: u64, time: f64, previous: f64 },
+}
+
+/// One named column of values.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Column {
+    pub name: String,
+    pub values: Vec<f64>,
+}
+
+/// A motion record: strictly increasing times and the columns present in the file, in file order.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MotionData {
+    /// Sample times [s], strictly increasing.
+    pub time: Vec<f64>,
+    /// Every column except `time_s`, in file order; each as long as `time`.
+    pub columns: Vec<Column>,
+}
+
+impl MotionData {
+    /// Read a motion CSV file.
+    pub fn read_path(path: impl AsRef<Path>) -> Result<Self, MotionCsvError> {
+        Self::read(File::open(path)?)
+    }
+
+    /// Read a motion CSV from any reader.
+    pub fn read(input: impl Read) -> Result<Self, MotionCsvError> {
+        Self::read_impl(input, false)
+    }
+
+    /// Read a motion CSV whose value columns may hold `NaN` (any case) for a missing sample,
+    /// as measured records mark a gap; `time_s` must still be finite and increasing, and any
+    /// other non-finite text is an error as in [`MotionData::read`].
+    pub fn read_with_gaps(input: impl Read) -> Result<Self, MotionCsvError> {
+        Self::read_impl(input, true)
+    }
+
+    fn read_impl(input: impl Read, nan_is_gap: bool) -> Result<Self, MotionCsvError> {
+        let mut reader = csv::ReaderBuilder::new()
+            .has_headers(false)
+            .flexible(true)
+            .trim(csv::Trim::All)
+            .from_reader(input);
+        let mut record = csv::StringRecord::new();
+        if !read_record(&mut reader, &mut record)? {
+            return Err(MotionCsvError::Empty);
+        }
+        let names: Vec<String> = record.iter().map(str::to_string).collect();
+        let time_index = check_header(&names)?;
+
+        let mut time = Vec::new();
+        let mut values: Vec<Vec<f64>> = vec![Vec::new(); names.len()];
+        while read_record(&mut reader, &mut record)? {
+            let line = record_line(&record);
+            if record.len() < names.len() {
+                return Err(MotionCsvError::Truncated {
+                    line,
+                    expected: names.len(),
+                    got: record.len(),
+                });
+            }
+            if record.len() > names.len() {
+                return Err(MotionCsvError::TooManyFields {
+                    line,
+                    expected: names.len(),
+                    got: record.len(),
+                });
+            }
+            for (i, text) in record.iter().enumerate() {
+                let value = if nan_is_gap && i != time_index && text.eq_ignore_ascii_case("nan") {
+                    f64::NAN
+                } else {
+                    parse_value(text, line, &names[i])?
+                };
+                values[i].push(value);
+            }
+            let t = values[time_index][values[time_index].len() - 1];
+            if let Some(&previous) = time.last() {
+                if t <= previous {
+                    return Err(MotionCsvError::TimeNotIncreasing {
+                        line,
+                        time: t,
+                        previous,
+                    });
+                }
+            }
+            time.push(t);
+        }
+        if time.is_empty() {
+            return Err(MotionCsvError::NoRows);
+        }
+        let columns = names
+            .into_iter()
+            .zip(values)
+            .enumerate()
+            .filter(|(i, _)| *i != time_index)
+            .map(|(_, (name, values))| Column { name, values })
+            .collect();
+        Ok(Self { time, columns })
+    }
+
+    /// Number of samples (rows).
+    pub fn len(&self) -> usize {
+        self.time.len()
+    }
+
+    /// True when there are no rows (never for data returned by `read`).
+    pub fn is_empty(&self) -> bool {
+        self.time.is_empty()
+    }
+
+    /// The values of a column by name, if present.
+    pub fn column(&self, name: &str) -> Option<&[f64]> {
+        self.columns
+            .iter()
+            .find(|c| c.name == name)
+            .map(|c| c.values.as_slice())
+    }
+
+    /// The series of one DOF, or an error naming the missing column.
+    pub fn dof(&self, dof: Dof) -> Result<&[f64], MotionCsvError> {
+        self.column(dof.csv_column())
+            .ok_or_else(|| MotionCsvError::DofAbsent {
+                dof,
+                column: dof.csv_column(),
+                columns: self.column_list(),
+            })
+    }
+
+    /// The DOFs present, in wire order.
+    pub fn dofs(&self) -> Vec<Dof> {
+        Dof::ALL
+            .into_iter()
+            .filter(|d| self.column(d.csv_column()).is_some())
+            .collect()
+    }
+
+    /// Columns that are not one of the six DOFs (`wave_m`, ...).
+    pub fn extras(&self) -> impl Iterator<Item = &Column> {
+        self.columns
+            .iter()
+            .filter(|c| !Dof::ALL.iter().any(|d| d.csv_column() == c.name))
+    }
+
+    /// Write the record as a motion CSV file.
+    pub fn write_path(&self, path: impl AsRef<Path>) -> Result<(), MotionCsvError> {
+        let names: Vec<&str> = self.columns.iter().map(|c| c.name.as_str()).collect();
+        let mut writer = MotionCsvWriter::create(path, &names)?;
+        let mut row = vec![0.0; self.columns.len()];
+        for (i, &t) in self.time.iter().enumerate() {
+            for (slot, column) in row.iter_mut().zip(&self.columns) {
+                *slot = column.values[i];
+            }
+            writer.write_row(t, &row)?;
+        }
+        writer.finish()?;
+        Ok(())
+    }
+
+    fn column_list(&self) -> String {
+        std::iter::once(TIME_COLUMN)
+            .chain(self.columns.iter().map(|c| c.name.as_str()))
+            .collect::<Vec<_>>()
+            .join(", ")
+    }
+}
+
+/// Read the next record; `Ok(false)` at the end of the input.
+fn read_record<R: Read>(
+    reader: &mut csv::Reader<R>,
+    record: &mut csv::StringRecord,
+) -> Result<bool, MotionCsvError> {
+    reader.read_record(record).map_err(|e| {
+        let line = e.position().map_or(0, |p| p.line());
+        let message = e.to_string();
+        match e.into_kind() {
+            csv::ErrorKind::Io(io) => MotionCsvError::Io(io),
+            _ => MotionCsvError::Malformed { line, message },
+        }
+    })
+}
+
+fn record_line(record: &csv::StringRecord) -> u64 {
+    record.position().map_or(0, |p| p.line())
+}
+
+/// Validate the header; returns the index of the time column.
+fn check_header(names: &[String]) -> Result<usize, MotionCsvError> {
+    for (i, name) in names.iter().enumerate() {
+        if name.is_empty() {
+            return Err(MotionCsvError::EmptyColumnName { index: i + 1 });
+        }
+        if names[..i].contains(name) {
+            return Err(MotionCsvError::DuplicateColumn {
+                column: name.clone(),
+            });
+        }
+    }
+    names
+        .iter()
+        .position(|n| n == TIME_COLUMN)
+        .ok_or_else(|| MotionCsvError::MissingTime {
+            columns: names.join(", "),
+        })
+}
+
+fn parse_value(text: &str, line: u64, column: &str) -> Result<f64, MotionCsvError> {
+    if text.is_empty() {
+        return Err(MotionCsvError::Missing {
+            line,
+            column: column.to_string(),
+        });
+    }
+    let value: f64 = text.parse().map_err(|_| MotionCsvError::NotANumber {
+        line,
+        column: column.to_string(),
+        text: text.to_string(),
+    })?;
+    if !value.is_finite() {
+        return Err(MotionCsvError::NonFinite {
+            line,
+            column: column.to_string(),
+            text: text.to_string(),
+        });
+    }
+    Ok(value)
+}
+
+/// Streaming writer of the motion CSV: `time_s` first, then the given columns.
+///
+/// Rows are checked as they are written (width, finite values, increasing time), so a file this
+/// writer finishes is always readable by [`MotionData::read`]. Writing a row does not allocate.
+pub struct MotionCsvWriter<W: Write> {
+    out: W,
+    columns: Vec<String>,
+    previous_time: Option<f64>,
+    rows: u64,
+}
+
+impl MotionCsvWriter<BufWriter<File>> {
+    /// Create (or truncate) `path` and write the header.
+    pub fn create(
+        path: impl AsRef<Path>,
+        columns: &[impl AsRef<str>],
+    ) -> Result<Self, MotionCsvError> {
+        Self::new(BufWriter::new(File::create(path)?), columns)
+    }
+}
+
+impl<W: Write> MotionCsvWriter<W> {
+    /// Write the header to `out`. `columns` are the names after `time_s`, e.g.
+    /// `Dof::ALL.map(Dof::csv_column)` plus extras such as `wave_m`.
+    pub fn new(mut out: W, columns: &[impl AsRef<str>]) -> Result<Self, MotionCsvError> {
+        let columns: Vec<String> = columns.iter().map(|c| c.as_ref().to_string()).collect();
+        let mut names = vec![TIME_COLUMN.to_string()];
+        for name in &columns {
+            if name.is_empty() || name.contains([',', '"', '\n', '\r']) || name != name.trim() {
+                return Err(MotionCsvError::BadColumnName(name.clone()));
+            }
+            if names.contains(name) {
+                return Err(MotionCsvError::DuplicateColumn {
+                    column: name.clone(),
+                });
+            }
+            names.push(name.clone());
+        }
+        writeln!(out, "{}", names.join(","))?;
+        Ok(Self {
+            out,
+            columns,
+            previous_time: None,
+            rows: 0,
+        })
+    }
+
+    /// Write one row: the time and one value per column, in header order.
+    pub fn write_row(&mut self, time: f64, values: &[f64]) -> Result<(), MotionCsvError> {
+        let row = self.rows + 1;
+        if values.len() != self.columns.len() {
+            return Err(MotionCsvError::RowWidth {
+                row,
+                expected: self.columns.len(),
+                got: values.len(),
+            });
+        }
+        if !time.is_finite() {
+            return Err(MotionCsvError::WriteNonFinite {
+                row,
+                column: TIME_COLUMN.to_string(),
+                value: time,
+            });
+        }
+        if let Some(bad) = values.iter().position(|v| !v.is_finite()) {
+            return Err(MotionCsvError::WriteNonFinite {
+                row,
+                column: self.columns[bad].clone(),
+                value: values[bad],
+            });
+        }
+        if let Some(previous) = self.previous_time {
+            if time <= previous {
+                return Err(MotionCsvError::WriteTimeNotIncreasing {
+                    row,
+                    time,
+                    previous,
+                });
+            }
+        }
+        // `{}` prints the shortest decimal that parses back to the same f64.
+        write!(self.out, "{time}")?;
+        for v in values {
+            write!(self.out, ",{v}")?;
+        }
+        writeln!(self.out)?;
+        self.previous_time = Some(time);
+        self.rows = row;
+        Ok(())
+    }
+
+    /// Rows written so far.
+    pub fn rows(&self) -> u64 {
+        self.rows
+    }
+
+    /// Flush and return the underlying writer.
+    pub fn finish(mut self) -> Result<W, MotionCsvError> {
+        self.out.flush()?;
+        Ok(self.out)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn read_str(text: &str) -> Result<MotionData, MotionCsvError> {
+        MotionData::read(text.as_bytes())
+    }
+
+    fn err(text: &str) -> String {
+        read_str(text).unwrap_err().to_string()
+    }
+
+    #[test]
+    fn reads_subset_in_any_order_with_extras() {
+        let data =
+            read_str("heave_m, time_s ,wave_m,roll_rad\n1.5,0,2,-0.1\n-2e-3,0.5,3,0.25\n").unwrap();
+        assert_eq!(data.time, vec![0.0, 0.5]);
+        assert_eq!(data.dof(Dof::Heave).unwrap(), &[1.5, -2e-3]);
+        assert_eq!(data.dof(Dof::Roll).unwrap(), &[-0.1, 0.25]);
+        assert_eq!(data.dofs(), vec![Dof::Heave, Dof::Roll]);
+        let extras: Vec<&str> = data.extras().map(|c| c.name.as_str()).collect();
+        assert_eq!(extras, vec!["wave_m"]);
+        assert_eq!(data.column("wave_m").unwrap(), &[2.0, 3.0]);
+        let absent = data.dof(Dof::Pitch).unwrap_err().to_string();
+        assert!(absent.contains("pitch_rad"), "{absent}");
+        assert!(absent.contains("heave_m, time_s") || absent.contains("time_s, heave_m"));
+    }
+
+    #[test]
+    fn errors_name_line_and_column() {
+        let header = "time_s,heave_m,pitch_rad\n";
+        let cases = [
+            ("", "empty file"),
+            (header, "no data rows"),
+            ("heave_m\n1\n", "no 'time_s' column"),
+            ("time_s,heave_m,heave_m\n0,1,1\n", "'heave_m' appears twice"),
+            (
+                "time_s,heave_m,pitch_rad\n0,1,2\n1,,2\n",
+                "line 3, column 'heave_m': missing value",
+            ),
+            (
+                "time_s,heave_m,pitch_rad\n0,1,abc\n",
+                "line 2, column 'pitch_rad': 'abc' is not a number",
+            ),
+            (
+                "time_s,heave_m,pitch_rad\n0,1,2\n1,NaN,2\n",
+                "line 3, column 'heave_m': non-finite value 'NaN'",
+            ),
+            (
+                "time_s,heave_m,pitch_rad\n0,inf,2\n",
+                "line 2, column 'heave_m': non-finite",
+            ),
+            (
+                "time_s,heave_m,pitch_rad\n0,1,2\n1,2\n",
+                "line 3: truncated row: 2 of 3 fields",
+            ),
+            (
+                "time_s,heave_m,pitch_rad\n0,1,2,3\n",
+                "line 2: 4 fields, the header has 3",
+            ),
+            (
+                "time_s,heave_m,pitch_rad\n0,1,2\n1,1,2\n1,1,2\n",
+                "line 4, column 'time_s': time 1 does not increase",
+            ),
+            (
+                "time_s,heave_m,pitch_rad\n0,1,2\n-1,1,2\n",
+                "line 3, column 'time_s'",
+            ),
+        ];
+        for (text, expected) in cases {
+            let message = err(text);
+            assert!(
+                message.contains(expected),
+                "{text:?}: got '{message}', want '{expected}'"
+            );
+            assert!(!message.contains('\n'), "multi-line error: {message}");
+        }
+        assert!(read_str(&format!("{header}0,1,2\n")).is_ok());
+    }
+
+    #[test]
+    fn writer_round_trips_exact_values() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("m.csv");
+        let columns: Vec<&str> = Dof::ALL
+            .iter()
+            .map(|d| d.csv_column())
+            .chain(["wave_m"])
+            .collect();
+        let mut writer = MotionCsvWriter::create(&path, &columns).unwrap();
+        let mut rows = Vec::new();
+        for i in 0..200 {
+            let t = i as f64 * 0.125;
+            let row: Vec<f64> = (0..7)
+                .map(|c| (t * (c as f64 + 0.3)).sin() * 10f64.powi(c - 3) / 3.0)
+                .collect();
+            writer.write_row(t, &row).unwrap();
+            rows.push(row);
+        }
+        assert_eq!(writer.rows(), 200);
+        writer.finish().unwrap();
+
+        let data = MotionData::read_path(&path).unwrap();
+        assert_eq!(data.len(), 200);
+        assert_eq!(data.dofs(), Dof::ALL.to_vec());
+        for (c, column) in data.columns.iter().enumerate() {
+            assert_eq!(column.name, columns[c]);
+            for (i, row) in rows.iter().enumerate() {
+                assert_eq!(column.values[i].to_bits(), row[c].to_bits());
+            }
+        }
+        // And the record writes itself back identically.
+        let again = dir.path().join("again.csv");
+        data.write_path(&again).unwrap();
+        assert_eq!(
+            std::fs::read_to_string(&path).unwrap(),
+            std::fs::read_to_string(&again).unwrap()
+        );
+    }
+
+    #[test]
+    fn writer_rejects_what_the_reader_would_reject() {
+        let mut w = MotionCsvWriter::new(Vec::new(), &["heave_m"]).unwrap();
+        w.write_row(0.0, &[1.0]).unwrap();
+        assert!(matches!(
+            w.write_row(1.0, &[1.0, 2.0]),
+            Err(MotionCsvError::RowWidth { .. })
+        ));
+        assert!(matches!(
+            w.write_row(1.0, &[f64::NAN]),
+            Err(MotionCsvError::WriteNonFinite { .. })
+        ));
+        assert!(matches!(
+            w.write_row(0.0, &[1.0]),
+            Err(MotionCsvError::WriteTimeNotIncreasing { .. })
+        ));
+        w.write_row(0.5, &[-1.0]).unwrap();
+        let bytes = w.finish().unwrap();
+        assert_eq!(
+            String::from_utf8(bytes).unwrap(),
+            "time_s,heave_m\n0,1\n0.5,-1\n"
+        );
+        assert!(MotionCsvWriter::new(Vec::new(), &["a,b"]).is_err());
+        assert!(MotionCsvWriter::new(Vec::new(), &["time_s"]).is_err());
+    }
+}

@@ -1,0 +1,367 @@
+//! RAO tables from seakeeping codes, in the CSV schema of the S175 table (tests/fixtures/s175):
+//! `speed_mps,heading_deg,omega_rad_s,dof,amplitude,phase_rad`, one row per DOF of every
+//! (speed, heading, wave frequency) of a full grid, headings in degrees with 180 = head seas.
+//!
+//! Interpolation is linear in the real and imaginary parts (never amplitude and phase, whose
+//! unwrapping is arbitrary), over wave frequency and heading (headings wrap at 360 deg), then
+//! linear between the two nearest tabulated speeds. Outside the tabulated frequency or speed
+//! range the nearest edge value is used. `ScaledRaoTable` applies Froude scaling to a
+//! geometrically similar hull of another length.
+
+use super::rao::{Rao, Response};
+use super::SimError;
+use faer::c64;
+use shipcast_wire::Dof;
+use std::collections::HashMap;
+use std::io::Read;
+use std::path::Path;
+
+const COLUMNS: [&str; 6] = [
+    "speed_mps",
+    "heading_deg",
+    "omega_rad_s",
+    "dof",
+    "amplitude",
+    "phase_rad",
+];
+
+/// A full grid of complex RAOs.
+#[derive(Clone, Debug)]
+pub struct RaoTable {
+    speeds: Vec<f64>,
+    headings_deg: Vec<f64>,
+    omegas: Vec<f64>,
+    /// Index `(s * headings + h) * omegas + w`.
+    values: Vec<Response>,
+}
+
+fn sorted_unique(mut v: Vec<f64>) -> Vec<f64> {
+    v.sort_by(f64::total_cmp);
+    v.dedup();
+    v
+}
+
+/// Index of the interval [v[i], v[i+1]] holding x and the weight of v[i+1], clamped at the ends.
+fn bracket(v: &[f64], x: f64) -> (usize, usize, f64) {
+    if v.len() == 1 || x <= v[0] {
+        return (0, 0, 0.0);
+    }
+    let last = v.len() - 1;
+    if x >= v[last] {
+        return (last, last, 0.0);
+    }
+    let hi = v.partition_point(|&e| e <= x);
+    let lo = hi - 1;
+    (lo, hi, (x - v[lo]) / (v[hi] - v[lo]))
+}
+
+fn lerp(a: &Response, b: &Response, t: f64) -> Response {
+    std::array::from_fn(|j| a[j] * (1.0 - t) + b[j] * t)
+}
+
+/// Opens a table file; the error names it. Shared by the RAO table loaders.
+pub(crate) fn open_table(path: &Path) -> Result<std::fs::File, SimError> {
+    std::fs::File::open(path)
+        .map_err(|e| SimError::Table(format!("cannot open {}: {e}", path.display())))
+}
+
+/// A trimming CSV reader and the index of each of `columns` in its header (any order, extra
+/// columns ignored); errors name `source`. Shared by the RAO table loaders.
+pub(crate) fn csv_with_columns<R: Read, const N: usize>(
+    reader: R,
+    columns: [&str; N],
+    source: &str,
+) -> Result<(csv::Reader<R>, [usize; N]), SimError> {
+    let err = |msg: String| SimError::Table(format!("{source}: {msg}"));
+    let mut rdr = csv::ReaderBuilder::new()
+        .trim(csv::Trim::All)
+        .from_reader(reader);
+    let headers = rdr
+        .headers()
+        .map_err(|e| err(format!("header: {e}")))?
+        .clone();
+    let mut idx = [0usize; N];
+    for (slot, name) in idx.iter_mut().zip(columns) {
+        *slot = headers
+            .iter()
+            .position(|h| h == name)
+            .ok_or_else(|| err(format!("missing column '{name}'")))?;
+    }
+    Ok((rdr, idx))
+}
+
+impl RaoTable {
+    /// Loads a table from a CSV file.
+    pub fn load(path: &Path) -> Result<Self, SimError> {
+        Self::from_reader(open_table(path)?, &path.display().to_string())
+    }
+
+    /// Parses a table; `source` names it in error messages.
+    pub fn from_reader(reader: impl Read, source: &str) -> Result<Self, SimError> {
+        let err = |msg: String| SimError::Table(format!("{source}: {msg}"));
+        let (mut rdr, idx) = csv_with_columns(reader, COLUMNS, source)?;
+        let mut rows: HashMap<[u64; 3], [Option<c64>; 6]> = HashMap::new();
+        let (mut speeds, mut headings, mut omegas) = (Vec::new(), Vec::new(), Vec::new());
+        for (i, rec) in rdr.records().enumerate() {
+            let line = i + 2;
+            let rec = rec.map_err(|e| err(format!("line {line}: {e}")))?;
+            let num = |c: usize| -> Result<f64, SimError> {
+                let text = rec.get(idx[c]).unwrap_or("");
+                let v: f64 = text.parse().map_err(|_| {
+                    err(format!(
+                        "line {line}, column {}: '{text}' is not a number",
+                        COLUMNS[c]
+                    ))
+                })?;
+                if v.is_finite() {
+                    Ok(v)
+                } else {
+                    Err(err(format!(
+                        "line {line}, column {}: non-finite value",
+                        COLUMNS[c]
+                    )))
+                }
+            };
+            let (speed, heading, omega) = (num(0)?, num(1)?.rem_euclid(360.0), num(2)?);
+            let (amp, phase) = (num(4)?, num(5)?);
+            if speed < 0.0 || omega <= 0.0 || amp < 0.0 {
+                return Err(err(format!(
+                    "line {line}: speed and amplitude must be >= 0 and omega > 0"
+                )));
+            }
+            let dof_text = rec.get(idx[3]).unwrap_or("");
+            let dof: Dof = dof_text
+                .parse()
+                .map_err(|e| err(format!("line {line}, column dof: {e}")))?;
+            let slot = &mut rows
+                .entry([speed.to_bits(), heading.to_bits(), omega.to_bits()])
+                .or_default()[dof.index()];
+            if slot.is_some() {
+                return Err(err(format!("line {line}: duplicate row for {dof} at speed {speed}, heading {heading}, omega {omega}")));
+            }
+            *slot = Some(c64::new(amp * phase.cos(), amp * phase.sin()));
+            speeds.push(speed);
+            headings.push(heading);
+            omegas.push(omega);
+        }
+        if rows.is_empty() {
+            return Err(err("no data rows".into()));
+        }
+        let (speeds, headings_deg, omegas) = (
+            sorted_unique(speeds),
+            sorted_unique(headings),
+            sorted_unique(omegas),
+        );
+        let mut values = Vec::with_capacity(speeds.len() * headings_deg.len() * omegas.len());
+        for &s in &speeds {
+            for &h in &headings_deg {
+                for &w in &omegas {
+                    let row = rows
+                        .get(&[s.to_bits(), h.to_bits(), w.to_bits()])
+                        .ok_or_else(|| {
+                            err(format!(
+                                "incomplete grid: no rows for speed {s}, heading {h}, omega {w}"
+                            ))
+                        })?;
+                    let mut full = [c64::new(0.0, 0.0); 6];
+                    for (j, v) in row.iter().enumerate() {
+                        full[j] = v.ok_or_else(|| {
+                            err(format!(
+                                "incomplete grid: no {} at speed {s}, heading {h}, omega {w}",
+                                Dof::ALL[j]
+                            ))
+                        })?;
+                    }
+                    values.push(full);
+                }
+            }
+        }
+        tracing::debug!(
+            speeds = speeds.len(),
+            headings = headings_deg.len(),
+            omegas = omegas.len(),
+            "RAO table loaded from {source}"
+        );
+        Ok(RaoTable {
+            speeds,
+            headings_deg,
+            omegas,
+            values,
+        })
+    }
+
+    /// Tabulated speeds [m/s], ascending.
+    pub fn speeds(&self) -> &[f64] {
+        &self.speeds
+    }
+
+    /// Tabulated headings [deg] in [0, 360), ascending.
+    pub fn headings_deg(&self) -> &[f64] {
+        &self.headings_deg
+    }
+
+    /// Tabulated wave frequencies [rad/s], ascending.
+    pub fn omegas(&self) -> &[f64] {
+        &self.omegas
+    }
+
+    fn node(&self, s: usize, h: usize, w: usize) -> &Response {
+        &self.values[(s * self.headings_deg.len() + h) * self.omegas.len() + w]
+    }
+
+    /// Interpolated at one tabulated speed index.
+    fn at_speed_index(&self, s: usize, heading_deg: f64, omega: f64) -> Response {
+        let (w0, w1, tw) = bracket(&self.omegas, omega);
+        let hs = &self.headings_deg;
+        let h = heading_deg.rem_euclid(360.0);
+        // Headings wrap: the interval after the last heading closes at the first one + 360.
+        let (h0, h1, th) = if hs.len() == 1 {
+            (0, 0, 0.0)
+        } else if h < hs[0] || h >= hs[hs.len() - 1] {
+            let last = hs.len() - 1;
+            let span = hs[0] + 360.0 - hs[last];
+            let d = (h - hs[last]).rem_euclid(360.0);
+            (last, 0, d / span)
+        } else {
+            bracket(hs, h)
+        };
+        let at_h = |hi: usize| lerp(self.node(s, hi, w0), self.node(s, hi, w1), tw);
+        lerp(&at_h(h0), &at_h(h1), th)
+    }
+
+    /// Complex RAOs at any speed [m/s], heading [deg] (180 = head seas) and wave frequency.
+    pub fn at(&self, speed: f64, heading_deg: f64, omega: f64) -> Response {
+        let (s0, s1, ts) = bracket(&self.speeds, speed);
+        let a = self.at_speed_index(s0, heading_deg, omega);
+        if s0 == s1 {
+            return a;
+        }
+        lerp(&a, &self.at_speed_index(s1, heading_deg, omega), ts)
+    }
+}
+
+/// A table used for a geometrically similar hull of another length (Froude scaling): with
+/// lambda = L / L_table, frequencies scale with 1/sqrt(lambda), speeds with sqrt(lambda),
+/// translations per metre of wave are unchanged and rotations per metre scale with 1/lambda.
+#[derive(Clone, Debug)]
+pub struct ScaledRaoTable {
+    table: std::sync::Arc<RaoTable>,
+    lambda: f64,
+}
+
+impl ScaledRaoTable {
+    /// `table_length_m`: the length the table was computed for; `hull_length_m`: the ship's.
+    pub fn new(
+        table: std::sync::Arc<RaoTable>,
+        table_length_m: f64,
+        hull_length_m: f64,
+    ) -> Result<Self, SimError> {
+        for (name, v) in [
+            ("table length", table_length_m),
+            ("hull length", hull_length_m),
+        ] {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(SimError::Config(format!(
+                    "{name} must be positive, got {v} m"
+                )));
+            }
+        }
+        Ok(ScaledRaoTable {
+            table,
+            lambda: hull_length_m / table_length_m,
+        })
+    }
+
+    /// The table unscaled.
+    pub fn unscaled(table: std::sync::Arc<RaoTable>) -> Self {
+        ScaledRaoTable { table, lambda: 1.0 }
+    }
+
+    /// The underlying table.
+    pub fn table(&self) -> &RaoTable {
+        &self.table
+    }
+}
+
+impl Rao for ScaledRaoTable {
+    fn response(&self, omega: f64, beta: f64, speed: f64) -> Response {
+        let root = self.lambda.sqrt();
+        let mut h = self.table.at(speed / root, beta.to_degrees(), omega * root);
+        for d in [Dof::Roll, Dof::Pitch, Dof::Yaw] {
+            h[d.index()] /= self.lambda;
+        }
+        h
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn tiny() -> String {
+        // Two speeds, two headings (0 and 180), two frequencies; heave real part = speed + omega
+        // + heading/180, everything else zero, so interpolation is checkable by hand.
+        let mut s = String::from("speed_mps,heading_deg,omega_rad_s,dof,amplitude,phase_rad\n");
+        for sp in [0.0, 2.0] {
+            for hd in [0.0, 180.0] {
+                for w in [0.5, 1.5] {
+                    for d in Dof::ALL {
+                        let amp = if d == Dof::Heave {
+                            sp + w + hd / 180.0
+                        } else {
+                            0.0
+                        };
+                        s += &format!("{sp},{hd},{w},{d},{amp},0\n");
+                    }
+                }
+            }
+        }
+        s
+    }
+
+    #[test]
+    fn interpolates_linearly_and_wraps_headings() {
+        let t = RaoTable::from_reader(tiny().as_bytes(), "tiny").unwrap();
+        let heave = |s, h, w| t.at(s, h, w)[2].re;
+        assert!((heave(1.0, 180.0, 1.0) - 3.0).abs() < 1e-12);
+        assert!((heave(0.0, 90.0, 0.5) - 1.0).abs() < 1e-12);
+        // 270 deg lies halfway between 180 and 360 = 0.
+        assert!((heave(0.0, 270.0, 0.5) - 1.0).abs() < 1e-12);
+        assert!((heave(0.0, -90.0, 0.5) - 1.0).abs() < 1e-12);
+        // Clamped outside the frequency and speed ranges.
+        assert!((heave(5.0, 0.0, 9.0) - 3.5).abs() < 1e-12);
+    }
+
+    #[test]
+    fn froude_scaling_of_frequency_and_rotations() {
+        let t = std::sync::Arc::new(RaoTable::from_reader(tiny().as_bytes(), "tiny").unwrap());
+        let half = ScaledRaoTable::new(t.clone(), 100.0, 25.0).unwrap();
+        // On a quarter-length hull, omega 2.0 corresponds to table omega 1.0.
+        let a = half.response(2.0, std::f64::consts::PI, 0.0)[2].re;
+        assert!((a - t.at(0.0, 180.0, 1.0)[2].re).abs() < 1e-12);
+        assert!(ScaledRaoTable::new(t, 0.0, 25.0).is_err());
+    }
+
+    #[test]
+    fn bad_tables_give_line_and_column() {
+        let e = RaoTable::from_reader("speed_mps,heading_deg\n1,2\n".as_bytes(), "x").unwrap_err();
+        assert!(
+            e.to_string().contains("missing column 'omega_rad_s'"),
+            "{e}"
+        );
+        let bad_num = tiny().replacen(",0.5,heave,", ",0.5,heave,abc", 1);
+        let e = RaoTable::from_reader(bad_num.as_bytes(), "x")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("column amplitude") && e.contains("line "), "{e}");
+        let text = tiny();
+        let lines: Vec<&str> = text.lines().collect();
+        let missing = lines[..lines.len() - 1].join("\n");
+        let e = RaoTable::from_reader(missing.as_bytes(), "x")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("incomplete grid"), "{e}");
+        let bad_dof = tiny().replacen("surge", "bob", 1);
+        assert!(RaoTable::from_reader(bad_dof.as_bytes(), "x").is_err());
+    }
+}
