@@ -6,7 +6,7 @@
 //! panics with the method's name and what failed. The allocation check needs
 //! [`CountingAllocator`] installed as the test binary's global allocator:
 //!
-//! ```ignore
+//! ```text
 //! #[global_allocator]
 //! static ALLOCATOR: shipcast_predict::conformance::CountingAllocator =
 //!     shipcast_predict::conformance::CountingAllocator;

@@ -1,8 +1,9 @@
-//! The documented Python consumers (examples/*.py) against a real pipeline, so the examples
-//! cannot rot: each must exit 0 after `--count 3` and print forecast lines whose content is
-//! plausible. Needs python3; when it lacks `eclipse-zenoh` and `iceoryx2` at the pinned versions,
-//! the test installs them from PyPI into a virtual environment under target/ on its first run
-//! (python_env), and fails with one line naming what to install only when that cannot work.
+//! The documented consumers (examples/*.py and examples/*_forecast_*.rs) against a real pipeline,
+//! so the examples cannot rot: each must exit 0 after `--count 3` and print forecast lines whose
+//! content is plausible. The Python test needs python3; when it lacks `eclipse-zenoh` and
+//! `iceoryx2` at the pinned versions, it installs them from PyPI into a virtual environment under
+//! target/ on its first run (python_env), and fails with one line naming what to install only when
+//! that cannot work. The Rust examples are the binaries `cargo test` builds next to this test.
 
 mod pipeline_support;
 mod python_env;
@@ -10,7 +11,7 @@ mod python_env;
 use pipeline_support::TestPipeline;
 use python_env::Python;
 use std::path::{Path, PathBuf};
-use std::process::{Child, ExitStatus, Stdio};
+use std::process::{Child, Command, ExitStatus, Stdio};
 use std::time::{Duration, Instant};
 
 /// Forecasts each example reads before it exits.
@@ -34,9 +35,26 @@ fn require_python_packages() -> Python {
     python
 }
 
-/// A running example script whose output goes to files (no pipe can fill up and stall it);
-/// killed and reaped on drop, also when an assertion fails.
-struct PyProc {
+/// A built Rust example (`cargo test` builds every example into target/<profile>/examples/).
+fn rust_example(name: &str) -> PathBuf {
+    let exe = Path::new(env!("CARGO_BIN_EXE_shipcast"));
+    let path = exe
+        .parent()
+        .expect("the shipcast binary has a directory")
+        .join("examples")
+        .join(name);
+    assert!(
+        path.is_file(),
+        "example {name} is not built at {}: run `cargo test --release` (which builds the examples) \
+         or `cargo build --release --examples`",
+        path.display()
+    );
+    path
+}
+
+/// A running example whose output goes to files (no pipe can fill up and stall it); killed and
+/// reaped on drop, also when an assertion fails.
+struct ExampleProc {
     label: String,
     child: Option<Child>,
     stdout: PathBuf,
@@ -44,26 +62,37 @@ struct PyProc {
 }
 
 /// What an example printed and how it ended.
-struct PyOutput {
+struct ExampleOutput {
     status: ExitStatus,
     stdout: String,
     stderr: String,
 }
 
-impl PyProc {
-    fn spawn(python: &Python, label: &str, dir: &Path, script: &str, args: &[&str]) -> Self {
-        let stdout = dir.join(format!("{label}.out"));
-        let stderr = dir.join(format!("{label}.err"));
-        let child = python
-            .command()
+impl ExampleProc {
+    fn python(python: &Python, dir: &Path, script: &str, args: &[&str]) -> Self {
+        let mut command = python.command();
+        command
             .arg(example(script))
             .args(args)
-            .env("PYTHONUNBUFFERED", "1")
+            .env("PYTHONUNBUFFERED", "1");
+        Self::spawn(command, script, dir)
+    }
+
+    fn rust(dir: &Path, name: &str, args: &[&str]) -> Self {
+        let mut command = Command::new(rust_example(name));
+        command.args(args);
+        Self::spawn(command, name, dir)
+    }
+
+    fn spawn(mut command: Command, label: &str, dir: &Path) -> Self {
+        let stdout = dir.join(format!("{label}.out"));
+        let stderr = dir.join(format!("{label}.err"));
+        let child = command
             .stdin(Stdio::null())
             .stdout(std::fs::File::create(&stdout).expect("create stdout file"))
             .stderr(std::fs::File::create(&stderr).expect("create stderr file"))
             .spawn()
-            .unwrap_or_else(|e| panic!("spawn python3 {script}: {e}"));
+            .unwrap_or_else(|e| panic!("spawn {label}: {e}"));
         Self {
             label: label.to_string(),
             child: Some(child),
@@ -77,7 +106,7 @@ impl PyProc {
     }
 
     /// Wait for the script to exit; panics with its output after EXAMPLE_PATIENCE.
-    fn finish(mut self) -> PyOutput {
+    fn finish(mut self) -> ExampleOutput {
         let deadline = Instant::now() + EXAMPLE_PATIENCE;
         let child = self.child.as_mut().expect("running");
         let status = loop {
@@ -94,7 +123,7 @@ impl PyProc {
             std::thread::sleep(Duration::from_millis(20));
         };
         self.child = None;
-        PyOutput {
+        ExampleOutput {
             status,
             stdout: Self::read(&self.stdout),
             stderr: Self::read(&self.stderr),
@@ -102,7 +131,7 @@ impl PyProc {
     }
 }
 
-impl Drop for PyProc {
+impl Drop for ExampleProc {
     fn drop(&mut self) {
         if let Some(mut child) = self.child.take() {
             let _ = child.kill();
@@ -163,7 +192,12 @@ fn parse_forecast_line(line: &str, angle: &str) -> ForecastLine {
 /// Exactly COUNT forecast lines, with finite, physically plausible values for the `paper` sea
 /// (Hs 3.05 m), from one predictor run: seq rising and record time advancing 0.5 s per
 /// forecast (one forecast per 2 Hz value).
-fn check_forecasts(label: &str, out: &PyOutput, angle: &str, lead_s: f64) -> Vec<ForecastLine> {
+fn check_forecasts(
+    label: &str,
+    out: &ExampleOutput,
+    angle: &str,
+    lead_s: f64,
+) -> Vec<ForecastLine> {
     assert!(
         out.status.success(),
         "{label} exited with {}; stdout:\n{}\nstderr:\n{}",
@@ -210,16 +244,47 @@ fn check_forecasts(label: &str, out: &PyOutput, angle: &str, lead_s: f64) -> Vec
 fn python_examples_read_forecasts_over_zenoh_and_iceoryx2() {
     let python = require_python_packages();
     let p = TestPipeline::new("pyex", "");
+    let (zenoh, iox) = start_consumers(&p, |dir, kind, args| match kind {
+        Consumer::Zenoh => ExampleProc::python(&python, dir, "zenoh_forecast_subscriber.py", args),
+        Consumer::Iceoryx2 => {
+            ExampleProc::python(&python, dir, "iceoryx2_forecast_reader.py", args)
+        }
+    });
+    check_both(zenoh, iox);
+}
+
+/// The Rust consumers (examples/local_forecast_reader.rs over iceoryx2 and
+/// examples/remote_forecast_subscriber.rs over zenoh) print the same lines as the Python ones
+/// and are checked the same way.
+#[test]
+fn rust_examples_read_forecasts_over_zenoh_and_iceoryx2() {
+    let p = TestPipeline::new("rsex", "");
+    let (zenoh, iox) = start_consumers(&p, |dir, kind, args| match kind {
+        Consumer::Zenoh => ExampleProc::rust(dir, "remote_forecast_subscriber", args),
+        Consumer::Iceoryx2 => ExampleProc::rust(dir, "local_forecast_reader", args),
+    });
+    check_both(zenoh, iox);
+}
+
+/// The transport an example reads from.
+enum Consumer {
+    Zenoh,
+    Iceoryx2,
+}
+
+/// Starts the predictor and the producer of `p`, then the zenoh and the iceoryx2 consumer, and
+/// waits for both to finish. The pipeline's processes are killed when `p`'s handles drop.
+fn start_consumers(
+    p: &TestPipeline,
+    spawn: impl Fn(&Path, Consumer, &[&str]) -> ExampleProc,
+) -> (ExampleOutput, ExampleOutput) {
     let predictor = p.spawn("predictor", &[]);
     predictor.wait_for("(iceoryx2 and zenoh)");
     let _producer = p.spawn("producer", &["--wait-subscriber-s", "30"]);
-
     let count = COUNT.to_string();
-    let zenoh = PyProc::spawn(
-        &python,
-        "zenoh_forecast_subscriber",
+    let zenoh = spawn(
         p.dir.path(),
-        "zenoh_forecast_subscriber.py",
+        Consumer::Zenoh,
         &[
             "--connect",
             &p.endpoint,
@@ -229,17 +294,18 @@ fn python_examples_read_forecasts_over_zenoh_and_iceoryx2() {
             &count,
         ],
     );
-    let iox = PyProc::spawn(
-        &python,
-        "iceoryx2_forecast_reader",
+    let iox = spawn(
         p.dir.path(),
-        "iceoryx2_forecast_reader.py",
+        Consumer::Iceoryx2,
         &["--instance", &p.instance, "--count", &count],
     );
+    (zenoh.finish(), iox.finish())
+}
 
-    let zenoh = zenoh.finish();
+/// The checks both languages' consumers pass.
+fn check_both(zenoh: ExampleOutput, iox: ExampleOutput) {
     eprintln!("zenoh example:\n{}", zenoh.stdout);
-    let by_zenoh = check_forecasts("zenoh_forecast_subscriber.py", &zenoh, "roll", 20.0);
+    let by_zenoh = check_forecasts("zenoh consumer", &zenoh, "roll", 20.0);
     assert!(
         zenoh
             .stdout
@@ -249,9 +315,8 @@ fn python_examples_read_forecasts_over_zenoh_and_iceoryx2() {
         "the forecast must carry the JSON encoding:\n{}",
         zenoh.stdout
     );
-    let iox = iox.finish();
     eprintln!("iceoryx2 example:\n{}", iox.stdout);
-    let by_iox = check_forecasts("iceoryx2_forecast_reader.py", &iox, "pitch", 5.0);
+    let by_iox = check_forecasts("iceoryx2 consumer", &iox, "pitch", 5.0);
     for line in iox.stdout.lines().filter(|l| l.starts_with("seq ")) {
         let latency_us: f64 = field(
             &line.split_whitespace().collect::<Vec<_>>(),

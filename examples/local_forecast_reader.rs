@@ -1,0 +1,141 @@
+//! Local shipcast consumer in Rust: reads `Forecast` from iceoryx2 shared memory (zero copy) and
+//! prints the 5 s heave and pitch forecast of every one.
+//!
+//! Depends only on `shipcast-wire` (the payload types and the service limits) and `iceoryx2`:
+//! the payload is the same `#[repr(C)]` struct the predictor writes, under the same type name.
+//! Start a pipeline on this machine (`cargo run --release -- run`), then:
+//!
+//! ```sh
+//! cargo run --release --example local_forecast_reader -- [--instance NAME] [--vessel ddg51] [--count N]
+//! ```
+//!
+//! With `--instance NAME` the pipeline's service names start with `NAME/` and its iceoryx2 files
+//! with the prefix `iox2_NAME_`; pass the same `--instance` here.
+
+use iceoryx2::port::listener::ListenerWaitError;
+use iceoryx2::prelude::*;
+use shipcast_wire::payload::{limits, Forecast, MAX_STEPS};
+use shipcast_wire::Dof;
+use std::process::ExitCode;
+use std::time::Duration;
+
+/// Command-line options (the same as the Python example's).
+struct Options {
+    instance: String,
+    vessel: String,
+    /// Stop after this many forecasts; 0 runs until Ctrl-C.
+    count: usize,
+}
+
+fn parse_options() -> Result<Options, String> {
+    let mut options = Options {
+        instance: String::new(),
+        vessel: "ddg51".into(),
+        count: 0,
+    };
+    let mut args = std::env::args().skip(1);
+    while let Some(flag) = args.next() {
+        let mut value = || args.next().ok_or(format!("{flag} needs a value"));
+        match flag.as_str() {
+            "--instance" => options.instance = value()?,
+            "--vessel" => options.vessel = value()?,
+            "--count" => {
+                let v = value()?;
+                options.count = v
+                    .parse()
+                    .map_err(|_| format!("--count must be a whole number, got '{v}'"))?;
+            }
+            other => {
+                return Err(format!(
+                    "unknown option '{other}' (--instance, --vessel, --count)"
+                ))
+            }
+        }
+    }
+    Ok(options)
+}
+
+fn run(options: &Options) -> Result<(), Box<dyn std::error::Error>> {
+    let mut name = format!("shipcast/{}/forecast", options.vessel);
+    let mut config = iceoryx2::config::Config::default();
+    if !options.instance.is_empty() {
+        name = format!("{}/{name}", options.instance);
+        let prefix = format!("iox2_{}_", options.instance);
+        config.global.prefix = FileName::new(prefix.as_bytes())?;
+    }
+    let node = NodeBuilder::new()
+        .config(&config)
+        .create::<ipc::Service>()?;
+    // The same limits as the predictor, so whichever process comes first creates a service the
+    // other can open.
+    let service = node
+        .service_builder(&name.as_str().try_into()?)
+        .publish_subscribe::<Forecast>()
+        .max_publishers(limits::MAX_PUBLISHERS)
+        .max_subscribers(limits::MAX_SUBSCRIBERS)
+        .max_nodes(limits::MAX_NODES)
+        .subscriber_max_buffer_size(limits::FORECAST_BUFFER)
+        .history_size(limits::FORECAST_HISTORY)
+        .enable_safe_overflow(true)
+        .open_or_create()?;
+    let subscriber = service.subscriber_builder().create()?;
+    // The predictor notifies this event service after every forecast: no polling needed.
+    let event_name = format!("{name}/event");
+    let event = node
+        .service_builder(&event_name.as_str().try_into()?)
+        .event()
+        .max_notifiers(limits::MAX_NOTIFIERS)
+        .max_listeners(limits::MAX_LISTENERS)
+        .max_nodes(limits::MAX_NODES)
+        .open_or_create()?;
+    let listener = event.listener_builder().create()?;
+    eprintln!("reading {name} (iceoryx2)");
+
+    let mut received = 0;
+    while options.count == 0 || received < options.count {
+        match listener.timed_wait(|_| {}, Duration::from_millis(500)) {
+            Ok(_) => {}
+            Err(ListenerWaitError::InterruptSignal) => break,
+            Err(e) => return Err(e.into()),
+        }
+        while let Some(sample) = subscriber.receive()? {
+            let f: &Forecast = &sample;
+            // Shared memory is written by another process: check what indexing relies on.
+            if f.steps == 0 || f.steps as usize > MAX_STEPS || f.dt_s.is_nan() || f.dt_s <= 0.0 {
+                eprintln!(
+                    "skipped a forecast with steps {} and dt_s {}",
+                    f.steps, f.dt_s
+                );
+                continue;
+            }
+            received += 1;
+            let k5 = ((5.0 / f.dt_s).round() as usize)
+                .min(f.steps as usize)
+                .max(1)
+                - 1;
+            let (heave, pitch) = (Dof::Heave.index(), Dof::Pitch.index());
+            println!(
+                "seq {} t={:.1}s v{}: in 5 s heave {:+.2} m (sigma {:.2}), pitch {:+.2} deg, latency {:.0} us",
+                f.seq,
+                f.time_s,
+                f.model_version,
+                f.mean[heave][k5],
+                f.sigma[heave][k5],
+                f.mean[pitch][k5].to_degrees(),
+                f.issued_stamp_ns.saturating_sub(f.source_stamp_ns) as f64 / 1e3
+            );
+        }
+    }
+    Ok(())
+}
+
+fn main() -> ExitCode {
+    let result = parse_options().map_err(Into::into).and_then(|o| run(&o));
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
