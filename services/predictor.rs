@@ -10,6 +10,7 @@ use shipcast::config::{CommonArgs, PipelineConfig};
 use shipcast::engine::models::ModelSet;
 use shipcast::engine::retrain::Retrainer;
 use shipcast::engine::{Engine, EngineCounts};
+use shipcast::limits;
 use shipcast::payload::{Forecast, MotionSample};
 use shipcast::payload_json::ForecastJsonEncoder;
 use shipcast::transport::iox::{self, IoxPublisher, IoxSubscriber, Sizing, WaitMode};
@@ -72,6 +73,9 @@ struct Status {
 
 pub fn run(args: Args) -> anyhow::Result<()> {
     let mut config = args.common.load()?;
+    if let Some(core) = args.pin_core {
+        limits::core("--pin-core", core).map_err(anyhow::Error::msg)?;
+    }
     let q = &mut config.predictor;
     if args.model.is_some() {
         q.model = args.model.clone();

@@ -14,6 +14,7 @@
 //! - [`payload`]: the wire payloads `MotionSample` and `Forecast`.
 //! - [`transport`]: service names, iceoryx2 and zenoh plumbing.
 //! - [`config`]: the pipeline TOML configuration.
+//! - [`limits`]: range checks of numeric command-line values and configuration keys.
 //! - [`deck`], [`crane`]: ship-point geometry, landing advisory, crane-tip forecast.
 //! - [`bench`]: the latency harness (`shipcast bench latency`).
 //!
@@ -50,6 +51,7 @@ pub mod deck;
 pub mod dof;
 pub mod engine;
 pub mod eval;
+pub mod limits;
 pub mod model;
 pub mod motion_csv;
 pub mod paper;
