@@ -8,6 +8,7 @@ use shipcast_bench::pingpong_zenoh_processes::{self, PongArgs};
 use shipcast_bench::plan::parse_cores;
 use shipcast_bench::report_builder::{forecast_json_bytes, FORECAST_BYTES, MOTION_BYTES};
 use shipcast_bench::{ModeSelect, Plan};
+use shipcast_pipeline::limits;
 use std::path::PathBuf;
 
 #[derive(clap::Args, Debug)]
@@ -105,6 +106,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             let &[mode] = a.mode.modes() else {
                 anyhow::bail!("zenoh-pong: --mode must be event or poll");
             };
+            limits::core("--core", a.core).map_err(anyhow::Error::msg)?;
+            limits::count("--bytes", a.bytes, 1, MAX_PONG_BYTES).map_err(anyhow::Error::msg)?;
+            limits::count("--warmup", a.warmup, 0, shipcast_bench::plan::MAX_WARMUP)
+                .map_err(anyhow::Error::msg)?;
             pingpong_zenoh_processes::serve_pong(&PongArgs {
                 connect: a.connect,
                 prefix: a.prefix,
@@ -128,9 +133,22 @@ fn own_executable() -> anyhow::Result<PathBuf> {
     std::env::current_exe().context("locate the shipcast executable")
 }
 
+/// Largest message of the zenoh ping-pong [bytes].
+const MAX_PONG_BYTES: usize = 16 << 20;
+
+/// Most vessels of one fleet run (each is a zenoh session of this process).
+const MAX_VESSELS: usize = 1_000;
+
+/// Highest forecast rate per vessel [Hz].
+const MAX_FLEET_RATE_HZ: f64 = 1_000.0;
+
 fn run_fleet(a: FleetArgs) -> anyhow::Result<()> {
-    if !(a.seconds.is_finite() && a.seconds > 0.0 && a.rate.is_finite() && a.rate > 0.0) {
-        anyhow::bail!("--seconds and --rate must be positive");
+    // All checked before the first fleet starts: each vessel is a zenoh session in this
+    // process, and --seconds becomes a Duration.
+    limits::seconds("--seconds", a.seconds).map_err(anyhow::Error::msg)?;
+    limits::rate("--rate", a.rate, MAX_FLEET_RATE_HZ).map_err(anyhow::Error::msg)?;
+    for &n in &a.vessels {
+        limits::count("--vessels", n, 1, MAX_VESSELS).map_err(anyhow::Error::msg)?;
     }
     let exe = own_executable()?;
     let dir = std::env::temp_dir().join(format!("shipcast-fleet-{}", std::process::id()));

@@ -8,6 +8,7 @@
 use anyhow::Context;
 use shipcast_pipeline::certs::{endpoint_host, server_names, CertAuthority, Validity};
 use shipcast_pipeline::config::ZenohConfig;
+use shipcast_pipeline::limits;
 use shipcast_pipeline::transport::zenoh::{self as zn, ZenohSettings};
 use shipcast_pipeline::transport::zenoh_security::{AccessRules, TlsSettings};
 use shipcast_pipeline::transport::Names;
@@ -44,6 +45,9 @@ pub fn pipeline_name(vessel: &str) -> String {
     format!("{vessel}-pipeline")
 }
 
+/// Longest validity of a certificate [days]: 100 years.
+const MAX_DAYS: u32 = 36_525;
+
 pub fn run(args: Args) -> anyhow::Result<()> {
     let names = Names::new(args.instance.as_deref(), &args.vessel)?;
     let host = endpoint_host(&args.listen)?;
@@ -57,9 +61,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             anyhow::bail!("--station '{s}' is the pipeline's own name");
         }
     }
-    if args.days == 0 {
-        anyhow::bail!("--days must be at least 1");
-    }
+    // Beyond about a century the certificate's end date overflows its time type.
+    limits::count("--days", args.days, 1, MAX_DAYS).map_err(anyhow::Error::msg)?;
     if args.out.join("ca.pem").exists() {
         anyhow::bail!(
             "{} already holds a ca.pem; choose another --out (a new CA makes every old certificate useless)",

@@ -61,7 +61,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             }
         };
         tip_track(&tip, &forecast, &mut track);
-        if count % config.crane.print_every.max(1) == 0 {
+        if count % config.crane.print_every == 0 {
             let _ = writeln!(stdout.lock(), "{}", summary(&forecast, &track));
         }
         count += 1;

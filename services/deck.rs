@@ -4,6 +4,7 @@
 
 use shipcast_pipeline::config::CommonArgs;
 use shipcast_pipeline::deck::DeckAdvisor;
+use shipcast_pipeline::limits;
 use shipcast_pipeline::transport::iox::{self, IoxSubscriber, Sizing, WaitMode};
 use shipcast_pipeline::transport::zenoh::{self as zn, JsonPublisher};
 use shipcast_pipeline::transport::{shutdown, Names};
@@ -25,6 +26,8 @@ pub struct Args {
 
 pub fn run(args: Args) -> anyhow::Result<()> {
     let config = args.common.load()?;
+    let print_every = limits::count("--print-every", args.print_every, 1, u64::MAX)
+        .map_err(anyhow::Error::msg)?;
     let limit = shutdown::RunLimit::new(args.common.duration()?);
     let names = config.names()?;
     let node = iox::node(&names, "deck")?;
@@ -69,7 +72,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         if let Some((p, _alive)) = &publisher {
             p.put_serialize(&advisory)?;
         }
-        if count % args.print_every.max(1) == 0 {
+        if count % print_every == 0 {
             let mut out = stdout.lock();
             // A closed stdout (e.g. piped into `head`) must not stop the advisory service.
             let _ = writeln!(out, "{}", advisory.summary());

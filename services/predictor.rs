@@ -10,6 +10,7 @@ use shipcast_pipeline::config::{CommonArgs, PipelineConfig};
 use shipcast_pipeline::engine::models::ModelSet;
 use shipcast_pipeline::engine::retrain::Retrainer;
 use shipcast_pipeline::engine::{Engine, EngineCounts};
+use shipcast_pipeline::limits;
 use shipcast_pipeline::transport::iox::{self, IoxPublisher, IoxSubscriber, Sizing, WaitMode};
 use shipcast_pipeline::transport::zenoh::{self as zn, JsonPublisher};
 use shipcast_pipeline::transport::{monotonic_ns, shutdown, Counters, Names};
@@ -72,6 +73,9 @@ struct Status {
 
 pub fn run(args: Args) -> anyhow::Result<()> {
     let mut config = args.common.load()?;
+    if let Some(core) = args.pin_core {
+        limits::core("--pin-core", core).map_err(anyhow::Error::msg)?;
+    }
     let q = &mut config.predictor;
     if args.model.is_some() {
         q.model = args.model.clone();

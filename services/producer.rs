@@ -3,6 +3,7 @@
 
 use anyhow::Context;
 use shipcast_pipeline::config::{CommonArgs, ProducerConfig};
+use shipcast_pipeline::limits;
 use shipcast_pipeline::transport::iox::{self, IoxPublisher, Sizing};
 use shipcast_pipeline::transport::{monotonic_ns, shutdown};
 use shipcast_series::motion_csv::MotionData;
@@ -122,7 +123,7 @@ impl Pacer {
         Self {
             start: Instant::now(),
             t0: None,
-            backfill_s: config.backfill_s.max(0.0),
+            backfill_s: config.backfill_s,
             backfill_speed: config.backfill_speed,
             speed: config.speed,
         }
@@ -137,21 +138,23 @@ impl Pacer {
         if self.speed <= 0.0 && slow > 0.0 {
             return None;
         }
-        Some(Duration::from_secs_f64(
-            wall(fast, self.backfill_speed) + wall(slow, self.speed),
-        ))
+        // A record whose clock jumps by ages (a CSV's times are outside input) waits "for
+        // ever" (until stopped) rather than overflowing the conversion.
+        let secs = wall(fast, self.backfill_speed) + wall(slow, self.speed);
+        Some(Duration::try_from_secs_f64(secs).unwrap_or(Duration::MAX))
     }
 
     /// Sleep until the sample at record time `t` is due (in short naps, to notice a stop).
     fn wait(&mut self, t: f64) {
         let Some(due) = self.due(t) else { return };
-        let deadline = self.start + due;
+        let deadline = self.start.checked_add(due);
         loop {
             let now = Instant::now();
-            if now >= deadline || shutdown::stop_requested() {
+            if deadline.is_some_and(|d| now >= d) || shutdown::stop_requested() {
                 return;
             }
-            std::thread::sleep((deadline - now).min(Duration::from_millis(100)));
+            let left = deadline.map_or(Duration::MAX, |d| d - now);
+            std::thread::sleep(left.min(Duration::from_millis(100)));
         }
     }
 }
@@ -179,11 +182,25 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     config.validate()?;
     let limit = shutdown::RunLimit::new(args.common.duration()?);
+    let wait_subscriber = limits::seconds_or_zero("--wait-subscriber-s", args.wait_subscriber_s)
+        .map_err(anyhow::Error::msg)?;
+    let faults = Faults {
+        nan_every: args
+            .fault_nan_every
+            .map(|n| limits::count("--fault-nan-every", n, 1, u64::MAX))
+            .transpose()
+            .map_err(anyhow::Error::msg)?,
+        reorder_every: args
+            .fault_reorder_every
+            .map(|n| limits::count("--fault-reorder-every", n, 1, u64::MAX))
+            .transpose()
+            .map_err(anyhow::Error::msg)?,
+    };
     let names = config.names()?;
     let node = iox::node(&names, "producer")?;
     let publisher = IoxPublisher::<MotionSample>::new(&node, &names.motion(), Sizing::MOTION)?;
 
-    let wait_until = Instant::now() + Duration::from_secs_f64(args.wait_subscriber_s.max(0.0));
+    let wait_until = Instant::now() + wait_subscriber;
     while publisher.subscribers() == 0 && Instant::now() < wait_until {
         if shutdown::stop_requested() {
             return Ok(());
@@ -191,10 +208,6 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         std::thread::sleep(Duration::from_millis(10));
     }
 
-    let faults = Faults {
-        nan_every: args.fault_nan_every.filter(|&n| n > 0),
-        reorder_every: args.fault_reorder_every.filter(|&n| n > 0),
-    };
     let p = config.producer.clone();
     match &p.input {
         Some(path) => {

@@ -7,6 +7,7 @@ use anyhow::Context;
 use shipcast_pipeline::config::PipelineConfig;
 use shipcast_pipeline::engine::replay::{replay, ReplayReport};
 use shipcast_pipeline::engine::startup::initial_models;
+use shipcast_pipeline::limits;
 use shipcast_series::motion_csv::MotionData;
 use std::io::Write;
 use std::path::PathBuf;
@@ -37,12 +38,8 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
-    if !(args.skip_s.is_finite() && args.skip_s >= 0.0) {
-        anyhow::bail!(
-            "--skip-s must be a non-negative number of seconds, got {}",
-            args.skip_s
-        );
-    }
+    limits::non_negative("--skip-s", args.skip_s, limits::MAX_SECONDS)
+        .map_err(anyhow::Error::msg)?;
     let mut config = PipelineConfig::load(args.config.as_deref())?;
     if args.model.is_some() {
         config.predictor.model = args.model.clone();
@@ -53,6 +50,15 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if data.dofs().is_empty() {
         anyhow::bail!(
             "{}: no motion column (surge_m, sway_m, heave_m, roll_rad, pitch_rad, yaw_rad)",
+            args.input.display()
+        );
+    }
+    // Skipping the whole record would score nothing and print a table of NaN.
+    let end_s = data.time.last().copied().unwrap_or(0.0);
+    if args.skip_s >= end_s {
+        anyhow::bail!(
+            "--skip-s {} s skips the whole record (it ends at {end_s:.1} s in {})",
+            args.skip_s,
             args.input.display()
         );
     }

@@ -4,6 +4,7 @@
 //! authentication, access rules) apply to the router's links.
 
 use shipcast_pipeline::config::PipelineConfig;
+use shipcast_pipeline::limits;
 use shipcast_pipeline::transport::shutdown;
 use shipcast_pipeline::transport::zenoh::Downsampling;
 use shipcast_pipeline::transport::zenoh_router::{FleetRouter, FLEET_FORECASTS};
@@ -32,14 +33,13 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
-    if !(args.downsample_hz.is_finite() && args.downsample_hz >= 0.0) {
-        anyhow::bail!("--downsample-hz must be >= 0, got {}", args.downsample_hz);
-    }
-    let duration = match args.duration {
-        None => None,
-        Some(s) if s.is_finite() && s > 0.0 => Some(Duration::from_secs_f64(s)),
-        Some(s) => anyhow::bail!("--duration must be a positive number of seconds, got {s}"),
-    };
+    limits::non_negative("--downsample-hz", args.downsample_hz, limits::MAX_RATE_HZ)
+        .map_err(anyhow::Error::msg)?;
+    let duration = args
+        .duration
+        .map(|s| limits::seconds("--duration", s))
+        .transpose()
+        .map_err(anyhow::Error::msg)?;
     let config = PipelineConfig::load(args.config.as_deref())?;
     let mut settings = config.zenoh.publisher_side();
     settings.listen = args.listen.clone();

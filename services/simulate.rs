@@ -4,6 +4,8 @@
 //! non-stationary.
 
 use anyhow::Context;
+use shipcast_pipeline::config::MAX_PRODUCER_RATE_HZ;
+use shipcast_pipeline::limits;
 use shipcast_series::motion_csv::MotionCsvWriter;
 use shipcast_sim::plot::plot_overview;
 use shipcast_sim::{
@@ -183,15 +185,20 @@ pub fn config_from_args(args: &Args) -> anyhow::Result<SimConfig> {
     Ok(cfg)
 }
 
+/// Most rows one record may have (about 10 GB of CSV).
+const MAX_ROWS: u64 = 100_000_000;
+
 pub fn run(args: Args) -> anyhow::Result<()> {
-    if !(args.rate.is_finite() && args.rate > 0.0) {
-        anyhow::bail!("--rate must be positive, got {}", args.rate);
-    }
+    limits::rate("--rate", args.rate, MAX_PRODUCER_RATE_HZ).map_err(anyhow::Error::msg)?;
     if let Some(path) = &args.elevation {
         return run_measured(&args, path);
     }
-    if !(args.duration.is_finite() && args.duration > 0.0) {
-        anyhow::bail!("--duration must be positive, got {}", args.duration);
+    limits::positive("--duration", args.duration, limits::MAX_SECONDS)
+        .map_err(anyhow::Error::msg)?;
+    // Checked before the sea is built: a record of billions of rows would run for days.
+    let rows = args.duration * args.rate;
+    if rows > MAX_ROWS as f64 {
+        anyhow::bail!("--duration x --rate = {rows:.0} rows, at most {MAX_ROWS}");
     }
     let cfg = config_from_args(&args)?;
     let course = args

@@ -135,7 +135,7 @@ fn bad_input_exits_with_one_clear_line() {
         (&["--scenario", "ss9"], "unknown scenario 'ss9'"),
         (&["--hs", "-1"], "significant wave height must be positive"),
         (&["--spreading", "cos3"], "unknown spreading 'cos3'"),
-        (&["--rate", "0"], "--rate must be positive"),
+        (&["--rate", "0"], "--rate must be a number in"),
         (
             &["--rao-table", "/nonexistent.csv"],
             "cannot open /nonexistent.csv",

@@ -39,6 +39,11 @@ pub fn pin_current(role: &str, core: usize) -> PinOutcome {
 /// [`child_pinned`].
 pub fn pin_command(cmd: &mut std::process::Command, core: usize) {
     use std::os::unix::process::CommandExt;
+    if core >= shipcast_pipeline::limits::MAX_CORES {
+        // CPU_SET would index past the set (a panic after fork); the child stays unpinned
+        // and child_pinned reports it.
+        return;
+    }
     // SAFETY: the closure runs in the forked child before exec and only calls
     // async-signal-safe functions on stack data (CPU_ZERO/CPU_SET, sched_setaffinity).
     unsafe {

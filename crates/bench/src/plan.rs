@@ -149,24 +149,30 @@ pub struct Plan {
     pub shipcast_exe: Option<std::path::PathBuf>,
 }
 
+/// Most measured samples per path and mode (the recorded latencies are held in memory).
+pub const MAX_SAMPLES: u64 = 10_000_000;
+
+/// Most unsent warm-up samples.
+pub const MAX_WARMUP: u64 = 1_000_000;
+
 impl Plan {
     /// Check the parameters, so a bad flag is a one-line error and not a hang or a panic.
     pub fn validate(&self) -> Result<(), String> {
-        if self.samples == 0 {
-            return Err("--samples must be at least 1".into());
-        }
+        shipcast_pipeline::limits::count("--samples", self.samples, 1, MAX_SAMPLES)?;
+        shipcast_pipeline::limits::count("--warmup", self.warmup, 0, MAX_WARMUP)?;
+        shipcast_pipeline::limits::core("--cores", self.cores.0)?;
+        shipcast_pipeline::limits::core("--cores", self.cores.1)?;
         if self.rounds == 0 || self.rounds > self.samples {
             return Err(format!(
                 "--rounds {} must be at least 1 and at most --samples {}",
                 self.rounds, self.samples
             ));
         }
-        if !(self.rate_hz.is_finite() && self.rate_hz > 0.0 && self.rate_hz <= 100_000.0) {
-            return Err(format!(
-                "--rate {} must be a number in (0, 100000] Hz",
-                self.rate_hz
-            ));
-        }
+        shipcast_pipeline::limits::rate(
+            "--rate",
+            self.rate_hz,
+            shipcast_pipeline::limits::MAX_RATE_HZ,
+        )?;
         Ok(())
     }
 
@@ -238,6 +244,9 @@ pub fn parse_cores(s: &str) -> Result<(usize, usize), String> {
             .map_err(|_| format!("--cores '{s}': '{v}' is not a core id"))
     };
     let (a, b) = (parse(a)?, parse(b)?);
+    // A core past the CPU set would make CPU_SET panic in the forked child, before exec.
+    shipcast_pipeline::limits::core("--cores", a)?;
+    shipcast_pipeline::limits::core("--cores", b)?;
     if a == b {
         return Err(format!("--cores '{s}': the two cores must differ"));
     }
@@ -254,6 +263,7 @@ mod tests {
         assert_eq!(parse_cores(" 3 , 2 "), Ok((3, 2)));
         assert!(parse_cores("1,1").unwrap_err().contains("must differ"));
         assert!(parse_cores("0").unwrap_err().contains("two core ids"));
+        assert!(parse_cores("0,5000").unwrap_err().contains("not a core id"));
         assert!(parse_cores("0,x").unwrap_err().contains("'x'"));
         assert_eq!("BOTH".parse::<ModeSelect>().unwrap().modes().len(), 2);
         assert_eq!("poll".parse::<ModeSelect>().unwrap().modes(), &[Mode::Poll]);

@@ -3,6 +3,7 @@
 //! Every key has a default, so an empty file (or none) is a working pipeline; an unknown key is
 //! an error that names it. Command-line flags override the file.
 
+use crate::limits;
 use crate::transport::naming::{NameError, Names, DEFAULT_VESSEL};
 use crate::transport::zenoh::{Mode, ZenohSettings};
 use crate::transport::zenoh_security::{is_inline_pem, AccessRules, TlsSettings, UserPassword};
@@ -21,6 +22,27 @@ pub const CLIENT_CONNECT_PATIENCE_MS: u64 = 60_000;
 
 /// Where consumers listen: loopback, port chosen by the system.
 pub const CONSUMER_LISTEN: &str = "tcp/127.0.0.1:0";
+
+/// Highest producer (and forecast) sample rate [Hz]: a motion sensor is sampled at tens of Hz.
+pub const MAX_PRODUCER_RATE_HZ: f64 = 10_000.0;
+
+/// Fastest pacing factor (0 means unpaced).
+pub const MAX_SPEED: f64 = 1e6;
+
+/// Longest forecast window (past values) and candidate order.
+pub const MAX_ORDER: usize = 100_000;
+
+/// Most live values kept for retraining (and held out).
+pub const MAX_RETRAIN_WINDOW: usize = 1_000_000;
+
+/// Most simulated samples per DOF of start-up history (warmup_s x rate_hz): 48 MB for six DOF.
+pub const MAX_WARMUP_SAMPLES: usize = 1_000_000;
+
+/// Highest decimation factor from the producer rate to the forecast rate.
+pub const MAX_DECIMATION: usize = 1_000;
+
+/// Largest lever arm from the centre of gravity [m].
+pub const MAX_LEVER_M: f64 = 1_000.0;
 
 /// Why a configuration could not be loaded.
 #[derive(Debug, thiserror::Error)]
@@ -421,69 +443,87 @@ impl PipelineConfig {
     pub fn validate(&self) -> Result<(), ConfigError> {
         self.names()?;
         self.zenoh.validate()?;
-        let bad = |m: String| Err(ConfigError::Invalid(m));
+        self.validate_producer().map_err(ConfigError::Invalid)?;
+        self.validate_predictor().map_err(ConfigError::Invalid)?;
+        self.validate_consumers().map_err(ConfigError::Invalid)?;
+        Ok(())
+    }
+
+    fn validate_producer(&self) -> Result<(), String> {
         let p = &self.producer;
-        if !(p.rate_hz.is_finite() && p.rate_hz > 0.0) {
-            return bad(format!(
-                "producer.rate_hz must be positive, got {}",
-                p.rate_hz
-            ));
+        limits::rate("producer.rate_hz", p.rate_hz, MAX_PRODUCER_RATE_HZ)?;
+        limits::non_negative(
+            "producer.speed (0 = as fast as possible)",
+            p.speed,
+            MAX_SPEED,
+        )?;
+        if let Some(r) = p.record_s {
+            limits::positive("producer.record_s", r, limits::MAX_SECONDS)?;
         }
-        if !(p.speed.is_finite() && p.speed >= 0.0) {
-            return bad(format!(
-                "producer.speed must be >= 0 (0 = as fast as possible), got {}",
-                p.speed
-            ));
-        }
+        limits::non_negative("producer.backfill_s", p.backfill_s, limits::MAX_SECONDS)?;
+        limits::positive("producer.backfill_speed", p.backfill_speed, MAX_SPEED)?;
+        Ok(())
+    }
+
+    fn validate_predictor(&self) -> Result<(), String> {
         let q = &self.predictor;
-        if q.horizon == 0 || q.horizon > shipcast_wire::payload::MAX_STEPS {
-            return bad(format!(
-                "predictor.horizon must be 1..={}, got {}",
-                shipcast_wire::payload::MAX_STEPS,
-                q.horizon
-            ));
-        }
-        if q.order == 0 {
-            return bad("predictor.order must be at least 1".into());
-        }
+        limits::count(
+            "predictor.horizon",
+            q.horizon,
+            1,
+            shipcast_wire::payload::MAX_STEPS,
+        )?;
+        limits::count("predictor.order", q.order, 1, MAX_ORDER)?;
+        limits::rate(
+            "predictor.sample_rate_hz",
+            q.sample_rate_hz,
+            MAX_PRODUCER_RATE_HZ,
+        )?;
         for (name, v) in [
-            ("predictor.sample_rate_hz", q.sample_rate_hz),
             ("predictor.stale_after_s", q.stale_after_s),
             ("predictor.first_fit_s", q.first_fit_s),
             ("predictor.verification_window_s", q.verification_window_s),
-            ("predictor.plausible_rms_factor", q.plausible_rms_factor),
         ] {
-            if !(v.is_finite() && v > 0.0) {
-                return bad(format!("{name} must be positive, got {v}"));
-            }
+            limits::positive(name, v, limits::MAX_SECONDS)?;
         }
-        if !(q.retrain_every_s.is_finite() && q.retrain_every_s >= 0.0) {
-            return bad(format!(
-                "predictor.retrain_every_s must be >= 0 (0 = never), got {}",
-                q.retrain_every_s
-            ));
-        }
+        limits::positive(
+            "predictor.plausible_rms_factor",
+            q.plausible_rms_factor,
+            1e6,
+        )?;
+        limits::non_negative(
+            "predictor.retrain_every_s (0 = never)",
+            q.retrain_every_s,
+            limits::MAX_SECONDS,
+        )?;
         if !(q.change_ratio.is_finite() && q.change_ratio > 1.0) {
-            return bad(format!(
+            return Err(format!(
                 "predictor.change_ratio must be above 1, got {}",
                 q.change_ratio
             ));
         }
-        if !(q.warmup_s.is_finite() && q.warmup_s >= 0.0 && q.warmup_s <= 86_400.0) {
-            return bad(format!(
-                "predictor.warmup_s must be 0..=86400, got {}",
-                q.warmup_s
+        limits::non_negative("predictor.warmup_s", q.warmup_s, 86_400.0)?;
+        // The start-up history is simulated at the producer's rate and held in memory.
+        let warmup_samples = q.warmup_s * self.producer.rate_hz;
+        if warmup_samples > MAX_WARMUP_SAMPLES as f64 {
+            return Err(format!(
+                "predictor.warmup_s x producer.rate_hz = {warmup_samples:.0} samples of start-up history, at most {MAX_WARMUP_SAMPLES}"
             ));
         }
-        if q.candidate_orders.contains(&0) {
-            return bad("predictor.candidate_orders must all be at least 1".into());
+        for &o in &q.candidate_orders {
+            limits::count("predictor.candidate_orders", o, 1, MAX_ORDER)?;
         }
-        if q.retrain_window > 1_000_000 || q.order > 100_000 {
-            return bad(format!(
-                "predictor.retrain_window ({}) must be at most 1000000 and order ({}) at most 100000",
-                q.retrain_window, q.order
-            ));
-        }
+        limits::count(
+            "predictor.retrain_window",
+            q.retrain_window,
+            0,
+            MAX_RETRAIN_WINDOW,
+        )?;
+        limits::count("predictor.holdout", q.holdout, 0, MAX_RETRAIN_WINDOW)?;
+        Ok(())
+    }
+
+    fn validate_consumers(&self) -> Result<(), String> {
         let d = &self.deck;
         for (name, v) in [
             ("deck.roll_limit_deg", d.roll_limit_deg),
@@ -493,10 +533,23 @@ impl PipelineConfig {
                 d.vertical_velocity_limit_mps,
             ),
         ] {
-            if !(v.is_finite() && v > 0.0) {
-                return bad(format!("{name} must be positive, got {v}"));
+            limits::positive(name, v, 1e6)?;
+        }
+        limits::non_negative("deck.min_window_s", d.min_window_s, limits::MAX_SECONDS)?;
+        for (name, point) in [
+            ("deck.point_m", d.point_m),
+            ("crane.tip_m", self.crane.tip_m),
+        ] {
+            if !point
+                .iter()
+                .all(|v| v.is_finite() && v.abs() <= MAX_LEVER_M)
+            {
+                return Err(format!(
+                    "{name} must be three finite numbers within +-{MAX_LEVER_M} m, got {point:?}"
+                ));
             }
         }
+        limits::count("crane.print_every", self.crane.print_every, 1, u64::MAX)?;
         Ok(())
     }
 
@@ -510,9 +563,9 @@ impl PipelineConfig {
 pub fn decimation_factor(input_hz: f64, output_hz: f64) -> Result<usize, ConfigError> {
     let ratio = input_hz / output_hz;
     let factor = ratio.round();
-    if !(factor >= 1.0 && (ratio - factor).abs() < 1e-9) {
+    if !(factor >= 1.0 && factor <= MAX_DECIMATION as f64 && (ratio - factor).abs() < 1e-9) {
         return Err(ConfigError::Invalid(format!(
-            "input rate {input_hz} Hz is not an integer multiple of the forecast rate {output_hz} Hz"
+            "input rate {input_hz} Hz is not an integer multiple (1..={MAX_DECIMATION}) of the forecast rate {output_hz} Hz"
         )));
     }
     Ok(factor as usize)
@@ -569,13 +622,9 @@ impl CommonArgs {
 
     /// Wall-clock limit, if any.
     pub fn duration(&self) -> Result<Option<std::time::Duration>, ConfigError> {
-        match self.duration {
-            None => Ok(None),
-            Some(s) if s.is_finite() && s > 0.0 => Ok(Some(std::time::Duration::from_secs_f64(s))),
-            Some(s) => Err(ConfigError::Invalid(format!(
-                "--duration must be a positive number of seconds, got {s}"
-            ))),
-        }
+        self.duration
+            .map(|s| limits::seconds("--duration", s).map_err(ConfigError::Invalid))
+            .transpose()
     }
 }
 

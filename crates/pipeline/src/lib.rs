@@ -5,6 +5,7 @@
 //! - [`engine`]: the forecasting engine the predictor service, `shipcast replay` and the latency
 //!   bench drive (ingest, model set, retraining, verification, calibration).
 //! - [`deck`], [`crane`]: ship-point geometry, landing advisory, crane-tip forecast.
+//! - [`limits`]: range checks of numeric command-line values and configuration keys.
 //! - [`certs`]: the CA and certificates of a secure setup (`shipcast certs`).
 
 pub mod certs;
@@ -12,4 +13,5 @@ pub mod config;
 pub mod crane;
 pub mod deck;
 pub mod engine;
+pub mod limits;
 pub mod transport;

@@ -1,0 +1,284 @@
+//! Every numeric command-line value and configuration key is range-checked before any work
+//! starts: a bad value exits with one `error:` line naming it, never a panic, a hang or a run
+//! on a silently changed value. One case per class of bug found in review.
+
+mod pipeline_support;
+
+use pipeline_support::{unique_instance, Proc};
+
+/// Run `shipcast args` (killed if it outlives the patience), and check it failed with one
+/// error line naming `needle`, without a panic and without starting its work (`started` is a
+/// log line the command prints once it works).
+fn refuses(args: &[&str], needle: &str, started: &str) {
+    let mut proc = Proc::spawn("shipcast", args);
+    let status = proc.wait_exit();
+    let stderr = proc.stderr().join("\n");
+    assert_eq!(status.code(), Some(2), "{args:?}: {stderr}");
+    let errors: Vec<String> = proc
+        .stderr()
+        .into_iter()
+        .filter(|l| l.starts_with("error:"))
+        .collect();
+    assert_eq!(errors.len(), 1, "{args:?}: {stderr}");
+    assert!(errors[0].contains(needle), "{args:?}: {stderr}");
+    assert!(!stderr.contains("panicked"), "{args:?}: {stderr}");
+    assert!(
+        !started.is_empty() && !stderr.contains(started),
+        "{args:?} started its work: {stderr}"
+    );
+}
+
+/// Seconds that overflow `Duration::from_secs_f64` (it panicked) are refused.
+#[test]
+fn huge_durations_are_refused_not_a_panic() {
+    let instance = unique_instance("rng-dur");
+    refuses(
+        &["producer", "--instance", &instance, "--duration", "1e300"],
+        "--duration",
+        "producer: simulating",
+    );
+    refuses(
+        &[
+            "producer",
+            "--instance",
+            &instance,
+            "--wait-subscriber-s",
+            "1e300",
+        ],
+        "--wait-subscriber-s",
+        "producer: simulating",
+    );
+    refuses(
+        &[
+            "router",
+            "--listen",
+            "tcp/127.0.0.1:0",
+            "--duration",
+            "1e300",
+        ],
+        "--duration",
+        "router: up",
+    );
+    refuses(
+        &["bench", "fleet", "--vessels", "1", "--seconds", "1e300"],
+        "--seconds",
+        "vessels  bytes",
+    );
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("certs");
+    refuses(
+        &[
+            "certs",
+            "--out",
+            out.to_str().unwrap(),
+            "--listen",
+            "tls/127.0.0.1:7447",
+            "--days",
+            "4000000000",
+        ],
+        "--days",
+        "wrote",
+    );
+    assert!(!out.join("ca.pem").exists());
+}
+
+/// A core past the CPU set made CPU_SET panic in the forked child; now a parse error.
+#[test]
+fn cores_beyond_the_cpu_set_are_refused() {
+    refuses(
+        &["bench", "latency", "--cores", "0,5000", "--samples", "10"],
+        "not a core id",
+        "target",
+    );
+    let instance = unique_instance("rng-core");
+    refuses(
+        &[
+            "predictor",
+            "--instance",
+            &instance,
+            "--pin-core",
+            "5000",
+            "--duration",
+            "1",
+        ],
+        "--pin-core",
+        "predictor:",
+    );
+}
+
+/// Counts that allocate or loop in proportion (the bench hung or aborted in
+/// `Vec::with_capacity`; the simulator would have written for days).
+#[test]
+fn huge_counts_are_refused_before_allocating() {
+    for (args, needle) in [
+        (
+            vec![
+                "bench",
+                "latency",
+                "--samples",
+                "10",
+                "--rounds",
+                "1",
+                "--warmup",
+                "100000000000000",
+            ],
+            "--warmup",
+        ),
+        (
+            vec![
+                "bench",
+                "latency",
+                "--samples",
+                "100000000000000",
+                "--rounds",
+                "1",
+            ],
+            "--samples",
+        ),
+        (
+            vec![
+                "bench",
+                "fleet",
+                "--vessels",
+                "10,100000000",
+                "--seconds",
+                "1",
+            ],
+            "--vessels",
+        ),
+    ] {
+        refuses(&args, needle, "target");
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("m.csv");
+    let out = out.to_str().unwrap();
+    refuses(
+        &["simulate", "--duration", "1e300", "--out", out],
+        "--duration",
+        "wrote",
+    );
+    refuses(
+        &[
+            "simulate",
+            "--duration",
+            "31536000",
+            "--rate",
+            "10000",
+            "--out",
+            out,
+        ],
+        "rows",
+        "wrote",
+    );
+}
+
+/// Rates outside what the arithmetic holds: a tiny producer rate panicked, a huge one ran a
+/// nonsense simulation, and a huge rate times the start-up history aborted in an allocation.
+#[test]
+fn rates_out_of_range_are_refused() {
+    let instance = unique_instance("rng-rate");
+    for rate in ["1e-300", "1e300", "nan"] {
+        refuses(
+            &[
+                "producer",
+                "--instance",
+                &instance,
+                "--rate",
+                rate,
+                "--duration",
+                "1",
+            ],
+            "producer.rate_hz",
+            "producer: simulating",
+        );
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let config = dir.path().join("p.toml");
+    std::fs::write(&config, "[producer]\nrate_hz = 5000.0\n").unwrap();
+    refuses(
+        &[
+            "predictor",
+            "--config",
+            config.to_str().unwrap(),
+            "--instance",
+            &instance,
+            "--duration",
+            "1",
+        ],
+        "start-up history",
+        "predictor:",
+    );
+}
+
+/// Values that used to be changed silently (0 printed every advisory, NaN waited not at all,
+/// 0 turned fault injection off, a skip past the record printed a table of NaN).
+#[test]
+fn values_once_coerced_silently_are_refused() {
+    let instance = unique_instance("rng-silent");
+    refuses(
+        &[
+            "deck",
+            "--instance",
+            &instance,
+            "--print-every",
+            "0",
+            "--duration",
+            "1",
+        ],
+        "--print-every",
+        "deck: advising",
+    );
+    refuses(
+        &[
+            "producer",
+            "--instance",
+            &instance,
+            "--wait-subscriber-s",
+            "nan",
+            "--duration",
+            "1",
+        ],
+        "--wait-subscriber-s",
+        "producer: simulating",
+    );
+    refuses(
+        &[
+            "producer",
+            "--instance",
+            &instance,
+            "--fault-nan-every",
+            "0",
+            "--duration",
+            "1",
+        ],
+        "--fault-nan-every",
+        "producer: simulating",
+    );
+    let dir = tempfile::tempdir().unwrap();
+    let csv = dir.path().join("m.csv");
+    let csv = csv.to_str().unwrap();
+    pipeline_support::run_ok(&["simulate", "--duration", "60", "--out", csv]);
+    refuses(
+        &["replay", "--input", csv, "--skip-s", "1e300"],
+        "--skip-s",
+        "heave",
+    );
+    refuses(
+        &["replay", "--input", csv, "--skip-s", "60"],
+        "whole record",
+        "heave",
+    );
+    let config = dir.path().join("p.toml");
+    std::fs::write(&config, "[crane]\nprint_every = 0\n").unwrap();
+    refuses(
+        &[
+            "replay",
+            "--input",
+            csv,
+            "--config",
+            config.to_str().unwrap(),
+        ],
+        "crane.print_every",
+        "heave",
+    );
+}
