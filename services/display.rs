@@ -71,5 +71,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         server::serve(listener, board, stop)
             .await
             .context("display: HTTP server")
-    })
+    })?;
+    tracing::info!("display: stopped");
+    Ok(())
 }

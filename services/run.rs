@@ -1,6 +1,7 @@
-//! `shipcast run`: the whole pipeline from one config. Starts predictor, deck, crane and
-//! producer as child processes of this executable, shows a compact live view (latest forecast,
-//! deck advisory, predictor counters), and stops them all on Ctrl-C or after `--duration`.
+//! `shipcast run`: the whole pipeline from one config. Starts predictor, deck, crane, the live
+//! display (a web page) and producer as child processes of this executable, shows a compact
+//! live view (latest forecast, deck advisory, predictor counters) with the display's address,
+//! and stops them all on Ctrl-C or after `--duration`.
 
 use anyhow::Context;
 use shipcast_pipeline::config::CommonArgs;
@@ -21,6 +22,31 @@ pub struct Args {
     /// Directory for the children's logs (default: a new directory under the temp dir).
     #[arg(long, value_name = "DIR")]
     pub log_dir: Option<PathBuf>,
+    /// Address of the live display's web page; port 0 picks a free one. Without this flag the
+    /// default is used, or a free port when the default is taken.
+    #[arg(long, value_name = "HOST:PORT", conflicts_with = "no_display")]
+    pub display: Option<String>,
+    /// Do not start the live display.
+    #[arg(long)]
+    pub no_display: bool,
+}
+
+/// The address the display will listen on: the one asked for (port 0: a free one), or the
+/// default, falling back to a free port when another process holds the default.
+fn display_address(asked: Option<&str>) -> anyhow::Result<std::net::SocketAddr> {
+    let wanted = asked.unwrap_or(crate::display::DEFAULT_LISTEN);
+    let address: std::net::SocketAddr = wanted.parse().with_context(|| {
+        format!("--display must be HOST:PORT with an IP address, got '{wanted}'")
+    })?;
+    let probe = match std::net::TcpListener::bind(address) {
+        Ok(l) => l,
+        Err(_) if asked.is_none() => std::net::TcpListener::bind((address.ip(), 0))
+            .with_context(|| format!("no free port for the display on {}", address.ip()))?,
+        Err(e) => return Err(e).with_context(|| format!("--display {wanted}: cannot listen")),
+    };
+    // Released again for the display process; taken by another program in between, the
+    // display exits with its own one-line error and the run stops.
+    Ok(probe.local_addr()?)
 }
 
 /// Grace period between SIGTERM and SIGKILL when stopping children.
@@ -244,6 +270,18 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     children.spawn("predictor", &[], &config_path, &logs)?;
     children.spawn("deck", &["--print-every", "10"], &config_path, &logs)?;
     children.spawn("crane", &[], &config_path, &logs)?;
+    let display = if args.no_display {
+        None
+    } else {
+        let address = display_address(args.display.as_deref())?;
+        children.spawn(
+            "display",
+            &["--listen", &address.to_string()],
+            &config_path,
+            &logs,
+        )?;
+        Some(address)
+    };
     children.spawn(
         "producer",
         &["--wait-subscriber-s", "120"],
@@ -288,8 +326,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             view.verification = serde_json::from_slice(&b).ok();
         }
         if last_draw.elapsed() >= Duration::from_secs(1) {
+            let page = display
+                .map(|a| format!("  display http://{a}/"))
+                .unwrap_or_default();
             let header = format!(
-                "shipcast run  {}  +{:.0}s  (Ctrl-C stops; logs in {})",
+                "shipcast run  {}  +{:.0}s{page}  (Ctrl-C stops; logs in {})",
                 names,
                 limit.elapsed().as_secs_f64(),
                 logs.display()

@@ -335,6 +335,8 @@ fn run_uses_the_generated_config_as_it_is() {
         config.to_str().unwrap(),
         "--log-dir",
         logs.path().to_str().unwrap(),
+        "--display",
+        "127.0.0.1:0",
     ]);
     // The view shows the predictor's status and the deck's advisory, both received over zenoh.
     assert!(stdout.contains("predictor  model v1"), "{stdout}");
