@@ -14,6 +14,7 @@
 //! - [`payload`]: the wire payloads `MotionSample` and `Forecast`.
 //! - [`transport`]: service names, iceoryx2 and zenoh plumbing.
 //! - [`config`]: the pipeline TOML configuration.
+//! - [`child`], [`pacing`]: child processes stopped and reaped on drop; pacing and waiting.
 //! - [`limits`]: range checks of numeric command-line values and configuration keys.
 //! - [`deck`], [`crane`]: ship-point geometry, landing advisory, crane-tip forecast.
 //! - [`bench`]: the latency harness (`shipcast bench latency`).
@@ -45,6 +46,7 @@
 
 pub mod bench;
 pub mod certs;
+pub mod child;
 pub mod config;
 pub mod crane;
 pub mod deck;
@@ -54,6 +56,7 @@ pub mod eval;
 pub mod limits;
 pub mod model;
 pub mod motion_csv;
+pub mod pacing;
 pub mod paper;
 pub mod payload;
 pub mod payload_json;

@@ -9,9 +9,10 @@ mod python_env;
 
 use pipeline_support::TestPipeline;
 use python_env::Python;
+use shipcast::child::ChildProcess;
 use std::path::{Path, PathBuf};
-use std::process::{Child, ExitStatus, Stdio};
-use std::time::{Duration, Instant};
+use std::process::{ExitStatus, Stdio};
+use std::time::Duration;
 
 /// Forecasts each example reads before it exits.
 const COUNT: usize = 3;
@@ -38,7 +39,7 @@ fn require_python_packages() -> Python {
 /// killed and reaped on drop, also when an assertion fails.
 struct PyProc {
     label: String,
-    child: Option<Child>,
+    child: ChildProcess,
     stdout: PathBuf,
     stderr: PathBuf,
 }
@@ -54,19 +55,20 @@ impl PyProc {
     fn spawn(python: &Python, label: &str, dir: &Path, script: &str, args: &[&str]) -> Self {
         let stdout = dir.join(format!("{label}.out"));
         let stderr = dir.join(format!("{label}.err"));
-        let child = python
-            .command()
-            .arg(example(script))
+        let mut cmd = python.command();
+        cmd.arg(example(script))
             .args(args)
             .env("PYTHONUNBUFFERED", "1")
             .stdin(Stdio::null())
             .stdout(std::fs::File::create(&stdout).expect("create stdout file"))
-            .stderr(std::fs::File::create(&stderr).expect("create stderr file"))
-            .spawn()
-            .unwrap_or_else(|e| panic!("spawn python3 {script}: {e}"));
+            .stderr(std::fs::File::create(&stderr).expect("create stderr file"));
+        // A consumer holds nothing to release: killed at once when dropped.
+        let child = ChildProcess::spawn(label, &mut cmd)
+            .unwrap_or_else(|e| panic!("spawn python3 {script}: {e}"))
+            .with_stop_grace(Duration::ZERO);
         Self {
             label: label.to_string(),
-            child: Some(child),
+            child,
             stdout,
             stderr,
         }
@@ -78,35 +80,18 @@ impl PyProc {
 
     /// Wait for the script to exit; panics with its output after EXAMPLE_PATIENCE.
     fn finish(mut self) -> PyOutput {
-        let deadline = Instant::now() + EXAMPLE_PATIENCE;
-        let child = self.child.as_mut().expect("running");
-        let status = loop {
-            if let Some(status) = child.try_wait().expect("try_wait") {
-                break status;
-            }
-            assert!(
-                Instant::now() < deadline,
+        let Some(status) = self.child.wait_timeout(EXAMPLE_PATIENCE) else {
+            panic!(
                 "{} did not exit within {EXAMPLE_PATIENCE:?}; stdout:\n{}\nstderr:\n{}",
                 self.label,
                 Self::read(&self.stdout),
                 Self::read(&self.stderr)
             );
-            std::thread::sleep(Duration::from_millis(20));
         };
-        self.child = None;
         PyOutput {
             status,
             stdout: Self::read(&self.stdout),
             stderr: Self::read(&self.stderr),
-        }
-    }
-}
-
-impl Drop for PyProc {
-    fn drop(&mut self) {
-        if let Some(mut child) = self.child.take() {
-            let _ = child.kill();
-            let _ = child.wait();
         }
     }
 }
