@@ -132,7 +132,7 @@ fn payload_write(c: &mut Criterion) {
             black_box(&forecast);
         })
     });
-    let instance = format!("bench-hot-{}", std::process::id());
+    let instance = shipcast_pipeline::transport::unique_instance("bench-hot");
     let names = Names::new(Some(&instance), "bench").expect("valid bench names");
     let node = iox::node(&names, "hot-path").expect("iceoryx2 node");
     let publisher = IoxPublisher::<Forecast>::new(&node, &names.forecast(), Sizing::FORECAST)

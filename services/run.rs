@@ -4,6 +4,7 @@
 //! and stops them all on Ctrl-C or after `--duration`.
 
 use anyhow::Context;
+use shipcast_pipeline::child::{stop_all, ChildProcess};
 use shipcast_pipeline::config::CommonArgs;
 use shipcast_pipeline::deck::Advisory;
 use shipcast_pipeline::transport::shutdown;
@@ -12,7 +13,7 @@ use shipcast_wire::payload::Forecast;
 use std::io::{IsTerminal, Write};
 use std::os::unix::process::CommandExt;
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Stdio};
+use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 #[derive(clap::Args, Debug)]
@@ -54,7 +55,7 @@ const STOP_GRACE: Duration = Duration::from_secs(5);
 
 /// The children, stopped (SIGTERM, then SIGKILL) and reaped when dropped, whatever happened.
 struct Children {
-    list: Vec<(&'static str, Child)>,
+    list: Vec<ChildProcess>,
 }
 
 impl Children {
@@ -84,49 +85,26 @@ impl Children {
                 Ok(())
             });
         }
-        let child = cmd
-            .spawn()
-            .with_context(|| format!("starting the {name} process"))?;
-        self.list.push((name, child));
+        let child = ChildProcess::spawn(name, &mut cmd)
+            .with_context(|| format!("starting the {name} process"))?
+            .with_stop_grace(STOP_GRACE);
+        self.list.push(child);
         Ok(())
     }
 
     /// The first child that has exited, with its status.
-    fn exited(&mut self) -> Option<(&'static str, std::process::ExitStatus)> {
-        self.list
-            .iter_mut()
-            .find_map(|(name, c)| c.try_wait().ok().flatten().map(|s| (*name, s)))
+    fn exited(&mut self) -> Option<(String, std::process::ExitStatus)> {
+        self.list.iter_mut().find_map(|c| {
+            let status = c.try_exit().ok().flatten()?;
+            Some((c.name().to_string(), status))
+        })
     }
 
-    /// SIGTERM every child (producer first, so the others see the end of the data), wait for
-    /// them up to the grace period, SIGKILL the rest, and reap all.
+    /// SIGTERM every child still running (producer first, so the others see the end of the
+    /// data), wait for them up to the grace period, SIGKILL the rest, and reap all. A child
+    /// that has exited already is not signalled: its pid may be another process's by now.
     fn stop(&mut self) {
-        for (_, child) in self.list.iter().rev() {
-            // SAFETY: plain kill(2) on our own child's pid.
-            unsafe {
-                libc::kill(child.id() as libc::pid_t, libc::SIGTERM);
-            }
-        }
-        let deadline = Instant::now() + STOP_GRACE;
-        for (name, child) in &mut self.list {
-            loop {
-                match child.try_wait() {
-                    Ok(Some(status)) => {
-                        tracing::debug!("{name} exited: {status}");
-                        break;
-                    }
-                    Ok(None) if Instant::now() < deadline => {
-                        std::thread::sleep(Duration::from_millis(20))
-                    }
-                    _ => {
-                        tracing::warn!("{name} did not stop in time: killed");
-                        let _ = child.kill();
-                        let _ = child.wait();
-                        break;
-                    }
-                }
-            }
-        }
+        stop_all(self.list.iter_mut().rev(), STOP_GRACE);
         self.list.clear();
     }
 }

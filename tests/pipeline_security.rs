@@ -7,9 +7,10 @@
 mod pipeline_support;
 
 use pipeline_support::{run_ok, Proc, TestPipeline, PATIENCE};
+use shipcast_pipeline::pacing::poll_until;
 use shipcast_wire::payload::Forecast;
 use std::path::{Path, PathBuf};
-use std::time::{Duration, Instant};
+use std::time::Duration;
 use zenoh::Wait;
 
 /// The injected forecast of issue 14: an unrelated, repeated seq and 9.99 m heave everywhere.
@@ -91,15 +92,14 @@ fn station_session(json5: &Path) -> zenoh::Result<zenoh::Session> {
 
 /// Wait until the crane has printed `n` more forecast lines than `from`.
 fn wait_crane_lines(crane: &Proc, from: usize, n: usize) {
-    let deadline = Instant::now() + PATIENCE;
-    while crane.stdout().len() < from + n {
-        assert!(
-            Instant::now() < deadline,
-            "crane stopped printing forecasts; stderr:\n{}",
-            crane.stderr().join("\n")
-        );
-        std::thread::sleep(Duration::from_millis(20));
-    }
+    let printed = poll_until(PATIENCE, Duration::from_millis(20), || {
+        (crane.stdout().len() >= from + n).then_some(())
+    });
+    assert!(
+        printed.is_some(),
+        "crane stopped printing forecasts; stderr:\n{}",
+        crane.stderr().join("\n")
+    );
 }
 
 #[test]

@@ -180,7 +180,7 @@ fn producer(run: &Run<'_>) -> anyhow::Result<PinOutcome> {
     await_until(&run.shared, "the predictor", || {
         run.started.load(Ordering::Acquire)
     })?;
-    let mut pacer = Pacer::new(run.plan);
+    let mut pacer = Pacer::new(run.plan.period());
     let mut sample = MotionSample::default();
     for seq in 0..run.plan.warmup + run.plan.samples {
         if run.shared.is_done() {

@@ -248,7 +248,7 @@ mod tests {
 
     #[test]
     fn stamps_round_trip_over_iceoryx2() {
-        let instance = format!("unit-stamps-{}", std::process::id());
+        let instance = shipcast_pipeline::transport::unique_instance("unit-stamps");
         let names = Names::new(Some(&instance), "v").unwrap();
         let node = iox::node(&names, "unit").unwrap();
         let name = names.bench_receive();

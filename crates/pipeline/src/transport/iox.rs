@@ -255,7 +255,7 @@ mod tests {
     use shipcast_wire::payload::{Forecast, MotionSample};
 
     fn unique_names(tag: &str) -> Names {
-        let instance = format!("unit-{tag}-{}", std::process::id());
+        let instance = crate::transport::unique_instance(&format!("unit-{tag}"));
         Names::new(Some(&instance), "testvessel").unwrap()
     }
 

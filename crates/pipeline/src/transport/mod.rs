@@ -13,4 +13,4 @@ pub mod zenoh_security;
 
 pub use clock::monotonic_ns;
 pub use counters::{Counters, SeqCheck, SeqTracker};
-pub use naming::Names;
+pub use naming::{unique_instance, Names};

@@ -126,6 +126,21 @@ impl Names {
     }
 }
 
+/// An instance name that no other run, process or call uses: `tag`, the process id, a
+/// per-process counter and a clock reading (the counter keeps calls in the same nanosecond
+/// apart, the clock keeps a reused process id apart). Parallel tests and benchmark rounds get
+/// their own iceoryx2 services and zenoh keys with it.
+pub fn unique_instance(tag: &str) -> String {
+    use std::sync::atomic::{AtomicU64, Ordering};
+    static NEXT: AtomicU64 = AtomicU64::new(0);
+    let n = NEXT.fetch_add(1, Ordering::Relaxed);
+    let nanos = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map(|d| d.subsec_nanos())
+        .unwrap_or(0);
+    format!("{tag}-{}-{n}-{nanos}", std::process::id())
+}
+
 impl fmt::Display for Names {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(&self.topic("*"))
@@ -135,6 +150,15 @@ impl fmt::Display for Names {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn unique_instances_differ_and_are_valid_names() {
+        let a = unique_instance("t");
+        let b = unique_instance("t");
+        assert_ne!(a, b);
+        assert!(a.starts_with("t-"));
+        assert!(Names::new(Some(&a), "v").is_ok());
+    }
 
     #[test]
     fn names_follow_the_contract() {

@@ -398,7 +398,10 @@ mod tests {
         let endpoint = free_loopback_endpoint().unwrap();
         let a = open(&ZenohSettings::listen_on(&endpoint)).unwrap();
         let b = open(&ZenohSettings::connect_to(&endpoint)).unwrap();
-        let key = format!("unit-{}/shipcast/x/forecast", std::process::id());
+        let key = format!(
+            "{}/shipcast/x/forecast",
+            crate::transport::unique_instance("unit")
+        );
         let sub = LatestSubscriber::new(&b, &key).unwrap();
         let watch = LivelinessWatch::new(&b, &format!("{key}/alive")).unwrap();
         let publisher = JsonPublisher::new(&a, &key).unwrap();
