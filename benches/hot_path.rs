@@ -284,7 +284,8 @@ fn forecast_path(c: &mut Criterion) {
     }
 
     let mut json = ForecastJsonEncoder::new();
-    let mut steps: [StepTally; 5] = Default::default();
+    let mut steps: [StepTally; 6] = Default::default();
+    let mut reused = Vec::with_capacity(16 * 1024);
     let mut forecasts = Vec::with_capacity(FORECASTS as usize);
     for (seq, dof) in (backfill..).zip(&record[backfill as usize..]) {
         let sample = MotionSample {
@@ -305,6 +306,8 @@ fn forecast_path(c: &mut Criterion) {
         steps[1].add(ns, n);
         let (bytes, ns, n) = measured(|| json.encode_shared(&f).expect("encode"));
         steps[2].add(ns, n);
+        let (_, ns, n) = measured(|| f.write_json(&mut reused).expect("encode"));
+        steps[5].add(ns, n);
         let (_, ns, n) = measured(|| remote.put_shared(bytes).expect("put"));
         steps[3].add(ns, n);
         // As before: the JSON copied into a buffer of zenoh's, the same bytes once more.
@@ -333,6 +336,7 @@ fn forecast_path(c: &mut Criterion) {
         "JSON encoding (serde_json, shared buffer)",
         "zenoh put, buffer shared (put_shared)",
         "zenoh put, JSON copied (put)",
+        "JSON encoding (serde_json, reused Vec)",
     ]) {
         println!("{}", tally.line(name));
     }
