@@ -168,7 +168,9 @@ impl<T: Debug + ZeroCopySend + Copy + 'static> IoxPublisher<T> {
     ///
     /// The value is copied once, straight from `value` into the loaned sample
     /// (`send_copy(*value)` would copy it twice: onto the stack for the call, then into the
-    /// sample; for a 6 KB forecast that doubles the publisher's share of the path).
+    /// sample; for a 6 KB forecast that doubles the publisher's share of the path). The one
+    /// allocation per send left is iceoryx2 0.10's own: every loan creates the sample's shared
+    /// state behind an `Arc` (`ChunkMutSharedState::new`), whichever way the sample is written.
     pub fn send(&self, value: &T) -> Result<usize, IoxError> {
         let mut sample = self.publisher.loan_uninit().map_err(err("loan sample"))?;
         // SAFETY: the loaned chunk holds one `T`, sized and aligned for it by iceoryx2, and
