@@ -180,9 +180,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 stages.issued_ns = forecast.issued_stamp_ns;
                 forecasts.send(forecast)?;
                 mark(&mut stages.local_sent_ns);
-                let encoded = json.encode(forecast);
+                let encoded = json.encode_shared(forecast)?;
                 mark(&mut stages.encoded_ns);
-                forecast_json.put(encoded)?;
+                forecast_json.put_shared(encoded)?;
                 mark(&mut stages.zenoh_put_ns);
                 engine.counters.published += 1;
                 published = true;

@@ -81,9 +81,11 @@ impl PublishStages {
 pub const STAMP_BUFFER: usize = 4096;
 const MAX_PORTS: usize = 4;
 
-fn err<E: Debug>(context: String) -> impl FnOnce(E) -> IoxError {
+/// The error of a failed call; `context` becomes a `String` only then (a `&str` context
+/// allocates nothing on success: stamps are sent for every sample).
+fn err<E: Debug>(context: impl Into<String>) -> impl FnOnce(E) -> IoxError {
     move |e| IoxError {
-        context,
+        context: context.into(),
         detail: format!("{e:?}"),
     }
 }
@@ -131,7 +133,7 @@ impl StampPublisher {
     pub fn send(&self, stamp: ReceiveStamp) -> Result<(), IoxError> {
         self.publisher
             .send_copy(stamp)
-            .map_err(err("send receive stamp".into()))?;
+            .map_err(err("send receive stamp"))?;
         Ok(())
     }
 }
@@ -158,11 +160,7 @@ impl StampReader {
 
     /// Take every waiting stamp into `tally`.
     pub fn drain(&self, tally: &mut StampTally) -> Result<(), IoxError> {
-        while let Some(s) = self
-            .subscriber
-            .receive()
-            .map_err(err("receive stamp".into()))?
-        {
+        while let Some(s) = self.subscriber.receive().map_err(err("receive stamp"))? {
             tally.record(s.payload());
         }
         Ok(())

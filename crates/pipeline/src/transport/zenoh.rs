@@ -266,14 +266,30 @@ impl JsonPublisher {
         })
     }
 
-    /// Publish one JSON document.
+    /// Publish one JSON document, copied into a buffer of zenoh's (for documents built once,
+    /// such as the status; forecasts go through [`Self::put_shared`]).
     pub fn put(&self, json: &[u8]) -> Result<(), ZenohError> {
+        self.put_payload(ZBytes::from(json))
+    }
+
+    /// Publish one JSON document without copying it: zenoh takes a reference-counted handle
+    /// to `json`'s buffer. Once zenoh has written it to its links and dropped the handle, the
+    /// writer of the buffer can reuse it (see `ForecastJsonEncoder::encode_shared`).
+    pub fn put_shared(&self, json: bytes::Bytes) -> Result<(), ZenohError> {
+        self.put_payload(ZBytes::from(json))
+    }
+
+    fn put_payload(&self, payload: ZBytes) -> Result<(), ZenohError> {
         self.publisher
-            .put(json.to_vec())
+            .put(payload)
             // A reference-counted copy of the id, no allocation of its bytes.
             .attachment(self.publisher_id.clone())
             .wait()
-            .map_err(err(format!("put on '{}'", self.publisher.key_expr())))
+            // The context is formatted only on failure: a put that succeeds formats nothing.
+            .map_err(|e| ZenohError {
+                context: format!("put on '{}'", self.publisher.key_expr()),
+                detail: e.to_string(),
+            })
     }
 
     /// Serialise `value` as JSON and publish it.
