@@ -74,6 +74,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if vessels.len() > 1 && args.router.is_none() {
         anyhow::bail!("several --vessel make a fleet: give its --router endpoint too");
     }
+    if let Some(v) = args
+        .vessel
+        .iter()
+        .enumerate()
+        .find_map(|(i, v)| args.vessel[..i].contains(v).then_some(v))
+    {
+        anyhow::bail!("--vessel '{v}' is given twice");
+    }
     let host = endpoint_host(&args.listen)?;
     let mut taken: Vec<String> = args.vessel.iter().map(|v| pipeline_name(v)).collect();
     if args.router.is_some() {

@@ -17,6 +17,6 @@ pub fn init() {
     // A second init (tests calling main twice) is harmless, so the error is ignored.
     let _ = tracing_subscriber::registry()
         .with(printed)
-        .with(RefusalLayer::default().with_filter(refusal_events()))
+        .with(RefusalLayer.with_filter(refusal_events()))
         .try_init();
 }
