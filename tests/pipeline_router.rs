@@ -106,6 +106,42 @@ fn in_a_secure_fleet_a_vessel_cannot_put_on_another_vessels_keys() {
         "--station",
         "shore",
     ]);
+    // A fleet needs its router, and each vessel once: one-line errors, nothing written.
+    for (args, reason) in [
+        (
+            vec!["--vessel", "alpha", "--vessel", "bravo"],
+            "give its --router",
+        ),
+        (
+            vec![
+                "--router",
+                &router_endpoint,
+                "--vessel",
+                "alpha",
+                "--vessel",
+                "alpha",
+            ],
+            "'alpha' is given twice",
+        ),
+    ] {
+        let other = p.path("refused");
+        let mut all = vec![
+            "certs",
+            "--out",
+            other.to_str().unwrap(),
+            "--listen",
+            &listen,
+        ];
+        all.extend(args);
+        let out = std::process::Command::new(pipeline_support::BIN)
+            .args(&all)
+            .output()
+            .expect("run certs");
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success() && stderr.contains(reason), "{stderr}");
+        assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
+        assert!(!other.join("ca.pem").exists());
+    }
     let alpha_toml = dir.join("alpha.toml");
     let text = std::fs::read_to_string(&alpha_toml).expect("alpha.toml");
     std::fs::write(
