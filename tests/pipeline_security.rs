@@ -513,3 +513,72 @@ fn the_deck_rejects_a_second_iceoryx2_publisher_and_keeps_advising() {
     );
     drop(intruder);
 }
+
+#[test]
+fn the_live_view_of_run_rejects_a_second_publisher() {
+    let p = TestPipeline::new("runinject", "[producer]\nspeed = 20.0\nbackfill_s = 0.0\n");
+    let logs = p.path("logs");
+    let run = p.spawn(
+        "run",
+        &["--duration", "120", "--log-dir", logs.to_str().unwrap()],
+    );
+    run.wait_for("forecast   t=");
+    let outsider = plain_client(&p.endpoint);
+    let publisher = outsider
+        .declare_publisher(p.names().forecast())
+        .wait()
+        .unwrap();
+    let fake = fake_forecast_json();
+    for i in 0..10 {
+        let put = publisher.put(fake.clone());
+        let put = if i % 2 == 0 {
+            put
+        } else {
+            put.attachment(outsider.zid().to_string().into_bytes())
+        };
+        put.wait().unwrap();
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    // Each fake rejected on one log line as not from the live predictor (a genuine forecast
+    // that beats the predictor's token at start-up says "(none)" instead), and counted by
+    // source on the view's checks line.
+    let fakes_rejected = || {
+        run.stderr()
+            .into_iter()
+            .filter(|l| {
+                l.contains("run: forecast rejected") && !l.contains("live predictor (none)")
+            })
+            .count()
+    };
+    let by_source = |l: &str| -> u64 {
+        l.split_once(" (")
+            .and_then(|(_, r)| r.split_whitespace().next())
+            .and_then(|n| n.parse().ok())
+            .unwrap_or_else(|| panic!("no source count in: {l}"))
+    };
+    let deadline = Instant::now() + PATIENCE;
+    let checks = loop {
+        let last = run
+            .stdout()
+            .into_iter()
+            .rev()
+            .find(|l| l.starts_with("checks     rejected forecasts"));
+        if let Some(l) = last {
+            if fakes_rejected() >= 10 && by_source(&l) >= 10 {
+                break l;
+            }
+        }
+        assert!(
+            Instant::now() < deadline,
+            "the view did not reject the fakes:\n{}",
+            run.stderr().join("\n")
+        );
+        std::thread::sleep(Duration::from_millis(100));
+    };
+    assert_eq!(fakes_rejected(), 10, "{}", run.stderr().join("\n"));
+    assert!(checks.contains(" 0 seq, 0 payload)"), "{checks}");
+    assert!(
+        !run.stdout().iter().any(|l| l.contains("heave +5s +9.99")),
+        "the view showed the fake forecast"
+    );
+}
