@@ -2,19 +2,26 @@
 //! display (a web page) and producer as child processes of this executable, shows a compact
 //! live view (latest forecast, deck advisory, predictor counters) with the display's address,
 //! and stops them all on Ctrl-C or after `--duration`.
+//! The view checks what it shows as the crane does: forecasts through `ForecastGate`, the
+//! predictor's status and verification only from their live publisher; rejections are
+//! counted on the view's `checks` line and logged on one line each.
 
 use anyhow::Context;
 use shipcast_pipeline::child::{stop_all, ChildProcess};
 use shipcast_pipeline::config::CommonArgs;
 use shipcast_pipeline::deck::Advisory;
+use shipcast_pipeline::transport::forecast_check::{
+    check_source, ForecastGate, LivePublishers, PublisherWatch,
+};
 use shipcast_pipeline::transport::shutdown;
-use shipcast_pipeline::transport::zenoh::{self as zn, LatestSubscriber};
+use shipcast_pipeline::transport::zenoh::{self as zn, LatestSubscriber, ZenohError};
 use shipcast_wire::payload::Forecast;
 use std::io::{IsTerminal, Write};
 use std::os::unix::process::CommandExt;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
+use zenoh::Session;
 
 #[derive(clap::Args, Debug)]
 pub struct Args {
@@ -122,6 +129,11 @@ struct View {
     advisory: Option<Advisory>,
     status: Option<serde_json::Value>,
     verification: Option<serde_json::Value>,
+    /// Forecasts rejected (by reason) and status or verification documents rejected.
+    rejected: (
+        shipcast_pipeline::transport::forecast_check::RejectionCounts,
+        u64,
+    ),
 }
 
 impl View {
@@ -186,6 +198,14 @@ impl View {
             None => "deck       no advisory yet".into(),
             Some(a) => a.summary(),
         });
+        let (f, other) = self.rejected;
+        lines.push(format!(
+            "checks     rejected forecasts {} ({} source, {} seq, {} payload), status/verification {other}",
+            f.total(),
+            f.source,
+            f.seq,
+            f.payload
+        ));
         lines
     }
 }
@@ -269,9 +289,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
 
     let session = zn::open(&config.zenoh.consumer_side())?;
     let forecasts = LatestSubscriber::new(&session, &names.forecast())?;
+    let forecast_publishers = PublisherWatch::new(&session, &names.forecast())?;
+    let mut gate = ForecastGate::new(1.0 / config.predictor.sample_rate_hz);
     let advisories = LatestSubscriber::new(&session, &names.advisory("deck"))?;
-    let status = LatestSubscriber::new(&session, &names.status("predictor"))?;
-    let verification = LatestSubscriber::new(&session, &names.verification())?;
+    let mut status = CheckedJson::new(&session, &names.status("predictor"))?;
+    let mut verification = CheckedJson::new(&session, &names.verification())?;
 
     let tty = std::io::stdout().is_terminal();
     let mut view = View::default();
@@ -291,18 +313,31 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 logs.join(format!("{name}.log")).display()
             ));
         }
-        if let Some(b) = forecasts.latest()? {
-            view.forecast = Forecast::from_json(&b).ok();
+        forecast_publishers.update(&mut gate.live);
+        while let Some(received) = forecasts.try_recv_with_source()? {
+            // A token may arrive just after the first forecast of its publisher.
+            forecast_publishers.update(&mut gate.live);
+            match gate.check(&received) {
+                Ok(f) => view.forecast = Some(f),
+                Err(e) => tracing::warn!(
+                    rejected = gate.stream.rejected.total(),
+                    "run: forecast rejected: {e}"
+                ),
+            }
         }
         if let Some(b) = advisories.latest()? {
             view.advisory = serde_json::from_slice(&b).ok();
         }
-        if let Some(b) = status.latest()? {
-            view.status = serde_json::from_slice(&b).ok();
+        if let Some(v) = status.latest()? {
+            view.status = Some(v);
         }
-        if let Some(b) = verification.latest()? {
-            view.verification = serde_json::from_slice(&b).ok();
+        if let Some(v) = verification.latest()? {
+            view.verification = Some(v);
         }
+        view.rejected = (
+            gate.stream.rejected,
+            status.rejected + verification.rejected,
+        );
         if last_draw.elapsed() >= Duration::from_secs(1) {
             let page = display
                 .map(|a| format!("  display http://{a}/"))
@@ -336,4 +371,46 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         logs.display()
     );
     Ok(())
+}
+
+/// The newest JSON document of one key whose publisher is the key's one live publisher; others
+/// are rejected, counted and logged.
+struct CheckedJson {
+    key: String,
+    subscriber: LatestSubscriber,
+    watch: PublisherWatch,
+    live: LivePublishers,
+    rejected: u64,
+}
+
+impl CheckedJson {
+    fn new(session: &Session, key: &str) -> Result<Self, ZenohError> {
+        Ok(Self {
+            key: key.to_string(),
+            subscriber: LatestSubscriber::new(session, key)?,
+            watch: PublisherWatch::new(session, key)?,
+            live: LivePublishers::default(),
+            rejected: 0,
+        })
+    }
+
+    fn latest(&mut self) -> Result<Option<serde_json::Value>, ZenohError> {
+        let mut newest = None;
+        while let Some(received) = self.subscriber.try_recv_with_source()? {
+            self.watch.update(&mut self.live);
+            let checked = check_source(&self.live, &received)
+                .map_err(|e| e.to_string())
+                .and_then(|_| {
+                    serde_json::from_slice(&received.payload).map_err(|e| format!("JSON: {e}"))
+                });
+            match checked {
+                Ok(v) => newest = Some(v),
+                Err(e) => {
+                    self.rejected += 1;
+                    tracing::warn!(rejected = self.rejected, "run: {} rejected: {e}", self.key);
+                }
+            }
+        }
+        Ok(newest)
+    }
 }

@@ -206,8 +206,10 @@ impl ZenohConfig {
             return bad("multicast_scouting must be off with tls: consumers reach the data only through the node that enforces the access rules");
         }
         if let Some(a) = &self.access {
-            if a.key_exprs.is_empty() || a.publishers.is_empty() {
-                return bad("access needs key_exprs and publishers (everything else is denied)");
+            if a.key_exprs.is_empty() || (a.publishers.is_empty() && a.vessels.is_empty()) {
+                return bad(
+                    "access needs key_exprs and publishers or vessels (everything else is denied)",
+                );
             }
             if self.tls.is_none() {
                 return bad("access names certificate common names, so it needs tls");

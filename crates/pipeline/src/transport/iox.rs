@@ -158,6 +158,11 @@ impl<T: Debug + ZeroCopySend + Copy + 'static> IoxPublisher<T> {
         })
     }
 
+    /// The id of this publisher port, as subscribers see it in each sample's origin.
+    pub fn id(&self) -> u128 {
+        self.publisher.id().value()
+    }
+
     /// Subscribers currently connected to the service (any process).
     pub fn subscribers(&self) -> usize {
         self.services.0.dynamic_config().number_of_subscribers()
@@ -192,7 +197,7 @@ pub struct IoxSubscriber<T: Debug + ZeroCopySend + 'static> {
     subscriber: Subscriber<Ipc, T, ()>,
     listener: Listener<Ipc>,
     mode: WaitMode,
-    _services: (PubSubFactory<T>, EventFactory),
+    services: (PubSubFactory<T>, EventFactory),
 }
 
 impl<T: Debug + ZeroCopySend + Copy + 'static> IoxSubscriber<T> {
@@ -216,7 +221,7 @@ impl<T: Debug + ZeroCopySend + Copy + 'static> IoxSubscriber<T> {
             subscriber,
             listener,
             mode,
-            _services: (pubsub, event),
+            services: (pubsub, event),
         })
     }
 
@@ -249,6 +254,26 @@ impl<T: Debug + ZeroCopySend + Copy + 'static> IoxSubscriber<T> {
             .receive()
             .map_err(err("receive sample"))?
             .map(|sample| *sample.payload()))
+    }
+
+    /// Take the oldest unread sample with the id of the publisher port that sent it (recorded
+    /// by iceoryx2, not by the sender).
+    pub fn receive_with_origin(&self) -> Result<Option<(T, u128)>, IoxError> {
+        Ok(self
+            .subscriber
+            .receive()
+            .map_err(err("receive sample"))?
+            .map(|sample| (*sample.payload(), sample.origin().value())))
+    }
+
+    /// The ids of the publisher ports connected to the service now, into `out` (cleared
+    /// first; its capacity is reused).
+    pub fn publishers(&self, out: &mut Vec<u128>) {
+        out.clear();
+        self.services.0.dynamic_config().list_publishers(|details| {
+            out.push(details.publisher_id.value());
+            CallbackProgression::Continue
+        });
     }
 
     /// Take every unread sample and keep only the newest (consumers that want the latest).
@@ -318,6 +343,44 @@ mod tests {
             .collect();
         assert_eq!(got, vec![0, 1, 2, 3, 4]);
         assert_eq!(sub.receive().unwrap(), None);
+    }
+
+    #[test]
+    fn samples_name_the_publisher_port_that_sent_them() {
+        let names = unique_names("origin");
+        let _cleanup = PrefixCleanup(names.iox_prefix());
+        let node = node(&names, "unit").unwrap();
+        let sub = IoxSubscriber::<MotionSample>::new(
+            &node,
+            &names.motion(),
+            Sizing::MOTION,
+            WaitMode::Event,
+        )
+        .unwrap();
+        let mut connected = Vec::new();
+        sub.publishers(&mut connected);
+        assert!(connected.is_empty());
+        let a = IoxPublisher::<MotionSample>::new(&node, &names.motion(), Sizing::MOTION).unwrap();
+        let b = IoxPublisher::<MotionSample>::new(&node, &names.motion(), Sizing::MOTION).unwrap();
+        assert_ne!(a.id(), b.id());
+        sub.publishers(&mut connected);
+        connected.sort_unstable();
+        let mut both = vec![a.id(), b.id()];
+        both.sort_unstable();
+        assert_eq!(connected, both);
+        a.send(&MotionSample::default()).unwrap();
+        b.send(&MotionSample::default()).unwrap();
+        assert_eq!(
+            sub.receive_with_origin().unwrap().map(|r| r.1),
+            Some(a.id())
+        );
+        assert_eq!(
+            sub.receive_with_origin().unwrap().map(|r| r.1),
+            Some(b.id())
+        );
+        drop(b);
+        sub.publishers(&mut connected);
+        assert_eq!(connected, vec![a.id()]);
     }
 
     #[test]

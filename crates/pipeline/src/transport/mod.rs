@@ -8,6 +8,7 @@ pub mod iox;
 pub mod naming;
 pub mod shutdown;
 pub mod zenoh;
+pub mod zenoh_refusals;
 pub mod zenoh_router;
 pub mod zenoh_security;
 

@@ -330,6 +330,15 @@ pub struct Received {
     pub publisher: Option<String>,
 }
 
+fn received(sample: &Sample) -> Received {
+    Received {
+        payload: sample.payload().to_bytes().into_owned(),
+        publisher: sample
+            .attachment()
+            .and_then(|a| a.try_to_string().ok().map(|t| t.into_owned())),
+    }
+}
+
 /// Keeps the newest few payloads of one key; older ones are dropped, never queued without bound.
 pub struct LatestSubscriber {
     subscriber: Subscriber<RingChannelHandler<Sample>>,
@@ -360,12 +369,13 @@ impl LatestSubscriber {
             .subscriber
             .recv_timeout(timeout)
             .map_err(err("receive"))?;
-        Ok(sample.map(|s| Received {
-            payload: s.payload().to_bytes().into_owned(),
-            publisher: s
-                .attachment()
-                .and_then(|a| a.try_to_string().ok().map(|t| t.into_owned())),
-        }))
+        Ok(sample.map(|s| received(&s)))
+    }
+
+    /// The next payload waiting, if any, with the zenoh id its publisher attached.
+    pub fn try_recv_with_source(&self) -> Result<Option<Received>, ZenohError> {
+        let sample = self.subscriber.try_recv().map_err(err("receive"))?;
+        Ok(sample.map(|s| received(&s)))
     }
 
     /// The newest payload waiting, if any, discarding older ones.
