@@ -90,7 +90,7 @@ impl std::str::FromStr for McaWeighting {
 
 /// MCA predictor for one degree of freedom.
 #[derive(Clone, Debug, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(remote = "Self", deny_unknown_fields)]
 pub struct McaPredictor {
     order: usize,
     horizon: usize,
@@ -118,6 +118,8 @@ struct McaModel {
     ridge: f64,
 }
 
+serde_validated!(McaPredictor);
+
 impl McaModel {
     fn new(
         spectrum: &Spectrum,
@@ -144,29 +146,13 @@ impl McaPredictor {
     /// shift, an energy outside [0, 1) or a negative ridge are infeasible.
     pub fn new(config: &PredictorConfig) -> Result<Self, PredictError> {
         let (order, horizon) = (config.order, config.horizon);
-        if horizon == 0 || horizon >= order {
-            return Err(PredictError::Infeasible(format!(
-                "MCA needs 1 <= horizon < order (the window of order values splits into \
-                 order - horizon past and horizon future values), got order {order}, horizon {horizon}"
-            )));
-        }
-        if config.mca_shift == 0 {
-            return Err(PredictError::Infeasible(
-                "MCA window shift must be at least 1".into(),
-            ));
-        }
-        if !(0.0..1.0).contains(&config.mca_energy) {
-            return Err(PredictError::Infeasible(format!(
-                "MCA energy threshold must be in [0, 1), got {}",
-                config.mca_energy
-            )));
-        }
-        if !(config.mca_ridge >= 0.0 && config.mca_ridge.is_finite()) {
-            return Err(PredictError::Infeasible(format!(
-                "MCA ridge must be finite and non-negative, got {}",
-                config.mca_ridge
-            )));
-        }
+        check_options(
+            order,
+            horizon,
+            config.mca_shift,
+            config.mca_energy,
+            config.mca_ridge,
+        )?;
         Ok(Self {
             order,
             horizon,
@@ -202,6 +188,46 @@ impl McaPredictor {
             .ok_or(PredictError::NotFitted(Method::Mca))?;
         check_forecast_buffers(self.order, self.horizon, past, out)?;
         model.prediction.apply_f32(&past[past.len() - n1..], out);
+        Ok(())
+    }
+
+    /// What a model file must satisfy (see `serde_validated!`): the constructor's checks, and a
+    /// fitted model's prediction matrix of horizon x (order - horizon).
+    fn validate(&self) -> Result<(), String> {
+        check_options(
+            self.order,
+            self.horizon,
+            self.shift,
+            self.energy,
+            self.ridge,
+        )
+        .map_err(|e| e.to_string())?;
+        let Some(model) = &self.model else {
+            return Ok(());
+        };
+        let (rows, cols) = (model.prediction.rows(), model.prediction.cols());
+        if (rows, cols) != (self.horizon, self.past_len()) {
+            return Err(format!(
+                "MCA model.prediction is {rows} x {cols}; horizon {} and order {} need {} x {}",
+                self.horizon,
+                self.order,
+                self.horizon,
+                self.past_len()
+            ));
+        }
+        if model.minor_components > self.order {
+            return Err(format!(
+                "MCA model.minor_components {} exceeds the order {}",
+                model.minor_components, self.order
+            ));
+        }
+        for (name, value) in [("energy", model.energy), ("ridge", model.ridge)] {
+            if !(value.is_finite() && value >= 0.0) {
+                return Err(format!(
+                    "MCA model.{name} must be finite and non-negative, got {value}"
+                ));
+            }
+        }
         Ok(())
     }
 
@@ -282,6 +308,39 @@ impl McaPredictor {
         tracing::debug!(energy, ridge, weighting = %self.weighting, validation_rms = rms, "MCA setting chosen");
         self.fit_with(train, energy, ridge)
     }
+}
+
+/// The constructor's checks: 1 <= horizon < order, shift >= 1, energy in [0, 1), ridge finite
+/// and non-negative.
+fn check_options(
+    order: usize,
+    horizon: usize,
+    shift: usize,
+    energy: f64,
+    ridge: f64,
+) -> Result<(), PredictError> {
+    if horizon == 0 || horizon >= order {
+        return Err(PredictError::Infeasible(format!(
+            "MCA needs 1 <= horizon < order (the window of order values splits into \
+             order - horizon past and horizon future values), got order {order}, horizon {horizon}"
+        )));
+    }
+    if shift == 0 {
+        return Err(PredictError::Infeasible(
+            "MCA window shift must be at least 1".into(),
+        ));
+    }
+    if !(0.0..1.0).contains(&energy) {
+        return Err(PredictError::Infeasible(format!(
+            "MCA energy threshold must be in [0, 1), got {energy}"
+        )));
+    }
+    if !(ridge >= 0.0 && ridge.is_finite()) {
+        return Err(PredictError::Infeasible(format!(
+            "MCA ridge must be finite and non-negative, got {ridge}"
+        )));
+    }
+    Ok(())
 }
 
 /// Smallest training length for which validation leaves at least one window to fit on

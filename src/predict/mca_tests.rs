@@ -143,7 +143,7 @@ fn assert_matches_reference(x: &[f64], n: usize, h: usize, shift: usize, energie
                 mca_energy: energy,
                 ..config(n, h)
             },
-            &x,
+            x,
         );
         let reference = reference_prediction(x, n, h, shift, energy);
         let distance = relative_distance(p.prediction_matrix().unwrap(), &reference);
