@@ -302,9 +302,7 @@ impl McaPredictor {
                 best_key = Some(key);
             }
         }
-        let (energy, ridge, rms) = best.ok_or_else(|| {
-            PredictError::Numerical("MCA: no candidate setting gave a usable predictor".into())
-        })?;
+        let (energy, ridge, rms) = best.ok_or(PredictError::NoUsableCandidate(Method::Mca))?;
         tracing::debug!(energy, ridge, weighting = %self.weighting, validation_rms = rms, "MCA setting chosen");
         self.fit_with(train, energy, ridge)
     }

@@ -80,6 +80,9 @@ pub enum PredictError {
     /// A numerical step failed (singular matrix, eigen-decomposition did not converge, ...).
     #[error("numerical failure: {0}")]
     Numerical(String),
+    /// Validation (`mca_validate_energy`) rejected every candidate setting.
+    #[error("{0}: no candidate setting gave a usable predictor")]
+    NoUsableCandidate(Method),
 }
 
 /// The prediction methods shipcast knows, by their CLI names.
