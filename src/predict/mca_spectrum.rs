@@ -9,7 +9,8 @@
 //! eigenvectors. That null space is never formed: the completion of a window needs the
 //! projector onto the minor components B B^T, which is I - V V^T for the major ones V, all in
 //! the range. Householder QR is backward stable like the n x n eigen-decomposition, and it is
-//! much smaller: w^3 instead of n^3 work (MCA-800 on 5000 values: about a third of the time).
+//! much smaller: w^3 instead of n^3 work (MCA-800 on 5000 values: 22-28 ms against 54 ms for
+//! the 800 x 800 eigen-decomposition, `cargo bench --bench mca_vs_numpy`).
 
 use super::LinearMap;
 use super::McaWeighting;
