@@ -45,19 +45,28 @@ pub const MAX_DECIMATION: usize = 1_000;
 pub const MAX_LEVER_M: f64 = 1_000.0;
 
 /// Why a configuration could not be loaded.
+///
+/// Causes are in the message and not chained as a `source` (fields named `error`, no
+/// `#[from]`), so error-chain printers (`anyhow`'s `{:#}`) print them once.
 #[derive(Debug, thiserror::Error)]
 pub enum ConfigError {
-    #[error("config {path}: {source}")]
+    #[error("config {path}: {error}")]
     Read {
         path: PathBuf,
-        source: std::io::Error,
+        error: std::io::Error,
     },
     #[error("config {path}: {message}")]
     Parse { path: PathBuf, message: String },
     #[error("config: {0}")]
     Invalid(String),
     #[error("config: {0}")]
-    Name(#[from] NameError),
+    Name(NameError),
+}
+
+impl From<NameError> for ConfigError {
+    fn from(error: NameError) -> Self {
+        ConfigError::Name(error)
+    }
 }
 
 /// The whole pipeline.
@@ -537,9 +546,9 @@ impl PipelineConfig {
         match path {
             None => Ok(Self::default()),
             Some(p) => {
-                let text = std::fs::read_to_string(p).map_err(|source| ConfigError::Read {
+                let text = std::fs::read_to_string(p).map_err(|error| ConfigError::Read {
                     path: p.to_path_buf(),
-                    source,
+                    error,
                 })?;
                 Self::from_toml(&text, p)
             }
@@ -751,6 +760,34 @@ impl PipelineConfig {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Every cause in `{:#}` of `error` (what the binary prints) appears exactly once.
+    fn assert_causes_print_once(error: anyhow::Error, causes: &[String]) {
+        let chain = format!("{error:#}");
+        for cause in causes {
+            assert_eq!(
+                chain.matches(cause.as_str()).count(),
+                1,
+                "'{cause}' in: {chain}"
+            );
+        }
+    }
+
+    #[test]
+    fn error_causes_print_once_in_error_chains() {
+        let missing = Path::new("/nonexistent/shipcast-config.toml");
+        let io = std::fs::read_to_string(missing).unwrap_err().to_string();
+        let err = PipelineConfig::load(Some(missing)).unwrap_err();
+        assert_causes_print_once(err.into(), &[io, missing.display().to_string()]);
+
+        let name = crate::transport::Names::new(Some("bad name"), "v").unwrap_err();
+        let err = ConfigError::from(name.clone());
+        assert_causes_print_once(err.into(), &[name.to_string()]);
+
+        let json = serde_json::from_slice::<serde_json::Value>(b"{").unwrap_err();
+        let err = shipcast_wire::payload::Forecast::from_json(b"{").unwrap_err();
+        assert_causes_print_once(err.into(), &[json.to_string()]);
+    }
 
     #[test]
     fn empty_file_gives_the_defaults() {

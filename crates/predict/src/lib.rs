@@ -36,6 +36,28 @@ use serde::{Deserialize, Serialize};
 use std::fmt;
 use std::str::FromStr;
 
+/// Serialize and Deserialize for a predictor whose derives say `#[serde(remote = "Self")]`:
+/// the derived code does the reading, then `validate(&self) -> Result<(), String>` runs, so a
+/// hand-edited model file cannot skip the checks the constructor and `fit` make (a wrong shape
+/// would slice out of range or multiply the wrong values). Its message names the field.
+macro_rules! serde_validated {
+    ($ty:ty) => {
+        impl serde::Serialize for $ty {
+            fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+                // The inherent function the derive generates, not this trait method.
+                <$ty>::serialize(self, serializer)
+            }
+        }
+        impl<'de> serde::Deserialize<'de> for $ty {
+            fn deserialize<D: serde::Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+                let value = <$ty>::deserialize(deserializer)?;
+                value.validate().map_err(serde::de::Error::custom)?;
+                Ok(value)
+            }
+        }
+    };
+}
+
 pub mod ar_lms;
 pub mod averaging;
 pub mod baseline;
@@ -87,6 +109,9 @@ pub enum PredictError {
     /// A numerical step failed (singular matrix, eigen-decomposition did not converge, ...).
     #[error("numerical failure: {0}")]
     Numerical(String),
+    /// Validation (`mca_validate_energy`) rejected every candidate setting.
+    #[error("{0}: no candidate setting gave a usable predictor")]
+    NoUsableCandidate(Method),
 }
 
 /// The prediction methods shipcast knows, by their CLI names.
