@@ -10,7 +10,6 @@
 use criterion::{criterion_group, criterion_main, Criterion};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use shipcast_bench::allocations::{counted, CountingAllocator};
 use shipcast_bench::machine::remove_iox_leftovers;
 use shipcast_bench::pipeline::{backfill_s, backfilled_engine, motion_record};
 use shipcast_bench::stamps::{ReceiveStamp, StampPublisher, StampReader, StampTally};
@@ -22,6 +21,7 @@ use shipcast_pipeline::transport::zenoh::{
     free_loopback_endpoint, open, JsonPublisher, ZenohSettings,
 };
 use shipcast_pipeline::transport::Names;
+use shipcast_predict::alloc_count::{counted, CountingAllocator};
 use shipcast_predict::{McaPredictor, Predictor, PredictorConfig};
 use shipcast_series::decimator::Decimator;
 use shipcast_wire::payload::{Forecast, MotionSample, MAX_STEPS, NUM_DOF};

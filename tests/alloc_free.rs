@@ -2,16 +2,16 @@
 //! decimation, scoring and calibration, the six-DOF forecast, the plausibility check, the
 //! Forecast payload) plus its JSON encoding for zenoh, counted by a global allocator.
 //!
-//! The allocator (`shipcast_bench::allocations`) counts per thread, and only while the
+//! The allocator (`shipcast_predict::alloc_count`) counts per thread, and only while the
 //! measuring thread asks it to: the engine's retraining thread (and the test harness) allocate
 //! as they like. This test binary holds nothing else, so the counting allocator wraps no other
 //! test.
 
-use shipcast_bench::allocations::{counted, CountingAllocator};
 use shipcast_bench::pipeline::{backfill_s, backfilled_engine, motion_record};
 use shipcast_pipeline::config::PipelineConfig;
 use shipcast_pipeline::engine::retrain::Retrainer;
 use shipcast_pipeline::engine::{startup, Engine};
+use shipcast_predict::alloc_count::{counted, CountingAllocator};
 use shipcast_wire::payload::MotionSample;
 use shipcast_wire::payload_json::ForecastJsonEncoder;
 

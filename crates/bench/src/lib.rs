@@ -11,7 +11,6 @@
 //! Everything is recorded into HDR histograms ([`histogram`]) and reported as a table, JSON rows
 //! and an SVG of the latency distributions ([`report`]).
 
-pub mod allocations;
 pub mod children;
 pub mod consumers;
 pub mod fleet;

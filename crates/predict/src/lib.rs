@@ -58,6 +58,7 @@ macro_rules! serde_validated {
     };
 }
 
+pub mod alloc_count;
 pub mod ar_lms;
 pub mod averaging;
 pub mod baseline;
@@ -74,7 +75,7 @@ pub mod conformance;
 // This crate's own tests count allocations (the conformance suite's allocation check).
 #[cfg(test)]
 #[global_allocator]
-static ALLOCATOR: conformance::CountingAllocator = conformance::CountingAllocator;
+static ALLOCATOR: alloc_count::CountingAllocator = alloc_count::CountingAllocator;
 
 pub use ar_lms::ArLmsPredictor;
 pub use averaging::{AverageMode, Averaging, AveragingWeights, ForecastAverager};

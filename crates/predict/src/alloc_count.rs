@@ -1,12 +1,13 @@
 //! Counting the allocations of a piece of code: a global allocator that counts, per thread and
-//! only while asked to, what the calling thread allocates, for the allocation-free test of the
+//! only while asked to, what the calling thread allocates. The one counter of the project: the
+//! conformance suite's "forecast never allocates" check, the allocation-free test of the whole
 //! forecast path (tests/alloc_free.rs) and the forecast-path table of `cargo bench --bench
-//! hot_path`. A binary opts in with
+//! hot_path` all use it. A binary opts in with
 //!
-//! ```ignore
+//! ```text
 //! #[global_allocator]
-//! static ALLOCATOR: shipcast_bench::allocations::CountingAllocator =
-//!     shipcast_bench::allocations::CountingAllocator;
+//! static ALLOCATOR: shipcast_predict::alloc_count::CountingAllocator =
+//!     shipcast_predict::alloc_count::CountingAllocator;
 //! ```
 //!
 //! Other threads (a retraining thread, zenoh's) are never counted, and a thread that is not
