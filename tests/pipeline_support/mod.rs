@@ -6,6 +6,7 @@
 
 use shipcast_pipeline::child::ChildProcess;
 use shipcast_pipeline::pacing::poll_until;
+use shipcast_wire::payload::Forecast;
 use std::io::{BufRead, BufReader};
 use std::path::PathBuf;
 use std::process::{Command, Stdio};
@@ -334,4 +335,33 @@ pub fn collect_forecasts(
         }
     }
     got
+}
+
+/// The injected forecast of issue 14: an unrelated, repeated seq and 9.99 m heave everywhere.
+pub const FAKE_SEQ: u64 = 987654321;
+
+pub fn fake_forecast_json() -> Vec<u8> {
+    let mut f = Forecast {
+        seq: FAKE_SEQ,
+        time_s: 1.0e6,
+        dt_s: 0.5,
+        steps: 40,
+        ..Forecast::default()
+    };
+    f.mean[2][..40].fill(9.99);
+    let mut out = Vec::new();
+    f.write_json(&mut out).expect("serialise");
+    out
+}
+
+/// Wait until the crane has printed `n` more forecast lines than `from`.
+pub fn wait_crane_lines(crane: &Proc, from: usize, n: usize) {
+    let printed = poll_until(PATIENCE, Duration::from_millis(20), || {
+        (crane.stdout().len() >= from + n).then_some(())
+    });
+    assert!(
+        printed.is_some(),
+        "crane stopped printing forecasts; stderr:\n{}",
+        crane.stderr().join("\n")
+    );
 }
