@@ -10,11 +10,11 @@
 use criterion::{criterion_group, criterion_main, Criterion};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use shipcast_bench::machine::remove_iox_leftovers;
 use shipcast_bench::pipeline::{backfill_s, backfilled_engine, motion_record};
 use shipcast_bench::stamps::{ReceiveStamp, StampPublisher, StampReader, StampTally};
 use shipcast_bench::LatencyRecorder;
 use shipcast_pipeline::config::PipelineConfig;
+use shipcast_pipeline::transport::iox::remove_leftovers;
 use shipcast_pipeline::transport::iox::{self, IoxPublisher, IoxSubscriber, Sizing, WaitMode};
 use shipcast_pipeline::transport::monotonic_ns;
 use shipcast_pipeline::transport::zenoh::{
@@ -240,7 +240,7 @@ fn payload_write(c: &mut Criterion) {
     });
     group.finish();
     drop((publisher, subscriber, mpub, msub, stamps, reader, node));
-    remove_iox_leftovers(&names.iox_prefix());
+    remove_leftovers(&names.iox_prefix());
 }
 
 fn json_encoding(c: &mut Criterion) {
@@ -344,7 +344,7 @@ fn forecast_path(c: &mut Criterion) {
     }
     drop((publisher, subscriber, sub, remote, node));
     drop((listener, connector));
-    remove_iox_leftovers(&names.iox_prefix());
+    remove_leftovers(&names.iox_prefix());
 
     // The encoder on the engine's own forecasts, in order (the text copied nowhere).
     let mut i = 0usize;

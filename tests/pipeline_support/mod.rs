@@ -165,14 +165,7 @@ impl Drop for TestPipeline {
     /// iceoryx2 keeps a 16-byte management segment per file prefix after the last node is
     /// gone; the prefix is unique to this test, so remove it once every process has stopped.
     fn drop(&mut self) {
-        let prefix = format!("iox2_{}_", self.instance);
-        if let Ok(entries) = std::fs::read_dir("/dev/shm") {
-            for e in entries.flatten() {
-                if e.file_name().to_string_lossy().starts_with(&prefix) {
-                    let _ = std::fs::remove_file(e.path());
-                }
-            }
-        }
+        shipcast_pipeline::transport::iox::remove_leftovers(&self.names().iox_prefix());
     }
 }
 

@@ -79,7 +79,7 @@ pub fn run(plan: &Plan, modes: &[Mode], progress: &dyn Progress) -> anyhow::Resu
         }
         // Every node of the round is dropped by now: only the round's own prefix is removed.
         let names = shipcast_pipeline::transport::Names::new(Some(&sub.instance), "any")?;
-        super::machine::remove_iox_leftovers(&names.iox_prefix());
+        shipcast_pipeline::transport::iox::remove_leftovers(&names.iox_prefix());
     }
     Ok(out.finish())
 }

@@ -268,7 +268,10 @@ mod tests {
         assert_eq!(tally.latency.quantile_ns(1.0), 40);
         drop((reader, publisher, node));
         // The run's management segment is left behind by iceoryx2 and removed here.
-        assert!(crate::machine::remove_iox_leftovers(&names.iox_prefix()) >= 1);
-        assert_eq!(crate::machine::remove_iox_leftovers(&names.iox_prefix()), 0);
+        assert!(shipcast_pipeline::transport::iox::remove_leftovers(&names.iox_prefix()) >= 1);
+        assert_eq!(
+            shipcast_pipeline::transport::iox::remove_leftovers(&names.iox_prefix()),
+            0
+        );
     }
 }

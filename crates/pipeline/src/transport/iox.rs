@@ -286,6 +286,18 @@ impl<T: Debug + ZeroCopySend + Copy + 'static> IoxSubscriber<T> {
     }
 }
 
+/// Remove the shared-memory files iceoryx2 leaves under `prefix` once every node of a run is
+/// gone (a 16-byte management segment per file prefix); returns how many were removed.
+pub fn remove_leftovers(prefix: &str) -> usize {
+    let Ok(dir) = std::fs::read_dir("/dev/shm") else {
+        return 0;
+    };
+    dir.flatten()
+        .filter(|e| e.file_name().to_string_lossy().starts_with(prefix))
+        .filter(|e| std::fs::remove_file(e.path()).is_ok())
+        .count()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -302,15 +314,7 @@ mod tests {
 
     impl Drop for PrefixCleanup {
         fn drop(&mut self) {
-            for e in std::fs::read_dir("/dev/shm")
-                .into_iter()
-                .flatten()
-                .flatten()
-            {
-                if e.file_name().to_string_lossy().starts_with(&self.0) {
-                    let _ = std::fs::remove_file(e.path());
-                }
-            }
+            remove_leftovers(&self.0);
         }
     }
 
