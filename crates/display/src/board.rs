@@ -207,11 +207,8 @@ impl Board {
     /// Put a forecast (already through the content checks) on the board. Its seq must follow
     /// the shown one, except after the vessel went stale (a restarted predictor counts from 0).
     pub fn forecast(&self, vessel: &str, f: &Forecast, now: Instant) -> Result<(), Refused> {
-        let stale_after = self.stale_after;
         self.with_vessel(vessel, |v| {
-            let live = v
-                .forecast_at
-                .is_some_and(|t| now.saturating_duration_since(t) <= stale_after);
+            let live = !self.is_stale(v.forecast_at, now);
             if let (true, Some(shown)) = (live, &v.forecast) {
                 if f.seq <= shown.seq {
                     v.rejected += 1;

@@ -6,7 +6,7 @@
 
 use crate::board::{AdvisoryView, Board, VerificationIn};
 use shipcast_pipeline::transport::forecast_check::check_content;
-use shipcast_wire::payload::{Forecast, ForecastJson};
+use shipcast_wire::payload::Forecast;
 use std::sync::Arc;
 use std::time::Instant;
 use zenoh::pubsub::Subscriber;
@@ -50,11 +50,10 @@ pub fn topic<'a>(prefix: &str, key: &'a str) -> Option<Topic<'a>> {
     Some(topic)
 }
 
-/// Parse and check one forecast message: the JSON's own shape (`Forecast::try_from`) and the
-/// content checks every consumer applies (finite values, positive sigma, the expected step).
+/// Parse and check one forecast message: the JSON's own shape (`Forecast::from_json`) and the
+/// content checks every consumer applies (finite values, non-negative sigma, the expected step).
 pub fn parse_forecast(bytes: &[u8], expected_dt_s: f64) -> Result<Forecast, String> {
-    let json: ForecastJson = serde_json::from_slice(bytes).map_err(|e| e.to_string())?;
-    let forecast = Forecast::try_from(json).map_err(|e| e.to_string())?;
+    let forecast = Forecast::from_json(bytes).map_err(|e| e.to_string())?;
     check_content(&forecast, expected_dt_s).map_err(|e| e.to_string())?;
     Ok(forecast)
 }
