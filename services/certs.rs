@@ -59,13 +59,12 @@ pub const ROUTER_NAME: &str = "router";
 
 /// Every key of a vessel's pipeline: `[<instance>/]shipcast/<vessel>/**`.
 fn vessel_keys(names: &Names) -> String {
-    format!("{}**", names.forecast().trim_end_matches("forecast"))
+    format!("{}{}/**", names.fleet_prefix(), names.vessel())
 }
 
 /// Every key of every vessel: `[<instance>/]shipcast/*/**`.
 fn fleet_keys(names: &Names) -> String {
-    let own = format!("{}/**", names.vessel());
-    format!("{}*/**", vessel_keys(names).trim_end_matches(&own))
+    names.every_vessel("**")
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {

@@ -33,10 +33,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         limits::seconds("--stale-after-s", args.stale_after_s).map_err(anyhow::Error::msg)?;
     let limit = shutdown::RunLimit::new(args.common.duration()?);
     let names = config.names()?;
-    let prefix = names
-        .instance()
-        .map(|i| format!("{i}/"))
-        .unwrap_or_default();
+    let prefix = names.fleet_prefix();
     let board = Arc::new(Board::new(
         Limits {
             roll_deg: config.deck.roll_limit_deg,
@@ -62,7 +59,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             .await
             .with_context(|| format!("display: cannot listen on {}", args.listen))?;
         let address = listener.local_addr().context("display: local address")?;
-        tracing::info!("display: http://{address}/ (every vessel under {prefix}shipcast/*)");
+        tracing::info!("display: http://{address}/ (every vessel under {prefix}*)");
         let stop = async move {
             while !limit.reached() {
                 tokio::time::sleep(Duration::from_millis(200)).await;

@@ -26,7 +26,8 @@ pub struct Feed {
     _subscribers: Vec<Subscriber<()>>,
 }
 
-/// What a key names, after the instance prefix: `shipcast/<vessel>/<kind>[/<station>]`.
+/// What a key names after the fleet prefix (`[<instance>/]shipcast/`):
+/// `<vessel>/<kind>[/<station>]`.
 #[derive(Debug, PartialEq, Eq)]
 pub enum Topic<'a> {
     Forecast { vessel: &'a str },
@@ -34,9 +35,9 @@ pub enum Topic<'a> {
     Advisory { vessel: &'a str, station: &'a str },
 }
 
-/// The topic of `key` under `prefix` (`""` or `"<instance>/"`), or None for any other key.
+/// The topic of `key` under `prefix` (`Names::fleet_prefix`), or None for any other key.
 pub fn topic<'a>(prefix: &str, key: &'a str) -> Option<Topic<'a>> {
-    let rest = key.strip_prefix(prefix)?.strip_prefix("shipcast/")?;
+    let rest = key.strip_prefix(prefix)?;
     let mut parts = rest.split('/');
     let vessel = parts.next().filter(|v| !v.is_empty())?;
     let topic = match (parts.next()?, parts.next(), parts.next()) {
@@ -97,7 +98,8 @@ fn on_sample(board: &Board, prefix: &str, expected_dt_s: f64, sample: &Sample) {
     }
 }
 
-/// Subscribe to every vessel's forecasts, verification and advisories under `prefix`.
+/// Subscribe to every vessel's forecasts, verification and advisories under `prefix`
+/// (`Names::fleet_prefix`).
 pub fn start(
     session: &Session,
     prefix: &str,
@@ -106,7 +108,7 @@ pub fn start(
 ) -> Result<Feed, FeedError> {
     let mut subscribers = Vec::new();
     for tail in ["forecast", "verification", "advisory/*"] {
-        let key = format!("{prefix}shipcast/*/{tail}");
+        let key = format!("{prefix}*/{tail}");
         let (board, prefix) = (board.clone(), prefix.to_string());
         let subscriber = session
             .declare_subscriber(key.clone())
@@ -130,18 +132,18 @@ mod tests {
     #[test]
     fn keys_name_their_vessel_station_and_kind() {
         assert_eq!(
-            topic("", "shipcast/ddg51/forecast"),
+            topic("shipcast/", "shipcast/ddg51/forecast"),
             Some(Topic::Forecast { vessel: "ddg51" })
         );
         assert_eq!(
-            topic("t1/", "t1/shipcast/ffg7/advisory/deck"),
+            topic("t1/shipcast/", "t1/shipcast/ffg7/advisory/deck"),
             Some(Topic::Advisory {
                 vessel: "ffg7",
                 station: "deck"
             })
         );
         assert_eq!(
-            topic("t1/", "t1/shipcast/a/verification"),
+            topic("t1/shipcast/", "t1/shipcast/a/verification"),
             Some(Topic::Verification { vessel: "a" })
         );
         for other in [
@@ -152,7 +154,14 @@ mod tests {
             "shipcast/a/advisory/",
         ] {
             assert_eq!(
-                topic(if other.starts_with("t2") { "t1/" } else { "" }, other),
+                topic(
+                    if other.starts_with("t2") {
+                        "t1/shipcast/"
+                    } else {
+                        "shipcast/"
+                    },
+                    other
+                ),
                 None,
                 "{other}"
             );

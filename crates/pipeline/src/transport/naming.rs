@@ -68,10 +68,20 @@ impl Names {
     }
 
     fn topic(&self, topic: &str) -> String {
+        format!("{}{}/{topic}", self.fleet_prefix(), self.vessel)
+    }
+
+    /// What every key of every vessel of this instance starts with: `[<instance>/]shipcast/`.
+    pub fn fleet_prefix(&self) -> String {
         match &self.instance {
-            Some(i) => format!("{i}/shipcast/{}/{topic}", self.vessel),
-            None => format!("shipcast/{}/{topic}", self.vessel),
+            Some(i) => format!("{i}/shipcast/"),
+            None => "shipcast/".to_string(),
         }
+    }
+
+    /// zenoh key expression of one topic of every vessel: `[<instance>/]shipcast/*/<topic>`.
+    pub fn every_vessel(&self, topic: &str) -> String {
+        format!("{}*/{topic}", self.fleet_prefix())
     }
 
     /// iceoryx2 service / zenoh key of the motion samples.
@@ -181,6 +191,17 @@ mod tests {
         );
         assert_eq!(n.iox_prefix(), "iox2_t1_");
         assert_eq!(Names::new(Some(""), "x").unwrap().instance(), None);
+    }
+
+    #[test]
+    fn every_vessel_keys_cover_each_vessels_own_keys() {
+        let plain = Names::new(None, "ddg51").unwrap();
+        assert_eq!(plain.fleet_prefix(), "shipcast/");
+        assert_eq!(plain.every_vessel("forecast"), "shipcast/*/forecast");
+        let t = Names::new(Some("t1"), "ffg7").unwrap();
+        assert_eq!(t.every_vessel("advisory/*"), "t1/shipcast/*/advisory/*");
+        assert!(t.forecast().starts_with(&t.fleet_prefix()));
+        assert_eq!(t.forecast(), "t1/shipcast/ffg7/forecast");
     }
 
     #[test]
