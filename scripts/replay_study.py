@@ -86,7 +86,7 @@ def main():
             k = [int(round(t / 0.5)) - 1 for t in LEADS]
             fmt = lambda xs: " / ".join(f"{x:.3f}" for x in xs)
             rec = recovery_minutes(d["rms_10s_by_minute"], change_s) if change_s else None
-            print(f"| {d['dof']} | {fmt(d['nrmse'][j] for j in k)} | {max(d['nrmse']):.3f} | "
+            print(f"| {d['dof']} | {fmt(d['nrmse'][j] for j in k)} | {max(d['nrmse']):.4f} | "
                   f"{d['max_abs_error'] / d['std']:.2f} | {fmt(l['coverage_1sigma'][j] for j in k)} | "
                   f"{fmt(l['coverage_2sigma'][j] for j in k)} | {d['implausible']} | "
                   f"{'-' if rec is None else f'{rec:.0f}'} |")
