@@ -61,33 +61,76 @@ fn fixture_has_the_documented_grid_and_long_wave_limits() {
     }
 }
 
+/// The two bands where the closed-form heave is known to fall below half of the BEM's
+/// (docs/results/rao_validation.md, "Known gap"): strip-theory cancellation along the hull
+/// around k L / 2 = 4 and 7.5.
+const HEAVE_GAP_BANDS: [(f64, f64); 2] = [(0.72, 0.79), (0.96, 1.05)];
+
+/// Closed form over BEM at every tabulated frequency where the BEM amplitude is above 10 % of
+/// its peak (the issue's notch criterion), as (omega, ratio).
+fn ratios_where_the_bem_matters(t: &ReferenceRaos, dof: Dof, heading: f64) -> Vec<(f64, f64)> {
+    let c = t.curve(dof, heading).unwrap();
+    let floor = 0.1 * c.peak_amplitude();
+    c.points
+        .iter()
+        .filter(|p| p.1.norm() > floor)
+        .map(|&(w, v)| (w, closed_form_amplitude(dof, heading, w) / v.norm()))
+        .collect()
+}
+
 #[test]
 fn no_spurious_notch_where_the_bem_response_matters() {
     // Wherever the BEM amplitude is above 10 % of its peak the closed form gives at least half
-    // of it: the box barge's cancellations (heave 0.06 against 0.31 at 0.66 rad/s) are gone for
-    // pitch and roll.
-    // Heave is the known exception: strip-theory cancellation along the hull still leaves it
-    // at 0.37 of the BEM at 0.755 rad/s (the box gave 0.19 of it at 0.66 rad/s); the bound
-    // catches worse.
+    // of it (the issue's threshold): the box barge's cancellations (heave 0.06 against 0.31 at
+    // 0.66 rad/s) are gone for pitch and roll, and for heave outside the two known gap bands.
+    // Inside those bands heave is 0.37-0.47 of the BEM; the bound 0.33 catches worse.
     let t = bem();
     for (dof, heading) in CASES {
-        let c = t.curve(dof, heading).unwrap();
-        let floor = 0.1 * c.peak_amplitude();
-        let least = if dof == Dof::Heave { 0.33 } else { 0.5 };
-        let mut checked = 0;
-        for &(w, v) in &c.points {
-            if v.norm() > floor {
-                let cf = closed_form_amplitude(dof, heading, w);
-                assert!(
-                    cf >= least * v.norm(),
-                    "{dof} at {w:.3} rad/s: closed form {cf:.5}, BEM {:.5}",
-                    v.norm()
-                );
-                checked += 1;
+        let ratios = ratios_where_the_bem_matters(&t, dof, heading);
+        assert!(
+            ratios.len() >= 20,
+            "{dof}: only {} frequencies",
+            ratios.len()
+        );
+        for (w, r) in ratios {
+            let in_gap =
+                dof == Dof::Heave && HEAVE_GAP_BANDS.iter().any(|b| (b.0..=b.1).contains(&w));
+            let least = if in_gap { 0.33 } else { 0.5 };
+            assert!(
+                r >= least,
+                "{dof} at {w:.3} rad/s: closed form / BEM {r:.3}"
+            );
+        }
+    }
+}
+
+#[test]
+#[ignore = "issue 16 acceptance: fails for heave (known gap, docs/results/rao_validation.md)"]
+fn issue_16_thresholds_hold_for_every_cell_and_frequency() {
+    // The issue's three criteria together, with no exception: std ratio within 0.9-1.1 in all
+    // nine cells, wet roll period within 3 % of 11.0 s, closed form at least half the BEM
+    // wherever the BEM is above 10 % of its peak. Run with `-- --ignored`; today it lists heave
+    // at Tp 7.5 s (0.66) and 7 heave frequencies in 0.733-1.037 rad/s.
+    let t = bem();
+    let mut failures = Vec::new();
+    let t4 = Hull::dtmb5415().roll_period_s();
+    if (t4 / 11.0 - 1.0).abs() >= 0.03 {
+        failures.push(format!("roll period {t4:.2} s"));
+    }
+    for (dof, heading) in CASES {
+        for tp in [7.5, 9.7, 12.4] {
+            let r = std_ratio(t.curve(dof, heading).unwrap(), tp, 1);
+            if !(0.9..=1.1).contains(&r) {
+                failures.push(format!("{dof} Tp {tp} s: std ratio {r:.3}"));
             }
         }
-        assert!(checked >= 20, "{dof}: only {checked} frequencies checked");
+        for (w, r) in ratios_where_the_bem_matters(&t, dof, heading) {
+            if r < 0.5 {
+                failures.push(format!("{dof} at {w:.3} rad/s: {r:.3} of the BEM"));
+            }
+        }
     }
+    assert!(failures.is_empty(), "{}", failures.join("; "));
 }
 
 #[test]
