@@ -121,7 +121,10 @@ fn an_unreadable_rao_table_names_the_file_and_prints_the_os_error_once() {
         ..SimConfig::default()
     };
     let e = printed(ShipMotion::new(&cfg).unwrap_err());
-    assert_eq!(e, format!("RAO table: cannot open {}: {io}", path.display()));
+    assert_eq!(
+        e,
+        format!("RAO table: cannot open {}: {io}", path.display())
+    );
     assert_eq!(e.matches(&io).count(), 1, "{e}");
 
     // A directory opens but does not read: the CSV reader's I/O error is the cause.

@@ -61,11 +61,10 @@ fn lerp(a: &Response, b: &Response, t: f64) -> Response {
 
 /// Opens a table file; the error names it. Shared by the RAO table loaders.
 pub(crate) fn open_table(path: &Path) -> Result<std::fs::File, SimError> {
-    std::fs::File::open(path)
-        .map_err(|source| SimError::TableOpen {
-            path: path.to_path_buf(),
-            source,
-        })
+    std::fs::File::open(path).map_err(|source| SimError::TableOpen {
+        path: path.to_path_buf(),
+        source,
+    })
 }
 
 /// A trimming CSV reader and the index of each of `columns` in its header (any order, extra

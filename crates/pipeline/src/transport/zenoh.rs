@@ -526,7 +526,11 @@ mod tests {
         // chained naively, each would print twice.
         let mut inner = std::error::Error::source(cause.0.as_ref());
         while let Some(c) = inner {
-            assert_eq!(printed.matches(&c.to_string()).count(), 1, "{c} in {printed}");
+            assert_eq!(
+                printed.matches(&c.to_string()).count(),
+                1,
+                "{c} in {printed}"
+            );
             inner = c.source();
         }
         assert_eq!(printed.matches(&cause.to_string()).count(), 1, "{printed}");
