@@ -280,3 +280,79 @@ fn run_latency(a: LatencyConfig) -> anyhow::Result<()> {
     }
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn fleet_and_latency_runs_are_checked_before_they_start() {
+        let c = crate::validated::<FleetArgs, FleetConfig>(&["--vessels", "2,3", "--no-restart"])
+            .unwrap();
+        assert_eq!(
+            c,
+            FleetConfig {
+                vessels: vec![2, 3],
+                seconds: 20.0,
+                rate_hz: 2.0,
+                restart: false,
+                json: false
+            }
+        );
+        assert_eq!(
+            crate::refused::<FleetArgs, FleetConfig>(&["--vessels", "10,0"]),
+            format!("--vessels must be 1..={MAX_VESSELS}, got 0")
+        );
+        assert_eq!(
+            crate::refused::<FleetArgs, FleetConfig>(&["--rate", "5000"]),
+            format!(
+                "--rate must be a number in [{}, {MAX_FLEET_RATE_HZ}], got 5000",
+                limits::MIN_RATE_HZ
+            )
+        );
+        let c = crate::validated::<LatencyArgs, LatencyConfig>(&["--samples", "100"]).unwrap();
+        assert_eq!((c.plan.samples, c.plan.warmup, c.plan.rounds), (100, 10, 4));
+        assert_eq!(c.modes.len(), 2);
+        assert_eq!(
+            crate::refused::<LatencyArgs, LatencyConfig>(&["--samples", "3"]),
+            "--rounds 4 must be at least 1 and at most --samples 3"
+        );
+        let dir = tempfile::tempdir().unwrap();
+        let svg = dir.path().join("missing").join("l.svg");
+        let svg = svg.to_str().unwrap();
+        assert_eq!(
+            crate::refused::<LatencyArgs, LatencyConfig>(&["--svg", svg]),
+            format!(
+                "--svg {svg}: the directory {} does not exist",
+                dir.path().join("missing").display()
+            )
+        );
+    }
+
+    #[test]
+    fn the_pong_side_takes_one_mode() {
+        let pong = |mode: &str| {
+            crate::validated::<ZenohPongArgs, PongArgs>(&[
+                "--connect",
+                "tcp/127.0.0.1:9",
+                "--prefix",
+                "p",
+                "--bytes",
+                "64",
+                "--mode",
+                mode,
+                "--core",
+                "0",
+                "--warmup",
+                "0",
+                "--out",
+                "legs.bin",
+            ])
+        };
+        assert!(pong("event").is_ok());
+        assert_eq!(
+            format!("{:#}", pong("both").unwrap_err()),
+            "zenoh-pong: --mode must be event or poll"
+        );
+    }
+}

@@ -392,3 +392,79 @@ fn write(dir: &Path, name: &str, text: &str, secret: bool) -> anyhow::Result<()>
         .with_context(|| format!("write {}", path.display()))?;
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const LISTEN: &str = "tls/127.0.0.1:7447";
+
+    fn refused(argv: &[&str]) -> String {
+        let mut full = vec!["--out", "/nonexistent/shipcast-certs", "--listen", LISTEN];
+        full.extend_from_slice(argv);
+        crate::refused::<Args, Config>(&full)
+    }
+
+    #[test]
+    fn a_fleet_setup_is_checked_before_anything_is_written() {
+        let c = crate::validated::<Args, Config>(&[
+            "--out",
+            "/nonexistent/shipcast-certs",
+            "--listen",
+            LISTEN,
+            "--router",
+            "tls/shore.example:7447",
+            "--vessel",
+            "a",
+            "--vessel",
+            "b",
+            "--station",
+            "crane",
+        ])
+        .unwrap();
+        assert_eq!(c.vessel_names(), ["a", "b"]);
+        assert_eq!(c.listen_host, "127.0.0.1");
+        assert_eq!(
+            c.router,
+            Some(("tls/shore.example:7447".into(), "shore.example".into()))
+        );
+        assert_eq!(c.stations, ["crane"]);
+        assert_eq!(
+            refused(&["--vessel", "a", "--vessel", "b"]),
+            "several --vessel make a fleet: give its --router endpoint too"
+        );
+        assert_eq!(
+            refused(&["--router", "tls/r:1", "--vessel", "a", "--vessel", "a"]),
+            "--vessel 'a' is given twice"
+        );
+        assert_eq!(
+            refused(&["--station", "ddg51-pipeline"]),
+            "--station 'ddg51-pipeline' is the name of a pipeline or of the router"
+        );
+        assert_eq!(
+            refused(&["--station", "a b"]),
+            "--station 'a b': 1 to 64 letters, digits, '-', '_' or '.'"
+        );
+        assert_eq!(
+            refused(&["--days", "0"]),
+            format!("--days must be 1..={MAX_DAYS}, got 0")
+        );
+        assert_eq!(
+            refused(&["--router", "tcp/r:1"]),
+            "certs: endpoint 'tcp/r:1' is not tls/HOST:PORT"
+        );
+        let bad = crate::refused::<Args, Config>(&["--out", "x", "--listen", "tcp/h:1"]);
+        assert_eq!(bad, "certs: endpoint 'tcp/h:1' is not tls/HOST:PORT");
+    }
+
+    #[test]
+    fn an_existing_ca_is_never_overwritten() {
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::write(dir.path().join("ca.pem"), "old").unwrap();
+        let out = dir.path().to_str().unwrap();
+        assert_eq!(
+            crate::refused::<Args, Config>(&["--out", out, "--listen", LISTEN]),
+            format!("{out} already holds a ca.pem; choose another --out (a new CA makes every old certificate useless)")
+        );
+    }
+}

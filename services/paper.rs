@@ -124,3 +124,46 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn refused(argv: &[&str]) -> String {
+        format!(
+            "{:#}",
+            Config::try_from(crate::parse_args::<Args>(argv))
+                .err()
+                .unwrap()
+        )
+    }
+
+    #[test]
+    fn sections_and_the_output_directory_are_checked_first() {
+        let c = Config::try_from(crate::parse_args::<Args>(&["--out", "o", "--quick"])).unwrap();
+        assert_eq!(c.sections, Sections::All);
+        assert!(c.measured.is_none());
+        let dir = tempfile::tempdir().unwrap();
+        let record = dir.path().join("m.csv");
+        std::fs::write(&record, "time_s,heave_m\n0,1\n").unwrap();
+        let record = record.to_str().unwrap();
+        assert_eq!(
+            refused(&[
+                "--out",
+                "o",
+                "--measured",
+                record,
+                "--averaging-only",
+                "--measured-only"
+            ]),
+            "--averaging-only and --measured-only exclude each other"
+        );
+        let file = dir.path().join("report.md");
+        std::fs::write(&file, "").unwrap();
+        let file = file.to_str().unwrap();
+        assert_eq!(
+            refused(&["--out", file]),
+            format!("--out {file} is a file, not a directory")
+        );
+    }
+}
