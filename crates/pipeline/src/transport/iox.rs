@@ -334,6 +334,17 @@ mod tests {
     }
 
     #[test]
+    fn an_invalid_service_name_prints_iceoryx2s_error_once() {
+        let name = "x".repeat(1000);
+        let e = service_name(&name).unwrap_err();
+        let cause = e.source.to_string();
+        assert!(!cause.is_empty());
+        let printed = format!("{:#}", anyhow::Error::from(e));
+        assert_eq!(printed, format!("iceoryx2: service name '{name}': {cause}"));
+        assert_eq!(printed.matches(&cause).count(), 1, "{printed}");
+    }
+
+    #[test]
     fn samples_round_trip_with_event_wake_up() {
         let names = unique_names("rt");
         let _cleanup = PrefixCleanup(names.iox_prefix());
