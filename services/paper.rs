@@ -44,7 +44,7 @@ pub struct Config {
 pub enum Sections {
     All,
     AveragingOnly,
-    /// Only with a measured record.
+    /// Only with a measured record (`Config::measured` is then set).
     MeasuredOnly,
 }
 
@@ -57,7 +57,9 @@ impl TryFrom<Args> for Config {
                 anyhow::bail!("--averaging-only and --measured-only exclude each other")
             }
             (true, false) => Sections::AveragingOnly,
-            // clap enforces `--measured` with it.
+            (false, true) if args.measured.is_none() => {
+                anyhow::bail!("--measured-only needs --measured FILE.csv")
+            }
             (false, true) => Sections::MeasuredOnly,
             (false, false) => Sections::All,
         };

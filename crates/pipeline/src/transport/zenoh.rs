@@ -492,6 +492,33 @@ mod tests {
         assert!(e.to_string().starts_with("zenoh: "), "{e}");
     }
 
+    /// An error that, like zenoh's, writes its cause into its message and also returns it
+    /// as `source`.
+    #[derive(Debug)]
+    struct SelfDescribing(std::io::Error);
+
+    impl std::fmt::Display for SelfDescribing {
+        fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+            write!(f, "link failed - Caused by {}", self.0)
+        }
+    }
+
+    impl std::error::Error for SelfDescribing {
+        fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+            Some(&self.0)
+        }
+    }
+
+    #[test]
+    fn a_cause_written_into_zenohs_message_prints_once() {
+        let io = std::io::Error::other("refused by peer");
+        let e = ZenohError::on("open session")(SelfDescribing(io));
+        assert_eq!(
+            format!("{:#}", anyhow::Error::from(e)),
+            "zenoh: open session: link failed - Caused by refused by peer"
+        );
+    }
+
     #[test]
     fn an_invalid_certificate_file_prints_each_cause_once() {
         let dir = tempfile::tempdir().unwrap();
