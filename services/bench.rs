@@ -1,13 +1,14 @@
 //! `shipcast bench`: benchmarks of the running system. `bench latency` measures shipcast's
 //! paths and the raw transport floors one way on two pinned cores (issue 6).
 
+use crate::checked;
 use crate::progress::Bar;
 use anyhow::Context;
 use shipcast_bench::latency;
 use shipcast_bench::pingpong_zenoh_processes::{self, PongArgs};
 use shipcast_bench::plan::parse_cores;
 use shipcast_bench::report_builder::{forecast_json_bytes, FORECAST_BYTES, MOTION_BYTES};
-use shipcast_bench::{ModeSelect, Plan};
+use shipcast_bench::{Mode, ModeSelect, Plan};
 use shipcast_pipeline::limits;
 use std::path::PathBuf;
 
@@ -98,28 +99,109 @@ struct LatencyArgs {
     rounds: u64,
 }
 
+/// A latency run, every value checked: built from [`LatencyArgs`] by
+/// [`LatencyConfig::try_from`].
+#[derive(Debug, Clone)]
+struct LatencyConfig {
+    /// Checked with `Plan::validate`; `shipcast_exe` is this binary.
+    plan: Plan,
+    modes: &'static [Mode],
+    json: bool,
+    /// SVG of the distributions; its directory exists.
+    svg: Option<PathBuf>,
+}
+
+impl TryFrom<LatencyArgs> for LatencyConfig {
+    type Error = anyhow::Error;
+
+    fn try_from(a: LatencyArgs) -> anyhow::Result<Self> {
+        let plan = Plan {
+            samples: a.samples,
+            warmup: a.warmup.unwrap_or((a.samples / 10).clamp(1, 200)),
+            rounds: a.rounds,
+            rate_hz: a.rate,
+            cores: a.cores,
+            instance: Plan::unique_instance("latency"),
+            shipcast_exe: Some(own_executable()?),
+        };
+        checked(plan.validate())?;
+        if let Some(svg) = &a.svg {
+            // Checked now: the figure is drawn after minutes of measurement.
+            crate::output_in_existing_dir("--svg", svg)?;
+        }
+        Ok(LatencyConfig {
+            plan,
+            modes: a.mode.modes(),
+            json: a.json,
+            svg: a.svg,
+        })
+    }
+}
+
+/// A fleet run, every value checked: built from [`FleetArgs`] by [`FleetConfig::try_from`].
+#[derive(Debug, Clone, PartialEq)]
+struct FleetConfig {
+    /// Fleet sizes, each in `1..=MAX_VESSELS`.
+    vessels: Vec<usize>,
+    seconds: f64,
+    rate_hz: f64,
+    restart: bool,
+    json: bool,
+}
+
+impl TryFrom<FleetArgs> for FleetConfig {
+    type Error = anyhow::Error;
+
+    fn try_from(a: FleetArgs) -> anyhow::Result<Self> {
+        // All checked before the first fleet starts: each vessel is a zenoh session in this
+        // process, and --seconds becomes a Duration.
+        checked(limits::seconds("--seconds", a.seconds))?;
+        checked(limits::rate("--rate", a.rate, MAX_FLEET_RATE_HZ))?;
+        for &n in &a.vessels {
+            checked(limits::count("--vessels", n, 1, MAX_VESSELS))?;
+        }
+        Ok(FleetConfig {
+            vessels: a.vessels,
+            seconds: a.seconds,
+            rate_hz: a.rate,
+            restart: !a.no_restart,
+            json: a.json,
+        })
+    }
+}
+
+impl TryFrom<ZenohPongArgs> for PongArgs {
+    type Error = anyhow::Error;
+
+    fn try_from(a: ZenohPongArgs) -> anyhow::Result<Self> {
+        let &[mode] = a.mode.modes() else {
+            anyhow::bail!("zenoh-pong: --mode must be event or poll");
+        };
+        checked(limits::core("--core", a.core))?;
+        checked(limits::count("--bytes", a.bytes, 1, MAX_PONG_BYTES))?;
+        checked(limits::count(
+            "--warmup",
+            a.warmup,
+            0,
+            shipcast_bench::plan::MAX_WARMUP,
+        ))?;
+        Ok(PongArgs {
+            connect: a.connect,
+            prefix: a.prefix,
+            bytes: a.bytes,
+            mode,
+            core: a.core,
+            warmup: a.warmup,
+            out: a.out,
+        })
+    }
+}
+
 pub fn run(args: Args) -> anyhow::Result<()> {
     match args.command {
-        Command::Latency(a) => run_latency(a),
-        Command::Fleet(a) => run_fleet(a),
-        Command::ZenohPong(a) => {
-            let &[mode] = a.mode.modes() else {
-                anyhow::bail!("zenoh-pong: --mode must be event or poll");
-            };
-            limits::core("--core", a.core).map_err(anyhow::Error::msg)?;
-            limits::count("--bytes", a.bytes, 1, MAX_PONG_BYTES).map_err(anyhow::Error::msg)?;
-            limits::count("--warmup", a.warmup, 0, shipcast_bench::plan::MAX_WARMUP)
-                .map_err(anyhow::Error::msg)?;
-            pingpong_zenoh_processes::serve_pong(&PongArgs {
-                connect: a.connect,
-                prefix: a.prefix,
-                bytes: a.bytes,
-                mode,
-                core: a.core,
-                warmup: a.warmup,
-                out: a.out,
-            })
-        }
+        Command::Latency(a) => run_latency(a.try_into()?),
+        Command::Fleet(a) => run_fleet(a.try_into()?),
+        Command::ZenohPong(a) => pingpong_zenoh_processes::serve_pong(&a.try_into()?),
     }
 }
 
@@ -142,25 +224,18 @@ const MAX_VESSELS: usize = 1_000;
 /// Highest forecast rate per vessel [Hz].
 const MAX_FLEET_RATE_HZ: f64 = 1_000.0;
 
-fn run_fleet(a: FleetArgs) -> anyhow::Result<()> {
-    // All checked before the first fleet starts: each vessel is a zenoh session in this
-    // process, and --seconds becomes a Duration.
-    limits::seconds("--seconds", a.seconds).map_err(anyhow::Error::msg)?;
-    limits::rate("--rate", a.rate, MAX_FLEET_RATE_HZ).map_err(anyhow::Error::msg)?;
-    for &n in &a.vessels {
-        limits::count("--vessels", n, 1, MAX_VESSELS).map_err(anyhow::Error::msg)?;
-    }
+fn run_fleet(a: FleetConfig) -> anyhow::Result<()> {
     let exe = own_executable()?;
     let dir = std::env::temp_dir().join(format!("shipcast-fleet-{}", std::process::id()));
     std::fs::create_dir_all(&dir).with_context(|| format!("create {}", dir.display()))?;
     let mut rows = Vec::new();
     eprintln!(
         "fleet: vessels at {} Hz -> shipcast router -> 1 shore subscriber, {} s each, loopback TCP",
-        a.rate, a.seconds
+        a.rate_hz, a.seconds
     );
     eprintln!("vessels  bytes     sent  received  lost   p50 us   p99 us   max us  router CPU %  restart s");
     for &n in &a.vessels {
-        let r = shipcast_bench::fleet::run(&exe, &dir, n, a.seconds, a.rate, !a.no_restart)?;
+        let r = shipcast_bench::fleet::run(&exe, &dir, n, a.seconds, a.rate_hz, a.restart)?;
         eprintln!(
             "{:>7}  {:>5}  {:>7}  {:>8}  {:>4}  {:>7.0}  {:>7.0}  {:>7.0}  {:>12.1}  {}",
             r.vessels,
@@ -186,18 +261,9 @@ fn run_fleet(a: FleetArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-fn run_latency(a: LatencyArgs) -> anyhow::Result<()> {
-    let plan = Plan {
-        samples: a.samples,
-        warmup: a.warmup.unwrap_or((a.samples / 10).clamp(1, 200)),
-        rounds: a.rounds,
-        rate_hz: a.rate,
-        cores: a.cores,
-        instance: Plan::unique_instance("latency"),
-        shipcast_exe: Some(own_executable()?),
-    };
+fn run_latency(a: LatencyConfig) -> anyhow::Result<()> {
     let bar = Bar::new();
-    let report = latency::run(&plan, a.mode.modes(), &bar);
+    let report = latency::run(&a.plan, a.modes, &bar);
     bar.finish();
     let report = report?;
     let targets = report.targets(MOTION_BYTES, FORECAST_BYTES, forecast_json_bytes());
@@ -213,4 +279,80 @@ fn run_latency(a: LatencyArgs) -> anyhow::Result<()> {
         eprintln!("wrote {}", svg.display());
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn fleet_and_latency_runs_are_checked_before_they_start() {
+        let c = crate::validated::<FleetArgs, FleetConfig>(&["--vessels", "2,3", "--no-restart"])
+            .unwrap();
+        assert_eq!(
+            c,
+            FleetConfig {
+                vessels: vec![2, 3],
+                seconds: 20.0,
+                rate_hz: 2.0,
+                restart: false,
+                json: false
+            }
+        );
+        assert_eq!(
+            crate::refused::<FleetArgs, FleetConfig>(&["--vessels", "10,0"]),
+            format!("--vessels must be 1..={MAX_VESSELS}, got 0")
+        );
+        assert_eq!(
+            crate::refused::<FleetArgs, FleetConfig>(&["--rate", "5000"]),
+            format!(
+                "--rate must be a number in [{}, {MAX_FLEET_RATE_HZ}], got 5000",
+                limits::MIN_RATE_HZ
+            )
+        );
+        let c = crate::validated::<LatencyArgs, LatencyConfig>(&["--samples", "100"]).unwrap();
+        assert_eq!((c.plan.samples, c.plan.warmup, c.plan.rounds), (100, 10, 4));
+        assert_eq!(c.modes.len(), 2);
+        assert_eq!(
+            crate::refused::<LatencyArgs, LatencyConfig>(&["--samples", "3"]),
+            "--rounds 4 must be at least 1 and at most --samples 3"
+        );
+        let dir = tempfile::tempdir().unwrap();
+        let svg = dir.path().join("missing").join("l.svg");
+        let svg = svg.to_str().unwrap();
+        assert_eq!(
+            crate::refused::<LatencyArgs, LatencyConfig>(&["--svg", svg]),
+            format!(
+                "--svg {svg}: the directory {} does not exist",
+                dir.path().join("missing").display()
+            )
+        );
+    }
+
+    #[test]
+    fn the_pong_side_takes_one_mode() {
+        let pong = |mode: &str| {
+            crate::validated::<ZenohPongArgs, PongArgs>(&[
+                "--connect",
+                "tcp/127.0.0.1:9",
+                "--prefix",
+                "p",
+                "--bytes",
+                "64",
+                "--mode",
+                mode,
+                "--core",
+                "0",
+                "--warmup",
+                "0",
+                "--out",
+                "legs.bin",
+            ])
+        };
+        assert!(pong("event").is_ok());
+        assert_eq!(
+            format!("{:#}", pong("both").unwrap_err()),
+            "zenoh-pong: --mode must be event or poll"
+        );
+    }
 }

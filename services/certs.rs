@@ -8,6 +8,7 @@
 //! only subscribe), one `<vessel>.toml` per vessel connecting to the router, and station files
 //! that connect to the router. docs/security.md has the steps.
 
+use crate::checked;
 use anyhow::Context;
 use shipcast_pipeline::certs::{endpoint_host, server_names, CertAuthority, Validity};
 use shipcast_pipeline::config::ZenohConfig;
@@ -67,58 +68,112 @@ fn fleet_keys(names: &Names) -> String {
     names.every_vessel("**")
 }
 
-pub fn run(args: Args) -> anyhow::Result<()> {
-    let vessels = args
-        .vessel
-        .iter()
-        .map(|v| Names::new(args.instance.as_deref(), v))
-        .collect::<Result<Vec<_>, _>>()?;
-    if vessels.len() > 1 && args.router.is_none() {
-        anyhow::bail!("several --vessel make a fleet: give its --router endpoint too");
-    }
-    if let Some(v) = args
-        .vessel
-        .iter()
-        .enumerate()
-        .find_map(|(i, v)| args.vessel[..i].contains(v).then_some(v))
-    {
-        anyhow::bail!("--vessel '{v}' is given twice");
-    }
-    let host = endpoint_host(&args.listen)?;
-    let mut taken: Vec<String> = args.vessel.iter().map(|v| pipeline_name(v)).collect();
-    if args.router.is_some() {
-        taken.push(ROUTER_NAME.to_string());
-    }
-    for s in &args.station {
-        let plain = |c: char| c.is_ascii_alphanumeric() || c == '-' || c == '_' || c == '.';
-        if s.is_empty() || s.len() > 64 || !s.chars().all(plain) {
-            anyhow::bail!("--station '{s}': 1 to 64 letters, digits, '-', '_' or '.'");
-        }
-        if taken.contains(s) {
-            anyhow::bail!("--station '{s}' is the name of a pipeline or of the router");
-        }
-    }
-    // Beyond about a century the certificate's end date overflows its time type.
-    limits::count("--days", args.days, 1, MAX_DAYS).map_err(anyhow::Error::msg)?;
-    if args.out.join("ca.pem").exists() {
-        anyhow::bail!(
-            "{} already holds a ca.pem; choose another --out (a new CA makes every old certificate useless)",
-            args.out.display()
-        );
-    }
-    let router_host = args.router.as_deref().map(endpoint_host).transpose()?;
-    std::fs::create_dir_all(&args.out).with_context(|| format!("create {}", args.out.display()))?;
+/// The setup `certs` writes, every value checked: built from [`Args`] by
+/// [`Config::try_from`], the only place that validates them.
+#[derive(Debug, Clone)]
+pub struct Config {
+    /// Output directory; it holds no ca.pem yet.
+    pub out: PathBuf,
+    /// The names of each vessel (one unless a fleet), all different.
+    pub vessels: Vec<Names>,
+    /// The predictor's listen endpoint and its host.
+    pub listen: String,
+    pub listen_host: String,
+    /// The fleet router's endpoint and host, for a fleet.
+    pub router: Option<(String, String)>,
+    /// Station names: plain, and none a pipeline's or the router's.
+    pub stations: Vec<String>,
+    /// Extra host names of the predictor.
+    pub hosts: Vec<String>,
+    pub days: u32,
+}
 
-    let validity = Validity::days_from_now(args.days);
-    let ca = CertAuthority::new(&format!("shipcast {} CA", args.vessel.join(" ")), validity)?;
-    let out = &args.out;
+impl Config {
+    fn vessel_names(&self) -> Vec<&str> {
+        self.vessels.iter().map(Names::vessel).collect()
+    }
+}
+
+impl TryFrom<Args> for Config {
+    type Error = anyhow::Error;
+
+    fn try_from(args: Args) -> anyhow::Result<Self> {
+        let vessels = args
+            .vessel
+            .iter()
+            .map(|v| Names::new(args.instance.as_deref(), v))
+            .collect::<Result<Vec<_>, _>>()?;
+        if vessels.len() > 1 && args.router.is_none() {
+            anyhow::bail!("several --vessel make a fleet: give its --router endpoint too");
+        }
+        if let Some(v) = args
+            .vessel
+            .iter()
+            .enumerate()
+            .find_map(|(i, v)| args.vessel[..i].contains(v).then_some(v))
+        {
+            anyhow::bail!("--vessel '{v}' is given twice");
+        }
+        let listen_host = endpoint_host(&args.listen)?.to_string();
+        let mut taken: Vec<String> = args.vessel.iter().map(|v| pipeline_name(v)).collect();
+        if args.router.is_some() {
+            taken.push(ROUTER_NAME.to_string());
+        }
+        for s in &args.station {
+            let plain = |c: char| c.is_ascii_alphanumeric() || c == '-' || c == '_' || c == '.';
+            if s.is_empty() || s.len() > 64 || !s.chars().all(plain) {
+                anyhow::bail!("--station '{s}': 1 to 64 letters, digits, '-', '_' or '.'");
+            }
+            if taken.contains(s) {
+                anyhow::bail!("--station '{s}' is the name of a pipeline or of the router");
+            }
+        }
+        // Beyond about a century the certificate's end date overflows its time type.
+        let days = checked(limits::count("--days", args.days, 1, MAX_DAYS))?;
+        if args.out.join("ca.pem").exists() {
+            anyhow::bail!(
+                "{} already holds a ca.pem; choose another --out (a new CA makes every old certificate useless)",
+                args.out.display()
+            );
+        }
+        let router = match args.router {
+            Some(r) => {
+                let host = endpoint_host(&r)?.to_string();
+                Some((r, host))
+            }
+            None => None,
+        };
+        Ok(Config {
+            out: args.out,
+            vessels,
+            listen: args.listen,
+            listen_host,
+            router,
+            stations: args.station,
+            hosts: args.host,
+            days,
+        })
+    }
+}
+
+pub fn run(args: Args) -> anyhow::Result<()> {
+    let setup = Config::try_from(args)?;
+    std::fs::create_dir_all(&setup.out)
+        .with_context(|| format!("create {}", setup.out.display()))?;
+
+    let validity = Validity::days_from_now(setup.days);
+    let ca = CertAuthority::new(
+        &format!("shipcast {} CA", setup.vessel_names().join(" ")),
+        validity,
+    )?;
+    let (out, vessels, host) = (&setup.out, &setup.vessels, setup.listen_host.as_str());
     write(out, "ca.pem", &ca.certificate_pem(), false)?;
-    let (Some(router), Some(router_host)) = (&args.router, router_host) else {
-        return single_vessel(&args, &vessels[0], host, &ca, validity);
+    let Some((router, router_host)) = &setup.router else {
+        return single_vessel(&setup, &vessels[0], host, &ca, validity);
     };
     let router_id = ca.issue(
         ROUTER_NAME,
-        &server_names(router_host, &args.host),
+        &server_names(router_host, &setup.hosts),
         validity,
     )?;
     write(out, "router.pem", &router_id.certificate_pem, false)?;
@@ -133,7 +188,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }),
         access: Some(AccessRules {
             key_exprs: vec![fleet.clone()],
-            subscribers: args.station.clone(),
+            subscribers: setup.stations.clone(),
             vessels: vessels
                 .iter()
                 .map(|n| VesselAccess {
@@ -152,19 +207,19 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             "# Router of the fleet {:?} (shipcast certs): shipcast router --config router.toml\n\
              # Each vessel's pipeline may publish only on its own keys; stations {:?} may only\n\
              # subscribe and query. Paths are relative to this file.\n{}",
-            args.vessel,
-            args.station,
+            setup.vessel_names(),
+            setup.stations,
             consumer_toml(&vessels[0], &router_zenoh)?
         ),
         false,
     )?;
-    for names in &vessels {
+    for names in vessels {
         let pipeline = pipeline_name(names.vessel());
-        let id = ca.issue(&pipeline, &server_names(host, &args.host), validity)?;
+        let id = ca.issue(&pipeline, &server_names(host, &setup.hosts), validity)?;
         write(out, &format!("{pipeline}.pem"), &id.certificate_pem, false)?;
         write(out, &format!("{pipeline}.key"), &id.private_key_pem, true)?;
         let zenoh = ZenohConfig {
-            listen: vec![args.listen.clone()],
+            listen: vec![setup.listen.clone()],
             connect: vec![router.clone()],
             tls: Some(TlsSettings {
                 root_ca: "ca.pem".into(),
@@ -189,18 +244,18 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                  # Listens on {} for its own consumers and connects to the router {router}.\n{}",
                 names.vessel(),
                 names.vessel(),
-                args.listen,
+                setup.listen,
                 consumer_toml(names, &zenoh)?
             ),
             false,
         )?;
     }
-    write_stations(&args, &vessels[0], router, &ca, validity)?;
+    write_stations(&setup, &vessels[0], router, &ca, validity)?;
     let _ = writeln!(
         std::io::stdout(),
         "wrote a new CA and certificates for the router, {} vessel(s) and {} station(s) into {}; start the router with: shipcast router --config {}",
         vessels.len(),
-        args.station.len(),
+        setup.stations.len(),
         out.display(),
         out.join("router.toml").display()
     );
@@ -209,21 +264,21 @@ pub fn run(args: Args) -> anyhow::Result<()> {
 
 /// One vessel whose consumers connect to its predictor.
 fn single_vessel(
-    args: &Args,
+    setup: &Config,
     names: &Names,
     host: &str,
     ca: &CertAuthority,
     validity: Validity,
 ) -> anyhow::Result<()> {
-    let out = &args.out;
+    let out = &setup.out;
     let pipeline = pipeline_name(names.vessel());
-    let pipeline_id = ca.issue(&pipeline, &server_names(host, &args.host), validity)?;
+    let pipeline_id = ca.issue(&pipeline, &server_names(host, &setup.hosts), validity)?;
     write(out, "pipeline.pem", &pipeline_id.certificate_pem, false)?;
     write(out, "pipeline.key", &pipeline_id.private_key_pem, true)?;
 
     let vessel_keys = vessel_keys(names);
     let pipeline_zenoh = ZenohConfig {
-        listen: vec![args.listen.clone()],
+        listen: vec![setup.listen.clone()],
         tls: Some(TlsSettings {
             root_ca: "ca.pem".into(),
             certificate: "pipeline.pem".into(),
@@ -232,7 +287,7 @@ fn single_vessel(
         access: Some(AccessRules {
             key_exprs: vec![vessel_keys],
             publishers: vec![pipeline.clone()],
-            subscribers: args.station.clone(),
+            subscribers: setup.stations.clone(),
             ..AccessRules::default()
         }),
         ..ZenohConfig::default()
@@ -245,15 +300,15 @@ fn single_vessel(
             "# Secure pipeline of vessel {} (shipcast certs). Paths are relative to this file.\n\
              # Only the certificate '{pipeline}' may publish; stations {:?} may subscribe.\n{toml}",
             names.vessel(),
-            args.station
+            setup.stations
         ),
         false,
     )?;
-    write_stations(args, names, &args.listen, ca, validity)?;
+    write_stations(setup, names, &setup.listen, ca, validity)?;
     let _ = writeln!(
         std::io::stdout(),
         "wrote a new CA and certificates for '{pipeline}' and {} station(s) into {}; start the pipeline with: shipcast run --config {}",
-        args.station.len(),
+        setup.stations.len(),
         out.display(),
         out.join("shipcast.toml").display()
     );
@@ -262,14 +317,14 @@ fn single_vessel(
 
 /// `<station>.json5` and `<station>.toml` of every station, connecting to `endpoint`.
 fn write_stations(
-    args: &Args,
+    setup: &Config,
     names: &Names,
     endpoint: &str,
     ca: &CertAuthority,
     validity: Validity,
 ) -> anyhow::Result<()> {
-    let out = &args.out;
-    for station in &args.station {
+    let out = &setup.out;
+    for station in &setup.stations {
         let id = ca.issue(station, &[], validity)?;
         let zenoh = ZenohConfig {
             listen: Vec::new(),
@@ -336,4 +391,80 @@ fn write(dir: &Path, name: &str, text: &str, secret: bool) -> anyhow::Result<()>
     file.write_all(text.as_bytes())
         .with_context(|| format!("write {}", path.display()))?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const LISTEN: &str = "tls/127.0.0.1:7447";
+
+    fn refused(argv: &[&str]) -> String {
+        let mut full = vec!["--out", "/nonexistent/shipcast-certs", "--listen", LISTEN];
+        full.extend_from_slice(argv);
+        crate::refused::<Args, Config>(&full)
+    }
+
+    #[test]
+    fn a_fleet_setup_is_checked_before_anything_is_written() {
+        let c = crate::validated::<Args, Config>(&[
+            "--out",
+            "/nonexistent/shipcast-certs",
+            "--listen",
+            LISTEN,
+            "--router",
+            "tls/shore.example:7447",
+            "--vessel",
+            "a",
+            "--vessel",
+            "b",
+            "--station",
+            "crane",
+        ])
+        .unwrap();
+        assert_eq!(c.vessel_names(), ["a", "b"]);
+        assert_eq!(c.listen_host, "127.0.0.1");
+        assert_eq!(
+            c.router,
+            Some(("tls/shore.example:7447".into(), "shore.example".into()))
+        );
+        assert_eq!(c.stations, ["crane"]);
+        assert_eq!(
+            refused(&["--vessel", "a", "--vessel", "b"]),
+            "several --vessel make a fleet: give its --router endpoint too"
+        );
+        assert_eq!(
+            refused(&["--router", "tls/r:1", "--vessel", "a", "--vessel", "a"]),
+            "--vessel 'a' is given twice"
+        );
+        assert_eq!(
+            refused(&["--station", "ddg51-pipeline"]),
+            "--station 'ddg51-pipeline' is the name of a pipeline or of the router"
+        );
+        assert_eq!(
+            refused(&["--station", "a b"]),
+            "--station 'a b': 1 to 64 letters, digits, '-', '_' or '.'"
+        );
+        assert_eq!(
+            refused(&["--days", "0"]),
+            format!("--days must be 1..={MAX_DAYS}, got 0")
+        );
+        assert_eq!(
+            refused(&["--router", "tcp/r:1"]),
+            "certs: endpoint 'tcp/r:1' is not tls/HOST:PORT"
+        );
+        let bad = crate::refused::<Args, Config>(&["--out", "x", "--listen", "tcp/h:1"]);
+        assert_eq!(bad, "certs: endpoint 'tcp/h:1' is not tls/HOST:PORT");
+    }
+
+    #[test]
+    fn an_existing_ca_is_never_overwritten() {
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::write(dir.path().join("ca.pem"), "old").unwrap();
+        let out = dir.path().to_str().unwrap();
+        assert_eq!(
+            crate::refused::<Args, Config>(&["--out", out, "--listen", LISTEN]),
+            format!("{out} already holds a ca.pem; choose another --out (a new CA makes every old certificate useless)")
+        );
+    }
 }

@@ -1,10 +1,11 @@
 //! `shipcast display --listen 127.0.0.1:PORT`: the live display, a web page served by this
 //! process and fed over zenoh by every vessel of the instance (crates/display).
 
+use crate::checked;
 use anyhow::Context;
 use shipcast_display::board::{Board, Limits};
 use shipcast_display::{feed, server};
-use shipcast_pipeline::config::CommonArgs;
+use shipcast_pipeline::config::{CommonArgs, PipelineConfig};
 use shipcast_pipeline::limits;
 use shipcast_pipeline::transport::shutdown;
 use shipcast_pipeline::transport::zenoh as zn;
@@ -27,11 +28,49 @@ pub struct Args {
     pub stale_after_s: f64,
 }
 
+/// What the display serves, every value checked: built from [`Args`] by [`Config::try_from`].
+#[derive(Debug, Clone)]
+pub struct Config {
+    pub pipeline: PipelineConfig,
+    /// Wall-clock limit (`--duration`).
+    pub limit: Option<Duration>,
+    /// HOST:PORT of the web page.
+    pub listen: String,
+    pub stale_after: Duration,
+}
+
+impl TryFrom<Args> for Config {
+    type Error = anyhow::Error;
+
+    fn try_from(args: Args) -> anyhow::Result<Self> {
+        let pipeline = args.common.load()?;
+        let stale_after = checked(limits::seconds("--stale-after-s", args.stale_after_s))?;
+        let limit = args.common.duration()?;
+        // The host may be a name (resolved when the port is bound); the port must be a port.
+        let port = args
+            .listen
+            .rsplit_once(':')
+            .map(|(host, port)| (host, port.parse::<u16>()));
+        if !matches!(port, Some((host, Ok(_))) if !host.is_empty()) {
+            anyhow::bail!("--listen '{}' is not HOST:PORT", args.listen);
+        }
+        Ok(Config {
+            pipeline,
+            limit,
+            listen: args.listen,
+            stale_after,
+        })
+    }
+}
+
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let config = args.common.load()?;
-    let stale_after =
-        limits::seconds("--stale-after-s", args.stale_after_s).map_err(anyhow::Error::msg)?;
-    let limit = shutdown::RunLimit::new(args.common.duration()?);
+    let Config {
+        pipeline: config,
+        limit,
+        listen,
+        stale_after,
+    } = Config::try_from(args)?;
+    let limit = shutdown::RunLimit::new(limit);
     let names = config.names()?;
     let prefix = names.fleet_prefix();
     let board = Arc::new(Board::new(
@@ -55,9 +94,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         .build()
         .context("start the display's HTTP runtime")?;
     runtime.block_on(async move {
-        let listener = tokio::net::TcpListener::bind(&args.listen)
+        let listener = tokio::net::TcpListener::bind(&listen)
             .await
-            .with_context(|| format!("display: cannot listen on {}", args.listen))?;
+            .with_context(|| format!("display: cannot listen on {listen}"))?;
         let address = listener.local_addr().context("display: local address")?;
         tracing::info!("display: http://{address}/ (every vessel under {prefix}*)");
         let stop = async move {
@@ -71,4 +110,33 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     })?;
     tracing::info!("display: stopped");
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn refused(argv: &[&str]) -> String {
+        crate::refused::<Args, Config>(argv)
+    }
+
+    #[test]
+    fn the_page_address_and_the_stale_time_are_checked() {
+        let c = crate::validated::<Args, Config>(&["--listen", "localhost:0"]).unwrap();
+        assert_eq!(c.listen, "localhost:0");
+        assert_eq!(c.stale_after, Duration::from_secs(3));
+        for bad in ["nonsense", ":8090", "127.0.0.1:http", "127.0.0.1:70000"] {
+            assert_eq!(
+                refused(&["--listen", bad]),
+                format!("--listen '{bad}' is not HOST:PORT")
+            );
+        }
+        assert_eq!(
+            refused(&["--stale-after-s", "0"]),
+            format!(
+                "--stale-after-s must be a number in (0, {}], got 0",
+                limits::MAX_SECONDS
+            )
+        );
+    }
 }

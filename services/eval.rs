@@ -1,9 +1,11 @@
 //! `shipcast eval`: the evaluation protocol (docs/contracts.md section 4) on a motion CSV, as a
 //! table or one JSON object per (dof, method) line.
 
-use crate::progress;
+use crate::{checked, progress};
 use anyhow::Context;
 use shipcast_eval::{self as eval, report, Entry, EvalSettings};
+use shipcast_pipeline::config::MAX_PRODUCER_RATE_HZ;
+use shipcast_pipeline::limits;
 use shipcast_predict::{AverageMode, Averaging, McaWeighting, Method, PredictorConfig};
 use shipcast_series as signal;
 use shipcast_series::motion_csv::MotionData;
@@ -53,23 +55,41 @@ pub struct PredictorArgs {
     pub hidden: usize,
 }
 
+/// Largest value of the count options (`--order`, `--horizon`, `--shift`, `--stride`).
+const MAX_COUNT: usize = shipcast_pipeline::config::MAX_ORDER;
+
+/// Most hidden units and Rprop epochs of the MLP.
+const MAX_HIDDEN: usize = 10_000;
+const MAX_EPOCHS: usize = 1_000_000;
+
+/// Largest LMS step size and relative ridge accepted (far beyond any stable value).
+const MAX_GAIN: f64 = 100.0;
+const MAX_RIDGE: f64 = 1e6;
+
 impl PredictorArgs {
-    pub fn config(&self, seed: u64) -> PredictorConfig {
-        PredictorConfig {
-            order: self.order,
-            horizon: self.horizon,
-            mca_shift: self.shift,
-            mca_energy: self.energy,
-            mca_ridge: self.ridge,
+    /// The predictor configuration, every option range-checked. Feasibility for a method
+    /// (MCA needs order > horizon) is left to the method: `eval` reports it per method.
+    pub fn config(&self, seed: u64) -> anyhow::Result<PredictorConfig> {
+        Ok(PredictorConfig {
+            order: checked(limits::count("--order", self.order, 1, MAX_COUNT))?,
+            horizon: checked(limits::count("--horizon", self.horizon, 1, MAX_COUNT))?,
+            mca_shift: checked(limits::count("--shift", self.shift, 1, MAX_COUNT))?,
+            mca_energy: checked(limits::positive("--energy", self.energy, 1.0))?,
+            mca_ridge: checked(limits::non_negative("--ridge", self.ridge, MAX_RIDGE))?,
             mca_validate_energy: self.validate_energy,
             mca_weighting: self.mca_weighting,
-            lms_gain: self.lms_gain,
+            lms_gain: checked(limits::positive("--lms-gain", self.lms_gain, MAX_GAIN))?,
             lms_normalized: self.nlms,
-            mlp_hidden: self.hidden,
-            mlp_epochs: self.epochs,
+            mlp_hidden: checked(limits::count("--hidden", self.hidden, 1, MAX_HIDDEN))?,
+            mlp_epochs: checked(limits::count("--epochs", self.epochs, 1, MAX_EPOCHS))?,
             seed,
-        }
+        })
     }
+}
+
+/// The evaluation rate [Hz] of `eval` and `train`: the producer's range.
+pub fn sample_rate(hz: f64) -> anyhow::Result<f64> {
+    checked(limits::rate("--sample-rate", hz, MAX_PRODUCER_RATE_HZ))
 }
 
 #[derive(clap::Args, Debug)]
@@ -114,16 +134,51 @@ pub struct Args {
     pub predictor: PredictorArgs,
 }
 
-/// `--dof` as a list: one DOF, or every DOF present in the record for `all`.
-pub fn parse_dofs(text: &str, data: &MotionData) -> anyhow::Result<Vec<Dof>> {
-    if text.trim().eq_ignore_ascii_case("all") {
-        let dofs = data.dofs();
-        anyhow::ensure!(!dofs.is_empty(), "no DOF column in the file (expected any of surge_m, sway_m, heave_m, roll_rad, pitch_rad, yaw_rad)");
-        return Ok(dofs);
+/// Largest noise accepted [% of the peak amplitude].
+const MAX_NOISE_PCT: f64 = 1000.0;
+
+/// The evaluation `eval` runs, every value checked: built from [`Args`] by
+/// [`Config::try_from`], the only place that validates them.
+#[derive(Debug, Clone)]
+pub struct Config {
+    pub input: PathBuf,
+    pub dofs: DofChoice,
+    pub methods: Vec<Method>,
+    pub predictor: PredictorConfig,
+    pub settings: EvalSettings,
+    pub json: bool,
+}
+
+/// The DOF of `--dof`: one by name, or every one the record has.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum DofChoice {
+    All,
+    One(Dof),
+}
+
+impl DofChoice {
+    fn parse(text: &str) -> anyhow::Result<Self> {
+        if text.trim().eq_ignore_ascii_case("all") {
+            return Ok(DofChoice::All);
+        }
+        Ok(DofChoice::One(text.parse::<Dof>()?))
     }
-    let dof = text.parse::<Dof>()?;
-    data.dof(dof)?;
-    Ok(vec![dof])
+
+    /// The DOF to evaluate in `data`: the one asked for (which must be in the file), or all
+    /// present.
+    pub fn in_record(self, data: &MotionData) -> anyhow::Result<Vec<Dof>> {
+        match self {
+            DofChoice::All => {
+                let dofs = data.dofs();
+                anyhow::ensure!(!dofs.is_empty(), "no DOF column in the file (expected any of surge_m, sway_m, heave_m, roll_rad, pitch_rad, yaw_rad)");
+                Ok(dofs)
+            }
+            DofChoice::One(dof) => {
+                data.dof(dof)?;
+                Ok(vec![dof])
+            }
+        }
+    }
 }
 
 fn parse_methods(text: &str) -> anyhow::Result<Vec<Method>> {
@@ -131,6 +186,40 @@ fn parse_methods(text: &str) -> anyhow::Result<Vec<Method>> {
         return Ok(Method::ALL.to_vec());
     }
     Ok(vec![text.parse::<Method>().map_err(anyhow::Error::msg)?])
+}
+
+impl TryFrom<Args> for Config {
+    type Error = anyhow::Error;
+
+    fn try_from(args: Args) -> anyhow::Result<Self> {
+        let methods = parse_methods(&args.method)?;
+        let dofs = DofChoice::parse(&args.dof)?;
+        let predictor = args.predictor.config(args.seed)?;
+        let settings = EvalSettings {
+            train: args.train,
+            stride: checked(limits::count("--stride", args.stride, 1, MAX_COUNT))?,
+            sample_rate: sample_rate(args.sample_rate)?,
+            noise_pct: checked(limits::non_negative(
+                "--noise-pct",
+                args.noise_pct,
+                MAX_NOISE_PCT,
+            ))?,
+            seed: args.seed,
+            average: Averaging {
+                k: args.average,
+                mode: args.average_mode,
+            },
+        };
+        settings.average.validate(predictor.horizon)?;
+        Ok(Config {
+            input: args.input,
+            dofs,
+            methods,
+            predictor,
+            settings,
+            json: args.json,
+        })
+    }
 }
 
 /// Read a motion CSV and bring it to `sample_rate` (shared with `train`).
@@ -150,21 +239,16 @@ pub fn load_resampled(path: &Path, sample_rate: f64) -> anyhow::Result<MotionDat
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let methods = parse_methods(&args.method)?;
-    let data = load_resampled(&args.input, args.sample_rate)?;
-    let dofs = parse_dofs(&args.dof, &data)?;
-    let config = args.predictor.config(args.seed);
-    let settings = EvalSettings {
-        train: args.train,
-        stride: args.stride,
-        sample_rate: args.sample_rate,
-        noise_pct: args.noise_pct,
-        seed: args.seed,
-        average: Averaging {
-            k: args.average,
-            mode: args.average_mode,
-        },
-    };
+    let Config {
+        input,
+        dofs,
+        methods,
+        predictor: config,
+        settings,
+        json,
+    } = Config::try_from(args)?;
+    let data = load_resampled(&input, settings.sample_rate)?;
+    let dofs = dofs.in_record(&data)?;
     let per_pair = eval::origin_count(data.len(), &config, &settings)?;
     let bar = progress::styled(
         (per_pair * dofs.len() * methods.len()) as u64,
@@ -190,7 +274,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 }
             }
             bar.set_message(format!("{}/{} done", entry.dof(), entry.method()));
-            if args.json && write_error.is_none() {
+            if json && write_error.is_none() {
                 // Stream each line as soon as its pair is done; long runs show progress in the output.
                 let line = serde_json::to_string(entry).map_err(anyhow::Error::from);
                 let written = line.and_then(|l| Ok(writeln!(stdout, "{l}")?));
@@ -202,11 +286,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if let Some(e) = write_error {
         return Err(e.context("writing results"));
     }
-    if !args.json {
+    if !json {
         write!(
             stdout,
             "{}",
-            report::table(&entries, args.sample_rate, config.horizon)
+            report::table(&entries, settings.sample_rate, config.horizon)
         )?;
     }
     stdout.flush()?;
@@ -226,4 +310,96 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         );
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn refused(argv: &[&str]) -> String {
+        let mut full = vec!["--input", "m.csv"];
+        full.extend_from_slice(argv);
+        crate::refused::<Args, Config>(&full)
+    }
+
+    #[test]
+    fn defaults_are_the_papers_and_every_method_and_dof() {
+        let c = crate::validated::<Args, Config>(&["--input", "m.csv"]).unwrap();
+        assert_eq!(c.methods, Method::ALL.to_vec());
+        assert_eq!(c.dofs, DofChoice::All);
+        assert_eq!(c.predictor.order, PredictorConfig::default().order);
+        assert_eq!((c.settings.train, c.settings.stride), (5000, 1));
+        let c = crate::validated::<Args, Config>(&[
+            "--input",
+            "m.csv",
+            "--dof",
+            "pitch",
+            "--method",
+            "ar",
+            "--order",
+            "40",
+            "--horizon",
+            "6",
+            "--average",
+            "3",
+        ])
+        .unwrap();
+        assert_eq!(
+            (c.dofs, c.methods),
+            (DofChoice::One(Dof::Pitch), vec![Method::Ar])
+        );
+        assert_eq!(
+            (c.predictor.order, c.predictor.horizon, c.settings.average.k),
+            (40, 6, 3)
+        );
+    }
+
+    #[test]
+    fn bad_options_are_refused_before_the_file_is_read() {
+        assert_eq!(
+            refused(&["--stride", "0"]),
+            format!("--stride must be 1..={MAX_COUNT}, got 0")
+        );
+        assert_eq!(
+            refused(&["--energy", "2"]),
+            "--energy must be a number in (0, 1], got 2"
+        );
+        assert_eq!(
+            refused(&["--lms-gain", "1000"]),
+            format!("--lms-gain must be a number in (0, {MAX_GAIN}], got 1000")
+        );
+        assert_eq!(
+            refused(&["--sample-rate", "0"]),
+            format!(
+                "--sample-rate must be a number in [{}, {MAX_PRODUCER_RATE_HZ}], got 0",
+                limits::MIN_RATE_HZ
+            )
+        );
+        assert_eq!(
+            refused(&["--noise-pct", "nan"]),
+            format!("--noise-pct must be a number in [0, {MAX_NOISE_PCT}], got NaN")
+        );
+        assert_eq!(
+            refused(&["--horizon", "6", "--average", "7"]),
+            "infeasible configuration: averaging over 7 forecasts: must be between 1 and the \
+             horizon 6"
+        );
+        assert!(refused(&["--dof", "heavy"]).contains("unknown degree of freedom 'heavy'"));
+        assert!(refused(&["--method", "kalman"]).contains("unknown method 'kalman'"));
+    }
+
+    #[test]
+    fn an_infeasible_order_is_left_to_the_method() {
+        // MCA needs order > horizon; eval reports that per method and runs the others.
+        let c = crate::validated::<Args, Config>(&[
+            "--input",
+            "m.csv",
+            "--order",
+            "10",
+            "--horizon",
+            "10",
+        ])
+        .unwrap();
+        assert_eq!((c.predictor.order, c.predictor.horizon), (10, 10));
+    }
 }

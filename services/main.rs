@@ -61,6 +61,64 @@ enum Command {
     Router(router::Args),
 }
 
+/// A range check of `shipcast_pipeline::limits` (a one-line message naming the value) as an
+/// error of the command.
+fn checked<T>(check: Result<T, String>) -> anyhow::Result<T> {
+    check.map_err(anyhow::Error::msg)
+}
+
+/// `path`, a file a command writes at the end of its work, must be in an existing directory:
+/// checked before the work starts, so that a typo costs no minutes.
+fn output_in_existing_dir(option: &str, path: &std::path::Path) -> anyhow::Result<()> {
+    let dir = path.parent().filter(|d| !d.as_os_str().is_empty());
+    match dir {
+        Some(d) if !d.is_dir() => anyhow::bail!(
+            "{option} {}: the directory {} does not exist",
+            path.display(),
+            d.display()
+        ),
+        _ => Ok(()),
+    }
+}
+
+/// The raw arguments of one command parsed from `argv` (without the command's name), as clap
+/// parses them on the command line: for the unit tests of each command's validation.
+#[cfg(test)]
+fn parse_args<A: clap::Args>(argv: &[&str]) -> A {
+    #[derive(Parser)]
+    struct One<A: clap::Args> {
+        #[command(flatten)]
+        args: A,
+    }
+    let full: Vec<&str> = std::iter::once("shipcast")
+        .chain(argv.iter().copied())
+        .collect();
+    match One::<A>::try_parse_from(&full) {
+        Ok(one) => one.args,
+        Err(e) => panic!("{full:?}: {e}"),
+    }
+}
+
+/// The validated configuration of a command line of one command (argv without its name).
+#[cfg(test)]
+fn validated<A, C>(argv: &[&str]) -> anyhow::Result<C>
+where
+    A: clap::Args,
+    C: TryFrom<A, Error = anyhow::Error>,
+{
+    C::try_from(parse_args::<A>(argv))
+}
+
+/// The one line a refused command line prints after `error: ` (`{:#}`, as `main` prints it).
+#[cfg(test)]
+fn refused<A, C>(argv: &[&str]) -> String
+where
+    A: clap::Args,
+    C: TryFrom<A, Error = anyhow::Error> + std::fmt::Debug,
+{
+    format!("{:#}", validated::<A, C>(argv).unwrap_err())
+}
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
     logging::init();

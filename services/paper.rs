@@ -29,46 +29,143 @@ pub struct Args {
     seed: u64,
 }
 
-pub fn run(args: Args) -> anyhow::Result<()> {
-    let plan = if args.quick {
-        Plan::quick(args.seed)
-    } else {
-        Plan::full(args.seed)
-    };
-    // Fail on an unusable output directory before spending minutes on the study.
-    std::fs::create_dir_all(&args.out)
-        .with_context(|| format!("creating the output directory {}", args.out.display()))?;
-    // Read the measured record before the study, so a bad file costs no minutes.
-    let measured = args
-        .measured
-        .as_deref()
-        .map(paper::averaging::MeasuredSeries::read)
-        .transpose()?;
-    if args.averaging_only {
-        let section = paper::averaging::run_alone(&plan, measured.as_ref())?;
-        let path = args.out.join("averaging.md");
-        std::fs::write(&path, section).with_context(|| format!("writing {}", path.display()))?;
-        tracing::info!(report = %path.display(), "averaged-forecast section written");
-        return Ok(());
-    }
-    if args.measured_only {
-        let Some(record) = measured.as_ref() else {
-            anyhow::bail!("--measured-only needs --measured FILE.csv");
+/// The study `paper` runs, every value checked: built from [`Args`] by [`Config::try_from`].
+/// The measured record is read there, so a bad file costs no minutes of study.
+pub struct Config {
+    pub plan: Plan,
+    /// Output directory (created by the run).
+    pub out: PathBuf,
+    pub measured: Option<paper::averaging::MeasuredSeries>,
+    pub sections: Sections,
+}
+
+/// Which part of the study runs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Sections {
+    All,
+    AveragingOnly,
+    /// Only with a measured record (`Config::measured` is then set).
+    MeasuredOnly,
+}
+
+impl TryFrom<Args> for Config {
+    type Error = anyhow::Error;
+
+    fn try_from(args: Args) -> anyhow::Result<Self> {
+        let sections = match (args.averaging_only, args.measured_only) {
+            (true, true) => {
+                anyhow::bail!("--averaging-only and --measured-only exclude each other")
+            }
+            (true, false) => Sections::AveragingOnly,
+            (false, true) if args.measured.is_none() => {
+                anyhow::bail!("--measured-only needs --measured FILE.csv")
+            }
+            (false, true) => Sections::MeasuredOnly,
+            (false, false) => Sections::All,
         };
-        let section = paper::measured::run_alone(&plan, record);
-        let path = args.out.join("measured.md");
-        std::fs::write(&path, section).with_context(|| format!("writing {}", path.display()))?;
-        tracing::info!(report = %path.display(), "measured-sea section written");
-        return Ok(());
+        if args.out.exists() && !args.out.is_dir() {
+            anyhow::bail!("--out {} is a file, not a directory", args.out.display());
+        }
+        let measured = args
+            .measured
+            .as_deref()
+            .map(paper::averaging::MeasuredSeries::read)
+            .transpose()?;
+        Ok(Config {
+            plan: if args.quick {
+                Plan::quick(args.seed)
+            } else {
+                Plan::full(args.seed)
+            },
+            out: args.out,
+            measured,
+            sections,
+        })
     }
-    let bar = Bar::new();
-    let study = paper::run_with(&plan, measured.as_ref(), &bar)?;
-    bar.finish();
-    let path = paper::report::write(&study, &args.out)?;
-    tracing::info!(
-        report = %path.display(),
-        seconds = study.elapsed_seconds,
-        "paper study written"
-    );
+}
+
+pub fn run(args: Args) -> anyhow::Result<()> {
+    let Config {
+        plan,
+        out,
+        measured,
+        sections,
+    } = Config::try_from(args)?;
+    // Fail on an unusable output directory before spending minutes on the study.
+    std::fs::create_dir_all(&out)
+        .with_context(|| format!("creating the output directory {}", out.display()))?;
+    match (sections, measured.as_ref()) {
+        (Sections::AveragingOnly, measured) => {
+            let section = paper::averaging::run_alone(&plan, measured)?;
+            let path = out.join("averaging.md");
+            std::fs::write(&path, section)
+                .with_context(|| format!("writing {}", path.display()))?;
+            tracing::info!(report = %path.display(), "averaged-forecast section written");
+        }
+        (Sections::MeasuredOnly, Some(record)) => {
+            let section = paper::measured::run_alone(&plan, record);
+            let path = out.join("measured.md");
+            std::fs::write(&path, section)
+                .with_context(|| format!("writing {}", path.display()))?;
+            tracing::info!(report = %path.display(), "measured-sea section written");
+        }
+        (Sections::MeasuredOnly, None) => {
+            anyhow::bail!("--measured-only needs --measured FILE.csv")
+        }
+        (Sections::All, measured) => {
+            let bar = Bar::new();
+            let study = paper::run_with(&plan, measured, &bar)?;
+            bar.finish();
+            let path = paper::report::write(&study, &out)?;
+            tracing::info!(
+                report = %path.display(),
+                seconds = study.elapsed_seconds,
+                "paper study written"
+            );
+        }
+    }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn refused(argv: &[&str]) -> String {
+        format!(
+            "{:#}",
+            Config::try_from(crate::parse_args::<Args>(argv))
+                .err()
+                .unwrap()
+        )
+    }
+
+    #[test]
+    fn sections_and_the_output_directory_are_checked_first() {
+        let c = Config::try_from(crate::parse_args::<Args>(&["--out", "o", "--quick"])).unwrap();
+        assert_eq!(c.sections, Sections::All);
+        assert!(c.measured.is_none());
+        let dir = tempfile::tempdir().unwrap();
+        let record = dir.path().join("m.csv");
+        std::fs::write(&record, "time_s,heave_m\n0,1\n").unwrap();
+        let record = record.to_str().unwrap();
+        assert_eq!(
+            refused(&[
+                "--out",
+                "o",
+                "--measured",
+                record,
+                "--averaging-only",
+                "--measured-only"
+            ]),
+            "--averaging-only and --measured-only exclude each other"
+        );
+        let file = dir.path().join("report.md");
+        std::fs::write(&file, "").unwrap();
+        let file = file.to_str().unwrap();
+        assert_eq!(
+            refused(&["--out", file]),
+            format!("--out {file} is a file, not a directory")
+        );
+    }
 }

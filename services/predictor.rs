@@ -3,6 +3,7 @@
 //! value, and publishes the Forecast over iceoryx2 and as JSON over zenoh. A background thread
 //! retrains from recent live data and hands over new models without pausing the forecasts.
 
+use crate::checked;
 use serde::Serialize;
 use shipcast_bench::pinning::pin_current;
 use shipcast_bench::stamps::{PublishStages, ReceiveStamp, StampPublisher};
@@ -74,24 +75,55 @@ struct Status {
     refused_clients: std::collections::BTreeMap<&'static str, u64>,
 }
 
+/// What the predictor runs with, every value checked: built from [`Args`] by
+/// [`Config::try_from`] (the configuration file, the flags over it, then the checks).
+#[derive(Debug, Clone)]
+pub struct Config {
+    pub pipeline: PipelineConfig,
+    /// Wall-clock limit (`--duration`).
+    pub limit: Option<Duration>,
+    /// Core of the forecasting thread; a core id the CPU set can hold.
+    pub pin_core: Option<usize>,
+    pub bench_stamps: bool,
+}
+
+impl TryFrom<Args> for Config {
+    type Error = anyhow::Error;
+
+    fn try_from(args: Args) -> anyhow::Result<Self> {
+        let mut pipeline = args.common.load()?;
+        if let Some(core) = args.pin_core {
+            checked(limits::core("--pin-core", core))?;
+        }
+        let q = &mut pipeline.predictor;
+        if args.model.is_some() {
+            q.model = args.model;
+        }
+        q.busy_poll |= args.busy_poll;
+        if let Some(o) = args.order {
+            q.order = o;
+        }
+        if let Some(r) = args.retrain_every_s {
+            q.retrain_every_s = r;
+        }
+        pipeline.validate()?;
+        Ok(Config {
+            pipeline,
+            limit: args.common.duration()?,
+            pin_core: args.pin_core,
+            bench_stamps: args.bench_stamps,
+        })
+    }
+}
+
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let mut config = args.common.load()?;
-    if let Some(core) = args.pin_core {
-        limits::core("--pin-core", core).map_err(anyhow::Error::msg)?;
-    }
-    let q = &mut config.predictor;
-    if args.model.is_some() {
-        q.model = args.model.clone();
-    }
-    q.busy_poll |= args.busy_poll;
-    if let Some(o) = args.order {
-        q.order = o;
-    }
-    if let Some(r) = args.retrain_every_s {
-        q.retrain_every_s = r;
-    }
-    config.validate()?;
-    let limit = shutdown::RunLimit::new(args.common.duration()?);
+    let Config {
+        pipeline: config,
+        limit,
+        pin_core,
+        bench_stamps,
+    } = Config::try_from(args)?;
+    let limit = shutdown::RunLimit::new(limit);
     let names = config.names()?;
 
     let models = shipcast_pipeline::engine::startup::initial_models(&config)?;
@@ -110,7 +142,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     };
     let motion = IoxSubscriber::<MotionSample>::new(&node, &names.motion(), Sizing::MOTION, mode)?;
     let forecasts = IoxPublisher::<Forecast>::new(&node, &names.forecast(), Sizing::FORECAST)?;
-    let stamps = match args.bench_stamps {
+    let stamps = match bench_stamps {
         true => Some(StampPublisher::new(&node, &names.bench_receive())?),
         false => None,
     };
@@ -146,7 +178,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         false => (stale_after / 2).clamp(Duration::from_millis(1), Duration::from_millis(100)),
     };
     // Last, after every helper thread has been started with the full set of cores.
-    if let Some(core) = args.pin_core {
+    if let Some(core) = pin_core {
         if pin_current("predictor forecasting thread", core).pinned {
             tracing::info!(core, "predictor: forecasting thread pinned");
         }
@@ -270,4 +302,59 @@ fn stale_timeout(config: &PipelineConfig) -> Duration {
         100.0
     };
     Duration::from_secs_f64(config.predictor.stale_after_s / speed).max(MIN_STALE_WALL)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn refused(argv: &[&str]) -> String {
+        crate::refused::<Args, Config>(argv)
+    }
+
+    #[test]
+    fn flags_override_the_configuration_and_are_checked_with_it() {
+        let c = crate::validated::<Args, Config>(&[
+            "--order",
+            "60",
+            "--busy-poll",
+            "--retrain-every-s",
+            "0",
+            "--duration",
+            "2",
+        ])
+        .unwrap();
+        assert_eq!(c.pipeline.predictor.order, 60);
+        assert!(c.pipeline.predictor.busy_poll);
+        assert_eq!(c.pipeline.predictor.retrain_every_s, 0.0);
+        assert_eq!(c.limit, Some(Duration::from_secs(2)));
+        assert_eq!(
+            refused(&["--pin-core", "5000"]),
+            format!(
+                "--pin-core 5000 is not a core id (at most {})",
+                limits::MAX_CORES - 1
+            )
+        );
+        assert_eq!(
+            refused(&["--order", "0"]),
+            format!(
+                "config: predictor.order must be 1..={}, got 0",
+                shipcast_pipeline::config::MAX_ORDER
+            )
+        );
+        assert_eq!(
+            refused(&["--retrain-every-s", "nan"]),
+            format!(
+                "config: predictor.retrain_every_s (0 = never) must be a number in [0, {}], got NaN",
+                limits::MAX_SECONDS
+            )
+        );
+        assert_eq!(
+            refused(&["--duration", "0"]),
+            format!(
+                "config: --duration must be a number in (0, {}], got 0",
+                limits::MAX_SECONDS
+            )
+        );
+    }
 }

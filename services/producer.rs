@@ -1,8 +1,9 @@
 //! `shipcast producer`: publishes MotionSample over iceoryx2 from the simulator or a motion CSV,
 //! paced in real time, faster by `--speed F`, or as fast as possible (`--speed 0`).
 
+use crate::checked;
 use anyhow::Context;
-use shipcast_pipeline::config::{CommonArgs, ProducerConfig};
+use shipcast_pipeline::config::{CommonArgs, PipelineConfig, ProducerConfig};
 use shipcast_pipeline::limits;
 use shipcast_pipeline::pacing;
 use shipcast_pipeline::transport::iox::{self, IoxPublisher, Sizing};
@@ -156,43 +157,69 @@ impl RecordSchedule {
     }
 }
 
+/// What the producer publishes, every value checked: built from [`Args`] by
+/// [`Config::try_from`] (the configuration file, the flags over it, then the checks).
+#[derive(Debug, Clone)]
+pub struct Config {
+    pub pipeline: PipelineConfig,
+    /// Wall-clock limit (`--duration`).
+    pub limit: Option<Duration>,
+    pub wait_subscriber: Duration,
+    faults: Faults,
+}
+
+impl TryFrom<Args> for Config {
+    type Error = anyhow::Error;
+
+    fn try_from(args: Args) -> anyhow::Result<Self> {
+        let mut pipeline = args.common.load()?;
+        let p = &mut pipeline.producer;
+        if let Some(i) = args.input {
+            p.input = Some(i);
+        }
+        if let Some(s) = args.scenario {
+            p.scenario = s;
+        }
+        if let Some(s) = args.seed {
+            p.seed = s;
+        }
+        if let Some(r) = args.rate {
+            p.rate_hz = r;
+        }
+        if let Some(r) = args.record_s {
+            p.record_s = Some(r);
+        }
+        if let Some(b) = args.backfill_s {
+            p.backfill_s = b;
+        }
+        pipeline.validate()?;
+        let every = |name: &str, n: Option<u64>| {
+            n.map(|n| checked(limits::count(name, n, 1, u64::MAX)))
+                .transpose()
+        };
+        Ok(Config {
+            pipeline,
+            limit: args.common.duration()?,
+            wait_subscriber: checked(limits::seconds_or_zero(
+                "--wait-subscriber-s",
+                args.wait_subscriber_s,
+            ))?,
+            faults: Faults {
+                nan_every: every("--fault-nan-every", args.fault_nan_every)?,
+                reorder_every: every("--fault-reorder-every", args.fault_reorder_every)?,
+            },
+        })
+    }
+}
+
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let mut config = args.common.load()?;
-    let p = &mut config.producer;
-    if let Some(i) = &args.input {
-        p.input = Some(i.clone());
-    }
-    if let Some(s) = args.scenario {
-        p.scenario = s;
-    }
-    if let Some(s) = args.seed {
-        p.seed = s;
-    }
-    if let Some(r) = args.rate {
-        p.rate_hz = r;
-    }
-    if let Some(r) = args.record_s {
-        p.record_s = Some(r);
-    }
-    if let Some(b) = args.backfill_s {
-        p.backfill_s = b;
-    }
-    config.validate()?;
-    let limit = shutdown::RunLimit::new(args.common.duration()?);
-    let wait_subscriber = limits::seconds_or_zero("--wait-subscriber-s", args.wait_subscriber_s)
-        .map_err(anyhow::Error::msg)?;
-    let faults = Faults {
-        nan_every: args
-            .fault_nan_every
-            .map(|n| limits::count("--fault-nan-every", n, 1, u64::MAX))
-            .transpose()
-            .map_err(anyhow::Error::msg)?,
-        reorder_every: args
-            .fault_reorder_every
-            .map(|n| limits::count("--fault-reorder-every", n, 1, u64::MAX))
-            .transpose()
-            .map_err(anyhow::Error::msg)?,
-    };
+    let Config {
+        pipeline: config,
+        limit,
+        wait_subscriber,
+        faults,
+    } = Config::try_from(args)?;
+    let limit = shutdown::RunLimit::new(limit);
     let names = config.names()?;
     let node = iox::node(&names, "producer")?;
     let publisher = IoxPublisher::<MotionSample>::new(&node, &names.motion(), Sizing::MOTION)?;
@@ -309,5 +336,57 @@ mod tests {
         let mut p = pacer(100.0, 0.0);
         assert_eq!(p.due(0.0), Some(Duration::ZERO));
         assert_eq!(p.due(150.0), None);
+    }
+}
+
+#[cfg(test)]
+mod validation_tests {
+    use super::*;
+
+    fn refused(argv: &[&str]) -> String {
+        crate::refused::<Args, Config>(argv)
+    }
+
+    #[test]
+    fn flags_override_the_configuration_and_are_checked_with_it() {
+        let c = crate::validated::<Args, Config>(&[
+            "--seed",
+            "3",
+            "--record-s",
+            "10",
+            "--wait-subscriber-s",
+            "1.5",
+            "--fault-nan-every",
+            "7",
+        ])
+        .unwrap();
+        assert_eq!(
+            (c.pipeline.producer.seed, c.pipeline.producer.record_s),
+            (3, Some(10.0))
+        );
+        assert_eq!(c.wait_subscriber, Duration::from_millis(1500));
+        assert_eq!(
+            (c.faults.nan_every, c.faults.reorder_every),
+            (Some(7), None)
+        );
+        assert_eq!(
+            refused(&["--rate", "1e300"]),
+            format!(
+                "config: producer.rate_hz must be a number in [{}, {}], got 1e300",
+                limits::MIN_RATE_HZ,
+                shipcast_pipeline::config::MAX_PRODUCER_RATE_HZ
+            )
+        );
+        assert_eq!(
+            refused(&["--wait-subscriber-s", "nan"]),
+            format!(
+                "--wait-subscriber-s must be a number in [0, {}], got NaN",
+                limits::MAX_SECONDS
+            )
+        );
+        assert_eq!(
+            refused(&["--fault-reorder-every", "0"]),
+            format!("--fault-reorder-every must be 1..={}, got 0", u64::MAX)
+        );
     }
 }

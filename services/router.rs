@@ -3,10 +3,11 @@
 //! `shipcast/*/forecast`. With `--config`, the `[zenoh]` security settings of that file (TLS,
 //! authentication, access rules) apply to the router's links.
 
+use crate::checked;
 use shipcast_pipeline::config::PipelineConfig;
 use shipcast_pipeline::limits;
 use shipcast_pipeline::transport::shutdown;
-use shipcast_pipeline::transport::zenoh::Downsampling;
+use shipcast_pipeline::transport::zenoh::{Downsampling, ZenohSettings};
 use shipcast_pipeline::transport::zenoh_router::{FleetRouter, FLEET_FORECASTS};
 use std::path::PathBuf;
 use std::time::Duration;
@@ -34,35 +35,69 @@ pub struct Args {
     pub duration: Option<f64>,
 }
 
+/// What the router serves, every value checked: built from [`Args`] by [`Config::try_from`]
+/// (the `[zenoh]` section of `--config` with the flags over it).
+#[derive(Debug, Clone)]
+pub struct Config {
+    /// The router's zenoh settings: listen endpoints, no connect, no scouting.
+    pub settings: ZenohSettings,
+    /// Key expression of the forecasts whose latest sample per vessel is kept.
+    pub forecasts: String,
+    /// Wall-clock limit (`--duration`).
+    pub limit: Option<Duration>,
+}
+
+impl TryFrom<Args> for Config {
+    type Error = anyhow::Error;
+
+    fn try_from(args: Args) -> anyhow::Result<Self> {
+        let downsample_hz = checked(limits::non_negative(
+            "--downsample-hz",
+            args.downsample_hz,
+            limits::MAX_RATE_HZ,
+        ))?;
+        let limit = args
+            .duration
+            .map(|s| checked(limits::seconds("--duration", s)))
+            .transpose()?;
+        if args.listen.is_empty() && args.config.is_none() {
+            anyhow::bail!("give the endpoints to listen on (--listen) or a --config that has them");
+        }
+        let config = PipelineConfig::load(args.config.as_deref())?;
+        let mut settings = config.zenoh.publisher_side();
+        if !args.listen.is_empty() {
+            settings.listen = args.listen;
+        }
+        if settings.listen.is_empty() {
+            anyhow::bail!("the [zenoh] section of --config has no listen endpoint: give --listen");
+        }
+        settings.connect = Vec::new();
+        let forecasts = match (args.forecasts, &config.instance) {
+            (Some(f), _) => f,
+            (None, Some(instance)) => format!("{instance}/{FLEET_FORECASTS}"),
+            (None, None) => FLEET_FORECASTS.to_string(),
+        };
+        settings.multicast_scouting = false;
+        if downsample_hz > 0.0 {
+            settings.downsample_egress = Some(Downsampling {
+                key_exprs: vec![forecasts.clone()],
+                max_hz: downsample_hz,
+            });
+        }
+        Ok(Config {
+            settings,
+            forecasts,
+            limit,
+        })
+    }
+}
+
 pub fn run(args: Args) -> anyhow::Result<()> {
-    limits::non_negative("--downsample-hz", args.downsample_hz, limits::MAX_RATE_HZ)
-        .map_err(anyhow::Error::msg)?;
-    let duration = args
-        .duration
-        .map(|s| limits::seconds("--duration", s))
-        .transpose()
-        .map_err(anyhow::Error::msg)?;
-    if args.listen.is_empty() && args.config.is_none() {
-        anyhow::bail!("give the endpoints to listen on (--listen) or a --config that has them");
-    }
-    let config = PipelineConfig::load(args.config.as_deref())?;
-    let mut settings = config.zenoh.publisher_side();
-    if !args.listen.is_empty() {
-        settings.listen = args.listen.clone();
-    }
-    settings.connect = Vec::new();
-    let forecasts = match (&args.forecasts, &config.instance) {
-        (Some(f), _) => f.clone(),
-        (None, Some(instance)) => format!("{instance}/{FLEET_FORECASTS}"),
-        (None, None) => FLEET_FORECASTS.to_string(),
-    };
-    settings.multicast_scouting = false;
-    if args.downsample_hz > 0.0 {
-        settings.downsample_egress = Some(Downsampling {
-            key_exprs: vec![forecasts.clone()],
-            max_hz: args.downsample_hz,
-        });
-    }
+    let Config {
+        settings,
+        forecasts,
+        limit,
+    } = Config::try_from(args)?;
     let router = FleetRouter::start(&settings, &forecasts)?;
     tracing::info!(
         listen = ?settings.listen,
@@ -70,10 +105,67 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         access = settings.access.is_some(),
         "router: up, serving the latest of {forecasts}"
     );
-    let limit = shutdown::RunLimit::new(duration);
+    let limit = shutdown::RunLimit::new(limit);
     while !limit.reached() {
         std::thread::sleep(Duration::from_millis(100));
     }
     tracing::info!("router: stopped, {} forecast keys seen", router.keys_seen());
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn refused(argv: &[&str]) -> String {
+        crate::refused::<Args, Config>(argv)
+    }
+
+    #[test]
+    fn endpoints_come_from_the_flags_or_the_configuration() {
+        assert_eq!(
+            refused(&[]),
+            "give the endpoints to listen on (--listen) or a --config that has them"
+        );
+        assert_eq!(
+            refused(&["--listen", "tcp/127.0.0.1:7447", "--downsample-hz", "nan"]),
+            format!(
+                "--downsample-hz must be a number in [0, {}], got NaN",
+                limits::MAX_RATE_HZ
+            )
+        );
+        let c = crate::validated::<Args, Config>(&[
+            "--listen",
+            "tcp/127.0.0.1:7447",
+            "--downsample-hz",
+            "2",
+        ])
+        .unwrap();
+        assert_eq!(c.settings.listen, ["tcp/127.0.0.1:7447"]);
+        assert!(c.settings.connect.is_empty() && !c.settings.multicast_scouting);
+        assert_eq!(c.forecasts, FLEET_FORECASTS);
+        let down = c.settings.downsample_egress.unwrap();
+        assert_eq!(
+            (down.key_exprs, down.max_hz),
+            (vec![FLEET_FORECASTS.to_string()], 2.0)
+        );
+
+        let dir = tempfile::tempdir().unwrap();
+        let file = dir.path().join("router.toml");
+        std::fs::write(
+            &file,
+            "instance = \"i1\"\n[zenoh]\nlisten = [\"tcp/127.0.0.1:7448\"]\nconnect = [\"tcp/127.0.0.1:9\"]\n",
+        )
+        .unwrap();
+        let c = crate::validated::<Args, Config>(&["--config", file.to_str().unwrap()]).unwrap();
+        assert_eq!(c.settings.listen, ["tcp/127.0.0.1:7448"]);
+        assert!(c.settings.connect.is_empty());
+        assert_eq!(c.forecasts, format!("i1/{FLEET_FORECASTS}"));
+        assert!(c.settings.downsample_egress.is_none());
+        std::fs::write(&file, "[zenoh]\nlisten = []\n").unwrap();
+        assert_eq!(
+            refused(&["--config", file.to_str().unwrap()]),
+            "the [zenoh] section of --config has no listen endpoint: give --listen"
+        );
+    }
 }

@@ -4,20 +4,17 @@
 //! non-stationary.
 
 use anyhow::Context;
-use shipcast_pipeline::config::MAX_PRODUCER_RATE_HZ;
-use shipcast_pipeline::limits;
 use shipcast_series::motion_csv::MotionCsvWriter;
 use shipcast_sim::plot::plot_overview;
-use shipcast_sim::{
-    ChangingMotion, Channel, CourseChange, Hull, MotionPoint, RaoSpec, Scenario, SeaChange,
-    ShipMotion, SimConfig,
-};
+use shipcast_sim::{ChangingMotion, Channel, CourseChange, MotionPoint, SeaChange, ShipMotion};
 use std::fs::File;
 use std::io::BufWriter;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
+mod config;
 mod measured;
+pub use config::{Config, Record};
 use measured::run_measured;
 
 /// Shown after the options in `--help`.
@@ -155,73 +152,17 @@ pub struct Args {
     pub ramp_s: f64,
 }
 
-/// The simulator configuration the arguments describe.
-pub fn config_from_args(args: &Args) -> anyhow::Result<SimConfig> {
-    let scenario: Scenario = args.scenario.parse()?;
-    let mut cfg = SimConfig::scenario(scenario);
-    cfg.spectrum = args.spectrum.parse()?;
-    cfg.spreading = args.spreading.parse()?;
-    cfg.hs_m = args.hs.unwrap_or(cfg.hs_m);
-    cfg.tp_s = args.tp.unwrap_or(cfg.tp_s);
-    cfg.gamma = args.gamma;
-    cfg.speed_kn = args.speed_kn.unwrap_or(cfg.speed_kn);
-    cfg.heading_deg = args.heading_deg.unwrap_or(cfg.heading_deg);
-    cfg.components = args.components;
-    cfg.seed = args.seed;
-    cfg.rao = match (&args.rao_table, args.rao_table_length, args.hull_length) {
-        (Some(path), table_length_m, hull_length_m) => RaoSpec::Table {
-            path: path.clone(),
-            table_length_m,
-            hull_length_m,
-        },
-        (None, Some(_), _) => anyhow::bail!("--rao-table-length needs --rao-table"),
-        (None, None, Some(l)) => RaoSpec::ClosedForm {
-            hull: Hull::dtmb5415().scaled_to_length(l)?,
-        },
-        (None, None, None) => RaoSpec::ClosedForm {
-            hull: Hull::dtmb5415(),
-        },
-    };
-    Ok(cfg)
-}
-
-/// Most rows one record may have (about 10 GB of CSV).
-const MAX_ROWS: u64 = 100_000_000;
-
 pub fn run(args: Args) -> anyhow::Result<()> {
-    limits::rate("--rate", args.rate, MAX_PRODUCER_RATE_HZ).map_err(anyhow::Error::msg)?;
-    if let Some(path) = &args.elevation {
-        return run_measured(&args, path);
+    let config = Config::try_from(args)?;
+    match &config.record {
+        Record::Measured { elevation, edge_s } => run_measured(&config, elevation, *edge_s),
+        Record::Changing {
+            duration_s,
+            course,
+            sea,
+        } => run_changing(&config, *duration_s, *course, *sea),
+        Record::Stationary { duration_s } => run_stationary(&config, *duration_s),
     }
-    limits::positive("--duration", args.duration, limits::MAX_SECONDS)
-        .map_err(anyhow::Error::msg)?;
-    // Checked before the sea is built: a record of billions of rows would run for days.
-    let rows = args.duration * args.rate;
-    if rows > MAX_ROWS as f64 {
-        anyhow::bail!("--duration x --rate = {rows:.0} rows, at most {MAX_ROWS}");
-    }
-    let cfg = config_from_args(&args)?;
-    let course = args
-        .course_change_s
-        .zip(args.new_heading_deg)
-        .map(|(at_s, d)| CourseChange {
-            at_s,
-            new_heading_deg: d,
-            turn_s: args.turn_s,
-        });
-    let sea = match (args.sea_change_s, args.new_hs, args.new_tp) {
-        (Some(at_s), Some(hs_m), Some(tp_s)) => Some(SeaChange {
-            at_s,
-            hs_m,
-            tp_s,
-            ramp_s: args.ramp_s,
-        }),
-        _ => None,
-    };
-    if course.is_some() || sea.is_some() {
-        return run_changing(&args, &cfg, course, sea);
-    }
-    run_stationary(&args, &cfg)
 }
 
 /// The output file, row count and per-channel sums of squares of a record being written.
@@ -280,14 +221,14 @@ pub(crate) fn degrees(ch: Channel, value: f64) -> String {
     }
 }
 
-fn run_stationary(args: &Args, cfg: &SimConfig) -> anyhow::Result<()> {
+fn run_stationary(config: &Config, duration_s: f64) -> anyhow::Result<()> {
     let started = Instant::now();
-    let motion = ShipMotion::new(cfg)?;
-    let rows = (args.duration * args.rate).round().max(1.0) as u64;
-    let mut out = RecordOut::create(&args.out)?;
+    let motion = ShipMotion::new(&config.sim)?;
+    let rows = (duration_s * config.rate_hz).round().max(1.0) as u64;
+    let mut out = RecordOut::create(&config.out)?;
     let progress = indicatif::ProgressBar::new(rows);
     for (i, p) in motion
-        .stream(args.rate, 0.0)?
+        .stream(config.rate_hz, 0.0)?
         .take(rows as usize)
         .enumerate()
     {
@@ -299,10 +240,10 @@ fn run_stationary(args: &Args, cfg: &SimConfig) -> anyhow::Result<()> {
     progress.finish_and_clear();
     tracing::info!(
         "wrote {rows} rows ({} s at {} Hz, {} wave components) to {} in {:.2} s",
-        args.duration,
-        args.rate,
+        duration_s,
+        config.rate_hz,
         motion.components().len(),
-        args.out.display(),
+        config.out.display(),
         started.elapsed().as_secs_f64()
     );
     for ch in Channel::ALL {
@@ -318,8 +259,8 @@ fn run_stationary(args: &Args, cfg: &SimConfig) -> anyhow::Result<()> {
         );
     }
     out.finish()?;
-    if let Some(svg) = &args.plot {
-        plot_overview(&motion, svg, 60.0, args.rate)?;
+    if let Some(svg) = &config.plot {
+        plot_overview(&motion, svg, 60.0, config.rate_hz)?;
         tracing::info!("figure written to {}", svg.display());
     }
     Ok(())
@@ -328,11 +269,12 @@ fn run_stationary(args: &Args, cfg: &SimConfig) -> anyhow::Result<()> {
 /// A record with a course and/or sea-state change; logs the exact std of the conditions
 /// before and after next to the record's RMS over the stretches before and after the changes.
 fn run_changing(
-    args: &Args,
-    cfg: &SimConfig,
+    config: &Config,
+    duration_s: f64,
     course: Option<CourseChange>,
     sea: Option<SeaChange>,
 ) -> anyhow::Result<()> {
+    let (cfg, rate_hz) = (&config.sim, config.rate_hz);
     let started = Instant::now();
     let motion = ChangingMotion::new(cfg, course, sea)?;
     let first_change = [course.map(|c| c.at_s), sea.map(|s| s.at_s)]
@@ -346,19 +288,18 @@ fn run_changing(
     .into_iter()
     .flatten()
     .fold(0.0, f64::max);
-    if settled >= args.duration {
+    if settled >= duration_s {
         tracing::warn!(
-            "the record ends at {} s, before the changes are complete ({settled} s)",
-            args.duration
+            "the record ends at {duration_s} s, before the changes are complete ({settled} s)"
         );
     }
-    let rows = (args.duration * args.rate).round().max(1.0) as u64;
-    let mut out = RecordOut::create(&args.out)?;
+    let rows = (duration_s * rate_hz).round().max(1.0) as u64;
+    let mut out = RecordOut::create(&config.out)?;
     let (mut before, mut after) = ([0.0; 7], [0.0; 7]);
     let (mut n_before, mut n_after) = (0u64, 0u64);
     let progress = indicatif::ProgressBar::new(rows);
     for i in 0..rows {
-        let p = motion.sample_at(i as f64 / args.rate);
+        let p = motion.sample_at(i as f64 / rate_hz);
         out.write(&p)?;
         let (sums, n) = if p.time_s < first_change {
             (&mut before, &mut n_before)
@@ -388,9 +329,9 @@ fn run_changing(
     tracing::info!(
         "wrote {rows} rows ({} s at {} Hz) to {} in {:.2} s; changes from {first_change} s, \
          complete at {settled} s{}{}",
-        args.duration,
-        args.rate,
-        args.out.display(),
+        duration_s,
+        rate_hz,
+        config.out.display(),
         started.elapsed().as_secs_f64(),
         course.map_or(String::new(), |c| format!(
             "; course: heading {} -> {} deg over {} s from {} s",

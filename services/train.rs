@@ -1,7 +1,7 @@
 //! `shipcast train`: fit per-DOF models on a motion CSV and write one model file for the
 //! predictor service.
 
-use crate::eval::{load_resampled, PredictorArgs};
+use crate::eval::{load_resampled, sample_rate, PredictorArgs};
 use shipcast_eval::model::{train_models, TrainOptions};
 use shipcast_predict::Method;
 use std::path::PathBuf;
@@ -30,24 +30,61 @@ pub struct Args {
     pub predictor: PredictorArgs,
 }
 
+/// What `train` fits and where it writes it, every value checked: built from [`Args`] by
+/// [`Config::try_from`], the only place that validates them.
+#[derive(Debug, Clone)]
+pub struct Config {
+    pub input: PathBuf,
+    /// The model file; its directory exists.
+    pub out: PathBuf,
+    pub options: TrainOptions,
+}
+
+impl TryFrom<Args> for Config {
+    type Error = anyhow::Error;
+
+    fn try_from(args: Args) -> anyhow::Result<Self> {
+        let method: Method = args.method.parse().map_err(anyhow::Error::msg)?;
+        let config = args.predictor.config(args.seed)?;
+        // Both parts must hold data: the fit and the sigma measurement.
+        if !(args.holdout > 0.0 && args.holdout < 1.0) {
+            anyhow::bail!(
+                "--holdout must be a fraction in (0, 1), got {}",
+                args.holdout
+            );
+        }
+        // Checked now: the file is written after the training.
+        crate::output_in_existing_dir("--out", &args.out)?;
+        Ok(Config {
+            input: args.input,
+            out: args.out,
+            options: TrainOptions {
+                method,
+                config,
+                sample_rate: sample_rate(args.sample_rate)?,
+                holdout_fraction: args.holdout,
+                sigma_stride: 1,
+            },
+        })
+    }
+}
+
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let method: Method = args.method.parse().map_err(anyhow::Error::msg)?;
-    let data = load_resampled(&args.input, args.sample_rate)?;
+    let Config {
+        input,
+        out,
+        options,
+    } = Config::try_from(args)?;
+    let method = options.method;
+    let data = load_resampled(&input, options.sample_rate)?;
     let dofs = data.dofs();
     anyhow::ensure!(
         !dofs.is_empty(),
         "{}: no DOF column (expected any of surge_m, sway_m, heave_m, roll_rad, pitch_rad, yaw_rad)",
-        args.input.display()
+        input.display()
     );
-    let options = TrainOptions {
-        method,
-        config: args.predictor.config(args.seed),
-        sample_rate: args.sample_rate,
-        holdout_fraction: args.holdout,
-        sigma_stride: 1,
-    };
     let model = train_models(&data, &dofs, &options)?;
-    model.save(&args.out)?;
+    model.save(&out)?;
     for m in &model.dofs {
         let diagnostics = shipcast_predict::Predictor::diagnostics(&m.predictor);
         tracing::info!(
@@ -59,6 +96,59 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             "trained"
         );
     }
-    tracing::info!(out = %args.out.display(), method = %method, dofs = model.dofs.len(), "model file written");
+    tracing::info!(out = %out.display(), method = %method, dofs = model.dofs.len(), "model file written");
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn refused(argv: &[&str]) -> String {
+        crate::refused::<Args, Config>(argv)
+    }
+
+    #[test]
+    fn options_are_checked_before_training() {
+        let c = crate::validated::<Args, Config>(&[
+            "--input",
+            "m.csv",
+            "--out",
+            "model.json",
+            "--method",
+            "wiener",
+        ])
+        .unwrap();
+        assert_eq!(c.options.method, Method::Wiener);
+        assert_eq!(
+            (c.options.sample_rate, c.options.holdout_fraction),
+            (2.0, 0.2)
+        );
+        for holdout in ["0", "1", "nan"] {
+            assert_eq!(
+                refused(&["--input", "m.csv", "--out", "m.json", "--holdout", holdout]),
+                format!(
+                    "--holdout must be a fraction in (0, 1), got {}",
+                    holdout.replace("nan", "NaN")
+                )
+            );
+        }
+        let dir = tempfile::tempdir().unwrap();
+        let out = dir.path().join("missing").join("m.json");
+        let out = out.to_str().unwrap();
+        assert_eq!(
+            refused(&["--input", "m.csv", "--out", out]),
+            format!(
+                "--out {out}: the directory {} does not exist",
+                dir.path().join("missing").display()
+            )
+        );
+        assert_eq!(
+            refused(&["--input", "m.csv", "--out", "m.json", "--order", "0"]),
+            format!(
+                "--order must be 1..={}, got 0",
+                shipcast_pipeline::config::MAX_ORDER
+            )
+        );
+    }
 }

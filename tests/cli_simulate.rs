@@ -160,6 +160,42 @@ fn bad_input_exits_with_one_clear_line() {
     }
 }
 
+/// The one stderr line of a refused `simulate`, which must exit with status 2.
+fn refused_line(args: &[&str]) -> String {
+    let o = simulate(args);
+    let err = String::from_utf8_lossy(&o.stderr).to_string();
+    assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
+    let lines: Vec<&str> = err.lines().collect();
+    assert_eq!(lines.len(), 1, "{args:?}: {err}");
+    lines[0].to_string()
+}
+
+#[test]
+fn file_errors_print_the_os_cause_once() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("m.csv");
+    let out = out.to_str().unwrap();
+    let table = dir.path().join("absent-rao.csv");
+    let io = std::fs::File::open(&table).unwrap_err().to_string();
+    let table = table.to_str().unwrap();
+    let line = refused_line(&["--rao-table", table, "--duration", "10", "--out", out]);
+    assert_eq!(line, format!("error: RAO table: cannot open {table}: {io}"));
+    assert_eq!(line.matches(&io).count(), 1, "{line}");
+
+    // A figure in a missing directory is refused before the record is simulated.
+    let svg = dir.path().join("missing").join("m.svg");
+    let svg = svg.to_str().unwrap();
+    let line = refused_line(&["--plot", svg, "--duration", "10", "--out", out]);
+    assert_eq!(
+        line,
+        format!(
+            "error: --plot {svg}: the directory {} does not exist",
+            dir.path().join("missing").display()
+        )
+    );
+    assert!(!Path::new(out).exists());
+}
+
 /// An elevation CSV at 2.5 Hz; `value(i)` is sample i (None = NaN).
 fn write_elevation(path: &Path, n: usize, value: impl Fn(usize) -> Option<f64>) {
     let mut text = String::from("time_s,wave_m\n");

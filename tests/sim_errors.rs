@@ -102,3 +102,63 @@ fn bad_rao_table_files_are_rejected_with_the_reason() {
     let e = error_of(table(f.path().to_path_buf()));
     assert!(e.contains("missing column 'speed_mps'"), "{e}");
 }
+
+/// The line the binary prints for `e` (`error: {e:#}` in services/main.rs), without `error: `.
+fn printed(e: shipcast_sim::SimError) -> String {
+    format!("{:#}", anyhow::Error::from(e))
+}
+
+#[test]
+fn an_unreadable_rao_table_names_the_file_and_prints_the_os_error_once() {
+    let path = std::path::PathBuf::from("/nonexistent/shipcast-rao.csv");
+    let io = std::fs::File::open(&path).unwrap_err().to_string();
+    let cfg = SimConfig {
+        rao: RaoSpec::Table {
+            path: path.clone(),
+            table_length_m: None,
+            hull_length_m: None,
+        },
+        ..SimConfig::default()
+    };
+    let e = printed(ShipMotion::new(&cfg).unwrap_err());
+    assert_eq!(
+        e,
+        format!("RAO table: cannot open {}: {io}", path.display())
+    );
+    assert_eq!(e.matches(&io).count(), 1, "{e}");
+
+    // A directory opens but does not read: the CSV reader's I/O error is the cause.
+    let dir = tempfile::tempdir().unwrap();
+    let eisdir = std::fs::read(dir.path()).unwrap_err().to_string();
+    let cfg = SimConfig {
+        rao: RaoSpec::Table {
+            path: dir.path().to_path_buf(),
+            table_length_m: None,
+            hull_length_m: None,
+        },
+        ..SimConfig::default()
+    };
+    let e = printed(ShipMotion::new(&cfg).unwrap_err());
+    assert_eq!(
+        e,
+        format!("RAO table: {}: header: {eisdir}", dir.path().display())
+    );
+    assert_eq!(e.matches(&eisdir).count(), 1, "{e}");
+}
+
+#[test]
+fn a_figure_in_a_missing_directory_names_it_and_prints_the_os_error_once() {
+    let m = ShipMotion::new(&SimConfig {
+        components: Some(20),
+        ..SimConfig::default()
+    })
+    .unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let svg = dir.path().join("missing").join("overview.svg");
+    let io = std::fs::File::create(&svg).unwrap_err().to_string();
+    let e = printed(shipcast_sim::plot::plot_overview(&m, &svg, 5.0, 2.0).unwrap_err());
+    let head = format!("plot {}: cannot draw or write the figure: ", svg.display());
+    assert!(e.starts_with(&head) && e.ends_with(&io), "{e}");
+    assert_eq!(e.matches(&io).count(), 1, "{e}");
+    assert_eq!(e.lines().count(), 1, "{e}");
+}

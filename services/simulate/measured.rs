@@ -1,7 +1,7 @@
 //! `shipcast simulate --elevation`: the ship driven by a measured wave record, segment by
 //! segment (the method is in `shipcast_sim::measured`).
 
-use super::{config_from_args, degrees, Args, RecordOut};
+use super::{degrees, Config, RecordOut};
 use anyhow::Context;
 use shipcast_series::motion_csv::MotionData;
 use shipcast_sim::build_rao;
@@ -12,10 +12,9 @@ use std::path::Path;
 use std::time::Instant;
 
 /// Motion driven by a measured elevation record, segment by segment.
-pub(super) fn run_measured(args: &Args, path: &Path) -> anyhow::Result<()> {
+pub(super) fn run_measured(config: &Config, path: &Path, edge_s: f64) -> anyhow::Result<()> {
     let started = Instant::now();
-    let cfg = config_from_args(args)?;
-    cfg.validate()?;
+    let (cfg, rate_hz) = (&config.sim, config.rate_hz);
     let file = File::open(path).with_context(|| format!("cannot read {}", path.display()))?;
     let data = MotionData::read_with_gaps(std::io::BufReader::new(file))
         .with_context(|| path.display().to_string())?;
@@ -36,34 +35,33 @@ pub(super) fn run_measured(args: &Args, path: &Path) -> anyhow::Result<()> {
         );
     }
     let input_rate = segments.first().map_or(0.0, |s| 1.0 / s.dt_s);
-    if args.rate < input_rate {
+    if rate_hz < input_rate {
         tracing::warn!(
             "--rate {} Hz is below the record's {} Hz: the output is sampled without an \
              anti-alias filter",
-            args.rate,
+            rate_hz,
             input_rate
         );
     }
-    let mut out = RecordOut::create(&args.out)?;
+    let mut out = RecordOut::create(&config.out)?;
     let mut previous_end: Option<f64> = None;
     let (mut written, mut skipped) = (0usize, 0usize);
     for seg in &segments {
-        let Some(response) = SegmentResponse::new(seg, rao.as_ref(), beta, speed, args.edge_s)?
-        else {
+        let Some(response) = SegmentResponse::new(seg, rao.as_ref(), beta, speed, edge_s)? else {
             skipped += 1;
             tracing::warn!(
                 "segment {:.2}..{:.2} s ({} samples) is not longer than twice --edge-s {} s: skipped",
                 seg.start_s,
                 seg.end_s(),
                 seg.values.len(),
-                args.edge_s
+                edge_s
             );
             continue;
         };
         let rows_before = out.rows;
         let mut first_t = None;
         let mut last_t = 0.0;
-        for p in response.stream(args.rate)? {
+        for p in response.stream(rate_hz)? {
             if let Some(end) = previous_end {
                 if first_t.is_none() {
                     tracing::info!(
@@ -95,7 +93,7 @@ pub(super) fn run_measured(args: &Args, path: &Path) -> anyhow::Result<()> {
         anyhow::bail!(
             "{}: no segment is longer than twice --edge-s {} s ({} segments, {} skipped)",
             path.display(),
-            args.edge_s,
+            edge_s,
             segments.len(),
             skipped
         );
@@ -104,11 +102,11 @@ pub(super) fn run_measured(args: &Args, path: &Path) -> anyhow::Result<()> {
     tracing::info!(
         "wrote {rows} rows at {} Hz from {} ({written} segments written, {skipped} skipped; \
          waves from {} deg, {} kn) to {} in {:.2} s",
-        args.rate,
+        rate_hz,
         path.display(),
         cfg.heading_deg,
         cfg.speed_kn,
-        args.out.display(),
+        config.out.display(),
         started.elapsed().as_secs_f64()
     );
     for ch in Channel::ALL {

@@ -83,11 +83,11 @@ const MAX_PORTS: usize = 4;
 
 /// The error of a failed call; `context` becomes a `String` only then (a `&str` context
 /// allocates nothing on success: stamps are sent for every sample).
-fn err<E: Debug>(context: impl Into<String>) -> impl FnOnce(E) -> IoxError {
-    move |e| IoxError {
-        context: context.into(),
-        detail: format!("{e:?}"),
-    }
+fn err<E>(context: impl Into<String>) -> impl FnOnce(E) -> IoxError
+where
+    E: std::error::Error + Send + Sync + 'static,
+{
+    IoxError::on(context)
 }
 
 type Factory =

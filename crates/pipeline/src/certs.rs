@@ -9,20 +9,15 @@ use rcgen::{
 use std::net::IpAddr;
 use time::{Duration, OffsetDateTime};
 
-/// Why certificates could not be made.
+/// Why certificates could not be made. rcgen's error is the `source`, left out of the
+/// message, so `{:#}` prints it once.
 #[derive(Debug, thiserror::Error)]
 pub enum CertError {
-    /// The cause is in the message, not chained as a `source`, so `{:#}` prints it once.
-    #[error("certs: {0}")]
-    Rcgen(rcgen::Error),
-    #[error("certs: {0}")]
-    Invalid(String),
-}
-
-impl From<rcgen::Error> for CertError {
-    fn from(error: rcgen::Error) -> Self {
-        CertError::Rcgen(error)
-    }
+    #[error("certs: cannot make a key or certificate")]
+    Rcgen(#[from] rcgen::Error),
+    /// A listen or router endpoint that a certificate cannot name.
+    #[error("certs: endpoint '{endpoint}' is not tls/HOST:PORT")]
+    Endpoint { endpoint: String },
 }
 
 /// A certificate and its private key, both PEM.
@@ -114,7 +109,9 @@ impl CertAuthority {
 
 /// The host of a zenoh endpoint such as `tls/10.0.0.5:7447` or `tls/[::1]:7447`.
 pub fn endpoint_host(endpoint: &str) -> Result<&str, CertError> {
-    let bad = || CertError::Invalid(format!("endpoint '{endpoint}' is not tls/HOST:PORT"));
+    let bad = || CertError::Endpoint {
+        endpoint: endpoint.to_string(),
+    };
     let address = endpoint.strip_prefix("tls/").ok_or_else(bad)?;
     // Endpoint options (`#...`, `?...`) are not part of the address.
     let address = address.split(['#', '?']).next().unwrap_or(address);
@@ -160,7 +157,11 @@ mod tests {
             "tls/:7447",
             "tls/h:port",
         ] {
-            assert!(endpoint_host(bad).is_err(), "{bad}");
+            let e = anyhow::Error::from(endpoint_host(bad).unwrap_err());
+            assert_eq!(
+                format!("{e:#}"),
+                format!("certs: endpoint '{bad}' is not tls/HOST:PORT")
+            );
         }
         assert_eq!(
             server_names("0.0.0.0", &["ship.example".into()]),

@@ -19,12 +19,26 @@ pub const MIN_RATE_HZ: f64 = 0.01;
 /// Highest core id that `sched_setaffinity`'s fixed-size set can hold, plus one.
 pub const MAX_CORES: usize = libc::CPU_SETSIZE as usize;
 
+/// `v` as a message shows it: in exponent form when plain digits would be long (`1e300`, not
+/// 301 digits), so a refused value keeps the message on one short line.
+fn shown(v: f64) -> String {
+    let plain = v.to_string();
+    if plain.len() > 12 && v.is_finite() {
+        format!("{v:e}")
+    } else {
+        plain
+    }
+}
+
 /// `v` must be finite and in `(0, max]`.
 pub fn positive(name: &str, v: f64, max: f64) -> Result<f64, String> {
     if v.is_finite() && v > 0.0 && v <= max {
         Ok(v)
     } else {
-        Err(format!("{name} must be a number in (0, {max}], got {v}"))
+        Err(format!(
+            "{name} must be a number in (0, {max}], got {}",
+            shown(v)
+        ))
     }
 }
 
@@ -34,7 +48,8 @@ pub fn in_range(name: &str, v: f64, min: f64, max: f64) -> Result<f64, String> {
         Ok(v)
     } else {
         Err(format!(
-            "{name} must be a number in [{min}, {max}], got {v}"
+            "{name} must be a number in [{min}, {max}], got {}",
+            shown(v)
         ))
     }
 }
@@ -49,7 +64,10 @@ pub fn non_negative(name: &str, v: f64, max: f64) -> Result<f64, String> {
     if v.is_finite() && (0.0..=max).contains(&v) {
         Ok(v)
     } else {
-        Err(format!("{name} must be a number in [0, {max}], got {v}"))
+        Err(format!(
+            "{name} must be a number in [0, {max}], got {}",
+            shown(v)
+        ))
     }
 }
 
@@ -112,6 +130,26 @@ mod tests {
             "--n must be 1..=5, got 0"
         );
         assert!(count("--n", 6u64, 1, 5).is_err());
+    }
+
+    #[test]
+    fn refused_values_are_shown_short() {
+        assert_eq!(
+            positive("--rate", 1e300, 10.0).unwrap_err(),
+            "--rate must be a number in (0, 10], got 1e300"
+        );
+        assert_eq!(
+            rate("--rate", 1e-300, 8.0).unwrap_err(),
+            format!("--rate must be a number in [{MIN_RATE_HZ}, 8], got 1e-300")
+        );
+        assert_eq!(
+            non_negative("--s", -2.5, 1.0).unwrap_err(),
+            "--s must be a number in [0, 1], got -2.5"
+        );
+        assert_eq!(
+            non_negative("--s", f64::NAN, 1.0).unwrap_err(),
+            "--s must be a number in [0, 1], got NaN"
+        );
     }
 
     #[test]

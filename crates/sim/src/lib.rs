@@ -46,21 +46,78 @@ pub use sea::{Components, WaveComponent};
 pub use spectrum::{Spectrum, SpectrumKind};
 pub use spreading::Spreading;
 
+use std::path::{Path, PathBuf};
+
 /// Acceleration of gravity [m/s^2].
 pub const G: f64 = 9.81;
 
 /// Why a simulation could not be set up.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+///
+/// A variant with an underlying error keeps it as its `source` and leaves it out of its own
+/// message, so the binary's `{:#}` chain prints each cause once.
+#[derive(Debug, thiserror::Error)]
 pub enum SimError {
     /// A parameter is out of its physical range or unknown.
     #[error("invalid simulation setting: {0}")]
     Config(String),
-    /// An RAO table could not be read or is malformed.
-    #[error("RAO table: {0}")]
-    Table(String),
+    /// An RAO table file could not be opened.
+    #[error("RAO table: cannot open {}", path.display())]
+    TableOpen {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    /// An RAO table's CSV could not be read (an I/O error, bad UTF-8, a row of the wrong
+    /// length); `line` is `None` for the header.
+    #[error("RAO table: {table}: {}", line.map_or("header".to_string(), |l| format!("line {l}")))]
+    TableCsv {
+        table: String,
+        line: Option<usize>,
+        #[source]
+        source: csv::Error,
+    },
+    /// An RAO table reads as CSV but its content is wrong (a column, a value, the grid).
+    #[error("RAO table: {table}: {problem}")]
+    TableContent { table: String, problem: String },
     /// A figure could not be drawn or written.
-    #[error("plot: {0}")]
-    Plot(String),
+    #[error("plot {}: cannot draw or write the figure", path.display())]
+    Plot {
+        path: PathBuf,
+        #[source]
+        source: plotters::drawing::DrawingAreaErrorKind<std::io::Error>,
+    },
+    /// A figure was asked for without anything to draw.
+    #[error("plot {}: {problem}", path.display())]
+    NothingToPlot { path: PathBuf, problem: String },
+}
+
+impl SimError {
+    /// What is wrong in the content of the table `table`.
+    pub(crate) fn table(table: &str, problem: String) -> Self {
+        SimError::TableContent {
+            table: table.to_string(),
+            problem,
+        }
+    }
+
+    /// The table `table` is not readable CSV at `line` (`None`: the header).
+    pub(crate) fn table_csv(table: &str, line: Option<usize>, source: csv::Error) -> Self {
+        SimError::TableCsv {
+            table: table.to_string(),
+            line,
+            source,
+        }
+    }
+
+    /// Drawing or writing the figure `path` failed.
+    pub(crate) fn plot(
+        path: &Path,
+    ) -> impl Fn(plotters::drawing::DrawingAreaErrorKind<std::io::Error>) -> Self + Copy + '_ {
+        move |source| SimError::Plot {
+            path: path.to_path_buf(),
+            source,
+        }
+    }
 }
 
 /// Parses one of a fixed set of lower-case names (CLI and config values).

@@ -12,10 +12,6 @@ const D_OMEGA: f64 = 0.02;
 /// Upper end of the frequency axes [rad/s].
 const OMEGA_MAX: f64 = 2.5;
 
-fn plot_err(e: impl std::fmt::Display) -> SimError {
-    SimError::Plot(e.to_string())
-}
-
 /// Histogram spectrum smoothed over five bins and scaled to a peak of one (shapes compare).
 fn normalised_spectrum(m: &ShipMotion, channel: Channel) -> Vec<(f64, f64)> {
     let bins = (OMEGA_MAX / D_OMEGA) as usize;
@@ -57,6 +53,7 @@ pub fn plot_overview(
     seconds: f64,
     rate_hz: f64,
 ) -> Result<(), SimError> {
+    let plot_err = SimError::plot(path);
     let n = (seconds * rate_hz).ceil().max(2.0) as usize;
     let record: Vec<_> = m.stream(rate_hz, 0.0)?.take(n).collect();
     let root = SVGBackend::new(path, (1200, 1150)).into_drawing_area();

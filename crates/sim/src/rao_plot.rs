@@ -13,15 +13,15 @@ pub struct RaoPanel {
     pub curves: Vec<(String, Vec<(f64, f64)>)>,
 }
 
-fn plot_err(e: impl std::fmt::Display) -> SimError {
-    SimError::Plot(e.to_string())
-}
-
 /// Draws the panels side by side (one row) to `path` as SVG.
 pub fn plot_rao_panels(panels: &[RaoPanel], path: &Path) -> Result<(), SimError> {
     if panels.is_empty() {
-        return Err(SimError::Plot("no panels to draw".into()));
+        return Err(SimError::NothingToPlot {
+            path: path.to_path_buf(),
+            problem: "no panels to draw".into(),
+        });
     }
+    let plot_err = SimError::plot(path);
     let root = SVGBackend::new(path, (450 * panels.len() as u32, 400)).into_drawing_area();
     root.fill(&WHITE).map_err(plot_err)?;
     for (area, panel) in root.split_evenly((1, panels.len())).iter().zip(panels) {
@@ -33,10 +33,10 @@ pub fn plot_rao_panels(panels: &[RaoPanel], path: &Path) -> Result<(), SimError>
             a_hi = a_hi.max(a);
         }
         if w_lo.partial_cmp(&w_hi) != Some(std::cmp::Ordering::Less) {
-            return Err(SimError::Plot(format!(
-                "panel '{}' has no data",
-                panel.title
-            )));
+            return Err(SimError::NothingToPlot {
+                path: path.to_path_buf(),
+                problem: format!("panel '{}' has no data", panel.title),
+            });
         }
         let a_hi = if a_hi > 0.0 { a_hi * 1.1 } else { 1.0 };
         let mut chart = ChartBuilder::on(area)

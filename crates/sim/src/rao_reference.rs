@@ -71,12 +71,12 @@ impl ReferenceRaos {
 
     /// Parses a table; `source` names it in error messages.
     pub fn from_reader(reader: impl Read, source: &str) -> Result<Self, SimError> {
-        let err = |msg: String| SimError::Table(format!("{source}: {msg}"));
+        let err = |msg: String| SimError::table(source, msg);
         let (mut rdr, idx) = csv_with_columns(reader, COLUMNS, source)?;
         let mut curves: Vec<ReferenceCurve> = Vec::new();
         for (i, rec) in rdr.records().enumerate() {
             let line = i + 2;
-            let rec = rec.map_err(|e| err(format!("line {line}: {e}")))?;
+            let rec = rec.map_err(|e| SimError::table_csv(source, Some(line), e))?;
             let num = |c: usize| -> Result<f64, SimError> {
                 let text = rec.get(idx[c]).unwrap_or("");
                 match text.parse::<f64>() {
@@ -131,7 +131,11 @@ impl ReferenceRaos {
         self.curves
             .iter()
             .find(|c| c.dof == dof && (c.heading_deg - heading_deg).abs() < 1e-9)
-            .ok_or_else(|| SimError::Table(format!("no {dof} curve at heading {heading_deg} deg")))
+            .ok_or_else(|| {
+                SimError::Config(format!(
+                    "the reference table has no {dof} curve at heading {heading_deg} deg"
+                ))
+            })
     }
 }
 

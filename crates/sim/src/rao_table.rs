@@ -61,8 +61,10 @@ fn lerp(a: &Response, b: &Response, t: f64) -> Response {
 
 /// Opens a table file; the error names it. Shared by the RAO table loaders.
 pub(crate) fn open_table(path: &Path) -> Result<std::fs::File, SimError> {
-    std::fs::File::open(path)
-        .map_err(|e| SimError::Table(format!("cannot open {}: {e}", path.display())))
+    std::fs::File::open(path).map_err(|source| SimError::TableOpen {
+        path: path.to_path_buf(),
+        source,
+    })
 }
 
 /// A trimming CSV reader and the index of each of `columns` in its header (any order, extra
@@ -72,13 +74,13 @@ pub(crate) fn csv_with_columns<R: Read, const N: usize>(
     columns: [&str; N],
     source: &str,
 ) -> Result<(csv::Reader<R>, [usize; N]), SimError> {
-    let err = |msg: String| SimError::Table(format!("{source}: {msg}"));
+    let err = |msg: String| SimError::table(source, msg);
     let mut rdr = csv::ReaderBuilder::new()
         .trim(csv::Trim::All)
         .from_reader(reader);
     let headers = rdr
         .headers()
-        .map_err(|e| err(format!("header: {e}")))?
+        .map_err(|e| SimError::table_csv(source, None, e))?
         .clone();
     let mut idx = [0usize; N];
     for (slot, name) in idx.iter_mut().zip(columns) {
@@ -98,13 +100,13 @@ impl RaoTable {
 
     /// Parses a table; `source` names it in error messages.
     pub fn from_reader(reader: impl Read, source: &str) -> Result<Self, SimError> {
-        let err = |msg: String| SimError::Table(format!("{source}: {msg}"));
+        let err = |msg: String| SimError::table(source, msg);
         let (mut rdr, idx) = csv_with_columns(reader, COLUMNS, source)?;
         let mut rows: HashMap<[u64; 3], [Option<c64>; 6]> = HashMap::new();
         let (mut speeds, mut headings, mut omegas) = (Vec::new(), Vec::new(), Vec::new());
         for (i, rec) in rdr.records().enumerate() {
             let line = i + 2;
-            let rec = rec.map_err(|e| err(format!("line {line}: {e}")))?;
+            let rec = rec.map_err(|e| SimError::table_csv(source, Some(line), e))?;
             let num = |c: usize| -> Result<f64, SimError> {
                 let text = rec.get(idx[c]).unwrap_or("");
                 let v: f64 = text.parse().map_err(|_| {

@@ -289,10 +289,7 @@ impl PublisherWatch {
             .declare_subscriber(format!("{prefix}*"))
             .history(true)
             .wait()
-            .map_err(|e| ZenohError {
-                context: format!("watch publishers of '{key}'"),
-                detail: e.to_string(),
-            })?;
+            .map_err(ZenohError::on(format!("watch publishers of '{key}'")))?;
         Ok(Self { prefix, subscriber })
     }
 

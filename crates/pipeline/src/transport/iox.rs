@@ -15,19 +15,34 @@ use std::time::{Duration, Instant};
 /// The iceoryx2 service flavour used everywhere: inter-process, ports stay on their thread.
 pub type Ipc = ipc::Service;
 
-/// An iceoryx2 failure, with what was being done.
+/// An iceoryx2 failure, with what was being done; iceoryx2's own error is the `source`.
 #[derive(Debug, thiserror::Error)]
-#[error("iceoryx2: {context}: {detail}")]
+#[error("iceoryx2: {context}")]
 pub struct IoxError {
     pub context: String,
-    pub detail: String,
+    #[source]
+    pub source: Box<dyn std::error::Error + Send + Sync + 'static>,
 }
 
-fn err<E: Debug>(context: impl Into<String>) -> impl FnOnce(E) -> IoxError {
-    move |e| IoxError {
-        context: context.into(),
-        detail: format!("{e:?}"),
+impl IoxError {
+    /// The error of a failed call; `context` becomes a `String` only then (a `&str` context
+    /// allocates nothing on success, which the forecast path relies on).
+    pub fn on<E>(context: impl Into<String>) -> impl FnOnce(E) -> IoxError
+    where
+        E: std::error::Error + Send + Sync + 'static,
+    {
+        move |e| IoxError {
+            context: context.into(),
+            source: Box::new(e),
+        }
     }
+}
+
+fn err<E>(context: impl Into<String>) -> impl FnOnce(E) -> IoxError
+where
+    E: std::error::Error + Send + Sync + 'static,
+{
+    IoxError::on(context)
 }
 
 /// How a subscriber waits for new samples.
@@ -316,6 +331,17 @@ mod tests {
         fn drop(&mut self) {
             remove_leftovers(&self.0);
         }
+    }
+
+    #[test]
+    fn an_invalid_service_name_prints_iceoryx2s_error_once() {
+        let name = "x".repeat(1000);
+        let e = service_name(&name).unwrap_err();
+        let cause = e.source.to_string();
+        assert!(!cause.is_empty());
+        let printed = format!("{:#}", anyhow::Error::from(e));
+        assert_eq!(printed, format!("iceoryx2: service name '{name}': {cause}"));
+        assert_eq!(printed.matches(&cause).count(), 1, "{printed}");
     }
 
     #[test]

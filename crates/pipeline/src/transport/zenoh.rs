@@ -16,19 +16,49 @@ use zenoh::qos::CongestionControl;
 use zenoh::sample::{Sample, SampleKind};
 use zenoh::{Session, Wait};
 
-/// A zenoh failure, with what was being done.
+/// A zenoh failure, with what was being done; the underlying error is the `source`.
 #[derive(Debug, thiserror::Error)]
-#[error("zenoh: {context}: {detail}")]
+#[error("zenoh: {context}")]
 pub struct ZenohError {
     pub context: String,
-    pub detail: String,
+    #[source]
+    pub source: ZenohCause,
 }
 
-fn err<E: std::fmt::Display>(context: impl Into<String>) -> impl FnOnce(E) -> ZenohError {
-    move |e| ZenohError {
-        context: context.into(),
-        detail: e.to_string(),
+impl ZenohError {
+    /// The error of a failed call; `context` becomes a `String` only then (a put that
+    /// succeeds formats nothing).
+    pub fn on<E>(context: impl Into<String>) -> impl FnOnce(E) -> ZenohError
+    where
+        E: Into<Box<dyn std::error::Error + Send + Sync + 'static>>,
+    {
+        move |e| ZenohError {
+            context: context.into(),
+            source: ZenohCause(e.into()),
+        }
     }
+}
+
+/// The error zenoh (or the JSON encoder, or the OS) returned, kept whole for callers that
+/// inspect it. zenoh's errors write their own causes into their message ("... - Caused by
+/// ...") and also return them as `source`, so the chain ends here: with `{:#}` every cause
+/// prints once.
+#[derive(Debug)]
+pub struct ZenohCause(pub Box<dyn std::error::Error + Send + Sync + 'static>);
+
+impl std::fmt::Display for ZenohCause {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        self.0.fmt(f)
+    }
+}
+
+impl std::error::Error for ZenohCause {}
+
+fn err<E>(context: impl Into<String>) -> impl FnOnce(E) -> ZenohError
+where
+    E: Into<Box<dyn std::error::Error + Send + Sync + 'static>>,
+{
+    ZenohError::on(context)
 }
 
 /// zenoh's role for a session: a peer (the predictor, plain-TCP consumers), a client that
@@ -286,10 +316,7 @@ impl JsonPublisher {
             .attachment(self.publisher_id.clone())
             .wait()
             // The context is formatted only on failure: a put that succeeds formats nothing.
-            .map_err(|e| ZenohError {
-                context: format!("put on '{}'", self.publisher.key_expr()),
-                detail: e.to_string(),
-            })
+            .map_err(|e| ZenohError::on(format!("put on '{}'", self.publisher.key_expr()))(e))
     }
 
     /// Serialise `value` as JSON and publish it.
@@ -463,5 +490,76 @@ mod tests {
         .err()
         .unwrap();
         assert!(e.to_string().starts_with("zenoh: "), "{e}");
+    }
+
+    /// An error that, like zenoh's, writes its cause into its message and also returns it
+    /// as `source`.
+    #[derive(Debug)]
+    struct SelfDescribing(std::io::Error);
+
+    impl std::fmt::Display for SelfDescribing {
+        fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+            write!(f, "link failed - Caused by {}", self.0)
+        }
+    }
+
+    impl std::error::Error for SelfDescribing {
+        fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+            Some(&self.0)
+        }
+    }
+
+    #[test]
+    fn a_cause_written_into_zenohs_message_prints_once() {
+        let io = std::io::Error::other("refused by peer");
+        let e = ZenohError::on("open session")(SelfDescribing(io));
+        assert_eq!(
+            format!("{:#}", anyhow::Error::from(e)),
+            "zenoh: open session: link failed - Caused by refused by peer"
+        );
+    }
+
+    #[test]
+    fn an_invalid_certificate_file_prints_each_cause_once() {
+        let dir = tempfile::tempdir().unwrap();
+        let garbage = dir.path().join("pipeline.pem");
+        std::fs::write(&garbage, "not a certificate\n").unwrap();
+        let garbage = garbage.display().to_string();
+        let tcp = free_loopback_endpoint().unwrap();
+        let listen = tcp.replacen("tcp/", "tls/", 1);
+        let e = open(&ZenohSettings {
+            listen: vec![listen.clone()],
+            tls: Some(TlsSettings {
+                root_ca: garbage.clone(),
+                certificate: garbage.clone(),
+                private_key: garbage,
+            }),
+            ..ZenohSettings::default()
+        })
+        .err()
+        .unwrap();
+        let e = anyhow::Error::from(e);
+        let printed = format!("{e:#}");
+        // zenoh's error is kept whole as the typed cause.
+        let cause = e
+            .chain()
+            .nth(1)
+            .and_then(|s| s.downcast_ref::<ZenohCause>())
+            .expect("the zenoh error is the source");
+        let head = format!("zenoh: open peer session (listen [\"{listen}\"], connect [], TLS): ");
+        assert!(printed.starts_with(&head), "{printed}");
+        assert_eq!(printed.lines().count(), 1, "{printed}");
+        // zenoh writes its causes into its own message and also returns them as `source`:
+        // chained naively, each would print twice.
+        let mut inner = std::error::Error::source(cause.0.as_ref());
+        while let Some(c) = inner {
+            assert_eq!(
+                printed.matches(&c.to_string()).count(),
+                1,
+                "{c} in {printed}"
+            );
+            inner = c.source();
+        }
+        assert_eq!(printed.matches(&cause.to_string()).count(), 1, "{printed}");
     }
 }

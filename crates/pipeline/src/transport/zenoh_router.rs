@@ -35,12 +35,7 @@ impl FleetRouter {
             mode: Mode::Router,
             ..settings.clone()
         };
-        let err = |context: String| {
-            move |e: zenoh::Error| ZenohError {
-                context,
-                detail: e.to_string(),
-            }
-        };
+        let err = |context: String| ZenohError::on::<zenoh::Error>(context);
         let mut config = zenoh_config(&settings)?;
         // Forecasts are express puts, and zenoh sends each express message in a batch of its
         // own, so a link's queue of 2 batches (zenoh's default) holds only 2 forecasts. On the

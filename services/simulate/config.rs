@@ -1,0 +1,291 @@
+//! The validated configuration of `shipcast simulate`: [`Config::try_from`] turns the raw
+//! [`Args`] into checked values (ranges, the scenario and its overrides, the changes, the
+//! output directory of the figure) before anything is simulated.
+
+use super::Args;
+use crate::checked;
+use anyhow::Context;
+use shipcast_pipeline::config::MAX_PRODUCER_RATE_HZ;
+use shipcast_pipeline::limits;
+use shipcast_sim::{
+    CourseChange, Hull, RaoSpec, Scenario, SeaChange, SimConfig, Spectrum, SpectrumKind,
+};
+use std::path::PathBuf;
+
+/// What `simulate` writes, every value checked: built from [`Args`] by [`Config::try_from`],
+/// the only place that validates them, so the writers below see checked values only.
+#[derive(Debug, Clone)]
+pub struct Config {
+    /// The sea, the ship and its RAOs (checked with `SimConfig::validate`).
+    pub sim: SimConfig,
+    /// Output sample rate [Hz].
+    pub rate_hz: f64,
+    /// Output motion CSV.
+    pub out: PathBuf,
+    /// What drives the ship.
+    pub record: Record,
+    /// SVG overview to draw (stationary records only); its directory exists.
+    pub plot: Option<PathBuf>,
+}
+
+/// The three kinds of record `simulate` writes.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Record {
+    /// A stationary simulated sea of `duration_s`.
+    Stationary { duration_s: f64 },
+    /// A simulated sea with a course and/or a sea-state change (at least one).
+    Changing {
+        duration_s: f64,
+        course: Option<CourseChange>,
+        sea: Option<SeaChange>,
+    },
+    /// The ship driven by a measured elevation record.
+    Measured { elevation: PathBuf, edge_s: f64 },
+}
+
+/// Most rows one record may have (about 10 GB of CSV).
+const MAX_ROWS: u64 = 100_000_000;
+
+impl TryFrom<Args> for Config {
+    type Error = anyhow::Error;
+
+    fn try_from(args: Args) -> anyhow::Result<Self> {
+        let rate_hz = checked(limits::rate("--rate", args.rate, MAX_PRODUCER_RATE_HZ))?;
+        let record = match &args.elevation {
+            Some(elevation) => Record::Measured {
+                elevation: elevation.clone(),
+                edge_s: checked(limits::non_negative(
+                    "--edge-s",
+                    args.edge_s,
+                    limits::MAX_SECONDS,
+                ))?,
+            },
+            None => {
+                let duration_s = checked(limits::positive(
+                    "--duration",
+                    args.duration,
+                    limits::MAX_SECONDS,
+                ))?;
+                // Checked before the sea is built: a record of billions of rows would run for
+                // days.
+                let rows = duration_s * rate_hz;
+                if rows > MAX_ROWS as f64 {
+                    anyhow::bail!("--duration x --rate = {rows:.0} rows, at most {MAX_ROWS}");
+                }
+                changes(&args, duration_s)?
+            }
+        };
+        let sim = sim_config(&args)?;
+        sim.validate()?;
+        if !matches!(record, Record::Measured { .. }) {
+            Spectrum::new(sim.spectrum, sim.hs_m, sim.tp_s, sim.gamma)?;
+        }
+        if let Record::Changing { sea: Some(s), .. } = &record {
+            // The new sea is a JONSWAP with the DNV gamma (see AFTER_HELP).
+            Spectrum::new(SpectrumKind::Jonswap, s.hs_m, s.tp_s, None)
+                .context("--new-hs/--new-tp")?;
+        }
+        if let Some(svg) = &args.plot {
+            // Checked now: the figure is drawn after the whole record is written.
+            crate::output_in_existing_dir("--plot", svg)?;
+        }
+        Ok(Config {
+            sim,
+            rate_hz,
+            out: args.out,
+            record,
+            plot: args.plot,
+        })
+    }
+}
+
+/// The course and sea-state changes of a simulated record (clap enforces that each comes with
+/// its companion options).
+fn changes(args: &Args, duration_s: f64) -> anyhow::Result<Record> {
+    let seconds = |name: &str, v: f64| checked(limits::non_negative(name, v, limits::MAX_SECONDS));
+    let course = match (args.course_change_s, args.new_heading_deg) {
+        (Some(at_s), Some(new_heading_deg)) => Some(CourseChange {
+            at_s: seconds("--course-change-s", at_s)?,
+            new_heading_deg,
+            turn_s: seconds("--turn-s", args.turn_s)?,
+        }),
+        _ => None,
+    };
+    let sea = match (args.sea_change_s, args.new_hs, args.new_tp) {
+        (Some(at_s), Some(hs_m), Some(tp_s)) => Some(SeaChange {
+            at_s: seconds("--sea-change-s", at_s)?,
+            hs_m,
+            tp_s,
+            ramp_s: seconds("--ramp-s", args.ramp_s)?,
+        }),
+        _ => None,
+    };
+    Ok(if course.is_some() || sea.is_some() {
+        Record::Changing {
+            duration_s,
+            course,
+            sea,
+        }
+    } else {
+        Record::Stationary { duration_s }
+    })
+}
+
+/// The simulator configuration the arguments describe: the scenario with the options that
+/// override it.
+fn sim_config(args: &Args) -> anyhow::Result<SimConfig> {
+    let scenario: Scenario = args.scenario.parse()?;
+    let mut cfg = SimConfig::scenario(scenario);
+    cfg.spectrum = args.spectrum.parse()?;
+    cfg.spreading = args.spreading.parse()?;
+    cfg.hs_m = args.hs.unwrap_or(cfg.hs_m);
+    cfg.tp_s = args.tp.unwrap_or(cfg.tp_s);
+    cfg.gamma = args.gamma;
+    cfg.speed_kn = args.speed_kn.unwrap_or(cfg.speed_kn);
+    cfg.heading_deg = args.heading_deg.unwrap_or(cfg.heading_deg);
+    cfg.components = args.components;
+    cfg.seed = args.seed;
+    cfg.rao = match (&args.rao_table, args.rao_table_length, args.hull_length) {
+        (Some(path), table_length_m, hull_length_m) => RaoSpec::Table {
+            path: path.clone(),
+            table_length_m,
+            hull_length_m,
+        },
+        (None, Some(_), _) => anyhow::bail!("--rao-table-length needs --rao-table"),
+        (None, None, Some(l)) => RaoSpec::ClosedForm {
+            hull: Hull::dtmb5415().scaled_to_length(l)?,
+        },
+        (None, None, None) => RaoSpec::ClosedForm {
+            hull: Hull::dtmb5415(),
+        },
+    };
+    Ok(cfg)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn config(argv: &[&str]) -> anyhow::Result<Config> {
+        crate::validated::<Args, Config>(argv)
+    }
+
+    fn refused(argv: &[&str]) -> String {
+        crate::refused::<Args, Config>(argv)
+    }
+
+    #[test]
+    fn the_record_kind_follows_the_options() {
+        let c = config(&["--out", "m.csv"]).unwrap();
+        assert_eq!(c.record, Record::Stationary { duration_s: 3600.0 });
+        assert_eq!((c.rate_hz, c.sim.hs_m), (8.0, 3.05));
+        let c = config(&[
+            "--out",
+            "m.csv",
+            "--hs",
+            "2",
+            "--course-change-s",
+            "100",
+            "--new-heading-deg",
+            "90",
+        ])
+        .unwrap();
+        assert_eq!(c.sim.hs_m, 2.0);
+        assert_eq!(
+            c.record,
+            Record::Changing {
+                duration_s: 3600.0,
+                course: Some(CourseChange {
+                    at_s: 100.0,
+                    new_heading_deg: 90.0,
+                    turn_s: 60.0
+                }),
+                sea: None
+            }
+        );
+        let c = config(&["--out", "m.csv", "--elevation", "e.csv", "--edge-s", "30"]).unwrap();
+        assert_eq!(
+            c.record,
+            Record::Measured {
+                elevation: "e.csv".into(),
+                edge_s: 30.0
+            }
+        );
+    }
+
+    #[test]
+    fn bad_values_are_refused_with_one_line_naming_the_option() {
+        assert_eq!(
+            refused(&["--out", "m.csv", "--duration", "1e300"]),
+            format!(
+                "--duration must be a number in (0, {}], got 1e300",
+                limits::MAX_SECONDS
+            )
+        );
+        assert_eq!(
+            refused(&["--out", "m.csv", "--duration", "31536000", "--rate", "10"]),
+            "--duration x --rate = 315360000 rows, at most 100000000"
+        );
+        assert_eq!(
+            refused(&["--out", "m.csv", "--rao-table-length", "100"]),
+            "--rao-table-length needs --rao-table"
+        );
+        assert_eq!(
+            refused(&[
+                "--out",
+                "m.csv",
+                "--course-change-s",
+                "100",
+                "--new-heading-deg",
+                "90",
+                "--turn-s",
+                "-1"
+            ]),
+            format!(
+                "--turn-s must be a number in [0, {}], got -1",
+                limits::MAX_SECONDS
+            )
+        );
+        assert_eq!(
+            refused(&["--out", "m.csv", "--hs", "-1"]),
+            "invalid simulation setting: significant wave height must be positive, got -1 m"
+        );
+        assert_eq!(
+            refused(&[
+                "--out",
+                "m.csv",
+                "--sea-change-s",
+                "100",
+                "--new-hs",
+                "0",
+                "--new-tp",
+                "9"
+            ]),
+            "--new-hs/--new-tp: invalid simulation setting: significant wave height must be \
+             positive, got 0 m"
+        );
+        assert_eq!(
+            refused(&["--out", "m.csv", "--elevation", "e.csv", "--edge-s", "nan"]),
+            format!(
+                "--edge-s must be a number in [0, {}], got NaN",
+                limits::MAX_SECONDS
+            )
+        );
+    }
+
+    #[test]
+    fn a_figure_in_a_missing_directory_is_refused_before_the_record_is_made() {
+        let dir = tempfile::tempdir().unwrap();
+        let svg = dir.path().join("missing").join("m.svg");
+        let svg = svg.to_str().unwrap();
+        assert_eq!(
+            refused(&["--out", "m.csv", "--plot", svg]),
+            format!(
+                "--plot {svg}: the directory {} does not exist",
+                dir.path().join("missing").display()
+            )
+        );
+        // A bare file name is in the current directory, which exists.
+        assert!(config(&["--out", "m.csv", "--plot", "m.svg"]).is_ok());
+    }
+}
