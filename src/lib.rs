@@ -15,6 +15,8 @@
 //! - [`transport`]: service names, iceoryx2 and zenoh plumbing.
 //! - [`config`]: the pipeline TOML configuration.
 //! - [`deck`], [`crane`]: ship-point geometry, landing advisory, crane-tip forecast.
+//! - [`decision`]: landing go/no-go over a minimum operation time, with the joint probability
+//!   that every limit holds, and its scoring against a record.
 //! - [`bench`]: the latency harness (`shipcast bench latency`).
 //!
 //! # Example: fit a predictor and forecast
@@ -45,6 +47,7 @@
 pub mod bench;
 pub mod config;
 pub mod crane;
+pub mod decision;
 pub mod deck;
 pub mod dof;
 pub mod engine;
