@@ -1,17 +1,28 @@
-//! The step-to-step correlation of standardised forecast errors, estimated from verified
-//! forecasts: per quantity, rho = sum u_k u_(k+1) / sqrt(sum u_k^2 sum u_(k+1)^2) over every
-//! pair of neighbouring steps of every verified forecast, u = (actual - mean) / sigma. That is
-//! the lag-one correlation that defines the AR(1)-in-lead error model of [`super::window`].
+//! The correlation of standardised forecast errors across steps, estimated from verified
+//! forecasts (u = (actual - mean) / sigma): per quantity, the full matrix
+//! corr(i, j) = sum u_i u_j / sqrt(sum u_i^2 sum u_j^2) over every verified forecast, and its
+//! lag-one summary rho (the AR(1)-in-lead model used before enough evidence exists and for
+//! the deck velocity's sigma).
 
 use super::NUM_QUANTITIES;
 
+use crate::payload::MAX_STEPS;
+
 /// Pairs of steps needed before the estimate replaces the configured correlation.
 pub const MIN_PAIRS: f64 = 500.0;
+
+/// Verified forecasts needed before the full matrix is used (a 50 x 50 correlation estimated
+/// from fewer strongly dependent forecasts is noise).
+pub const MIN_FORECASTS: f64 = 600.0;
 
 #[derive(Debug, Clone)]
 pub struct ErrorCorrelation {
     /// Per quantity: sum u_k u_(k+1), sum u_k^2, sum u_(k+1)^2, pairs.
     sums: [[f64; 4]; NUM_QUANTITIES],
+    /// Per quantity: sum u_i u_j (MAX_STEPS x MAX_STEPS, row-major) and forecasts added.
+    products: Vec<Vec<f64>>,
+    forecasts: [f64; NUM_QUANTITIES],
+    steps: [usize; NUM_QUANTITIES],
     fallback: [f64; NUM_QUANTITIES],
 }
 
@@ -20,13 +31,53 @@ impl ErrorCorrelation {
     pub fn new(fallback: [f64; NUM_QUANTITIES]) -> Self {
         Self {
             sums: [[0.0; 4]; NUM_QUANTITIES],
+            products: vec![vec![0.0; MAX_STEPS * MAX_STEPS]; NUM_QUANTITIES],
+            forecasts: [0.0; NUM_QUANTITIES],
+            steps: [0; NUM_QUANTITIES],
             fallback,
         }
+    }
+
+    /// The full correlation matrix of quantity `q` over `steps` steps into `out` (row-major,
+    /// `steps` columns), if enough forecasts of that many finite steps were verified.
+    pub fn matrix(&self, q: usize, steps: usize, out: &mut [f64]) -> bool {
+        if self.forecasts[q] < MIN_FORECASTS || self.steps[q] != steps || out.len() < steps * steps
+        {
+            return false;
+        }
+        let p = &self.products[q];
+        for i in 0..steps {
+            for j in 0..steps {
+                let d = (p[i * MAX_STEPS + i] * p[j * MAX_STEPS + j]).sqrt();
+                out[i * steps + j] = if d > 0.0 {
+                    p[i * MAX_STEPS + j] / d
+                } else {
+                    0.0
+                };
+            }
+        }
+        true
     }
 
     /// Add one verified forecast's standardised errors of quantity `q` (consecutive steps;
     /// non-finite entries, from steps without sigma, break the run).
     pub fn add(&mut self, q: usize, u: &[f64]) {
+        let steps = u.len().min(MAX_STEPS);
+        if steps > 0 && u[..steps].iter().all(|v| v.is_finite()) {
+            if self.steps[q] != steps {
+                // A new horizon: the products were about other steps.
+                self.products[q].iter_mut().for_each(|v| *v = 0.0);
+                self.forecasts[q] = 0.0;
+                self.steps[q] = steps;
+            }
+            let p = &mut self.products[q];
+            for i in 0..steps {
+                for j in 0..steps {
+                    p[i * MAX_STEPS + j] += u[i] * u[j];
+                }
+            }
+            self.forecasts[q] += 1.0;
+        }
         let s = &mut self.sums[q];
         for pair in u.windows(2) {
             let (a, b) = (pair[0], pair[1]);
@@ -83,9 +134,21 @@ mod tests {
             }
         }
         let got = est.rho();
+        let mut m = vec![0.0; 40 * 40];
         for (q, &rho) in rhos.iter().enumerate() {
             assert!((got[q] - rho).abs() < 0.02, "q {q}: {} vs {rho}", got[q]);
+            // The full matrix: rho^lag at lags 1, 3 and 10.
+            assert!(est.matrix(q, 40, &mut m));
+            for lag in [1usize, 3, 10] {
+                let c = m[5 * 40 + 5 + lag];
+                assert!(
+                    (c - rho.powi(lag as i32)).abs() < 0.06,
+                    "q {q} lag {lag}: {c}"
+                );
+            }
+            assert!((m[7 * 40 + 7] - 1.0).abs() < 1e-12);
         }
+        assert!(!est.matrix(0, 30, &mut m), "other steps than verified");
         // A break (no sigma) does not pair across it.
         let mut e = ErrorCorrelation::new([0.0; NUM_QUANTITIES]);
         e.add(0, &[1.0, f64::NAN, 1.0]);

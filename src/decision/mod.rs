@@ -17,7 +17,7 @@ use crate::deck::ShipPoint;
 use crate::payload::{Forecast, MAX_STEPS};
 pub use correlation::ErrorCorrelation;
 use serde::{Deserialize, Serialize};
-use window::{chain_within, Lattice};
+use window::{chain_within, cholesky_block, correlated_within, Lattice};
 
 /// The limited quantities, in the order of every per-quantity array here.
 pub const QUANTITIES: [&str; 4] = ["roll", "pitch", "deck_vertical_m", "deck_vertical_mps"];
@@ -161,6 +161,12 @@ pub struct Decider {
     tracks: Box<Tracks>,
     /// Steps before k at which some mean breaks its limit (prefix counts).
     breaks_before: [u32; MAX_STEPS + 1],
+    /// Full error correlation per quantity over `full_steps` steps (0: none, the AR(1) chain
+    /// with `rho` is used), and work buffers for its Cholesky factor.
+    full: Vec<Vec<f64>>,
+    full_steps: [usize; NUM_QUANTITIES],
+    chol: Vec<f64>,
+    y: Vec<f64>,
 }
 
 impl Decider {
@@ -178,6 +184,10 @@ impl Decider {
             lattice: Lattice::new(LATTICE_POINTS, MAX_STEPS),
             tracks: Box::default(),
             breaks_before: [0; MAX_STEPS + 1],
+            full: vec![vec![0.0; MAX_STEPS * MAX_STEPS]; NUM_QUANTITIES],
+            full_steps: [0; NUM_QUANTITIES],
+            chol: vec![0.0; MAX_STEPS * MAX_STEPS],
+            y: vec![0.0; MAX_STEPS],
         }
     }
 
@@ -206,6 +216,17 @@ impl Decider {
                 0.0
             }
         });
+    }
+
+    /// Use the full error correlations of `estimate` where it has them (else the AR(1) chain).
+    pub fn set_error_matrices(&mut self, estimate: &ErrorCorrelation, steps: usize) {
+        for q in 0..NUM_QUANTITIES {
+            self.full_steps[q] = if estimate.matrix(q, steps, &mut self.full[q]) {
+                steps
+            } else {
+                0
+            };
+        }
     }
 
     /// Steps in a window of MOT at step `dt_s`.
@@ -239,7 +260,7 @@ impl Decider {
 
     /// Probability that every limit holds over steps [start, start + len) of the loaded
     /// forecast.
-    pub fn window_probability(&self, start: usize, len: usize) -> f64 {
+    pub fn window_probability(&mut self, start: usize, len: usize) -> f64 {
         let t = &self.tracks;
         let end = (start + len).min(t.steps);
         if start >= end {
@@ -247,13 +268,24 @@ impl Decider {
         }
         let mut p = 1.0;
         for q in 0..NUM_QUANTITIES {
-            p *= chain_within(
-                &t.mean[q][start..end],
-                &t.sigma[q][start..end],
-                self.limits[q],
-                self.rho[q],
-                &self.lattice,
-            );
+            let (mean, sigma) = (&t.mean[q][start..end], &t.sigma[q][start..end]);
+            let m = self.full_steps[q];
+            let full = (m == t.steps
+                && cholesky_block(&self.full[q], m, start, end - start, &mut self.chol))
+            .then(|| {
+                correlated_within(
+                    mean,
+                    sigma,
+                    self.limits[q],
+                    &self.chol,
+                    &self.lattice,
+                    &mut self.y,
+                )
+            })
+            .flatten();
+            p *= full.unwrap_or_else(|| {
+                chain_within(mean, sigma, self.limits[q], self.rho[q], &self.lattice)
+            });
             if p == 0.0 {
                 break;
             }
@@ -299,12 +331,17 @@ impl Decider {
     /// First start whose window of `n` steps holds with at least `threshold`: only windows
     /// whose means hold every limit are candidates (one whose mean breaks a limit has a
     /// probability below a half).
-    pub fn next_window(&self, n: usize, threshold: f64) -> Option<(usize, f64)> {
+    pub fn next_window(&mut self, n: usize, threshold: f64) -> Option<(usize, f64)> {
         let steps = self.tracks.steps;
-        (0..=steps.checked_sub(n)?)
-            .filter(|&s| self.mean_holds(s, n))
-            .map(|s| (s, self.window_probability(s, n)))
-            .find(|&(_, p)| p >= threshold)
+        for s in 0..=steps.checked_sub(n)? {
+            if self.mean_holds(s, n) {
+                let p = self.window_probability(s, n);
+                if p >= threshold {
+                    return Some((s, p));
+                }
+            }
+        }
+        None
     }
 }
 

@@ -187,6 +187,9 @@ impl DecisionScorer {
             return;
         };
         first.decider.set_error_correlation(rho);
+        first
+            .decider
+            .set_error_matrices(&self.correlation, forecast.valid_steps());
         first.decider.load(forecast);
         let point = *first.decider.point();
         let limits = *first.decider.limits();
@@ -224,6 +227,8 @@ impl DecisionScorer {
         for (i, m) in self.per_mot.iter_mut().enumerate() {
             if i > 0 {
                 m.decider.set_error_correlation(rho);
+                m.decider
+                    .set_error_matrices(&self.correlation, forecast.valid_steps());
                 m.decider.load(forecast);
             }
             let n = m.decider.window_steps(dt);
@@ -433,5 +438,66 @@ mod tests {
         // MOT 30 s does not fit a 20 s horizon: no calls.
         assert_eq!(r[1].calls, 0);
         assert!(r[1].false_go_rate.is_nan());
+    }
+}
+
+/// Replay end to end on a Gaussian sea whose forecast errors are Gaussian by construction.
+#[cfg(test)]
+mod replay_tests {
+    use crate::config::{DeckConfig, PredictorServiceConfig};
+    use crate::engine::replay::replay_scored;
+    use crate::motion_csv::{Column, MotionData};
+    use rand::SeedableRng;
+    use rand_distr::{Distribution, Normal};
+
+    /// A resonant AR(2) heave at 2 Hz (period 8 s, pole radius 0.95).
+    fn ar2_heave(n: usize, seed: u64) -> MotionData {
+        let theta = std::f64::consts::TAU / 16.0;
+        let (a1, a2) = (2.0 * 0.95 * theta.cos(), -0.95 * 0.95);
+        let noise = Normal::new(0.0, 0.1).unwrap();
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+        let mut x = vec![0.0; n];
+        for t in 2..n {
+            x[t] = a1 * x[t - 1] + a2 * x[t - 2] + noise.sample(&mut rng);
+        }
+        MotionData {
+            time: (0..n).map(|i| i as f64 / 2.0).collect(),
+            columns: vec![Column {
+                name: "heave_m".into(),
+                values: x,
+            }],
+        }
+    }
+
+    #[test]
+    fn replay_scores_decisions_for_both_mots() {
+        let data = ar2_heave(2 * 1000, 5);
+        let deck = DeckConfig {
+            point_m: [0.0; 3],
+            vertical_displacement_limit_m: 1.0,
+            vertical_velocity_limit_mps: 10.0,
+            ..DeckConfig::default()
+        };
+        let config = PredictorServiceConfig::default();
+        let (report, _) =
+            replay_scored(&data, &config, None, 200.0, false, Some(&deck), &|_| {}).unwrap();
+        let [mot10, mot30] = &report.decisions[..] else {
+            panic!("{:?}", report.decisions);
+        };
+        assert_eq!((mot10.mot_s, mot30.mot_s), (10.0, 30.0));
+        assert!(mot10.calls > 1000, "{mot10:?}");
+        // The default 25 s horizon holds no 30 s window.
+        assert_eq!(mot30.calls, 0);
+        let counted: u64 = mot10.reliability.iter().map(|b| b.count).sum();
+        assert_eq!(counted, mot10.calls);
+        for b in mot10.reliability.iter().filter(|b| b.count > 0) {
+            assert!(b.stated >= b.p_lo && b.stated <= b.p_hi, "{b:?}");
+        }
+        assert!(mot10.brier >= 0.0 && mot10.brier <= 1.0);
+        assert!(mot10.quiet_periods > 0);
+        // Without a replay's deck section nothing is scored.
+        let (plain, _) =
+            crate::engine::replay::replay(&data, &config, None, 200.0, false, &|_| {}).unwrap();
+        assert!(plain.decisions.is_empty());
     }
 }
