@@ -366,6 +366,16 @@ pub struct DeckConfig {
     pub vertical_velocity_limit_mps: f64,
     /// Shortest window worth reporting [s].
     pub min_window_s: f64,
+    /// Limit of the deck point's vertical displacement from its rest position [m].
+    pub vertical_displacement_limit_m: f64,
+    /// Minimum operation time: the go/no-go is about a window this long [s].
+    pub mot_s: f64,
+    /// Go when the probability that every limit holds over the whole window is at least this.
+    pub go_probability: f64,
+    /// Correlation of the standardised forecast errors between neighbouring steps, used before
+    /// enough verified forecasts estimate it (roll, pitch, deck vertical displacement, deck
+    /// vertical velocity); docs/decisions.md says where the defaults come from.
+    pub error_correlation: [f64; 4],
     /// Publish the advisory on zenoh `.../advisory/deck`.
     pub publish: bool,
 }
@@ -379,6 +389,10 @@ impl Default for DeckConfig {
             pitch_limit_deg: 1.5,
             vertical_velocity_limit_mps: 1.0,
             min_window_s: 2.0,
+            vertical_displacement_limit_m: 2.0,
+            mot_s: 10.0,
+            go_probability: 0.95,
+            error_correlation: [0.95, 0.95, 0.95, 0.8],
             publish: true,
         }
     }
@@ -532,6 +546,11 @@ impl PipelineConfig {
                 "deck.vertical_velocity_limit_mps",
                 d.vertical_velocity_limit_mps,
             ),
+            (
+                "deck.vertical_displacement_limit_m",
+                d.vertical_displacement_limit_m,
+            ),
+            ("deck.mot_s", d.mot_s),
         ] {
             limits::positive(name, v, 1e6)?;
         }
@@ -550,6 +569,21 @@ impl PipelineConfig {
             }
         }
         limits::count("crane.print_every", self.crane.print_every, 1, u64::MAX)?;
+        if !(d.go_probability > 0.0 && d.go_probability < 1.0) {
+            return Err(format!(
+                "deck.go_probability must be between 0 and 1, got {}",
+                d.go_probability
+            ));
+        }
+        if let Some(r) = d
+            .error_correlation
+            .iter()
+            .find(|r| !(0.0..1.0).contains(*r))
+        {
+            return Err(format!(
+                "deck.error_correlation values must be in [0, 1), got {r}"
+            ));
+        }
         Ok(())
     }
 

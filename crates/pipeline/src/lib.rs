@@ -12,6 +12,7 @@ pub mod certs;
 pub mod config;
 pub mod crane;
 pub mod deck;
+pub mod decision;
 pub mod engine;
 pub mod limits;
 pub mod transport;
