@@ -1,23 +1,67 @@
 //! Criterion benchmarks of the pieces on the sample -> forecast hot path: the decimation step
 //! (six DOF, 8 -> 2 Hz), the six-DOF MCA-800 forecast, writing the Forecast payload (and sending
 //! it over iceoryx2), encoding a forecast as zenoh JSON, and the predictor's optional receive
-//! stamp.
+//! stamp; and, first, the whole forecast path of the service's engine ([`forecast_path`]):
+//! p50/p99 and allocations of each step, and the JSON encoders on the engine's own forecasts.
 //!
-//! Run: `cargo bench --bench hot_path`.
+//! Run: `cargo bench --bench hot_path` (`-- json_encoding` for the encoders only; the
+//! forecast-path table is printed by every run).
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use shipcast_bench::machine::remove_iox_leftovers;
+use shipcast_bench::pipeline::{backfill_s, backfilled_engine, motion_record};
 use shipcast_bench::stamps::{ReceiveStamp, StampPublisher, StampReader, StampTally};
+use shipcast_bench::LatencyRecorder;
 use shipcast_pipeline::config::PipelineConfig;
+use shipcast_pipeline::transport::iox::remove_leftovers;
 use shipcast_pipeline::transport::iox::{self, IoxPublisher, IoxSubscriber, Sizing, WaitMode};
+use shipcast_pipeline::transport::monotonic_ns;
+use shipcast_pipeline::transport::zenoh::{
+    free_loopback_endpoint, open, JsonPublisher, ZenohSettings,
+};
 use shipcast_pipeline::transport::Names;
+use shipcast_predict::alloc_count::{counted, CountingAllocator};
 use shipcast_predict::{McaPredictor, Predictor, PredictorConfig};
 use shipcast_series::decimator::Decimator;
 use shipcast_wire::payload::{Forecast, MotionSample, MAX_STEPS, NUM_DOF};
 use shipcast_wire::payload_json::ForecastJsonEncoder;
 use std::hint::black_box;
+
+#[global_allocator]
+static ALLOCATOR: CountingAllocator = CountingAllocator;
+
+/// Duration [ns] and allocations of `f` on this thread.
+fn measured<T>(f: impl FnOnce() -> T) -> (T, u64, u64) {
+    let t = monotonic_ns();
+    let (out, allocations) = counted(f);
+    (out, monotonic_ns() - t, allocations)
+}
+
+/// One step of the forecast path: its durations and allocations per forecast.
+#[derive(Default)]
+struct StepTally {
+    latency: LatencyRecorder,
+    allocations: u64,
+}
+
+impl StepTally {
+    fn add(&mut self, ns: u64, allocations: u64) {
+        self.latency.record_ns(ns);
+        self.allocations += allocations;
+    }
+
+    fn line(&self, name: &str) -> String {
+        let n = self.latency.count().max(1);
+        format!(
+            "{name:<44} {:>7} {:>9.2} {:>9.2} {:>12.2}",
+            self.latency.count(),
+            self.latency.quantile_us(0.5),
+            self.latency.quantile_us(0.99),
+            self.allocations as f64 / n as f64
+        )
+    }
+}
 
 /// A ship-motion-like test series: a few incommensurate swell components plus noise, so the MCA
 /// training matrix is well conditioned.
@@ -115,6 +159,23 @@ fn filled_forecast(steps: usize) -> Forecast {
     f
 }
 
+/// A forecast publisher and a busy-polling subscriber of the same service.
+fn forecast_ports(
+    node: &iceoryx2::prelude::Node<iox::Ipc>,
+    names: &Names,
+) -> (IoxPublisher<Forecast>, IoxSubscriber<Forecast>) {
+    let publisher = IoxPublisher::<Forecast>::new(node, &names.forecast(), Sizing::FORECAST)
+        .expect("forecast publisher");
+    let subscriber = IoxSubscriber::<Forecast>::new(
+        node,
+        &names.forecast(),
+        Sizing::FORECAST,
+        WaitMode::BusyPoll,
+    )
+    .expect("forecast subscriber");
+    (publisher, subscriber)
+}
+
 fn payload_write(c: &mut Criterion) {
     let steps = PredictorConfig::default().horizon;
     let predictions: Vec<Vec<f64>> = (0..NUM_DOF).map(|d| series(steps, 20 + d as u64)).collect();
@@ -132,18 +193,10 @@ fn payload_write(c: &mut Criterion) {
             black_box(&forecast);
         })
     });
-    let instance = format!("bench-hot-{}", std::process::id());
+    let instance = shipcast_pipeline::transport::unique_instance("bench-hot");
     let names = Names::new(Some(&instance), "bench").expect("valid bench names");
     let node = iox::node(&names, "hot-path").expect("iceoryx2 node");
-    let publisher = IoxPublisher::<Forecast>::new(&node, &names.forecast(), Sizing::FORECAST)
-        .expect("forecast publisher");
-    let subscriber = IoxSubscriber::<Forecast>::new(
-        &node,
-        &names.forecast(),
-        Sizing::FORECAST,
-        WaitMode::BusyPoll,
-    )
-    .expect("forecast subscriber");
+    let (publisher, subscriber) = forecast_ports(&node, &names);
     let f = filled_forecast(steps);
     group.bench_function("iox_send_and_receive_forecast", |b| {
         b.iter(|| {
@@ -187,7 +240,7 @@ fn payload_write(c: &mut Criterion) {
     });
     group.finish();
     drop((publisher, subscriber, mpub, msub, stamps, reader, node));
-    remove_iox_leftovers(&names.iox_prefix());
+    remove_leftovers(&names.iox_prefix());
 }
 
 fn json_encoding(c: &mut Criterion) {
@@ -201,37 +254,114 @@ fn json_encoding(c: &mut Criterion) {
     });
 }
 
-/// The same forecast through the hand-written encoder: reused, so its sigma cache is warm
-/// (`_encoder`), and with the sigma changing at every call, so it always formats both arrays
-/// (`_encoder_cold`).
-fn json_encoder(c: &mut Criterion) {
-    let f = filled_forecast(PredictorConfig::default().horizon);
-    let mut encoder = ForecastJsonEncoder::new();
-    c.bench_function("json_encoding/forecast_50_steps_encoder", |b| {
-        b.iter(|| black_box(encoder.encode(black_box(&f)).len()))
-    });
-    let mut g = f;
-    for row in g.sigma.iter_mut() {
-        for s in row.iter_mut() {
-            *s *= 1.5;
+/// Forecasts of the service's own engine (default configuration, retraining off, as the
+/// latency bench's services rows), each step of publishing them timed and its allocations
+/// counted on this thread: the engine step that completes a forecast, the iceoryx2 send of the
+/// payload, the JSON encoding, and the zenoh put to a peer on 127.0.0.1 (the JSON's buffer
+/// shared with zenoh, and, for comparison, copied into zenoh's as before); then the encoding
+/// of the same forecasts under criterion.
+fn forecast_path(c: &mut Criterion) {
+    const FORECASTS: u64 = 4000;
+    let mut config = PipelineConfig::default();
+    config.predictor.retrain_every_s = 0.0;
+    let rate = config.producer.rate_hz;
+    let backfill = (backfill_s(&config.predictor) * rate).round() as u64;
+    let record = motion_record(&config, backfill + 4 * FORECASTS + 8).expect("simulated sea");
+    let mut engine = backfilled_engine(&config, &record, backfill).expect("engine");
+
+    let instance = format!("bench-path-{}", std::process::id());
+    let names = Names::new(Some(&instance), "bench").expect("valid bench names");
+    let node = iox::node(&names, "forecast-path").expect("iceoryx2 node");
+    let (publisher, subscriber) = forecast_ports(&node, &names);
+    let endpoint = free_loopback_endpoint().expect("free port");
+    let listener = open(&ZenohSettings::listen_on(&endpoint)).expect("zenoh listener");
+    let connector = open(&ZenohSettings::connect_to(&endpoint)).expect("zenoh connector");
+    let key = names.forecast();
+    let sub = shipcast_pipeline::transport::zenoh::LatestSubscriber::new(&connector, &key)
+        .expect("zenoh subscriber");
+    let remote = JsonPublisher::new(&listener, &key).expect("zenoh publisher");
+    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(10);
+    while !remote.has_subscribers() && std::time::Instant::now() < deadline {
+        std::thread::sleep(std::time::Duration::from_millis(10));
+    }
+
+    let mut json = ForecastJsonEncoder::new();
+    let mut steps: [StepTally; 6] = Default::default();
+    let mut reused = Vec::with_capacity(16 * 1024);
+    let mut forecasts = Vec::with_capacity(FORECASTS as usize);
+    for (seq, dof) in (backfill..).zip(&record[backfill as usize..]) {
+        let sample = MotionSample {
+            seq,
+            stamp_ns: monotonic_ns(),
+            time_s: seq as f64 / rate,
+            dof: *dof,
+        };
+        let (pushed, ns, n) = measured(|| engine.push(&sample).expect("push").is_some());
+        if !pushed {
+            engine.prepare_next().expect("prepare");
+            engine.poll_models();
+            continue;
+        }
+        steps[0].add(ns, n);
+        let f = *engine.forecast();
+        let (_, ns, n) = measured(|| publisher.send(&f).expect("send"));
+        steps[1].add(ns, n);
+        let (bytes, ns, n) = measured(|| json.encode_shared(&f).expect("encode"));
+        steps[2].add(ns, n);
+        let (_, ns, n) = measured(|| f.write_json(&mut reused).expect("encode"));
+        steps[5].add(ns, n);
+        let (_, ns, n) = measured(|| remote.put_shared(bytes).expect("put"));
+        steps[3].add(ns, n);
+        // As before: the JSON copied into a buffer of zenoh's, the same bytes once more.
+        let (_, ns, n) = measured(|| remote.put(json.encode(&f).expect("encode")).expect("put"));
+        steps[4].add(ns, n);
+        engine.poll_models();
+        while subscriber.receive().expect("receive").is_some() {}
+        while sub.latest().expect("receive").is_some() {}
+        forecasts.push(f);
+        if forecasts.len() as u64 == FORECASTS {
+            break;
         }
     }
-    let alternating = [f, g];
+    println!(
+        "\nforecast path of the engine, {} forecasts (one every 4 samples; µs):\n{:<44} {:>7} {:>9} {:>9} {:>12}",
+        forecasts.len(),
+        "step",
+        "count",
+        "p50",
+        "p99",
+        "allocs/fcst"
+    );
+    for (tally, name) in steps.iter().zip([
+        "engine step completing a forecast",
+        "iceoryx2 send (loan, write, notify)",
+        "JSON encoding (serde_json, shared buffer)",
+        "zenoh put, buffer shared (put_shared)",
+        "zenoh put, JSON copied (put)",
+        "JSON encoding (serde_json, reused Vec)",
+    ]) {
+        println!("{}", tally.line(name));
+    }
+    drop((publisher, subscriber, sub, remote, node));
+    drop((listener, connector));
+    remove_leftovers(&names.iox_prefix());
+
+    // The encoder on the engine's own forecasts, in order (the text copied nowhere).
     let mut i = 0usize;
-    c.bench_function("json_encoding/forecast_50_steps_encoder_cold", |b| {
+    c.bench_function("json_encoding/engine_forecasts_shared_buffer", |b| {
         b.iter(|| {
             i += 1;
-            black_box(encoder.encode(black_box(&alternating[i % 2])).len())
+            black_box(json.encode_shared(black_box(&forecasts[i % forecasts.len()])))
         })
     });
 }
 
 criterion_group!(
     benches,
+    forecast_path,
     decimation_step,
     six_dof_forecast,
     payload_write,
-    json_encoding,
-    json_encoder
+    json_encoding
 );
 criterion_main!(benches);

@@ -1,47 +1,26 @@
 //! Criterion benchmarks of the predictors: MCA-800 training on 5000 points, and one 50-step
 //! forecast per method and order (40, 100, 800), with the MCA forecast in three variants
-//! (f64 faer matrix-vector product as used by `forecast`, f64 plain loop, f32 matrix).
+//! (f64 faer matrix-vector product as used by `forecast`, f64 plain loop, f32 matrix), and the
+//! six-DOF MCA-800 forecast in full (`six_dof_forecast_in_full`: six predictors, a new origin
+//! every iteration). MCA-800 training against numpy: `cargo bench --bench mca_vs_numpy`.
 //!
 //! Run: `cargo bench --bench predict` (a few minutes). The paper's MATLAB figures for MCA-800
 //! on a 1.6 GHz Pentium: training 40 s, 500 predictions 0.09 s (180 us each).
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
-use rand::{Rng, SeedableRng};
-use rand_chacha::ChaCha8Rng;
-use shipcast_predict::{AnyPredictor, McaPredictor, Method, Predictor, PredictorConfig};
+use shipcast_predict::{
+    AnyPredictor, McaPredictor, Method, PredictError, Predictor, PredictorConfig,
+};
 use std::hint::black_box;
 use std::time::Duration;
+
+#[path = "support/sea.rs"]
+mod support_sea;
+use support_sea::sea;
 
 const TRAIN: usize = 5000;
 const HORIZON: usize = 50;
 const ORDERS: [usize; 3] = [40, 100, 800];
-
-/// A dense, seeded sea-like record at 2 Hz: 300 wave components with random frequencies in the
-/// band of ship motion (periods 5-20 s), a spectrum peaked near 10 s, random phases.
-fn sea(len: usize, seed: u64) -> Vec<f64> {
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let components: Vec<(f64, f64, f64)> = (0..300)
-        .map(|_| {
-            let omega: f64 = rng.random_range(0.31..1.26);
-            let peak = 2.0 * std::f64::consts::PI / 10.0;
-            let amplitude = 0.1 * (-((omega - peak) / 0.15).powi(2)).exp();
-            (
-                omega,
-                amplitude,
-                rng.random_range(0.0..std::f64::consts::TAU),
-            )
-        })
-        .collect();
-    (0..len)
-        .map(|i| {
-            let t = i as f64 * 0.5;
-            components
-                .iter()
-                .map(|&(w, a, p)| a * (w * t + p).sin())
-                .sum()
-        })
-        .collect()
-}
 
 fn config(order: usize) -> PredictorConfig {
     PredictorConfig {
@@ -121,5 +100,50 @@ fn forecasts(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, mca_training, forecasts);
+type ForecastFn = fn(&mut McaPredictor, &[f64], &mut [f64]) -> Result<(), PredictError>;
+
+/// The six-DOF MCA-800 forecast in full: six fitted predictors, each computing its whole 50-step
+/// forecast from 750 past values. Every iteration moves the forecast origin one value on, as a
+/// new sample does, so no part of the product can be reused from the iteration before (the
+/// services' `prepare` would do that; this measures the cost without it).
+fn six_dof_forecasts(c: &mut Criterion) {
+    const DOF: usize = 6;
+    const ORDER: usize = 800;
+    let records: Vec<Vec<f64>> = (0..DOF).map(|d| sea(TRAIN + 2000, 10 + d as u64)).collect();
+    let fit = |record: &[f64]| {
+        let mut p = McaPredictor::new(&config(ORDER)).expect("MCA-800 config is feasible");
+        p.fit(&record[..TRAIN]).expect("fit");
+        p
+    };
+    let mut models: Vec<McaPredictor> = records.iter().map(|r| fit(r)).collect();
+    let mut outs = vec![[0.0; HORIZON]; DOF];
+    let mut group = c.benchmark_group("six_dof_forecast_in_full");
+    group.sample_size(50);
+    group.warm_up_time(Duration::from_millis(500));
+    group.measurement_time(Duration::from_secs(3));
+    let variants: [(&str, ForecastFn); 2] = [
+        ("mca_800_f64", |m, past, out| m.forecast(past, out)),
+        ("mca_800_f32", McaPredictor::forecast_f32),
+    ];
+    let origins = TRAIN..TRAIN + 1000;
+    let mut origin = origins.start;
+    for (name, forecast) in variants {
+        group.bench_function(name, |b| {
+            b.iter(|| {
+                origin = if origin + 1 < origins.end {
+                    origin + 1
+                } else {
+                    origins.start
+                };
+                for ((m, r), out) in models.iter_mut().zip(&records).zip(&mut outs) {
+                    forecast(m, black_box(&r[origin - ORDER..origin]), out).expect("forecast");
+                }
+                black_box(&outs);
+            })
+        });
+    }
+    group.finish();
+}
+
+criterion_group!(benches, mca_training, forecasts, six_dof_forecasts);
 criterion_main!(benches);

@@ -13,7 +13,7 @@
 //! `shipcast certs`, which holds the endpoint, TLS and the station's certificate:
 //! `--config DIR/crane.json5`.
 
-use shipcast_wire::payload::{limits, Forecast, ForecastJson};
+use shipcast_wire::payload::{limits, Forecast};
 use shipcast_wire::Dof;
 use std::process::ExitCode;
 use zenoh::handlers::RingChannel;
@@ -98,10 +98,7 @@ fn run(options: &Options) -> Result<(), Error> {
         let sample = subscriber.recv()?;
         let bytes = sample.payload().to_bytes();
         // The JSON's own checks (fields, shapes) by the wire type; a bad one is skipped.
-        let forecast = match serde_json::from_slice::<ForecastJson>(&bytes)
-            .map_err(|e| e.to_string())
-            .and_then(|json| Forecast::try_from(json).map_err(|e| e.to_string()))
-        {
+        let forecast = match Forecast::from_json(&bytes) {
             Ok(f) if f.steps > 0 && f.dt_s > 0.0 => f,
             Ok(f) => {
                 eprintln!(

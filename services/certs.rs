@@ -2,15 +2,18 @@
 //! keys of the vessel's pipeline and of each station, the pipeline configuration
 //! (`shipcast.toml`, used as it is by `shipcast run --config`) and, per station, a zenoh client
 //! configuration (`<station>.json5`, for any zenoh client) and a shipcast consumer
-//! configuration (`<station>.toml`, for `shipcast crane --config`). docs/security.md has the
-//! steps.
+//! configuration (`<station>.toml`, for `shipcast crane --config`). With `--router`, a fleet:
+//! the router's certificate and `router.toml` (for `shipcast router --config`, with access
+//! rules that let each vessel's pipeline publish only on its own vessel's keys and stations
+//! only subscribe), one `<vessel>.toml` per vessel connecting to the router, and station files
+//! that connect to the router. docs/security.md has the steps.
 
 use anyhow::Context;
 use shipcast_pipeline::certs::{endpoint_host, server_names, CertAuthority, Validity};
 use shipcast_pipeline::config::ZenohConfig;
 use shipcast_pipeline::limits;
 use shipcast_pipeline::transport::zenoh::{self as zn, ZenohSettings};
-use shipcast_pipeline::transport::zenoh_security::{AccessRules, TlsSettings};
+use shipcast_pipeline::transport::zenoh_security::{AccessRules, TlsSettings, VesselAccess};
 use shipcast_pipeline::transport::Names;
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -23,12 +26,16 @@ pub struct Args {
     /// Prefix of every service name and key, as `--instance` of the pipeline commands.
     #[arg(long, value_name = "NAME")]
     pub instance: Option<String>,
-    /// Vessel name (keys `shipcast/<vessel>/...`).
+    /// Vessel name (keys `shipcast/<vessel>/...`); repeatable with `--router`.
     #[arg(long, value_name = "NAME", default_value = shipcast_pipeline::transport::naming::DEFAULT_VESSEL)]
-    pub vessel: String,
-    /// Endpoint the predictor listens on, e.g. tls/10.0.0.5:7447.
+    pub vessel: Vec<String>,
+    /// Endpoint the predictor listens on, e.g. tls/10.0.0.5:7447 (with `--router`: on every
+    /// vessel, for its own consumers).
     #[arg(long, value_name = "ENDPOINT")]
     pub listen: String,
+    /// Endpoint of the fleet's router, e.g. tls/shore.example:7447: write a fleet setup.
+    #[arg(long, value_name = "ENDPOINT")]
+    pub router: Option<String>,
     /// A station that may subscribe (repeatable); its name is its certificate's common name.
     #[arg(long, value_name = "NAME")]
     pub station: Vec<String>,
@@ -47,18 +54,48 @@ pub fn pipeline_name(vessel: &str) -> String {
 
 /// Longest validity of a certificate [days]: 100 years.
 const MAX_DAYS: u32 = 36_525;
+/// Common name of a fleet router's certificate.
+pub const ROUTER_NAME: &str = "router";
+
+/// Every key of a vessel's pipeline: `[<instance>/]shipcast/<vessel>/**`.
+fn vessel_keys(names: &Names) -> String {
+    format!("{}{}/**", names.fleet_prefix(), names.vessel())
+}
+
+/// Every key of every vessel: `[<instance>/]shipcast/*/**`.
+fn fleet_keys(names: &Names) -> String {
+    names.every_vessel("**")
+}
 
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let names = Names::new(args.instance.as_deref(), &args.vessel)?;
+    let vessels = args
+        .vessel
+        .iter()
+        .map(|v| Names::new(args.instance.as_deref(), v))
+        .collect::<Result<Vec<_>, _>>()?;
+    if vessels.len() > 1 && args.router.is_none() {
+        anyhow::bail!("several --vessel make a fleet: give its --router endpoint too");
+    }
+    if let Some(v) = args
+        .vessel
+        .iter()
+        .enumerate()
+        .find_map(|(i, v)| args.vessel[..i].contains(v).then_some(v))
+    {
+        anyhow::bail!("--vessel '{v}' is given twice");
+    }
     let host = endpoint_host(&args.listen)?;
-    let pipeline = pipeline_name(&args.vessel);
+    let mut taken: Vec<String> = args.vessel.iter().map(|v| pipeline_name(v)).collect();
+    if args.router.is_some() {
+        taken.push(ROUTER_NAME.to_string());
+    }
     for s in &args.station {
         let plain = |c: char| c.is_ascii_alphanumeric() || c == '-' || c == '_' || c == '.';
         if s.is_empty() || s.len() > 64 || !s.chars().all(plain) {
             anyhow::bail!("--station '{s}': 1 to 64 letters, digits, '-', '_' or '.'");
         }
-        if *s == pipeline {
-            anyhow::bail!("--station '{s}' is the pipeline's own name");
+        if taken.contains(s) {
+            anyhow::bail!("--station '{s}' is the name of a pipeline or of the router");
         }
     }
     // Beyond about a century the certificate's end date overflows its time type.
@@ -69,19 +106,122 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             args.out.display()
         );
     }
+    let router_host = args.router.as_deref().map(endpoint_host).transpose()?;
     std::fs::create_dir_all(&args.out).with_context(|| format!("create {}", args.out.display()))?;
 
     let validity = Validity::days_from_now(args.days);
-    let ca = CertAuthority::new(&format!("shipcast {} CA", args.vessel), validity)?;
-    let pipeline_id = ca.issue(&pipeline, &server_names(host, &args.host), validity)?;
+    let ca = CertAuthority::new(&format!("shipcast {} CA", args.vessel.join(" ")), validity)?;
     let out = &args.out;
     write(out, "ca.pem", &ca.certificate_pem(), false)?;
+    let (Some(router), Some(router_host)) = (&args.router, router_host) else {
+        return single_vessel(&args, &vessels[0], host, &ca, validity);
+    };
+    let router_id = ca.issue(
+        ROUTER_NAME,
+        &server_names(router_host, &args.host),
+        validity,
+    )?;
+    write(out, "router.pem", &router_id.certificate_pem, false)?;
+    write(out, "router.key", &router_id.private_key_pem, true)?;
+    let fleet = fleet_keys(&vessels[0]);
+    let router_zenoh = ZenohConfig {
+        listen: vec![router.clone()],
+        tls: Some(TlsSettings {
+            root_ca: "ca.pem".into(),
+            certificate: "router.pem".into(),
+            private_key: "router.key".into(),
+        }),
+        access: Some(AccessRules {
+            key_exprs: vec![fleet.clone()],
+            subscribers: args.station.clone(),
+            vessels: vessels
+                .iter()
+                .map(|n| VesselAccess {
+                    publisher: pipeline_name(n.vessel()),
+                    key_exprs: vec![vessel_keys(n)],
+                })
+                .collect(),
+            ..AccessRules::default()
+        }),
+        ..ZenohConfig::default()
+    };
+    write(
+        out,
+        "router.toml",
+        &format!(
+            "# Router of the fleet {:?} (shipcast certs): shipcast router --config router.toml\n\
+             # Each vessel's pipeline may publish only on its own keys; stations {:?} may only\n\
+             # subscribe and query. Paths are relative to this file.\n{}",
+            args.vessel,
+            args.station,
+            consumer_toml(&vessels[0], &router_zenoh)?
+        ),
+        false,
+    )?;
+    for names in &vessels {
+        let pipeline = pipeline_name(names.vessel());
+        let id = ca.issue(&pipeline, &server_names(host, &args.host), validity)?;
+        write(out, &format!("{pipeline}.pem"), &id.certificate_pem, false)?;
+        write(out, &format!("{pipeline}.key"), &id.private_key_pem, true)?;
+        let zenoh = ZenohConfig {
+            listen: vec![args.listen.clone()],
+            connect: vec![router.clone()],
+            tls: Some(TlsSettings {
+                root_ca: "ca.pem".into(),
+                certificate: format!("{pipeline}.pem"),
+                private_key: format!("{pipeline}.key"),
+            }),
+            // The router may subscribe with its fleet-wide interest; the pipeline publishes.
+            access: Some(AccessRules {
+                key_exprs: vec![vessel_keys(names)],
+                publishers: vec![pipeline.clone()],
+                subscribers: vec![ROUTER_NAME.into()],
+                interest_key_exprs: vec![fleet.clone()],
+                ..AccessRules::default()
+            }),
+            ..ZenohConfig::default()
+        };
+        write(
+            out,
+            &format!("{}.toml", names.vessel()),
+            &format!(
+                "# Secure pipeline of vessel {} in a fleet (shipcast certs): shipcast run --config {}.toml\n\
+                 # Listens on {} for its own consumers and connects to the router {router}.\n{}",
+                names.vessel(),
+                names.vessel(),
+                args.listen,
+                consumer_toml(names, &zenoh)?
+            ),
+            false,
+        )?;
+    }
+    write_stations(&args, &vessels[0], router, &ca, validity)?;
+    let _ = writeln!(
+        std::io::stdout(),
+        "wrote a new CA and certificates for the router, {} vessel(s) and {} station(s) into {}; start the router with: shipcast router --config {}",
+        vessels.len(),
+        args.station.len(),
+        out.display(),
+        out.join("router.toml").display()
+    );
+    Ok(())
+}
+
+/// One vessel whose consumers connect to its predictor.
+fn single_vessel(
+    args: &Args,
+    names: &Names,
+    host: &str,
+    ca: &CertAuthority,
+    validity: Validity,
+) -> anyhow::Result<()> {
+    let out = &args.out;
+    let pipeline = pipeline_name(names.vessel());
+    let pipeline_id = ca.issue(&pipeline, &server_names(host, &args.host), validity)?;
     write(out, "pipeline.pem", &pipeline_id.certificate_pem, false)?;
     write(out, "pipeline.key", &pipeline_id.private_key_pem, true)?;
 
-    // Every key of this pipeline: `[<instance>/]shipcast/<vessel>/**`.
-    let forecast = names.forecast();
-    let vessel_keys = format!("{}**", forecast.trim_end_matches("forecast"));
+    let vessel_keys = vessel_keys(names);
     let pipeline_zenoh = ZenohConfig {
         listen: vec![args.listen.clone()],
         tls: Some(TlsSettings {
@@ -93,26 +233,47 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             key_exprs: vec![vessel_keys],
             publishers: vec![pipeline.clone()],
             subscribers: args.station.clone(),
+            ..AccessRules::default()
         }),
         ..ZenohConfig::default()
     };
-    let toml = consumer_toml(&names, &pipeline_zenoh)?;
+    let toml = consumer_toml(names, &pipeline_zenoh)?;
     write(
         out,
         "shipcast.toml",
         &format!(
             "# Secure pipeline of vessel {} (shipcast certs). Paths are relative to this file.\n\
              # Only the certificate '{pipeline}' may publish; stations {:?} may subscribe.\n{toml}",
-            args.vessel, args.station
+            names.vessel(),
+            args.station
         ),
         false,
     )?;
+    write_stations(args, names, &args.listen, ca, validity)?;
+    let _ = writeln!(
+        std::io::stdout(),
+        "wrote a new CA and certificates for '{pipeline}' and {} station(s) into {}; start the pipeline with: shipcast run --config {}",
+        args.station.len(),
+        out.display(),
+        out.join("shipcast.toml").display()
+    );
+    Ok(())
+}
 
+/// `<station>.json5` and `<station>.toml` of every station, connecting to `endpoint`.
+fn write_stations(
+    args: &Args,
+    names: &Names,
+    endpoint: &str,
+    ca: &CertAuthority,
+    validity: Validity,
+) -> anyhow::Result<()> {
+    let out = &args.out;
     for station in &args.station {
         let id = ca.issue(station, &[], validity)?;
         let zenoh = ZenohConfig {
             listen: Vec::new(),
-            connect: vec![args.listen.clone()],
+            connect: vec![endpoint.to_string()],
             // Inline: the station's files are all it needs, wherever they are copied.
             tls: Some(TlsSettings {
                 root_ca: ca.certificate_pem(),
@@ -129,11 +290,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         let json5 = format!(
             "// zenoh client configuration of station '{station}' of vessel {} (shipcast certs).\n\
              // Client mode, scouting off, mutual TLS with this station's certificate.\n{}\n",
-            args.vessel,
+            names.vessel(),
             serde_json::to_string_pretty(&document)?
         );
         write(out, &format!("{station}.json5"), &json5, true)?;
-        let toml = consumer_toml(&names, &zenoh)?;
+        let toml = consumer_toml(names, &zenoh)?;
         write(
             out,
             &format!("{station}.toml"),
@@ -141,13 +302,6 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             true,
         )?;
     }
-    let _ = writeln!(
-        std::io::stdout(),
-        "wrote a new CA and certificates for '{pipeline}' and {} station(s) into {}; start the pipeline with: shipcast run --config {}",
-        args.station.len(),
-        out.display(),
-        out.join("shipcast.toml").display()
-    );
     Ok(())
 }
 

@@ -56,7 +56,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         let forecast = match gate.check(&received) {
             Ok(f) => f,
             Err(e) => {
-                tracing::warn!(rejected = gate.rejected.total(), "crane: rejected: {e}");
+                tracing::warn!(
+                    rejected = gate.stream.rejected.total(),
+                    "crane: rejected: {e}"
+                );
                 continue;
             }
         };
@@ -66,7 +69,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }
         count += 1;
     }
-    let r = gate.rejected;
+    let r = gate.stream.rejected;
     tracing::info!(
         "crane: stopped after {count} forecasts, {} rejected ({} source, {} seq, {} payload)",
         r.total(),

@@ -1,14 +1,18 @@
 //! `shipcast deck`: the co-located helideck consumer. Reads forecasts over iceoryx2, prints the
 //! landing advisory (windows where roll, pitch and deck vertical velocity stay within limits,
-//! with confidence) and publishes it as JSON on zenoh `.../advisory/deck`.
+//! with confidence) and publishes it as JSON on zenoh `.../advisory/deck`. Only forecasts from
+//! the publisher it follows, with increasing seq and sound content, are used
+//! (`IoxForecastGate`); rejections are counted, logged on one line each, and published with
+//! the deck's counters on `.../status/deck`.
 
 use shipcast_pipeline::config::CommonArgs;
 use shipcast_pipeline::deck::DeckAdvisor;
-use shipcast_pipeline::limits;
+use shipcast_pipeline::limits as value_limits;
+use shipcast_pipeline::transport::forecast_check::{IoxForecastGate, RejectionCounts};
 use shipcast_pipeline::transport::iox::{self, IoxSubscriber, Sizing, WaitMode};
 use shipcast_pipeline::transport::zenoh::{self as zn, JsonPublisher};
 use shipcast_pipeline::transport::{shutdown, Names};
-use shipcast_wire::payload::Forecast;
+use shipcast_wire::payload::{limits, Forecast};
 use std::io::Write;
 use std::time::{Duration, Instant};
 
@@ -26,7 +30,7 @@ pub struct Args {
 
 pub fn run(args: Args) -> anyhow::Result<()> {
     let config = args.common.load()?;
-    let print_every = limits::count("--print-every", args.print_every, 1, u64::MAX)
+    let print_every = value_limits::count("--print-every", args.print_every, 1, u64::MAX)
         .map_err(anyhow::Error::msg)?;
     let limit = shutdown::RunLimit::new(args.common.duration()?);
     let names = config.names()?;
@@ -42,24 +46,46 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         session = zn::open(&config.zenoh.consumer_side())?;
         let key = names.advisory("deck");
         let token = zn::liveliness_token(&session, &Names::liveliness(&key))?;
-        Some((JsonPublisher::new(&session, &key)?, token))
+        let status = JsonPublisher::new(&session, &names.status("deck"))?;
+        Some((JsonPublisher::new(&session, &key)?, status, token))
     } else {
         None
     };
     let mut advisor = DeckAdvisor::new(&config.deck);
+    let mut gate = IoxForecastGate::new(1.0 / config.predictor.sample_rate_hz);
+    let mut connected = Vec::with_capacity(limits::MAX_PUBLISHERS);
     tracing::info!(
         point_m = ?config.deck.point_m,
         "deck: advising from {}",
         names.forecast()
     );
     let mut last_forecast = Instant::now();
+    let mut last_status = Instant::now();
     let mut waiting_reported = false;
     let mut count = 0u64;
     let stdout = std::io::stdout();
     while !limit.reached() {
         forecasts.wait(Duration::from_millis(100))?;
-        // Only the newest forecast matters to the landing officer.
-        let Some(forecast) = forecasts.latest()? else {
+        if let Some((_, status, _)) = &publisher {
+            if last_status.elapsed() >= STATUS_EVERY {
+                status.put_serialize(&DeckStatus::new(count, &gate))?;
+                last_status = Instant::now();
+            }
+        }
+        // Every sample is checked, not only the newest: a foreign one must not hide the
+        // predictor's. Only the newest accepted forecast matters to the landing officer.
+        let mut newest = None;
+        while let Some((forecast, origin)) = forecasts.receive_with_origin()? {
+            forecasts.publishers(&mut connected);
+            match gate.check(origin, &connected, &forecast) {
+                Ok(()) => newest = Some(forecast),
+                Err(e) => tracing::warn!(
+                    rejected = gate.stream.rejected.total(),
+                    "deck: rejected: {e}"
+                ),
+            }
+        }
+        let Some(forecast) = newest else {
             if !waiting_reported && last_forecast.elapsed() >= Duration::from_secs(5) {
                 tracing::info!("deck: no forecast for 5 s");
                 waiting_reported = true;
@@ -69,7 +95,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         last_forecast = Instant::now();
         waiting_reported = false;
         let advisory = advisor.advise(&forecast);
-        if let Some((p, _alive)) = &publisher {
+        if let Some((p, _, _)) = &publisher {
             p.put_serialize(&advisory)?;
         }
         if count % print_every == 0 {
@@ -79,6 +105,37 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }
         count += 1;
     }
-    tracing::info!("deck: stopped after {count} advisories");
+    if let Some((_, status, _)) = &publisher {
+        status.put_serialize(&DeckStatus::new(count, &gate))?;
+    }
+    let r = gate.stream.rejected;
+    tracing::info!(
+        "deck: stopped after {count} advisories, {} rejected ({} source, {} seq, {} payload)",
+        r.total(),
+        r.source,
+        r.seq,
+        r.payload
+    );
     Ok(())
+}
+
+/// How often the deck publishes its counters.
+const STATUS_EVERY: Duration = Duration::from_secs(1);
+
+/// What the deck reports about itself on zenoh `.../status/deck`.
+#[derive(serde::Serialize)]
+struct DeckStatus {
+    advisories: u64,
+    accepted: u64,
+    rejected: RejectionCounts,
+}
+
+impl DeckStatus {
+    fn new(advisories: u64, gate: &IoxForecastGate) -> Self {
+        Self {
+            advisories,
+            accepted: gate.stream.accepted,
+            rejected: gate.stream.rejected,
+        }
+    }
 }

@@ -1,15 +1,22 @@
 //! Logging setup shared by every subcommand: `tracing` to stderr, level from `RUST_LOG`
-//! (default `info`, zenoh's own start-up chatter at `warn`).
+//! (default `info`, zenoh's own start-up chatter at `warn`), and one shipcast line for each
+//! client zenoh refuses (`RefusalLayer`, which sees zenoh's events whatever `RUST_LOG` says).
 
-use tracing_subscriber::EnvFilter;
+use shipcast_pipeline::transport::zenoh_refusals::{refusal_events, RefusalLayer};
+use tracing_subscriber::layer::SubscriberExt;
+use tracing_subscriber::util::SubscriberInitExt;
+use tracing_subscriber::{EnvFilter, Layer};
 
 pub fn init() {
     let filter =
         EnvFilter::try_from_default_env().unwrap_or_else(|_| EnvFilter::new("info,zenoh=warn"));
-    // A second init (tests calling main twice) is harmless, so the error is ignored.
-    let _ = tracing_subscriber::fmt()
-        .with_env_filter(filter)
+    let printed = tracing_subscriber::fmt::layer()
         .with_writer(std::io::stderr)
         .with_target(false)
+        .with_filter(filter);
+    // A second init (tests calling main twice) is harmless, so the error is ignored.
+    let _ = tracing_subscriber::registry()
+        .with(printed)
+        .with(RefusalLayer.with_filter(refusal_events()))
         .try_init();
 }

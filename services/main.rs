@@ -8,6 +8,7 @@ mod bench;
 mod certs;
 mod crane;
 mod deck;
+mod display;
 mod eval;
 mod logging;
 mod paper;
@@ -50,6 +51,8 @@ enum Command {
     Deck(deck::Args),
     /// Crane-tip motion forecast (remote, zenoh).
     Crane(crane::Args),
+    /// Live display: a web page of every vessel's forecasts, advisories and skill.
+    Display(display::Args),
     /// Benchmarks of the running system (latency).
     Bench(bench::Args),
     /// Make a secure setup: a new CA, certificates, shipcast.toml and station zenoh configs.
@@ -72,6 +75,7 @@ fn main() -> ExitCode {
         Command::Predictor(a) => predictor::run(a),
         Command::Deck(a) => deck::run(a),
         Command::Crane(a) => crane::run(a),
+        Command::Display(a) => display::run(a),
         Command::Bench(a) => bench::run(a),
         Command::Certs(a) => certs::run(a),
         Command::Router(a) => router::run(a),

@@ -69,6 +69,9 @@ struct Status {
     /// Delay of a forecast's `time_s` behind the newest sample (the decimation filter's): the
     /// lead of step k after the newest sample is `k * dt_s - delay_s`.
     delay_s: f64,
+    /// zenoh clients refused by this process, per reason (TLS or user/password;
+    /// `zenoh_refusals`).
+    refused_clients: std::collections::BTreeMap<&'static str, u64>,
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
@@ -180,9 +183,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 stages.issued_ns = forecast.issued_stamp_ns;
                 forecasts.send(forecast)?;
                 mark(&mut stages.local_sent_ns);
-                let encoded = json.encode(forecast);
+                let encoded = json.encode_shared(forecast)?;
                 mark(&mut stages.encoded_ns);
-                forecast_json.put(encoded)?;
+                forecast_json.put_shared(encoded)?;
                 mark(&mut stages.zenoh_put_ns);
                 engine.counters.published += 1;
                 published = true;
@@ -251,6 +254,9 @@ fn status(engine: &Engine, stale: bool) -> Status {
             .map_or_else(|| "none".into(), ModelSet::describe),
         last_time_s: engine.last_time_s(),
         delay_s: engine.delay_s(),
+        refused_clients: shipcast_pipeline::transport::zenoh_refusals::refusals()
+            .into_iter()
+            .collect(),
     }
 }
 

@@ -4,6 +4,7 @@
 use anyhow::Context;
 use shipcast_pipeline::config::{CommonArgs, ProducerConfig};
 use shipcast_pipeline::limits;
+use shipcast_pipeline::pacing;
 use shipcast_pipeline::transport::iox::{self, IoxPublisher, Sizing};
 use shipcast_pipeline::transport::{monotonic_ns, shutdown};
 use shipcast_series::motion_csv::MotionData;
@@ -110,7 +111,7 @@ impl MotionSource for CsvSource {
 
 /// Wall-clock schedule of record times: `backfill_s` of record at `backfill_speed`, then
 /// `speed`; a speed of 0 means no pacing.
-struct Pacer {
+struct RecordSchedule {
     start: Instant,
     t0: Option<f64>,
     backfill_s: f64,
@@ -118,7 +119,7 @@ struct Pacer {
     speed: f64,
 }
 
-impl Pacer {
+impl RecordSchedule {
     fn new(config: &ProducerConfig) -> Self {
         Self {
             start: Instant::now(),
@@ -147,15 +148,11 @@ impl Pacer {
     /// Sleep until the sample at record time `t` is due (in short naps, to notice a stop).
     fn wait(&mut self, t: f64) {
         let Some(due) = self.due(t) else { return };
-        let deadline = self.start.checked_add(due);
-        loop {
-            let now = Instant::now();
-            if deadline.is_some_and(|d| now >= d) || shutdown::stop_requested() {
-                return;
-            }
-            let left = deadline.map_or(Duration::MAX, |d| d - now);
-            std::thread::sleep(left.min(Duration::from_millis(100)));
-        }
+        pacing::sleep_until(
+            self.start.checked_add(due),
+            Duration::from_millis(100),
+            shutdown::stop_requested,
+        );
     }
 }
 
@@ -200,12 +197,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let node = iox::node(&names, "producer")?;
     let publisher = IoxPublisher::<MotionSample>::new(&node, &names.motion(), Sizing::MOTION)?;
 
-    let wait_until = Instant::now() + wait_subscriber;
-    while publisher.subscribers() == 0 && Instant::now() < wait_until {
-        if shutdown::stop_requested() {
-            return Ok(());
-        }
-        std::thread::sleep(Duration::from_millis(10));
+    let waited = pacing::poll_until(wait_subscriber, Duration::from_millis(10), || {
+        (publisher.subscribers() > 0 || shutdown::stop_requested()).then_some(())
+    });
+    if waited.is_some() && shutdown::stop_requested() {
+        return Ok(());
     }
 
     let p = config.producer.clone();
@@ -241,7 +237,7 @@ fn publish_all(
     limit: shutdown::RunLimit,
     faults: Faults,
 ) -> anyhow::Result<()> {
-    let mut pacer = Pacer::new(config);
+    let mut pacer = RecordSchedule::new(config);
     // Messages sent, including fault-injected repeats.
     let mut published = 0u64;
     let mut last_log = Instant::now();
@@ -292,8 +288,8 @@ fn publish_all(
 mod tests {
     use super::*;
 
-    fn pacer(backfill_s: f64, speed: f64) -> Pacer {
-        Pacer::new(&ProducerConfig {
+    fn pacer(backfill_s: f64, speed: f64) -> RecordSchedule {
+        RecordSchedule::new(&ProducerConfig {
             backfill_s,
             backfill_speed: 50.0,
             speed,

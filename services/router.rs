@@ -13,20 +13,22 @@ use std::time::Duration;
 
 #[derive(clap::Args, Debug)]
 pub struct Args {
-    /// Endpoint to listen on (repeatable), e.g. tcp/0.0.0.0:7447 or tls/shore.example:7447.
-    #[arg(long, value_name = "ENDPOINT", required = true)]
+    /// Endpoint to listen on (repeatable), e.g. tcp/0.0.0.0:7447 or tls/shore.example:7447;
+    /// default: the `listen` of `--config`.
+    #[arg(long, value_name = "ENDPOINT")]
     pub listen: Vec<String>,
-    /// Take TLS, authentication and access rules from this file's [zenoh] section (its
-    /// endpoints are not used).
+    /// Take TLS, authentication and access rules from this file's [zenoh] section (e.g. the
+    /// router.toml of `shipcast certs --router`), and its endpoints unless `--listen` is given.
     #[arg(long, value_name = "FILE.toml")]
     pub config: Option<PathBuf>,
     /// At most this many forecasts per second per vessel towards consumers (zenoh
     /// downsampling); 0 passes every forecast.
     #[arg(long, value_name = "HZ", default_value_t = 0.0)]
     pub downsample_hz: f64,
-    /// Forecast key expression whose latest sample per vessel is kept and answers queries.
-    #[arg(long, value_name = "KEYEXPR", default_value = FLEET_FORECASTS)]
-    pub forecasts: String,
+    /// Forecast key expression whose latest sample per vessel is kept and answers queries
+    /// (default `shipcast/*/forecast`, under the `instance` of `--config` if it has one).
+    #[arg(long, value_name = "KEYEXPR")]
+    pub forecasts: Option<String>,
     /// Stop after this many seconds.
     #[arg(long, value_name = "S")]
     pub duration: Option<f64>,
@@ -40,24 +42,33 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         .map(|s| limits::seconds("--duration", s))
         .transpose()
         .map_err(anyhow::Error::msg)?;
+    if args.listen.is_empty() && args.config.is_none() {
+        anyhow::bail!("give the endpoints to listen on (--listen) or a --config that has them");
+    }
     let config = PipelineConfig::load(args.config.as_deref())?;
     let mut settings = config.zenoh.publisher_side();
-    settings.listen = args.listen.clone();
+    if !args.listen.is_empty() {
+        settings.listen = args.listen.clone();
+    }
     settings.connect = Vec::new();
+    let forecasts = match (&args.forecasts, &config.instance) {
+        (Some(f), _) => f.clone(),
+        (None, Some(instance)) => format!("{instance}/{FLEET_FORECASTS}"),
+        (None, None) => FLEET_FORECASTS.to_string(),
+    };
     settings.multicast_scouting = false;
     if args.downsample_hz > 0.0 {
         settings.downsample_egress = Some(Downsampling {
-            key_exprs: vec![args.forecasts.clone()],
+            key_exprs: vec![forecasts.clone()],
             max_hz: args.downsample_hz,
         });
     }
-    let router = FleetRouter::start(&settings, &args.forecasts)?;
+    let router = FleetRouter::start(&settings, &forecasts)?;
     tracing::info!(
-        listen = ?args.listen,
+        listen = ?settings.listen,
         tls = settings.tls.is_some(),
         access = settings.access.is_some(),
-        "router: up, serving the latest of {}",
-        args.forecasts
+        "router: up, serving the latest of {forecasts}"
     );
     let limit = shutdown::RunLimit::new(duration);
     while !limit.reached() {

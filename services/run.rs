@@ -1,18 +1,27 @@
-//! `shipcast run`: the whole pipeline from one config. Starts predictor, deck, crane and
-//! producer as child processes of this executable, shows a compact live view (latest forecast,
-//! deck advisory, predictor counters), and stops them all on Ctrl-C or after `--duration`.
+//! `shipcast run`: the whole pipeline from one config. Starts predictor, deck, crane, the live
+//! display (a web page) and producer as child processes of this executable, shows a compact
+//! live view (latest forecast, deck advisory, predictor counters) with the display's address,
+//! and stops them all on Ctrl-C or after `--duration`.
+//! The view checks what it shows as the crane does: forecasts through `ForecastGate`, the
+//! predictor's status and verification only from their live publisher; rejections are
+//! counted on the view's `checks` line and logged on one line each.
 
 use anyhow::Context;
+use shipcast_pipeline::child::{stop_all, ChildProcess};
 use shipcast_pipeline::config::CommonArgs;
 use shipcast_pipeline::deck::Advisory;
+use shipcast_pipeline::transport::forecast_check::{
+    check_source, ForecastGate, LivePublishers, PublisherWatch,
+};
 use shipcast_pipeline::transport::shutdown;
-use shipcast_pipeline::transport::zenoh::{self as zn, LatestSubscriber};
+use shipcast_pipeline::transport::zenoh::{self as zn, LatestSubscriber, ZenohError};
 use shipcast_wire::payload::Forecast;
 use std::io::{IsTerminal, Write};
 use std::os::unix::process::CommandExt;
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Stdio};
+use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
+use zenoh::Session;
 
 #[derive(clap::Args, Debug)]
 pub struct Args {
@@ -21,6 +30,31 @@ pub struct Args {
     /// Directory for the children's logs (default: a new directory under the temp dir).
     #[arg(long, value_name = "DIR")]
     pub log_dir: Option<PathBuf>,
+    /// Address of the live display's web page; port 0 picks a free one. Without this flag the
+    /// default is used, or a free port when the default is taken.
+    #[arg(long, value_name = "HOST:PORT", conflicts_with = "no_display")]
+    pub display: Option<String>,
+    /// Do not start the live display.
+    #[arg(long)]
+    pub no_display: bool,
+}
+
+/// The address the display will listen on: the one asked for (port 0: a free one), or the
+/// default, falling back to a free port when another process holds the default.
+fn display_address(asked: Option<&str>) -> anyhow::Result<std::net::SocketAddr> {
+    let wanted = asked.unwrap_or(crate::display::DEFAULT_LISTEN);
+    let address: std::net::SocketAddr = wanted.parse().with_context(|| {
+        format!("--display must be HOST:PORT with an IP address, got '{wanted}'")
+    })?;
+    let probe = match std::net::TcpListener::bind(address) {
+        Ok(l) => l,
+        Err(_) if asked.is_none() => std::net::TcpListener::bind((address.ip(), 0))
+            .with_context(|| format!("no free port for the display on {}", address.ip()))?,
+        Err(e) => return Err(e).with_context(|| format!("--display {wanted}: cannot listen")),
+    };
+    // Released again for the display process; taken by another program in between, the
+    // display exits with its own one-line error and the run stops.
+    Ok(probe.local_addr()?)
 }
 
 /// Grace period between SIGTERM and SIGKILL when stopping children.
@@ -28,7 +62,7 @@ const STOP_GRACE: Duration = Duration::from_secs(5);
 
 /// The children, stopped (SIGTERM, then SIGKILL) and reaped when dropped, whatever happened.
 struct Children {
-    list: Vec<(&'static str, Child)>,
+    list: Vec<ChildProcess>,
 }
 
 impl Children {
@@ -58,49 +92,26 @@ impl Children {
                 Ok(())
             });
         }
-        let child = cmd
-            .spawn()
-            .with_context(|| format!("starting the {name} process"))?;
-        self.list.push((name, child));
+        let child = ChildProcess::spawn(name, &mut cmd)
+            .with_context(|| format!("starting the {name} process"))?
+            .with_stop_grace(STOP_GRACE);
+        self.list.push(child);
         Ok(())
     }
 
     /// The first child that has exited, with its status.
-    fn exited(&mut self) -> Option<(&'static str, std::process::ExitStatus)> {
-        self.list
-            .iter_mut()
-            .find_map(|(name, c)| c.try_wait().ok().flatten().map(|s| (*name, s)))
+    fn exited(&mut self) -> Option<(String, std::process::ExitStatus)> {
+        self.list.iter_mut().find_map(|c| {
+            let status = c.try_exit().ok().flatten()?;
+            Some((c.name().to_string(), status))
+        })
     }
 
-    /// SIGTERM every child (producer first, so the others see the end of the data), wait for
-    /// them up to the grace period, SIGKILL the rest, and reap all.
+    /// SIGTERM every child still running (producer first, so the others see the end of the
+    /// data), wait for them up to the grace period, SIGKILL the rest, and reap all. A child
+    /// that has exited already is not signalled: its pid may be another process's by now.
     fn stop(&mut self) {
-        for (_, child) in self.list.iter().rev() {
-            // SAFETY: plain kill(2) on our own child's pid.
-            unsafe {
-                libc::kill(child.id() as libc::pid_t, libc::SIGTERM);
-            }
-        }
-        let deadline = Instant::now() + STOP_GRACE;
-        for (name, child) in &mut self.list {
-            loop {
-                match child.try_wait() {
-                    Ok(Some(status)) => {
-                        tracing::debug!("{name} exited: {status}");
-                        break;
-                    }
-                    Ok(None) if Instant::now() < deadline => {
-                        std::thread::sleep(Duration::from_millis(20))
-                    }
-                    _ => {
-                        tracing::warn!("{name} did not stop in time: killed");
-                        let _ = child.kill();
-                        let _ = child.wait();
-                        break;
-                    }
-                }
-            }
-        }
+        stop_all(self.list.iter_mut().rev(), STOP_GRACE);
         self.list.clear();
     }
 }
@@ -118,6 +129,11 @@ struct View {
     advisory: Option<Advisory>,
     status: Option<serde_json::Value>,
     verification: Option<serde_json::Value>,
+    /// Forecasts rejected (by reason) and status or verification documents rejected.
+    rejected: (
+        shipcast_pipeline::transport::forecast_check::RejectionCounts,
+        u64,
+    ),
 }
 
 impl View {
@@ -182,6 +198,14 @@ impl View {
             None => "deck       no advisory yet".into(),
             Some(a) => a.summary(),
         });
+        let (f, other) = self.rejected;
+        lines.push(format!(
+            "checks     rejected forecasts {} ({} source, {} seq, {} payload), status/verification {other}",
+            f.total(),
+            f.source,
+            f.seq,
+            f.payload
+        ));
         lines
     }
 }
@@ -244,6 +268,18 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     children.spawn("predictor", &[], &config_path, &logs)?;
     children.spawn("deck", &["--print-every", "10"], &config_path, &logs)?;
     children.spawn("crane", &[], &config_path, &logs)?;
+    let display = if args.no_display {
+        None
+    } else {
+        let address = display_address(args.display.as_deref())?;
+        children.spawn(
+            "display",
+            &["--listen", &address.to_string()],
+            &config_path,
+            &logs,
+        )?;
+        Some(address)
+    };
     children.spawn(
         "producer",
         &["--wait-subscriber-s", "120"],
@@ -253,9 +289,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
 
     let session = zn::open(&config.zenoh.consumer_side())?;
     let forecasts = LatestSubscriber::new(&session, &names.forecast())?;
+    let forecast_publishers = PublisherWatch::new(&session, &names.forecast())?;
+    let mut gate = ForecastGate::new(1.0 / config.predictor.sample_rate_hz);
     let advisories = LatestSubscriber::new(&session, &names.advisory("deck"))?;
-    let status = LatestSubscriber::new(&session, &names.status("predictor"))?;
-    let verification = LatestSubscriber::new(&session, &names.verification())?;
+    let mut status = CheckedJson::new(&session, &names.status("predictor"))?;
+    let mut verification = CheckedJson::new(&session, &names.verification())?;
 
     let tty = std::io::stdout().is_terminal();
     let mut view = View::default();
@@ -275,21 +313,37 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 logs.join(format!("{name}.log")).display()
             ));
         }
-        if let Some(b) = forecasts.latest()? {
-            view.forecast = Forecast::from_json(&b).ok();
+        forecast_publishers.update(&mut gate.live);
+        while let Some(received) = forecasts.try_recv_with_source()? {
+            // A token may arrive just after the first forecast of its publisher.
+            forecast_publishers.update(&mut gate.live);
+            match gate.check(&received) {
+                Ok(f) => view.forecast = Some(f),
+                Err(e) => tracing::warn!(
+                    rejected = gate.stream.rejected.total(),
+                    "run: forecast rejected: {e}"
+                ),
+            }
         }
         if let Some(b) = advisories.latest()? {
             view.advisory = serde_json::from_slice(&b).ok();
         }
-        if let Some(b) = status.latest()? {
-            view.status = serde_json::from_slice(&b).ok();
+        if let Some(v) = status.latest()? {
+            view.status = Some(v);
         }
-        if let Some(b) = verification.latest()? {
-            view.verification = serde_json::from_slice(&b).ok();
+        if let Some(v) = verification.latest()? {
+            view.verification = Some(v);
         }
+        view.rejected = (
+            gate.stream.rejected,
+            status.rejected + verification.rejected,
+        );
         if last_draw.elapsed() >= Duration::from_secs(1) {
+            let page = display
+                .map(|a| format!("  display http://{a}/"))
+                .unwrap_or_default();
             let header = format!(
-                "shipcast run  {}  +{:.0}s  (Ctrl-C stops; logs in {})",
+                "shipcast run  {}  +{:.0}s{page}  (Ctrl-C stops; logs in {})",
                 names,
                 limit.elapsed().as_secs_f64(),
                 logs.display()
@@ -317,4 +371,46 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         logs.display()
     );
     Ok(())
+}
+
+/// The newest JSON document of one key whose publisher is the key's one live publisher; others
+/// are rejected, counted and logged.
+struct CheckedJson {
+    key: String,
+    subscriber: LatestSubscriber,
+    watch: PublisherWatch,
+    live: LivePublishers,
+    rejected: u64,
+}
+
+impl CheckedJson {
+    fn new(session: &Session, key: &str) -> Result<Self, ZenohError> {
+        Ok(Self {
+            key: key.to_string(),
+            subscriber: LatestSubscriber::new(session, key)?,
+            watch: PublisherWatch::new(session, key)?,
+            live: LivePublishers::default(),
+            rejected: 0,
+        })
+    }
+
+    fn latest(&mut self) -> Result<Option<serde_json::Value>, ZenohError> {
+        let mut newest = None;
+        while let Some(received) = self.subscriber.try_recv_with_source()? {
+            self.watch.update(&mut self.live);
+            let checked = check_source(&self.live, &received)
+                .map_err(|e| e.to_string())
+                .and_then(|_| {
+                    serde_json::from_slice(&received.payload).map_err(|e| format!("JSON: {e}"))
+                });
+            match checked {
+                Ok(v) => newest = Some(v),
+                Err(e) => {
+                    self.rejected += 1;
+                    tracing::warn!(rejected = self.rejected, "run: {} rejected: {e}", self.key);
+                }
+            }
+        }
+        Ok(newest)
+    }
 }

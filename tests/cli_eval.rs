@@ -267,11 +267,8 @@ fn bad_input_gives_one_line_error_and_non_zero_exit() {
     }
 }
 
-#[test]
-fn train_writes_a_loadable_model_for_every_dof_present() {
-    let dir = tempfile::tempdir().unwrap();
-    let input = sea_csv(dir.path(), "sea.csv", 2.0, 500);
-    let out = dir.path().join("model.json");
+/// `shipcast train` of `method` with order 40 and horizon 6 from `input` to `out`; must succeed.
+fn train_order_40_horizon_6(input: &Path, out: &Path, method: &str) {
     let output = shipcast(&[
         "train",
         "--input",
@@ -279,7 +276,7 @@ fn train_writes_a_loadable_model_for_every_dof_present() {
         "--out",
         out.to_str().unwrap(),
         "--method",
-        "wiener",
+        method,
         "--order",
         "40",
         "--horizon",
@@ -290,6 +287,14 @@ fn train_writes_a_loadable_model_for_every_dof_present() {
         "{}",
         String::from_utf8_lossy(&output.stderr)
     );
+}
+
+#[test]
+fn train_writes_a_loadable_model_for_every_dof_present() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = sea_csv(dir.path(), "sea.csv", 2.0, 500);
+    let out = dir.path().join("model.json");
+    train_order_40_horizon_6(&input, &out, "wiener");
     let model = shipcast_eval::model::ModelFile::load(&out).unwrap();
     assert_eq!(model.dofs.len(), 6);
     assert_eq!(model.sample_rate, 2.0);
@@ -372,4 +377,32 @@ fn averaged_forecasts_are_named_and_k_one_changes_nothing() {
         ],
     );
     assert!(!bad_mode.status.success());
+}
+
+/// A hand-edited model file: `shipcast replay --model` refuses it with one line naming the
+/// field, instead of slicing out of range while forecasting.
+#[test]
+fn replay_refuses_a_corrupted_model_file_in_one_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = sea_csv(dir.path(), "sea.csv", 2.0, 500);
+    let model = dir.path().join("model.json");
+    train_order_40_horizon_6(&input, &model, "mca");
+    let mut json: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(&model).unwrap()).unwrap();
+    let matrix = &mut json["dofs"][2]["predictor"]["model"]["prediction"];
+    // 6 x 33 instead of 6 x 34: consistent in itself, one past value short.
+    matrix["cols"] = 33.into();
+    matrix["coef"].as_array_mut().unwrap().truncate(6 * 33);
+    let bad = write(dir.path(), "bad.json", &json.to_string());
+    let output = shipcast(&[
+        "replay",
+        "--input",
+        input.to_str().unwrap(),
+        "--model",
+        bad.to_str().unwrap(),
+    ]);
+    assert_one_line_error(
+        &output,
+        "MCA model.prediction is 6 x 33; horizon 6 and order 40 need 6 x 34",
+    );
 }

@@ -1,6 +1,7 @@
-//! Every numeric command-line value and configuration key is range-checked before any work
-//! starts: a bad value exits with one `error:` line naming it, never a panic, a hang or a run
-//! on a silently changed value. One case per class of bug found in review.
+//! Every numeric command-line value and configuration key is range-checked, and every config
+//! key must do something for the chosen method, before any work starts: a bad value exits with
+//! one `error:` line naming it, never a panic, a hang or a run on a silently changed value.
+//! One case per class of bug found in review.
 
 mod pipeline_support;
 
@@ -280,5 +281,37 @@ fn values_once_coerced_silently_are_refused() {
         ],
         "crane.print_every",
         "heave",
+    );
+}
+
+/// A method's section for another method did nothing (MCA settings under the default Wiener
+/// predictor); now it is refused, by every command that reads the configuration.
+#[test]
+fn a_method_section_for_another_method_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let csv = dir.path().join("m.csv");
+    let csv = csv.to_str().unwrap();
+    pipeline_support::run_ok(&["simulate", "--duration", "60", "--out", csv]);
+    let config = dir.path().join("p.toml");
+    std::fs::write(&config, "[predictor.mca]\nshift = 3\n").unwrap();
+    let config = config.to_str().unwrap();
+    refuses(
+        &["replay", "--input", csv, "--config", config],
+        "[predictor.mca] applies to method = \"mca\" only",
+        "heave",
+    );
+    let instance = unique_instance("rng-section");
+    refuses(
+        &[
+            "predictor",
+            "--config",
+            config,
+            "--instance",
+            &instance,
+            "--duration",
+            "1",
+        ],
+        "[predictor.mca]",
+        "predictor:",
     );
 }

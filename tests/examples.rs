@@ -10,9 +10,10 @@ mod python_env;
 
 use pipeline_support::TestPipeline;
 use python_env::Python;
+use shipcast_pipeline::child::ChildProcess;
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, ExitStatus, Stdio};
-use std::time::{Duration, Instant};
+use std::process::{Command, ExitStatus, Stdio};
+use std::time::Duration;
 
 /// Forecasts each example reads before it exits.
 const COUNT: usize = 3;
@@ -56,7 +57,7 @@ fn rust_example(name: &str) -> PathBuf {
 /// reaped on drop, also when an assertion fails.
 struct ExampleProc {
     label: String,
-    child: Option<Child>,
+    child: ChildProcess,
     stdout: PathBuf,
     stderr: PathBuf,
 }
@@ -87,15 +88,17 @@ impl ExampleProc {
     fn spawn(mut command: Command, label: &str, dir: &Path) -> Self {
         let stdout = dir.join(format!("{label}.out"));
         let stderr = dir.join(format!("{label}.err"));
-        let child = command
+        command
             .stdin(Stdio::null())
             .stdout(std::fs::File::create(&stdout).expect("create stdout file"))
-            .stderr(std::fs::File::create(&stderr).expect("create stderr file"))
-            .spawn()
-            .unwrap_or_else(|e| panic!("spawn {label}: {e}"));
+            .stderr(std::fs::File::create(&stderr).expect("create stderr file"));
+        // A consumer holds nothing to release: killed at once when dropped.
+        let child = ChildProcess::spawn(label, &mut command)
+            .unwrap_or_else(|e| panic!("spawn {label}: {e}"))
+            .with_stop_grace(Duration::ZERO);
         Self {
             label: label.to_string(),
-            child: Some(child),
+            child,
             stdout,
             stderr,
         }
@@ -105,37 +108,20 @@ impl ExampleProc {
         std::fs::read_to_string(path).unwrap_or_default()
     }
 
-    /// Wait for the script to exit; panics with its output after EXAMPLE_PATIENCE.
+    /// Wait for the example to exit; panics with its output after EXAMPLE_PATIENCE.
     fn finish(mut self) -> ExampleOutput {
-        let deadline = Instant::now() + EXAMPLE_PATIENCE;
-        let child = self.child.as_mut().expect("running");
-        let status = loop {
-            if let Some(status) = child.try_wait().expect("try_wait") {
-                break status;
-            }
-            assert!(
-                Instant::now() < deadline,
+        let Some(status) = self.child.wait_timeout(EXAMPLE_PATIENCE) else {
+            panic!(
                 "{} did not exit within {EXAMPLE_PATIENCE:?}; stdout:\n{}\nstderr:\n{}",
                 self.label,
                 Self::read(&self.stdout),
                 Self::read(&self.stderr)
             );
-            std::thread::sleep(Duration::from_millis(20));
         };
-        self.child = None;
         ExampleOutput {
             status,
             stdout: Self::read(&self.stdout),
             stderr: Self::read(&self.stderr),
-        }
-    }
-}
-
-impl Drop for ExampleProc {
-    fn drop(&mut self) {
-        if let Some(mut child) = self.child.take() {
-            let _ = child.kill();
-            let _ = child.wait();
         }
     }
 }

@@ -3,28 +3,27 @@
 
 mod pipeline_support;
 
-use pipeline_support::{counter, TestPipeline};
+use pipeline_support::{status_u64, TestPipeline, PATIENCE};
+use shipcast_pipeline::pacing::poll_until;
 use shipcast_pipeline::transport::iox::{self, IoxSubscriber, Sizing, WaitMode};
 use shipcast_pipeline::transport::{Counters, SeqTracker};
 use shipcast_wire::payload::{limits, Forecast, MotionSample};
 use std::time::{Duration, Instant};
 
-/// Wait until `pred` holds for a forecast received on `sub`; panics after a minute.
+/// How often a waiting test looks again.
+const POLL: Duration = Duration::from_millis(50);
+
+/// Wait until `pred` holds for a forecast received on `sub`; panics after PATIENCE.
 fn wait_forecast(
     sub: &IoxSubscriber<Forecast>,
     what: &str,
     pred: impl Fn(&Forecast) -> bool,
 ) -> Forecast {
-    let deadline = Instant::now() + Duration::from_secs(60);
-    loop {
+    poll_until(PATIENCE, Duration::ZERO, || {
         sub.wait(Duration::from_millis(50)).unwrap();
-        while let Some(f) = sub.receive().unwrap() {
-            if pred(&f) {
-                return f;
-            }
-        }
-        assert!(Instant::now() < deadline, "no forecast: {what}");
-    }
+        std::iter::from_fn(|| sub.receive().unwrap()).find(&pred)
+    })
+    .unwrap_or_else(|| panic!("no forecast: {what}"))
 }
 
 /// kill -9 the predictor, reap it, start a new one: it starts without a stale-resource error
@@ -51,15 +50,14 @@ fn killed_predictor_restarts_and_consumers_resume() {
     let second = p.spawn("predictor", &[]);
     second.wait_for("(iceoryx2 and zenoh)");
     // The new predictor refills its history, then the deck advises again.
-    let deadline = Instant::now() + Duration::from_secs(60);
-    while deck.stdout().len() <= before + 2 {
-        assert!(
-            Instant::now() < deadline,
-            "deck did not resume; predictor:\n{}",
-            second.stderr().join("\n")
-        );
-        std::thread::sleep(Duration::from_millis(50));
-    }
+    let resumed = poll_until(PATIENCE, POLL, || {
+        (deck.stdout().len() > before + 2).then_some(())
+    });
+    assert!(
+        resumed.is_some(),
+        "deck did not resume; predictor:\n{}",
+        second.stderr().join("\n")
+    );
     assert!(
         !second.stderr().iter().any(|l| l.contains("error")),
         "{}",
@@ -67,10 +65,10 @@ fn killed_predictor_restarts_and_consumers_resume() {
     );
     // The zenoh consumer reconnects to the new predictor by itself.
     crane.wait_for_after("predictor alive", crane_log);
-    while crane.stdout().len() <= crane_before + 2 {
-        assert!(Instant::now() < deadline, "crane did not resume");
-        std::thread::sleep(Duration::from_millis(50));
-    }
+    let resumed = poll_until(PATIENCE, POLL, || {
+        (crane.stdout().len() > crane_before + 2).then_some(())
+    });
+    assert!(resumed.is_some(), "crane did not resume");
     // The deck kept running through the crash and saw the new model's forecasts.
     let node = iox::node(&names, "test-observer").unwrap();
     let sub =
@@ -87,6 +85,7 @@ fn stopped_producer_is_reported_stale_and_a_new_one_resumes() {
     let names = p.names();
     let predictor = p.spawn("predictor", &[]);
     predictor.wait_for("(iceoryx2 and zenoh)");
+    let status = p.watch_status();
     let node = iox::node(&names, "test-observer").unwrap();
     let sub =
         IoxSubscriber::<Forecast>::new(&node, &names.forecast(), Sizing::FORECAST, WaitMode::Event)
@@ -95,13 +94,14 @@ fn stopped_producer_is_reported_stale_and_a_new_one_resumes() {
     let mut producer = p.spawn("producer", &["--wait-subscriber-s", "30"]);
     let before = wait_forecast(&sub, "before the producer stops", |f| f.time_s > 60.0);
     producer.kill9();
-    let stale = predictor.wait_for("motion stale");
-    assert!(stale.contains("2 s of record time"), "{stale}");
+    let stale = status.wait_until("the motion stale", |s| s["stale"] == true);
+    assert_eq!(status_u64(&stale, &["counters", "restarts"]), 0, "{stale}");
 
-    let log_len = predictor.stderr().len();
     let _second = p.spawn("producer", &["--wait-subscriber-s", "30"]);
-    predictor.wait_for_after("new producer run", log_len);
-    predictor.wait_for_after("motion resumed", log_len);
+    let resumed = status.wait_until("a new producer run and the motion resumed", |s| {
+        s["stale"] == false && s["counters"]["restarts"].as_u64() == Some(1)
+    });
+    assert_eq!(status_u64(&resumed, &["counters", "lost"]), 0, "{resumed}");
     // The new record starts at time 0 again; its first forecasts come after `order` values.
     let after = wait_forecast(&sub, "after the new producer started", |f| {
         f.time_s < before.time_s
@@ -116,6 +116,7 @@ fn nan_and_out_of_order_samples_are_rejected_counted_and_survived() {
     let p = TestPipeline::new("nan", "[producer]\nspeed = 100.0\nbackfill_s = 0.0\n");
     let mut predictor = p.spawn("predictor", &[]);
     predictor.wait_for("(iceoryx2 and zenoh)");
+    let status = p.watch_status();
     let mut producer = p.spawn(
         "producer",
         &[
@@ -130,22 +131,24 @@ fn nan_and_out_of_order_samples_are_rejected_counted_and_survived() {
         ],
     );
     assert!(producer.wait_exit().success());
-    std::thread::sleep(Duration::from_millis(300));
-    assert!(predictor.terminate().success());
-    let line = predictor.wait_for("predictor: stopped;");
+    // Every sample is in once the predictor has forecast from the last half second of the
+    // record (`last_time_s` is on the 2 Hz grid, behind the filter) and then seen none for a
+    // while (stale).
+    let last = status.wait_settled("the last sample in and the motion stale", |s| {
+        s["stale"] == true && s["last_time_s"].as_f64().is_some_and(|t| t >= 298.5)
+    });
+    let c = |k: &str| status_u64(&last, &["counters", k]);
     // 2400 samples; seq 50, 100, ... 2350 carry NaN (47); after seq 70, 140, ... 2380 the
     // previous sample is sent again (34 extra, out of order).
-    assert_eq!(counter(&line, "received"), 2400 + 34, "{line}");
-    assert_eq!(counter(&line, "non-finite"), 47, "{line}");
-    assert_eq!(counter(&line, "out-of-order"), 34, "{line}");
-    assert_eq!(counter(&line, "lost"), 0, "{line}");
+    assert_eq!(c("received"), 2400 + 34, "{last}");
+    assert_eq!(c("rejected_nonfinite"), 47, "{last}");
+    assert_eq!(c("rejected_order"), 34, "{last}");
+    assert_eq!(c("lost"), 0, "{last}");
     // Bridged NaN samples keep the 2 Hz grid: as many forecasts as from a clean record (from
     // the 60th value on, the engine's MIN_VALUES_TO_PUBLISH).
-    assert_eq!(
-        counter(&line, "published"),
-        (2400 - 17) / 4 + 1 - 59,
-        "{line}"
-    );
+    assert_eq!(c("published"), (2400 - 17) / 4 + 1 - 59, "{last}");
+    assert_eq!(status_u64(&last, &["forecasts"]), c("published"), "{last}");
+    assert!(predictor.terminate().success());
 }
 
 /// A subscriber that never reads does not slow or block the producer: while it sits idle, an

@@ -4,7 +4,7 @@
 
 mod pipeline_support;
 
-use pipeline_support::{collect_forecasts, counter, run_ok, TestPipeline};
+use pipeline_support::{collect_forecasts, counter, run_ok, status_u64, TestPipeline};
 use shipcast_pipeline::config::PipelineConfig;
 use shipcast_pipeline::engine::replay::replay;
 use shipcast_pipeline::engine::startup::initial_models;
@@ -25,6 +25,7 @@ fn ten_simulated_minutes_at_100x_flow_without_gaps_over_both_transports() {
     let names = p.names();
     let mut predictor = p.spawn("predictor", &[]);
     predictor.wait_for("(iceoryx2 and zenoh)");
+    let status = p.watch_status();
 
     let node = iox::node(&names, "test-observer").unwrap();
     let motion =
@@ -71,17 +72,21 @@ fn ten_simulated_minutes_at_100x_flow_without_gaps_over_both_transports() {
         (4800, 0, 0)
     );
 
-    // Drain the last forecasts, then stop the predictor cleanly and read its counters.
-    std::thread::sleep(Duration::from_millis(300));
-    drain_forecasts(&mut by_iox, &mut by_zenoh);
-    assert!(predictor.terminate().success());
-    let stopped = predictor.wait_for("predictor: stopped;");
-    assert_eq!(counter(&stopped, "received"), 4800, "{stopped}");
-    assert_eq!(counter(&stopped, "lost"), 0, "{stopped}");
-    assert_eq!(counter(&stopped, "rejected"), 0, "{stopped}");
+    // The predictor's own counters, from its status once it has forecast from the last half
+    // second of the record (`last_time_s`, on the 2 Hz grid) and seen no sample since
+    // (stale); then the last forecasts are out.
+    let last = status.wait_settled("the last sample in and the motion stale", |s| {
+        s["stale"] == true && s["last_time_s"].as_f64().is_some_and(|t| t >= 598.5)
+    });
+    let c = |k: &str| status_u64(&last, &["counters", k]);
+    assert_eq!(c("received"), 4800, "{last}");
+    assert_eq!(c("lost"), 0, "{last}");
+    assert_eq!(c("rejected_nonfinite") + c("rejected_order"), 0, "{last}");
     // 4800 samples -> (4800 - 17) / 4 + 1 = 1196 values at 2 Hz; forecasts from value 60 on
     // (the engine's MIN_VALUES_TO_PUBLISH: the live RMS behind a no-skill sigma needs them).
-    assert_eq!(counter(&stopped, "published"), 1196 - 59, "{stopped}");
+    assert_eq!(c("published"), 1196 - 59, "{last}");
+    drain_forecasts(&mut by_iox, &mut by_zenoh);
+    assert!(predictor.terminate().success());
 
     assert!(!by_iox.is_empty() && !by_zenoh.is_empty());
     let common: Vec<u64> = by_zenoh
@@ -238,6 +243,15 @@ fn retrained_models_are_swapped_in_without_a_missed_forecast() {
     // 900 s at 8 Hz: 7200 samples -> 1796 values at 2 Hz -> forecasts from value 60 on.
     let got = collect_forecasts(&forecasts, 1737);
     assert!(producer.wait_exit().success());
+    // The engine counted the swaps the forecasts' model versions show (watched only now, so
+    // the watch costs the collection above nothing).
+    let status = p.watch_status();
+    let swapped = status.wait_until("a live model swapped in", |s| {
+        s["engine"]["swaps"].as_u64().is_some_and(|n| n >= 1)
+    });
+    // Every finished retrain either replaced the running model or was kept out.
+    let e = |k: &str| status_u64(&swapped, &["engine", k]);
+    assert!(e("retrains") >= e("swaps") + e("kept_running"), "{swapped}");
     assert!(predictor.terminate().success());
     assert_eq!(got.len(), 1737, "a forecast was missed");
     assert!(got.windows(2).all(|w| w[1].seq == w[0].seq + 1));
@@ -256,5 +270,4 @@ fn retrained_models_are_swapped_in_without_a_missed_forecast() {
         last.sigma[2][..50],
         "sigma not re-measured"
     );
-    predictor.wait_for("first model fitted on live data in use");
 }

@@ -1,5 +1,6 @@
 //! `shipcast run`: the whole pipeline from one config ends by itself after `--duration`, shows
-//! forecasts and the deck advisory, and refuses a config with an unknown key.
+//! forecasts, the deck advisory and the display's address, and refuses a config with an unknown
+//! key.
 
 mod pipeline_support;
 
@@ -22,7 +23,12 @@ fn run_shows_forecasts_and_advisory_and_stops_after_duration() {
         "15",
         "--log-dir",
         dir.path().to_str().unwrap(),
+        "--display",
+        "127.0.0.1:0",
     ]);
+    // The live view names the display's page, on the free port chosen for it.
+    assert!(stdout.contains("display http://127.0.0.1:"), "{stdout}");
+    assert!(!stdout.contains("display http://127.0.0.1:0/"), "{stdout}");
     // Default config: 240 s of backfill, so forecasts start within seconds.
     assert!(stdout.contains("forecast   t="), "{stdout}");
     assert!(stdout.contains("deck t="), "{stdout}");
@@ -32,7 +38,7 @@ fn run_shows_forecasts_and_advisory_and_stops_after_duration() {
         "{stdout}"
     );
     // Every child wrote its log and stopped cleanly.
-    for name in ["producer", "predictor", "deck", "crane"] {
+    for name in ["producer", "predictor", "deck", "crane", "display"] {
         let log = std::fs::read_to_string(dir.path().join(format!("{name}.log"))).unwrap();
         assert!(log.contains(&format!("{name}: stopped")), "{name}:\n{log}");
     }

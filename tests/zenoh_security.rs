@@ -1,11 +1,16 @@
 //! zenoh's authentication as shipcast configures it, in one process on 127.0.0.1: a listener
 //! with mutual TLS and a user/password file admits a station with a valid certificate and the
-//! right password, and refuses an expired certificate, a wrong password and no password.
+//! right password, and refuses an expired certificate, a wrong password and no password,
+//! each counted under its reason by shipcast's refusal layer (`zenoh_refusals`).
 
 use shipcast_pipeline::certs::{CertAuthority, Identity, Validity};
 use shipcast_pipeline::transport::zenoh::{self as zn, Mode, ZenohSettings};
+use shipcast_pipeline::transport::zenoh_refusals::{refusal_events, refusals, RefusalLayer};
 use shipcast_pipeline::transport::zenoh_security::{TlsSettings, UserPassword};
 use time::{Duration, OffsetDateTime};
+use tracing_subscriber::layer::SubscriberExt;
+use tracing_subscriber::util::SubscriberInitExt;
+use tracing_subscriber::Layer;
 
 fn tls(ca: &CertAuthority, id: &Identity) -> TlsSettings {
     // Inline PEM: the settings carry the certificates themselves.
@@ -32,6 +37,10 @@ fn client(endpoint: &str, tls: TlsSettings, auth: Option<(&str, &str)>) -> Zenoh
 
 #[test]
 fn expired_certificates_and_wrong_passwords_are_refused() {
+    // The only test of this binary: the process-wide subscriber is its own.
+    tracing_subscriber::registry()
+        .with(RefusalLayer.with_filter(refusal_events()))
+        .init();
     let now = Validity::days_from_now(30);
     let ca = CertAuthority::new("test CA", now).unwrap();
     let server = ca
@@ -76,14 +85,20 @@ fn expired_certificates_and_wrong_passwords_are_refused() {
         "a valid station was refused: {:?}",
         good.err()
     );
-    for (what, settings) in [
+    for (what, reason, settings) in [
         (
             "a wrong password",
+            "wrong password",
             client(&endpoint, tls(&ca, &crane), Some(("crane", "wrong"))),
         ),
-        ("no password", client(&endpoint, tls(&ca, &crane), None)),
+        (
+            "no password",
+            "no user/password",
+            client(&endpoint, tls(&ca, &crane), None),
+        ),
         (
             "an expired certificate",
+            "certificate expired",
             client(
                 &endpoint,
                 tls(&ca, &expired),
@@ -99,5 +114,26 @@ fn expired_certificates_and_wrong_passwords_are_refused() {
             "{message}"
         );
         assert_eq!(message.lines().count(), 1, "{message}");
+        // The listener's side of the refusal may be logged just after the client gave up.
+        let deadline = std::time::Instant::now() + std::time::Duration::from_secs(30);
+        while !refusals().iter().any(|(r, n)| *r == reason && *n >= 1) {
+            assert!(
+                std::time::Instant::now() < deadline,
+                "{what} was not counted as '{reason}': {:?}",
+                refusals()
+            );
+            std::thread::sleep(std::time::Duration::from_millis(20));
+        }
     }
+    // Exactly these three refusals, one each (the valid station was not counted).
+    let mut counted = refusals();
+    counted.sort_unstable();
+    assert_eq!(
+        counted,
+        [
+            ("certificate expired", 1),
+            ("no user/password", 1),
+            ("wrong password", 1)
+        ]
+    );
 }

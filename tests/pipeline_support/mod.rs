@@ -4,9 +4,12 @@
 
 #![allow(dead_code)]
 
+use shipcast_pipeline::child::ChildProcess;
+use shipcast_pipeline::pacing::poll_until;
+use shipcast_wire::payload::Forecast;
 use std::io::{BufRead, BufReader};
 use std::path::PathBuf;
-use std::process::{Child, Command, Stdio};
+use std::process::{Command, Stdio};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
@@ -15,13 +18,12 @@ pub const BIN: &str = env!("CARGO_BIN_EXE_shipcast");
 /// Upper bound for waiting on an expected event; a hang guard, not a performance threshold.
 pub const PATIENCE: Duration = Duration::from_secs(60);
 
+/// How often a waiting test looks again.
+const POLL: Duration = Duration::from_millis(20);
+
 /// An instance name no other test (or test run) uses.
 pub fn unique_instance(tag: &str) -> String {
-    let nanos = std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .map(|d| d.subsec_nanos())
-        .unwrap_or(0);
-    format!("t{tag}-{}-{nanos}", std::process::id())
+    shipcast_pipeline::transport::unique_instance(&format!("t{tag}"))
 }
 
 /// A pipeline config for tests: small order, fast start-up training, no scouting, explicit
@@ -78,25 +80,99 @@ impl TestPipeline {
     }
 }
 
+impl TestPipeline {
+    /// Subscribe to the predictor's status JSON (zenoh `.../status/predictor`), the facts the
+    /// predictor reports about itself: counters, staleness, model version, engine counts.
+    pub fn watch_status(&self) -> StatusWatch {
+        let config =
+            shipcast_pipeline::config::PipelineConfig::load(Some(&self.config)).expect("config");
+        let session = shipcast_pipeline::transport::zenoh::open(&config.zenoh.consumer_side())
+            .expect("zenoh session");
+        let sub = shipcast_pipeline::transport::zenoh::LatestSubscriber::new(
+            &session,
+            &self.names().status("predictor"),
+        )
+        .expect("status subscriber");
+        StatusWatch {
+            _session: session,
+            sub,
+            last: Mutex::new(None),
+        }
+    }
+}
+
+/// The predictor's status JSON as it arrives (every 500 ms and on every change).
+pub struct StatusWatch {
+    _session: zenoh::Session,
+    sub: shipcast_pipeline::transport::zenoh::LatestSubscriber,
+    last: Mutex<Option<serde_json::Value>>,
+}
+
+impl StatusWatch {
+    /// The first status for which `holds` is true; panics after PATIENCE with the last one.
+    pub fn wait_until(
+        &self,
+        what: &str,
+        holds: impl Fn(&serde_json::Value) -> bool,
+    ) -> serde_json::Value {
+        let found = poll_until(PATIENCE, Duration::ZERO, || {
+            let bytes = self.sub.recv_timeout(Duration::from_millis(100)).ok()??;
+            let status: serde_json::Value = serde_json::from_slice(&bytes).expect("status is JSON");
+            let ok = holds(&status);
+            *self.last.lock().expect("last") = Some(status.clone());
+            ok.then_some(status)
+        });
+        found.unwrap_or_else(|| {
+            panic!(
+                "no predictor status with {what}; last: {:?}",
+                self.last.lock().expect("last")
+            )
+        })
+    }
+}
+
+impl StatusWatch {
+    /// The first status for which `holds` is true and was true, with the same counters, in the
+    /// status before it (about 500 ms earlier): the state has settled, not just passed by (a
+    /// producer paused by a busy machine makes the predictor report "stale" for a moment).
+    pub fn wait_settled(
+        &self,
+        what: &str,
+        holds: impl Fn(&serde_json::Value) -> bool,
+    ) -> serde_json::Value {
+        let previous: Mutex<Option<serde_json::Value>> = Mutex::new(None);
+        self.wait_until(what, |s| {
+            let mut prev = previous.lock().expect("previous");
+            let settled = holds(s)
+                && prev
+                    .as_ref()
+                    .is_some_and(|p| holds(p) && p["counters"] == s["counters"]);
+            *prev = Some(s.clone());
+            settled
+        })
+    }
+}
+
+/// A number of a status JSON (`path` of keys), panicking if it is not there.
+pub fn status_u64(status: &serde_json::Value, path: &[&str]) -> u64 {
+    path.iter()
+        .fold(status, |v, k| &v[k])
+        .as_u64()
+        .unwrap_or_else(|| panic!("no number at {path:?} in {status}"))
+}
+
 impl Drop for TestPipeline {
     /// iceoryx2 keeps a 16-byte management segment per file prefix after the last node is
     /// gone; the prefix is unique to this test, so remove it once every process has stopped.
     fn drop(&mut self) {
-        let prefix = format!("iox2_{}_", self.instance);
-        if let Ok(entries) = std::fs::read_dir("/dev/shm") {
-            for e in entries.flatten() {
-                if e.file_name().to_string_lossy().starts_with(&prefix) {
-                    let _ = std::fs::remove_file(e.path());
-                }
-            }
-        }
+        shipcast_pipeline::transport::iox::remove_leftovers(&self.names().iox_prefix());
     }
 }
 
 /// A running child with its output collected line by line.
 pub struct Proc {
     pub name: String,
-    child: Option<Child>,
+    child: ChildProcess,
     stdout: Arc<Mutex<Vec<String>>>,
     stderr: Arc<Mutex<Vec<String>>>,
 }
@@ -128,21 +204,21 @@ fn collect(stream: impl std::io::Read + Send + 'static, into: Arc<Mutex<Vec<Stri
 
 impl Proc {
     pub fn spawn(name: &str, args: &[&str]) -> Self {
-        let mut child = Command::new(BIN)
-            .args(args)
+        let mut cmd = Command::new(BIN);
+        cmd.args(args)
             .env("RUST_LOG", "info")
             .stdin(Stdio::null())
             .stdout(Stdio::piped())
-            .stderr(Stdio::piped())
-            .spawn()
-            .expect("spawn shipcast");
+            .stderr(Stdio::piped());
+        let mut child = ChildProcess::spawn(name, &mut cmd).expect("spawn shipcast");
         let stdout = Arc::new(Mutex::new(Vec::new()));
         let stderr = Arc::new(Mutex::new(Vec::new()));
-        collect(child.stdout.take().expect("stdout"), stdout.clone());
-        collect(child.stderr.take().expect("stderr"), stderr.clone());
+        let pipes = child.child_mut();
+        collect(pipes.stdout.take().expect("stdout"), stdout.clone());
+        collect(pipes.stderr.take().expect("stderr"), stderr.clone());
         Self {
             name: name.to_string(),
-            child: Some(child),
+            child,
             stdout,
             stderr,
         }
@@ -164,82 +240,51 @@ impl Proc {
 
     /// Like `wait_for`, but only stderr lines from index `from` on count.
     pub fn wait_for_after(&self, needle: &str, from: usize) -> String {
-        let deadline = Instant::now() + PATIENCE;
-        loop {
-            if let Some(l) = self.stderr().iter().skip(from).find(|l| l.contains(needle)) {
-                return l.clone();
-            }
-            if let Some(l) = self.stdout().iter().find(|l| l.contains(needle)) {
-                return l.clone();
-            }
-            assert!(
-                Instant::now() < deadline,
+        let found = poll_until(PATIENCE, POLL, || {
+            let in_stderr = self
+                .stderr()
+                .into_iter()
+                .skip(from)
+                .find(|l| l.contains(needle));
+            in_stderr.or_else(|| self.stdout().into_iter().find(|l| l.contains(needle)))
+        });
+        found.unwrap_or_else(|| {
+            panic!(
                 "{}: no line with '{needle}'; stderr:\n{}",
                 self.name,
                 self.stderr().join("\n")
-            );
-            std::thread::sleep(Duration::from_millis(20));
-        }
+            )
+        })
     }
 
     /// Wait for the process to exit by itself; panics after PATIENCE.
     pub fn wait_exit(&mut self) -> std::process::ExitStatus {
-        let deadline = Instant::now() + PATIENCE;
-        let child = self.child.as_mut().expect("running");
-        loop {
-            if let Some(status) = child.try_wait().expect("try_wait") {
-                // Let the reader threads drain the pipes.
-                std::thread::sleep(Duration::from_millis(100));
-                return status;
-            }
-            assert!(
-                Instant::now() < deadline,
+        let Some(status) = self.child.wait_timeout(PATIENCE) else {
+            panic!(
                 "{} did not exit; stderr:\n{}",
                 self.name,
                 self.stderr().join("\n")
             );
-            std::thread::sleep(Duration::from_millis(20));
-        }
+        };
+        // Let the reader threads drain the pipes.
+        std::thread::sleep(Duration::from_millis(100));
+        status
     }
 
-    /// SIGTERM (a clean stop) and wait.
+    /// SIGTERM (a clean stop) and wait; a process that has exited already is not signalled.
     pub fn terminate(&mut self) -> std::process::ExitStatus {
-        if let Some(child) = &self.child {
-            // SAFETY: kill(2) on our own child.
-            unsafe {
-                libc::kill(child.id() as libc::pid_t, libc::SIGTERM);
-            }
-        }
+        self.child.terminate();
         self.wait_exit()
     }
 
     /// SIGKILL (a crash) and reap, so iceoryx2 sees the node as dead.
     pub fn kill9(&mut self) {
-        if let Some(mut child) = self.child.take() {
-            let _ = child.kill();
-            let _ = child.wait();
-        }
+        let _ = self.child.kill();
     }
 }
 
-impl Drop for Proc {
-    /// Stop cleanly (SIGTERM) so the process releases its shared memory, and SIGKILL it if it
-    /// does not exit within a few seconds; always reap it.
-    fn drop(&mut self) {
-        if let Some(mut child) = self.child.take() {
-            // SAFETY: kill(2) on our own child.
-            unsafe {
-                libc::kill(child.id() as libc::pid_t, libc::SIGTERM);
-            }
-            let deadline = Instant::now() + Duration::from_secs(5);
-            while matches!(child.try_wait(), Ok(None)) && Instant::now() < deadline {
-                std::thread::sleep(Duration::from_millis(20));
-            }
-            let _ = child.kill();
-            let _ = child.wait();
-        }
-    }
-}
+// Dropping a Proc drops its ChildProcess: SIGTERM, so the process releases its shared memory,
+// SIGKILL if it does not exit within a few seconds, and always reaped.
 
 /// The last log line of a service that contains `needle`, parsed for `key N` pairs.
 pub fn counter(line: &str, key: &str) -> u64 {
@@ -283,4 +328,33 @@ pub fn collect_forecasts(
         }
     }
     got
+}
+
+/// The injected forecast of issue 14: an unrelated, repeated seq and 9.99 m heave everywhere.
+pub const FAKE_SEQ: u64 = 987654321;
+
+pub fn fake_forecast_json() -> Vec<u8> {
+    let mut f = Forecast {
+        seq: FAKE_SEQ,
+        time_s: 1.0e6,
+        dt_s: 0.5,
+        steps: 40,
+        ..Forecast::default()
+    };
+    f.mean[2][..40].fill(9.99);
+    let mut out = Vec::new();
+    f.write_json(&mut out).expect("serialise");
+    out
+}
+
+/// Wait until the crane has printed `n` more forecast lines than `from`.
+pub fn wait_crane_lines(crane: &Proc, from: usize, n: usize) {
+    let printed = poll_until(PATIENCE, Duration::from_millis(20), || {
+        (crane.stdout().len() >= from + n).then_some(())
+    });
+    assert!(
+        printed.is_some(),
+        "crane stopped printing forecasts; stderr:\n{}",
+        crane.stderr().join("\n")
+    );
 }

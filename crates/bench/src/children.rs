@@ -4,15 +4,16 @@
 
 use super::pinning::{child_pinned, pin_command, PinOutcome};
 use anyhow::{anyhow, Context};
+use shipcast_pipeline::child::{stop_all, ChildProcess};
 use std::path::{Path as FsPath, PathBuf};
-use std::process::{Child, Command, Stdio};
-use std::time::{Duration, Instant};
+use std::process::{Command, Stdio};
+use std::time::Duration;
 
 /// Child processes, killed and reaped when dropped (also when the run fails), so that no
 /// service outlives the benchmark and iceoryx2 sees their nodes as dead.
 #[derive(Default)]
 pub struct Children {
-    list: Vec<(String, Child, PathBuf)>,
+    list: Vec<(ChildProcess, PathBuf)>,
 }
 
 impl Children {
@@ -58,18 +59,17 @@ impl Children {
         if let Some(core) = core {
             pin_command(&mut cmd, core);
         }
-        let child = cmd
-            .spawn()
+        let child = ChildProcess::spawn(role, &mut cmd)
             .with_context(|| format!("start {role}: {} {}", exe.display(), args.join(" ")))?;
         let id = child.id();
-        self.list.push((role.to_string(), child, log));
+        self.list.push((child, log));
         Ok(id)
     }
 
     /// Fail if the child `role` has exited, naming its log.
     pub fn check_running(&mut self, role: &str) -> anyhow::Result<()> {
-        for (_, child, log) in self.list.iter_mut().filter(|(r, _, _)| r == role) {
-            if let Some(status) = child.try_wait().context("check child")? {
+        for (child, log) in self.list.iter_mut().filter(|(c, _)| c.name() == role) {
+            if let Some(status) = child.try_exit().context("check child")? {
                 anyhow::bail!("{role} exited early ({status}); see {}", log.display());
             }
         }
@@ -78,26 +78,18 @@ impl Children {
 
     /// Wait for `role` to exit by itself within `timeout`.
     pub fn wait_exit(&mut self, role: &str, timeout: Duration) -> anyhow::Result<()> {
-        let deadline = Instant::now() + timeout;
-        let (_, child, log) = self
+        let (child, log) = self
             .list
             .iter_mut()
-            .find(|(r, _, _)| r == role)
+            .find(|(c, _)| c.name() == role)
             .ok_or_else(|| anyhow!("no child '{role}'"))?;
-        loop {
-            if let Some(status) = child.try_wait().context("wait for child")? {
-                if !status.success() {
-                    anyhow::bail!("{role} failed ({status}); see {}", log.display());
-                }
-                return Ok(());
-            }
-            if Instant::now() > deadline {
-                anyhow::bail!(
-                    "{role} did not finish within {timeout:?}; see {}",
-                    log.display()
-                );
-            }
-            std::thread::sleep(Duration::from_millis(20));
+        match child.wait_timeout(timeout) {
+            Some(status) if status.success() => Ok(()),
+            Some(status) => anyhow::bail!("{role} failed ({status}); see {}", log.display()),
+            None => anyhow::bail!(
+                "{role} did not finish within {timeout:?}; see {}",
+                log.display()
+            ),
         }
     }
 }
@@ -106,40 +98,19 @@ impl Children {
     /// Ask every running child to stop (SIGTERM: the services shut down cleanly and remove
     /// their iceoryx2 resources), wait up to `timeout`, then kill what is left.
     pub fn stop_all(&mut self, timeout: Duration) {
-        for (_, child, _) in &mut self.list {
-            if let Ok(None) = child.try_wait() {
-                // SAFETY: plain kill(2) on the id of a child we have not reaped yet.
-                unsafe {
-                    libc::kill(child.id() as libc::pid_t, libc::SIGTERM);
-                }
-            }
-        }
-        let deadline = Instant::now() + timeout;
-        while Instant::now() < deadline
-            && self
-                .list
-                .iter_mut()
-                .any(|(_, c, _)| matches!(c.try_wait(), Ok(None)))
-        {
-            std::thread::sleep(Duration::from_millis(20));
-        }
+        stop_all(self.list.iter_mut().map(|(c, _)| c), timeout);
         self.kill_all();
     }
 
     /// Kill and reap every child; remove the logs of those that exited successfully.
     pub fn kill_all(&mut self) {
-        for (role, mut child, log) in self.list.drain(..) {
-            if let Ok(None) = child.try_wait() {
-                if let Err(e) = child.kill() {
-                    tracing::warn!(role = role.as_str(), "could not kill child: {e}");
-                }
-            }
-            // Reap it, so it is not a zombie that iceoryx2 still counts as alive.
-            match child.wait() {
+        for (mut child, log) in self.list.drain(..) {
+            // Reaped, so it is not a zombie that iceoryx2 still counts as alive.
+            match child.kill() {
                 Ok(status) if status.success() => {
                     let _ = std::fs::remove_file(&log);
                 }
-                _ => tracing::info!(role = role.as_str(), "service log kept: {}", log.display()),
+                _ => tracing::info!(role = child.name(), "service log kept: {}", log.display()),
             }
         }
     }

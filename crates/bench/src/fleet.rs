@@ -6,11 +6,13 @@
 
 use crate::LatencyRecorder;
 use anyhow::Context;
+use shipcast_pipeline::child::ChildProcess;
+use shipcast_pipeline::pacing::{poll_until, Pacer};
 use shipcast_pipeline::transport::monotonic_ns;
 use shipcast_pipeline::transport::zenoh::{self as zn, Mode, ZenohSettings};
 use shipcast_wire::payload::Forecast;
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Stdio};
+use std::process::{Command, Stdio};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 use zenoh::Wait;
@@ -37,20 +39,22 @@ pub struct FleetReport {
 
 /// The `shipcast router` child; killed and reaped when dropped.
 struct RouterProcess {
-    child: Child,
+    child: ChildProcess,
 }
 
 impl RouterProcess {
     fn start(exe: &Path, endpoint: &str, log: &Path) -> anyhow::Result<Self> {
         let file =
             std::fs::File::create(log).with_context(|| format!("create {}", log.display()))?;
-        let child = Command::new(exe)
-            .args(["router", "--listen", endpoint])
+        let mut cmd = Command::new(exe);
+        cmd.args(["router", "--listen", endpoint])
             .stdin(Stdio::null())
             .stdout(file.try_clone()?)
-            .stderr(file)
-            .spawn()
-            .context("start shipcast router")?;
+            .stderr(file);
+        // Killed at once: the benchmark measures recovery from a crashed router.
+        let child = ChildProcess::spawn("router", &mut cmd)
+            .context("start shipcast router")?
+            .with_stop_grace(Duration::ZERO);
         Ok(Self { child })
     }
 
@@ -74,13 +78,6 @@ impl RouterProcess {
 
     fn kill(&mut self) {
         let _ = self.child.kill();
-        let _ = self.child.wait();
-    }
-}
-
-impl Drop for RouterProcess {
-    fn drop(&mut self) {
-        self.kill();
     }
 }
 
@@ -132,7 +129,7 @@ pub fn run(
 ) -> anyhow::Result<FleetReport> {
     anyhow::ensure!(vessels > 0, "--vessels must be at least 1");
     let endpoint = zn::free_loopback_endpoint()?;
-    let prefix = format!("fleet{}-{}", std::process::id(), vessels);
+    let prefix = shipcast_pipeline::transport::unique_instance(&format!("fleet{vessels}"));
     let log: PathBuf = work_dir.join(format!("router-{vessels}.log"));
     let mut router = RouterProcess::start(exe, &endpoint, &log)?;
     // The router is up once a client can connect.
@@ -184,28 +181,25 @@ pub fn run(
         sessions.push(s);
     }
     // Declarations propagate asynchronously: wait until every publisher sees the shore.
-    let deadline = Instant::now() + Duration::from_secs(60);
-    while !publishers.iter().all(|p| p.has_subscribers()) {
-        anyhow::ensure!(
-            Instant::now() < deadline,
-            "not every vessel saw the shore subscriber within 60 s"
-        );
-        std::thread::sleep(Duration::from_millis(50));
-    }
+    let seen = poll_until(Duration::from_secs(60), Duration::from_millis(50), || {
+        publishers.iter().all(|p| p.has_subscribers()).then_some(())
+    });
+    anyhow::ensure!(
+        seen.is_some(),
+        "not every vessel saw the shore subscriber within 60 s"
+    );
 
     let mut buf = Vec::with_capacity(8192);
     forecast_json(0, 0, &mut buf);
     let payload_bytes = buf.len();
-    let period_ns = (1e9 / (rate_hz * vessels as f64)) as u64;
     let publish_for = |until: Instant, seq: &mut u64, buf: &mut Vec<u8>| -> anyhow::Result<u64> {
         let mut sent = 0;
-        let start = monotonic_ns();
+        // One put per slot, the vessels in turn; a late slot is not made up by a burst.
+        let mut pacer = Pacer::at_rate(rate_hz * vessels as f64);
         let mut slot = 0u64;
         while Instant::now() < until {
-            let due = start + slot * period_ns;
-            let now = monotonic_ns();
-            if due > now {
-                std::thread::sleep(Duration::from_nanos(due - now));
+            if slot > 0 {
+                pacer.wait();
             }
             let v = (slot % vessels as u64) as usize;
             forecast_json(*seq, monotonic_ns(), buf);
@@ -291,14 +285,13 @@ fn lock(t: &Mutex<ShoreTally>) -> std::sync::MutexGuard<'_, ShoreTally> {
 /// zenoh does not log a failed connection per try).
 fn wait_for_client(endpoint: &str, patience: Duration) -> anyhow::Result<zenoh::Session> {
     let address = endpoint.strip_prefix("tcp/").unwrap_or(endpoint);
-    let deadline = Instant::now() + patience;
-    while std::net::TcpStream::connect(address).is_err() {
-        anyhow::ensure!(
-            Instant::now() < deadline,
-            "the router did not listen on {endpoint} within {patience:?}"
-        );
-        std::thread::sleep(Duration::from_millis(50));
-    }
+    let listening = poll_until(patience, Duration::from_millis(50), || {
+        std::net::TcpStream::connect(address).ok()
+    });
+    anyhow::ensure!(
+        listening.is_some(),
+        "the router did not listen on {endpoint} within {patience:?}"
+    );
     Ok(zn::open(&ZenohSettings {
         mode: Mode::Client,
         connect: vec![endpoint.to_string()],

@@ -9,12 +9,12 @@ use shipcast_eval::progress::Progress;
 use shipcast_wire::payload::{Forecast, MotionSample};
 
 /// How the shipcast paths were measured, stated in every report.
-pub const STAND_IN_NOTE: &str = "source 'services' = `shipcast producer` (pinned to the first core) and \
+pub const SOURCES_NOTE: &str = "source 'services' = `shipcast producer` (pinned to the first core) and \
 `shipcast predictor` (its forecasting thread pinned to the second with --pin-core) as child processes, measured by consumers in this process, producer-to-predictor from the \
 receive stamps the predictor publishes with --bench-stamps; source 'in-process' = producer, \
-predictor and consumers as threads of this process over the same transport API, the predictor being the \
-bench's stand-in from the library parts (Decimator 8->2 Hz, MCA per DOF, Forecast payload), which also \
-records receive stamps; source 'raw' = ping-pong between two threads of this process, 'raw-processes' = zenoh ping-pong between this process and a child `shipcast bench zenoh-pong` (the process boundary the services' zenoh path crosses); zenoh consumers always block on their channel (mode applies to iceoryx2 receivers); \
+predictor and consumers as threads of this process over the same transport API, the predictor thread \
+running the service's own engine (shipcast_pipeline::engine::Engine, default configuration, the service's start-up \
+models, retraining off as in the services rows) and publishing steps, recording receive stamps itself; source 'raw' = ping-pong between two threads of this process, 'raw-processes' = zenoh ping-pong between this process and a child `shipcast bench zenoh-pong` (the process boundary the services' zenoh path crosses); zenoh consumers always block on their channel (mode applies to iceoryx2 receivers); \
 poll = spinning on the queue; shipcast receivers and the zenoh floor yield the core after 20 µs without \
 data so that zenoh's threads on the same core run (the iceoryx2 floor never yields)";
 
@@ -56,7 +56,7 @@ pub fn measure_raw(plan: &Plan, mode: Mode, out: &mut ReportBuilder) -> anyhow::
 pub fn run(plan: &Plan, modes: &[Mode], progress: &dyn Progress) -> anyhow::Result<LatencyReport> {
     plan.validate().map_err(anyhow::Error::msg)?;
     let mut out = ReportBuilder::new(plan, modes);
-    out.note(STAND_IN_NOTE.to_string());
+    out.note(SOURCES_NOTE.to_string());
     progress.start(plan.rounds * modes.len() as u64);
     for round in 0..plan.rounds {
         let sub = plan.round(round);
@@ -79,7 +79,7 @@ pub fn run(plan: &Plan, modes: &[Mode], progress: &dyn Progress) -> anyhow::Resu
         }
         // Every node of the round is dropped by now: only the round's own prefix is removed.
         let names = shipcast_pipeline::transport::Names::new(Some(&sub.instance), "any")?;
-        super::machine::remove_iox_leftovers(&names.iox_prefix());
+        shipcast_pipeline::transport::iox::remove_leftovers(&names.iox_prefix());
     }
     Ok(out.finish())
 }

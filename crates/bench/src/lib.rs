@@ -3,8 +3,10 @@
 //! Measures one way, from the stamps carried in the payloads, on two pinned cores:
 //! - the raw transport floors: an iceoryx2 ping-pong ([`pingpong_iox`]) and a zenoh ping-pong
 //!   ([`pingpong_zenoh`]) driven by the same protocol ([`pingpong`]);
-//! - shipcast's own paths ([`pipeline`]): producer, predictor and consumers over the
-//!   middleware's transport API, with the forecasting step of [`stand_in`].
+//! - shipcast's own paths: the real `shipcast producer` and `shipcast predictor` processes
+//!   ([`services`]), and producer, predictor and consumers as threads of one process over the
+//!   same transport API ([`pipeline`]), the predictor thread driving the service's own
+//!   [`shipcast_pipeline::engine::Engine`].
 //!
 //! Everything is recorded into HDR histograms ([`histogram`]) and reported as a table, JSON rows
 //! and an SVG of the latency distributions ([`report`]).
@@ -26,7 +28,6 @@ pub mod report;
 pub mod report_builder;
 pub mod services;
 pub mod stamps;
-pub mod stand_in;
 
 pub use histogram::{LatencyRecorder, PathStats};
 pub use plan::{Mode, ModeSelect, Path, Plan, Source};

@@ -43,18 +43,6 @@ fn cpu_model(cpuinfo: &str) -> Option<String> {
         .map(|(_, v)| v.trim().to_string())
 }
 
-/// Remove the shared-memory files iceoryx2 leaves under `prefix` once every node of a run is
-/// gone (a 16-byte management segment per file prefix); returns how many were removed.
-pub fn remove_iox_leftovers(prefix: &str) -> usize {
-    let Ok(dir) = std::fs::read_dir("/dev/shm") else {
-        return 0;
-    };
-    dir.flatten()
-        .filter(|e| e.file_name().to_string_lossy().starts_with(prefix))
-        .filter(|e| std::fs::remove_file(e.path()).is_ok())
-        .count()
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -117,7 +117,7 @@ pub(crate) fn ping_loop(
 ) -> anyhow::Result<LatencyRecorder> {
     handshake(ep, done)?;
     let mut rec = LatencyRecorder::new();
-    let mut pacer = Pacer::new(plan);
+    let mut pacer = Pacer::new(plan.period());
     for seq in 0..plan.warmup + plan.samples {
         pacer.wait();
         ep.send(seq, monotonic_ns())?;

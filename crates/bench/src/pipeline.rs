@@ -4,24 +4,31 @@
 //!
 //! Producer and consumers are threads on the first core, the predictor on the second. All
 //! traffic uses the middleware's public transport API (`transport::iox`, `transport::zenoh`)
-//! under a unique instance prefix. The forecasting step is [`super::stand_in::ForecastStep`];
-//! [`super::services`] measures the real `shipcast producer` and `shipcast predictor`.
+//! under a unique instance prefix. The predictor thread runs the service's own forecasting
+//! [`Engine`] and publishing steps as `shipcast predictor` does (same defaults, same start-up
+//! models, `--retrain-every-s 0` as in the services rows); [`super::services`] measures the
+//! real `shipcast producer` and `shipcast predictor` processes.
 
 use super::consumers::{self, ConsumerTally, Shared, CONSUMERS};
 use super::histogram::LatencyRecorder;
 use super::pinning::{pin_current, PinOutcome};
 use super::plan::{Mode, Pacer, Path, Plan, Source};
 use super::report_builder::{forecast_json_bytes, ReportBuilder, FORECAST_BYTES, MOTION_BYTES};
-use super::stand_in::{swell, ForecastStep, RECORD_RATE_HZ};
 use anyhow::{anyhow, Context};
+use shipcast_pipeline::config::{PipelineConfig, PredictorServiceConfig};
+use shipcast_pipeline::engine::models::ModelSet;
+use shipcast_pipeline::engine::retrain::Retrainer;
+use shipcast_pipeline::engine::{startup, Engine};
 use shipcast_pipeline::transport::iox::{self, IoxPublisher, IoxSubscriber, Sizing};
 use shipcast_pipeline::transport::zenoh::{
     free_loopback_endpoint, open, JsonPublisher, ZenohSettings,
 };
 use shipcast_pipeline::transport::{monotonic_ns, Names};
-use shipcast_wire::payload::{Forecast, MotionSample};
+use shipcast_sim::{ShipMotion, SimConfig};
+use shipcast_wire::payload::{Forecast, MotionSample, NUM_DOF};
 use shipcast_wire::payload_json::ForecastJsonEncoder;
 use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Mutex;
 use std::time::{Duration, Instant};
 use zenoh::Wait;
 
@@ -29,6 +36,84 @@ use zenoh::Wait;
 pub const DRAIN: Duration = Duration::from_millis(500);
 /// How long to wait for every port and the zenoh subscriber to be connected.
 pub const CONNECT_TIMEOUT: Duration = Duration::from_secs(15);
+/// Record seconds of history beyond `order / sample_rate` (decimation filter, margin).
+const BACKFILL_MARGIN_S: f64 = 30.0;
+
+/// Input rate of the motion record (the producer's 8 Hz), whatever the wall-clock send rate.
+pub fn record_rate_hz() -> f64 {
+    PipelineConfig::default().producer.rate_hz
+}
+
+/// Record seconds the predictor receives before the measured samples, so that its models have
+/// their full history from the first one: `order` values at the decimated rate, plus the
+/// decimation filter and a margin.
+pub fn backfill_s(q: &PredictorServiceConfig) -> f64 {
+    (q.order as f64 / q.sample_rate_hz + BACKFILL_MARGIN_S).ceil()
+}
+
+/// The motion the in-process producer sends: the first `len` samples of the sea that
+/// `shipcast producer` simulates by default (its scenario, seed and rate).
+pub fn motion_record(config: &PipelineConfig, len: u64) -> anyhow::Result<Vec<[f64; NUM_DOF]>> {
+    let p = &config.producer;
+    let mut sim = SimConfig::scenario(p.scenario);
+    sim.seed = p.seed;
+    let motion = ShipMotion::new(&sim)?;
+    Ok(motion
+        .stream(p.rate_hz, 0.0)?
+        .take(len as usize)
+        .map(|point| point.dof)
+        .collect())
+}
+
+/// The start-up models of `shipcast predictor` with `config` (fitted on simulated history of
+/// the configured sea, seconds of work), kept for the next call with the same configuration:
+/// every round and mode of a run starts its engine from a copy of one fit.
+fn startup_models(config: &PipelineConfig) -> anyhow::Result<Option<ModelSet>> {
+    type Fitted = Option<(PipelineConfig, Option<ModelSet>)>;
+    static LAST: Mutex<Fitted> = Mutex::new(None);
+    let mut last = LAST
+        .lock()
+        .map_err(|_| anyhow!("bench start-up models: lock poisoned"))?;
+    if let Some((c, models)) = last.as_ref() {
+        if c == config {
+            return Ok(models.clone());
+        }
+    }
+    let models = startup::initial_models(config).context("bench start-up models")?;
+    *last = Some((config.clone(), models.clone()));
+    Ok(models)
+}
+
+/// The predictor's engine as `shipcast predictor` runs it with `config` (the services rows:
+/// the default configuration and `--retrain-every-s 0`, which the caller sets), retraining
+/// on a background thread, fed the first `backfill` samples of `record` directly, as the
+/// services' producer backfills them before pacing.
+pub fn backfilled_engine(
+    config: &PipelineConfig,
+    record: &[[f64; NUM_DOF]],
+    backfill: u64,
+) -> anyhow::Result<Engine> {
+    let q = config.predictor.clone();
+    let retrainer = Retrainer::background(q.clone())?;
+    let mut engine = Engine::new(
+        q,
+        config.producer.rate_hz,
+        startup_models(config)?,
+        retrainer,
+    )?;
+    for (seq, dof) in record.iter().take(backfill as usize).enumerate() {
+        let sample = MotionSample {
+            seq: seq as u64,
+            stamp_ns: monotonic_ns(),
+            time_s: seq as f64 / config.producer.rate_hz,
+            dof: *dof,
+        };
+        if engine.push(&sample)?.is_none() {
+            engine.prepare_next()?;
+        }
+    }
+    Ok(engine)
+}
 
 /// What the predictor side measured and counted.
 #[derive(Default)]
@@ -45,6 +130,10 @@ struct Run<'a> {
     shared: Shared,
     /// Set by the predictor once every receiver is connected: the producer may send.
     started: AtomicBool,
+    /// The motion record; the engine has had the first `backfill` samples, the producer sends
+    /// the rest (warm-up, then measured).
+    record: Vec<[f64; NUM_DOF]>,
+    backfill: u64,
 }
 
 /// Open a listening and a connecting zenoh peer on a free 127.0.0.1 port, on the calling
@@ -67,16 +156,23 @@ pub fn measure(plan: &Plan, mode: Mode, out: &mut ReportBuilder) -> anyhow::Resu
     // The run's instance, a vessel name per mode: one iceoryx2 file prefix per run.
     let vessel = format!("pipe-{}", mode.name());
     let names = Names::new(Some(&plan.instance), &vessel).context("benchmark names")?;
+    let mut config = PipelineConfig::default();
+    config.predictor.retrain_every_s = 0.0;
+    let backfill = (backfill_s(&config.predictor) * config.producer.rate_hz).round() as u64;
+    let record = motion_record(&config, backfill + plan.warmup + plan.samples)?;
+    let engine = backfilled_engine(&config, &record, backfill)?;
     let run = Run {
         plan,
-        shared: Shared::new(names, mode, plan.cores.0, plan.warmup),
+        shared: Shared::new(names, mode, plan.cores.0, backfill + plan.warmup),
         started: AtomicBool::new(false),
+        record,
+        backfill,
     };
     let (_, predictor_session, consumer_session) = zenoh_pair(true)?;
     let predictor_session =
         predictor_session.ok_or_else(|| anyhow!("zenoh listener was not opened"))?;
     let (tally, local, remote, pin_s) = std::thread::scope(|s| {
-        let predictor = s.spawn(|| with_fail(&run, predictor(&run, predictor_session)));
+        let predictor = s.spawn(|| with_fail(&run, predictor(&run, predictor_session, engine)));
         let local = s.spawn(|| with_fail(&run, consumers::local(&run.shared)));
         let remote = s.spawn(|| with_fail(&run, consumers::remote(&run.shared, &consumer_session)));
         let producer = s.spawn(|| with_fail(&run, producer(&run)));
@@ -180,19 +276,17 @@ fn producer(run: &Run<'_>) -> anyhow::Result<PinOutcome> {
     await_until(&run.shared, "the predictor", || {
         run.started.load(Ordering::Acquire)
     })?;
-    let mut pacer = Pacer::new(run.plan);
+    let mut pacer = Pacer::new(run.plan.period());
     let mut sample = MotionSample::default();
-    for seq in 0..run.plan.warmup + run.plan.samples {
+    let rate = record_rate_hz();
+    for (seq, dof) in (run.backfill..).zip(&run.record[run.backfill as usize..]) {
         if run.shared.is_done() {
             anyhow::bail!("stopped early: another part of the pipeline failed");
         }
         pacer.wait();
-        let t = seq as f64 / RECORD_RATE_HZ;
         sample.seq = seq;
-        sample.time_s = t;
-        for (d, v) in sample.dof.iter_mut().enumerate() {
-            *v = swell(d, t);
-        }
+        sample.time_s = seq as f64 / rate;
+        sample.dof = *dof;
         sample.stamp_ns = monotonic_ns();
         publisher.send(&sample)?;
     }
@@ -201,15 +295,17 @@ fn producer(run: &Run<'_>) -> anyhow::Result<PinOutcome> {
     Ok(pin)
 }
 
-/// Predictor, on the second core: receive, forecast at every decimated value, publish over
-/// iceoryx2 and zenoh.
+/// Predictor, on the second core: the loop of `shipcast predictor` over the same engine:
+/// receive, forecast at every decimated value, publish over iceoryx2 and zenoh; prepare the
+/// next forecast on the samples that complete none, and do the engine's bookkeeping between
+/// samples.
 fn predictor(
     run: &Run<'_>,
     session: zenoh::Session,
+    mut engine: Engine,
 ) -> anyhow::Result<(PredictorTally, PinOutcome)> {
     let pin = pin_current("predictor", run.plan.cores.1);
     let shared = &run.shared;
-    let mut step = ForecastStep::new()?;
     let node = iox::node(&shared.names, "bench-predictor")?;
     let motion = IoxSubscriber::<MotionSample>::new(
         &node,
@@ -240,17 +336,16 @@ fn predictor(
             if measured {
                 tally.received.record_between(sample.stamp_ns, received);
             }
-            let Some(f) = step.push(&sample)? else {
+            let Some(f) = engine.push(&sample)? else {
                 // A sample that completes no forecast: the time to prepare the next one.
-                step.prepare_next()?;
+                engine.prepare_next()?;
                 continue;
             };
             if measured {
                 tally.due += 1;
             }
-            f.issued_stamp_ns = monotonic_ns();
             forecasts.send(f)?;
-            remote.put(json.encode(f))?;
+            remote.put_shared(json.encode_shared(f)?)?;
             if measured {
                 tally.sent += 1;
                 tally
@@ -258,7 +353,9 @@ fn predictor(
                     .record_between(f.source_stamp_ns, f.issued_stamp_ns);
             }
         }
+        engine.poll_models();
         if idle {
+            engine.prepare_next()?;
             consumers::after_idle_wait(shared.mode);
         }
     }

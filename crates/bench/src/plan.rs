@@ -197,41 +197,12 @@ impl Plan {
     /// A run-unique instance name: process id and a clock reading, so parallel runs and tests
     /// never share iceoryx2 services or zenoh keys.
     pub fn unique_instance(tag: &str) -> String {
-        format!(
-            "bench-{tag}-{}-{}",
-            std::process::id(),
-            shipcast_pipeline::transport::monotonic_ns() % 1_000_000_000
-        )
+        shipcast_pipeline::transport::unique_instance(&format!("bench-{tag}"))
     }
 }
 
-/// Paces sends at the plan's rate.
-#[derive(Debug)]
-pub struct Pacer {
-    period: std::time::Duration,
-    next: std::time::Instant,
-}
-
-impl Pacer {
-    pub fn new(plan: &Plan) -> Self {
-        Self {
-            period: plan.period(),
-            next: std::time::Instant::now(),
-        }
-    }
-
-    /// Sleep until the next send is due.
-    pub fn wait(&mut self) {
-        self.next += self.period;
-        let now = std::time::Instant::now();
-        if self.next > now {
-            std::thread::sleep(self.next - now);
-        } else {
-            // Fell behind (slow transport, busy core): restart the schedule, never burst.
-            self.next = now;
-        }
-    }
-}
+/// Paces sends at the plan's rate (`Pacer::new(plan.period())`).
+pub use shipcast_pipeline::pacing::Pacer;
 
 /// Parse `--cores A,B` (two distinct core ids).
 pub fn parse_cores(s: &str) -> Result<(usize, usize), String> {

@@ -12,11 +12,12 @@
 use super::children::Children;
 use super::consumers::{self, Shared, CONSUMERS, SLICE};
 use super::pinning::{child_pinned, PinOutcome};
-use super::pipeline::{add_consumer_rows, await_until, join, zenoh_pair, DRAIN};
+use super::pipeline::{
+    add_consumer_rows, await_until, backfill_s, join, record_rate_hz, zenoh_pair, DRAIN,
+};
 use super::plan::{Mode, Path, Plan, Source};
 use super::report_builder::{ReportBuilder, FORECAST_BYTES, MOTION_BYTES};
 use super::stamps::{StampReader, StampTally};
-use super::stand_in::RECORD_RATE_HZ;
 use anyhow::Context;
 use shipcast_pipeline::config::PipelineConfig;
 use shipcast_pipeline::transport::zenoh::LivelinessWatch;
@@ -27,8 +28,6 @@ use std::time::{Duration, Instant};
 
 /// Speed of the backfill (record seconds per wall second).
 const BACKFILL_SPEED: f64 = 200.0;
-/// Record seconds of history beyond `order / sample_rate` (decimation filter, margin).
-const BACKFILL_MARGIN_S: f64 = 30.0;
 /// Start-up of the predictor (model training on simulated history) may take this long.
 const START_TIMEOUT: Duration = Duration::from_secs(120);
 /// How long the services get to shut down cleanly before they are killed.
@@ -53,8 +52,9 @@ pub fn measure(
 ) -> anyhow::Result<()> {
     let defaults = PipelineConfig::default();
     let q = &defaults.predictor;
-    let backfill_s = (q.order as f64 / q.sample_rate_hz + BACKFILL_MARGIN_S).ceil();
-    let backfill_samples = (backfill_s * RECORD_RATE_HZ).round() as u64;
+    let backfill_s = backfill_s(q);
+    let record_rate_hz = record_rate_hz();
+    let backfill_samples = (backfill_s * record_rate_hz).round() as u64;
     // The run's instance, a vessel name per mode: one iceoryx2 file prefix per run.
     let instance = &plan.instance;
     let vessel = format!("svc-{}", mode.name());
@@ -98,11 +98,11 @@ pub fn measure(
     let predictor_pid =
         children.spawn_unpinned("predictor", exe, &predictor_args, log("predictor"))?;
 
-    let record_s = backfill_s + (plan.warmup + plan.samples) as f64 / RECORD_RATE_HZ;
+    let record_s = backfill_s + (plan.warmup + plan.samples) as f64 / record_rate_hz;
     let mut producer_args = common("producer");
     producer_args.extend([
         "--speed".into(),
-        format!("{}", plan.rate_hz / RECORD_RATE_HZ),
+        format!("{}", plan.rate_hz / record_rate_hz),
         "--record-s".into(),
         format!("{record_s}"),
         "--backfill-s".into(),

@@ -81,9 +81,11 @@ impl PublishStages {
 pub const STAMP_BUFFER: usize = 4096;
 const MAX_PORTS: usize = 4;
 
-fn err<E: Debug>(context: String) -> impl FnOnce(E) -> IoxError {
+/// The error of a failed call; `context` becomes a `String` only then (a `&str` context
+/// allocates nothing on success: stamps are sent for every sample).
+fn err<E: Debug>(context: impl Into<String>) -> impl FnOnce(E) -> IoxError {
     move |e| IoxError {
-        context,
+        context: context.into(),
         detail: format!("{e:?}"),
     }
 }
@@ -131,7 +133,7 @@ impl StampPublisher {
     pub fn send(&self, stamp: ReceiveStamp) -> Result<(), IoxError> {
         self.publisher
             .send_copy(stamp)
-            .map_err(err("send receive stamp".into()))?;
+            .map_err(err("send receive stamp"))?;
         Ok(())
     }
 }
@@ -158,11 +160,7 @@ impl StampReader {
 
     /// Take every waiting stamp into `tally`.
     pub fn drain(&self, tally: &mut StampTally) -> Result<(), IoxError> {
-        while let Some(s) = self
-            .subscriber
-            .receive()
-            .map_err(err("receive stamp".into()))?
-        {
+        while let Some(s) = self.subscriber.receive().map_err(err("receive stamp"))? {
             tally.record(s.payload());
         }
         Ok(())
@@ -248,7 +246,7 @@ mod tests {
 
     #[test]
     fn stamps_round_trip_over_iceoryx2() {
-        let instance = format!("unit-stamps-{}", std::process::id());
+        let instance = shipcast_pipeline::transport::unique_instance("unit-stamps");
         let names = Names::new(Some(&instance), "v").unwrap();
         let node = iox::node(&names, "unit").unwrap();
         let name = names.bench_receive();
@@ -270,7 +268,10 @@ mod tests {
         assert_eq!(tally.latency.quantile_ns(1.0), 40);
         drop((reader, publisher, node));
         // The run's management segment is left behind by iceoryx2 and removed here.
-        assert!(crate::machine::remove_iox_leftovers(&names.iox_prefix()) >= 1);
-        assert_eq!(crate::machine::remove_iox_leftovers(&names.iox_prefix()), 0);
+        assert!(shipcast_pipeline::transport::iox::remove_leftovers(&names.iox_prefix()) >= 1);
+        assert_eq!(
+            shipcast_pipeline::transport::iox::remove_leftovers(&names.iox_prefix()),
+            0
+        );
     }
 }

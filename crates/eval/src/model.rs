@@ -357,6 +357,87 @@ mod tests {
         );
     }
 
+    /// The error `from_json` gives for the file of a model trained with `method` after `edit`.
+    fn load_error(method: Method, edit: impl Fn(&mut serde_json::Value)) -> String {
+        let data = record(500);
+        let model = train_models(&data, &[Dof::Heave], &options(method)).unwrap();
+        let mut v = serde_json::to_value(&model).unwrap();
+        edit(&mut v);
+        let err = ModelFile::from_json(&v.to_string(), Path::new("m.json"))
+            .expect_err("corrupted file loaded")
+            .to_string();
+        assert!(err.starts_with("m.json: ") && !err.contains('\n'), "{err}");
+        err
+    }
+
+    #[test]
+    fn corrupted_predictors_are_refused_naming_the_field() {
+        let predictor = |v: &mut serde_json::Value| v["dofs"][0]["predictor"].take();
+        let put = |v: &mut serde_json::Value, p: serde_json::Value| v["dofs"][0]["predictor"] = p;
+        // Order 40, horizon 6: P is 6 x 34.
+        type Edit = fn(&mut serde_json::Value);
+        let cases: [(Method, &str, Edit); 9] = [
+            (Method::Mca, "MCA model.prediction is 6 x 33", |p| {
+                let m = &mut p["model"]["prediction"];
+                m["cols"] = 33.into();
+                m["coef"].as_array_mut().unwrap().truncate(6 * 33);
+            }),
+            (Method::Mca, "needs 204 coefficients, got 203", |p| {
+                p["model"]["prediction"]["coef"]
+                    .as_array_mut()
+                    .unwrap()
+                    .pop();
+            }),
+            (Method::Mca, "horizon < order", |p| p["horizon"] = 40.into()),
+            (Method::Mca, "energy threshold must be in [0, 1)", |p| {
+                p["energy"] = 1.5.into()
+            }),
+            (Method::Mca, "MCA model.minor_components 41", |p| {
+                p["model"]["minor_components"] = 41.into()
+            }),
+            (Method::Mca, "MCA model.ridge", |p| {
+                p["model"]["ridge"] = (-1.0).into()
+            }),
+            (Method::Wiener, "Wiener coefficients are 6 x 39", |p| {
+                let m = &mut p["coefficients"];
+                m["cols"] = 39.into();
+                m["coef"].as_array_mut().unwrap().truncate(6 * 39);
+            }),
+            (Method::Ar, "AR weights hold 239 coefficients", |p| {
+                p["weights"].as_array_mut().unwrap().pop();
+            }),
+            (Method::Mlp, "MLP params hold", |p| {
+                p["params"].as_array_mut().unwrap().pop();
+            }),
+        ];
+        for (method, want, edit) in cases {
+            let err = load_error(method, |v| {
+                let mut p = predictor(v);
+                edit(&mut p);
+                put(v, p);
+            });
+            assert!(err.contains(want), "{method}: want '{want}' in: {err}");
+        }
+    }
+
+    #[test]
+    fn a_coefficient_beyond_f64_is_refused() {
+        // JSON has no NaN or infinity; the nearest a file comes is a number beyond f64.
+        let model = train_models(&record(500), &[Dof::Heave], &options(Method::Mca)).unwrap();
+        let text = serde_json::to_string(&model).unwrap();
+        let start = text.find("\"coef\":[").unwrap() + "\"coef\":[".len();
+        let end = start + text[start..].find(',').unwrap();
+        let text = format!("{}-1e999{}", &text[..start], &text[end..]);
+        let err = ModelFile::from_json(&text, Path::new("m.json"))
+            .unwrap_err()
+            .to_string();
+        assert!(err.starts_with("m.json: ") && !err.contains('\n'), "{err}");
+        assert!(
+            err.contains("out of range") || err.contains("not finite"),
+            "{err}"
+        );
+    }
+
     #[test]
     fn bad_files_and_bad_requests_give_clear_errors() {
         let data = record(500);

@@ -35,6 +35,7 @@ fn method_curve(
     variant: Variant,
 ) -> Curve<'_> {
     rms_curve(study.outcome(sea, dof, study.plan.big_order(), method, variant))
+        .map_err(String::from)
 }
 
 /// The bound's exact curve (its expectation) or the one measured at the test origins the

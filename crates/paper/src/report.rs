@@ -8,7 +8,7 @@ use super::paper_values::{
 use super::plots::{method_label, Figure};
 use super::seas::SeaKind;
 use super::skill::{crossing_time, overall};
-use super::study::{rms_curve, Outcome, Study, Variant, PAPER_METHODS, REFERENCES};
+use super::study::{rms_curve, Failure, Outcome, Study, Variant, PAPER_METHODS, REFERENCES};
 use super::tables::{cell, lead_s, num, ratio, seconds, Table, DT_S};
 use shipcast_predict::Method;
 use shipcast_wire::Dof;
@@ -18,15 +18,15 @@ use std::fmt::Write;
 pub const USEFUL_FRACTION: f64 = 0.7;
 
 /// RMS at `step` (1-based) of a finished outcome.
-fn at_step(o: Option<&Outcome>, step: usize) -> Result<f64, String> {
+fn at_step(o: Option<&Outcome>, step: usize) -> Result<f64, Failure> {
     match o.map(|o| &o.result) {
-        None => Err("not run".into()),
+        None => Err(Failure::Other("not run".into())),
         Some(Err(e)) => Err(e.clone()),
         Some(Ok(r)) => r
             .rms
             .get(step - 1)
             .copied()
-            .ok_or_else(|| format!("horizon {} < {step}", r.horizon)),
+            .ok_or_else(|| Failure::Other(format!("horizon {} < {step}", r.horizon))),
     }
 }
 
@@ -247,7 +247,7 @@ fn useful_horizons(study: &Study) -> Table {
     let horizon_s = lead_s(study.plan.horizon);
     // An error already above the level at the first step (zero, or a predictor that has not
     // learned) is reported as such rather than interpolated from lead 0.
-    let fmt = |rms: Result<&[f64], String>, level: f64| match rms {
+    let fmt = |rms: Result<&[f64], Failure>, level: f64| match rms {
         Ok(rms) if rms.first().is_some_and(|&v| v >= level) => {
             format!("<= {} s", num(DT_S, 2))
         }
@@ -268,7 +268,9 @@ fn useful_horizons(study: &Study) -> Table {
             row.push(fmt(rms, level));
         }
         row.push(fmt(
-            study.bound_curve(SeaKind::Dense, dof, order, true),
+            study
+                .bound_curve(SeaKind::Dense, dof, order, true)
+                .map_err(Failure::from),
             level,
         ));
         if let Some(v) = best {
@@ -286,7 +288,9 @@ fn useful_horizons(study: &Study) -> Table {
 fn flatness(study: &Study, sea: SeaKind) -> (Result<f64, String>, Result<f64, String>) {
     let order = study.plan.big_order();
     let o = study.outcome(sea, Dof::Heave, order, Method::Mca, Variant::Paper);
-    let mca = at_step(o, TABLE1_STEPS[2]).and_then(|a| at_step(o, TABLE1_STEPS[1]).map(|b| a / b));
+    let mca = at_step(o, TABLE1_STEPS[2])
+        .and_then(|a| at_step(o, TABLE1_STEPS[1]).map(|b| a / b))
+        .map_err(String::from);
     let bound = match study.bound(sea, Dof::Heave, order).map(|b| &b.result) {
         Some(Ok(b)) => Ok(b.exact_rms[TABLE1_STEPS[2] - 1] / b.exact_rms[TABLE1_STEPS[1] - 1]),
         Some(Err(e)) => Err(e.clone()),
@@ -302,7 +306,9 @@ fn nrmse_20(study: &Study, sea: SeaKind) -> Result<f64, String> {
     let std = study
         .sea(sea)
         .map_or(f64::NAN, |s| s.test_std[Dof::Heave.index()]);
-    at_step(o, TABLE1_STEPS[2]).map(|v| v / std)
+    at_step(o, TABLE1_STEPS[2])
+        .map(|v| v / std)
+        .map_err(String::from)
 }
 
 fn discussion(study: &Study, s: &mut String) {
@@ -626,6 +632,29 @@ pub fn write(study: &Study, dir: &std::path::Path) -> anyhow::Result<std::path::
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn cells_say_why_from_the_typed_failure_not_its_wording() {
+        use shipcast_eval::EvalError;
+        use shipcast_predict::{AnyPredictor, PredictError, PredictorConfig};
+        let config = PredictorConfig {
+            order: 40,
+            horizon: 50,
+            ..PredictorConfig::default()
+        };
+        let infeasible = EvalError::from(AnyPredictor::new(Method::Mca, &config).unwrap_err());
+        let cell_of = |e: &EvalError| cell(Err::<f64, _>(Failure::of_eval(e)), 3);
+        assert_eq!(cell_of(&infeasible), "infeasible (H >= n)");
+        let rejected = EvalError::from(PredictError::NoUsableCandidate(Method::Mca));
+        assert_eq!(cell_of(&rejected), "no candidate passed validation");
+        // The wording decides nothing: a numerical failure that says "infeasible" is a failure.
+        let numerical = EvalError::from(PredictError::Numerical("infeasible pivot".into()));
+        assert_eq!(
+            cell_of(&numerical),
+            "failed: numerical failure: infeasible pivot"
+        );
+        assert_eq!(cell(Ok::<f64, Failure>(0.5), 3), num(0.5, 3));
+    }
 
     #[test]
     fn paper_cell_quotes_the_papers_table1_at_its_orders_only() {

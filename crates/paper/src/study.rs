@@ -13,7 +13,7 @@ use super::plan::{sim_config, Plan};
 use super::seas::{Sea, SeaKind, STUDY_RATE_HZ};
 use super::skill::overall;
 use shipcast_eval::{
-    evaluate_method, prepare_series, score_forecasts, std_dev, EvalResult, EvalSettings,
+    evaluate_method, prepare_series, score_forecasts, std_dev, EvalError, EvalResult, EvalSettings,
 };
 use shipcast_predict::{AnyPredictor, Averaging, Method, PredictError, Predictor, PredictorConfig};
 
@@ -34,6 +34,46 @@ pub const TRACE_NOISE_PCT: f64 = 20.0;
 
 pub use super::variant::Variant;
 
+/// Why a study run has no result, typed where the report treats the cause apart.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum Failure {
+    /// The configuration cannot work (MCA with horizon >= order): by design, not a fault.
+    #[error("{0}")]
+    Infeasible(String),
+    /// Validation rejected every candidate setting (each map beyond its size bound).
+    #[error("{0}")]
+    NoUsableCandidate(String),
+    /// Anything else, as its message.
+    #[error("{0}")]
+    Other(String),
+}
+
+impl Failure {
+    /// The failure of an evaluation, classified by its typed cause.
+    pub fn of_eval(error: &EvalError) -> Self {
+        let message = error.to_string();
+        match error {
+            EvalError::Predict(PredictError::Infeasible(_)) => Failure::Infeasible(message),
+            EvalError::Predict(PredictError::NoUsableCandidate(_)) => {
+                Failure::NoUsableCandidate(message)
+            }
+            _ => Failure::Other(message),
+        }
+    }
+}
+
+impl From<String> for Failure {
+    fn from(message: String) -> Self {
+        Failure::Other(message)
+    }
+}
+
+impl From<Failure> for String {
+    fn from(failure: Failure) -> Self {
+        failure.to_string()
+    }
+}
+
 /// One method on one series.
 #[derive(Clone, Debug)]
 pub struct Outcome {
@@ -44,7 +84,7 @@ pub struct Outcome {
     pub variant: Variant,
     /// Noise added, % of the peak amplitude.
     pub noise_pct: f64,
-    pub result: Result<EvalResult, String>,
+    pub result: Result<EvalResult, Failure>,
 }
 
 /// The bound on one series: the optimal linear predictor of `order` from the exact
@@ -212,14 +252,14 @@ impl Study {
 }
 
 /// RMS per step of an outcome, or why there is none.
-pub fn rms_curve(outcome: Option<&Outcome>) -> Result<&[f64], String> {
+pub fn rms_curve(outcome: Option<&Outcome>) -> Result<&[f64], Failure> {
     match outcome {
         Some(o) => o
             .result
             .as_ref()
             .map(|r| r.rms.as_slice())
             .map_err(|e| e.clone()),
-        None => Err("not run".into()),
+        None => Err(Failure::Other("not run".into())),
     }
 }
 
@@ -485,7 +525,7 @@ impl Context<'_> {
                     .and_then(|prepared| {
                         evaluate_method(&prepared, dof, method, &config, &settings, &|_| {})
                     })
-                    .map_err(|e| e.to_string());
+                    .map_err(|e| Failure::of_eval(&e));
                 Output::Eval(Outcome {
                     sea,
                     dof,
@@ -743,7 +783,7 @@ pub fn run_with(
             Output::Eval(o) => {
                 match &o.result {
                     // MCA below the horizon is infeasible by design; the report says so.
-                    Err(e) if e.contains("infeasible") => {
+                    Err(e @ Failure::Infeasible(_)) => {
                         tracing::debug!(method = %o.method, order = o.order, "{e}")
                     }
                     Err(e) => {
@@ -858,8 +898,8 @@ mod tests {
                     // energy and no ridge where every candidate's prediction map exceeds the
                     // predictor's bound on its size.
                     let infeasible = x.method == Method::Mca && x.order <= plan.horizon;
-                    let unbounded =
-                        x.variant == Variant::Validated && ex.contains("no candidate setting");
+                    let unbounded = x.variant == Variant::Validated
+                        && matches!(ex, Failure::NoUsableCandidate(_));
                     assert!(infeasible || unbounded, "{ex}");
                 }
                 _ => panic!("{:?} {} {}: one run failed", x.dof, x.method, x.order),

@@ -1,6 +1,7 @@
 //! Markdown tables: a small builder and the number formats the report uses.
 
 use super::seas::STUDY_RATE_HZ;
+use super::study::Failure;
 use std::fmt::Write;
 
 /// A Markdown table: a header row and body rows of the same width. Cells are plain text; a `|`
@@ -100,14 +101,14 @@ pub fn lead_s(step: usize) -> f64 {
 }
 
 /// A cell: the number, or why there is none (infeasible MCA, failed fit).
-pub fn cell(v: Result<f64, String>, sig: usize) -> String {
-    match v {
+pub fn cell(v: Result<f64, impl Into<Failure>>, sig: usize) -> String {
+    match v.map_err(Into::into) {
         Ok(v) => num(v, sig),
-        Err(e) if e.contains("infeasible") => "infeasible (H >= n)".into(),
+        Err(Failure::Infeasible(_)) => "infeasible (H >= n)".into(),
         // The predictor's validation rejected every candidate (each map beyond its size
         // bound or unusable): a designed outcome, not a crash.
-        Err(e) if e.contains("no candidate setting") => "no candidate passed validation".into(),
-        Err(e) => format!("failed: {}", e.chars().take(80).collect::<String>()),
+        Err(Failure::NoUsableCandidate(_)) => "no candidate passed validation".into(),
+        Err(Failure::Other(e)) => format!("failed: {}", e.chars().take(80).collect::<String>()),
     }
 }
 

@@ -12,10 +12,17 @@ use time::{Duration, OffsetDateTime};
 /// Why certificates could not be made.
 #[derive(Debug, thiserror::Error)]
 pub enum CertError {
+    /// The cause is in the message, not chained as a `source`, so `{:#}` prints it once.
     #[error("certs: {0}")]
-    Rcgen(#[from] rcgen::Error),
+    Rcgen(rcgen::Error),
     #[error("certs: {0}")]
     Invalid(String),
+}
+
+impl From<rcgen::Error> for CertError {
+    fn from(error: rcgen::Error) -> Self {
+        CertError::Rcgen(error)
+    }
 }
 
 /// A certificate and its private key, both PEM.

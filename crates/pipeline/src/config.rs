@@ -45,19 +45,28 @@ pub const MAX_DECIMATION: usize = 1_000;
 pub const MAX_LEVER_M: f64 = 1_000.0;
 
 /// Why a configuration could not be loaded.
+///
+/// Causes are in the message and not chained as a `source` (fields named `error`, no
+/// `#[from]`), so error-chain printers (`anyhow`'s `{:#}`) print them once.
 #[derive(Debug, thiserror::Error)]
 pub enum ConfigError {
-    #[error("config {path}: {source}")]
+    #[error("config {path}: {error}")]
     Read {
         path: PathBuf,
-        source: std::io::Error,
+        error: std::io::Error,
     },
     #[error("config {path}: {message}")]
     Parse { path: PathBuf, message: String },
     #[error("config: {0}")]
     Invalid(String),
     #[error("config: {0}")]
-    Name(#[from] NameError),
+    Name(NameError),
+}
+
+impl From<NameError> for ConfigError {
+    fn from(error: NameError) -> Self {
+        ConfigError::Name(error)
+    }
 }
 
 /// The whole pipeline.
@@ -206,8 +215,10 @@ impl ZenohConfig {
             return bad("multicast_scouting must be off with tls: consumers reach the data only through the node that enforces the access rules");
         }
         if let Some(a) = &self.access {
-            if a.key_exprs.is_empty() || a.publishers.is_empty() {
-                return bad("access needs key_exprs and publishers (everything else is denied)");
+            if a.key_exprs.is_empty() || (a.publishers.is_empty() && a.vessels.is_empty()) {
+                return bad(
+                    "access needs key_exprs and publishers or vessels (everything else is denied)",
+                );
             }
             if self.tls.is_none() {
                 return bad("access names certificate common names, so it needs tls");
@@ -303,9 +314,90 @@ pub struct PredictorServiceConfig {
     pub stale_after_s: f64,
     /// Spin on the subscriber instead of sleeping until woken (lowest latency, one core busy).
     pub busy_poll: bool,
-    /// Further predictor settings (MCA shift and energy, LMS gain ...); order and horizon
-    /// above take precedence.
-    pub tuning: PredictorConfig,
+    /// `[predictor.mca]`: settings of the MCA method; only with `method = "mca"`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub mca: Option<McaSettings>,
+    /// `[predictor.ar]`: settings of the AR-LMS method; only with `method = "ar"`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub ar: Option<ArSettings>,
+    /// `[predictor.mlp]`: settings of the MLP method; only with `method = "mlp"`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub mlp: Option<MlpSettings>,
+}
+
+/// `[predictor.mca]`: the MCA method's settings (the `shipcast eval` MCA options).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct McaSettings {
+    /// Eigen-direction weights: "inverse" (all, 1/(lambda + eps): the conditional mean) or
+    /// "paper" (the minor components, unweighted).
+    pub weighting: McaWeighting,
+    /// Shift between consecutive training windows.
+    pub shift: usize,
+    /// Energy fraction of the minor components (paper weighting).
+    pub energy: f64,
+    /// Ridge (inverse weighting: eps relative to the mean eigenvalue; 0 = default).
+    pub ridge: f64,
+    /// Choose the energy threshold (inverse weighting: the ridge) on held-out training data.
+    pub validate_energy: bool,
+}
+
+impl Default for McaSettings {
+    /// The service's MCA: eigenvalue-weighted, validated (not the paper's settings, which
+    /// are worse than predicting zero on a realistic sea; README "Honest accuracy").
+    fn default() -> Self {
+        let paper = PredictorConfig::default();
+        Self {
+            weighting: McaWeighting::Inverse,
+            shift: 2,
+            energy: paper.mca_energy,
+            ridge: paper.mca_ridge,
+            validate_energy: true,
+        }
+    }
+}
+
+/// `[predictor.ar]`: the AR method's settings.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ArSettings {
+    /// LMS step size.
+    pub lms_gain: f64,
+    /// Normalised LMS (step divided by the input power).
+    pub normalized: bool,
+}
+
+impl Default for ArSettings {
+    fn default() -> Self {
+        let paper = PredictorConfig::default();
+        Self {
+            lms_gain: paper.lms_gain,
+            normalized: paper.lms_normalized,
+        }
+    }
+}
+
+/// `[predictor.mlp]`: the MLP method's settings.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct MlpSettings {
+    /// Hidden tanh units.
+    pub hidden: usize,
+    /// Rprop epochs per fit.
+    pub epochs: usize,
+    /// Seed of the initial weights.
+    pub seed: u64,
+}
+
+impl Default for MlpSettings {
+    fn default() -> Self {
+        let paper = PredictorConfig::default();
+        Self {
+            hidden: paper.mlp_hidden,
+            epochs: paper.mlp_epochs,
+            seed: paper.seed,
+        }
+    }
 }
 
 impl Default for PredictorServiceConfig {
@@ -333,24 +425,53 @@ impl Default for PredictorServiceConfig {
             change_ratio: 3.0,
             stale_after_s: 2.0,
             busy_poll: false,
-            tuning: PredictorConfig {
-                mca_weighting: McaWeighting::Inverse,
-                mca_shift: 2,
-                mca_validate_energy: true,
-                ..PredictorConfig::default()
-            },
+            mca: None,
+            ar: None,
+            mlp: None,
         }
     }
 }
 
 impl PredictorServiceConfig {
-    /// The predictor settings with this section's order and horizon.
+    /// The predictor settings: this section's order and horizon, and the chosen method's
+    /// section (its defaults when left out).
     pub fn predictor_config(&self) -> PredictorConfig {
+        let mca = self.mca.clone().unwrap_or_default();
+        let ar = self.ar.clone().unwrap_or_default();
+        let mlp = self.mlp.clone().unwrap_or_default();
         PredictorConfig {
             order: self.order,
             horizon: self.horizon,
-            ..self.tuning.clone()
+            mca_shift: mca.shift,
+            mca_energy: mca.energy,
+            mca_ridge: mca.ridge,
+            mca_validate_energy: mca.validate_energy,
+            mca_weighting: mca.weighting,
+            lms_gain: ar.lms_gain,
+            lms_normalized: ar.normalized,
+            mlp_hidden: mlp.hidden,
+            mlp_epochs: mlp.epochs,
+            seed: mlp.seed,
         }
+    }
+
+    /// A method section is refused unless it is the chosen method's: a key that does nothing
+    /// is an error, not a silent no-op.
+    fn check_method_sections(&self) -> Result<(), String> {
+        for (section, present, method) in [
+            ("mca", self.mca.is_some(), Method::Mca),
+            ("ar", self.ar.is_some(), Method::Ar),
+            ("mlp", self.mlp.is_some(), Method::Mlp),
+        ] {
+            if present && self.method != method {
+                return Err(format!(
+                    "[predictor.{section}] applies to method = \"{}\" only, but method is \"{}\"",
+                    method.name(),
+                    self.method.name()
+                ));
+            }
+        }
+        Ok(())
     }
 }
 
@@ -439,9 +560,9 @@ impl PipelineConfig {
         match path {
             None => Ok(Self::default()),
             Some(p) => {
-                let text = std::fs::read_to_string(p).map_err(|source| ConfigError::Read {
+                let text = std::fs::read_to_string(p).map_err(|error| ConfigError::Read {
                     path: p.to_path_buf(),
-                    source,
+                    error,
                 })?;
                 Self::from_toml(&text, p)
             }
@@ -481,6 +602,7 @@ impl PipelineConfig {
 
     fn validate_predictor(&self) -> Result<(), String> {
         let q = &self.predictor;
+        q.check_method_sections()?;
         limits::count(
             "predictor.horizon",
             q.horizon,
@@ -673,6 +795,34 @@ impl PipelineConfig {
 mod tests {
     use super::*;
 
+    /// Every cause in `{:#}` of `error` (what the binary prints) appears exactly once.
+    fn assert_causes_print_once(error: anyhow::Error, causes: &[String]) {
+        let chain = format!("{error:#}");
+        for cause in causes {
+            assert_eq!(
+                chain.matches(cause.as_str()).count(),
+                1,
+                "'{cause}' in: {chain}"
+            );
+        }
+    }
+
+    #[test]
+    fn error_causes_print_once_in_error_chains() {
+        let missing = Path::new("/nonexistent/shipcast-config.toml");
+        let io = std::fs::read_to_string(missing).unwrap_err().to_string();
+        let err = PipelineConfig::load(Some(missing)).unwrap_err();
+        assert_causes_print_once(err.into(), &[io, missing.display().to_string()]);
+
+        let name = crate::transport::Names::new(Some("bad name"), "v").unwrap_err();
+        let err = ConfigError::from(name.clone());
+        assert_causes_print_once(err.into(), &[name.to_string()]);
+
+        let json = serde_json::from_slice::<serde_json::Value>(b"{").unwrap_err();
+        let err = shipcast_wire::payload::Forecast::from_json(b"{").unwrap_err();
+        assert_causes_print_once(err.into(), &[json.to_string()]);
+    }
+
     #[test]
     fn empty_file_gives_the_defaults() {
         let c = PipelineConfig::from_toml("", Path::new("x.toml")).unwrap();
@@ -689,10 +839,11 @@ mod tests {
             [producer]
             speed = 100.0
             [predictor]
+            method = "mca"
             order = 100
             busy_poll = true
-            [predictor.tuning]
-            mca_energy = 0.02
+            [predictor.mca]
+            energy = 0.02
             [zenoh]
             listen = ["tcp/127.0.0.1:7000"]
         "#;
@@ -755,6 +906,60 @@ mod tests {
             .unwrap_err()
             .to_string()
             .contains("--duration"));
+    }
+
+    #[test]
+    fn method_sections_apply_to_their_method_only() {
+        // The default method (Wiener) has no settings of its own: an MCA section is refused.
+        for (text, needle) in [
+            (
+                "[predictor.mca]\nshift = 3",
+                "[predictor.mca] applies to method = \"mca\"",
+            ),
+            (
+                "[predictor]\nmethod = \"mca\"\n[predictor.ar]\nlms_gain = 0.1",
+                "[predictor.ar]",
+            ),
+            (
+                "[predictor]\nmethod = \"ar\"\n[predictor.mlp]\nhidden = 3",
+                "[predictor.mlp]",
+            ),
+        ] {
+            let err = PipelineConfig::from_toml(text, Path::new("p.toml"))
+                .unwrap_err()
+                .to_string();
+            assert!(err.contains(needle), "{text}: {err}");
+        }
+        // The old catch-all table, where order and horizon were silently overridden, is gone.
+        let err = PipelineConfig::from_toml("[predictor.tuning]\norder = 5", Path::new("p.toml"))
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("tuning"), "{err}");
+        // An unknown key inside a method section is named.
+        let err = PipelineConfig::from_toml(
+            "[predictor]\nmethod = \"mca\"\n[predictor.mca]\nshfit = 3",
+            Path::new("p.toml"),
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(err.contains("shfit"), "{err}");
+        // Each method's section reaches its predictor settings; left out, the defaults do.
+        let c = PipelineConfig::from_toml(
+            "[predictor]\nmethod = \"ar\"\n[predictor.ar]\nlms_gain = 0.25\nnormalized = true",
+            Path::new("p.toml"),
+        )
+        .unwrap();
+        let pc = c.predictor.predictor_config();
+        assert_eq!((pc.lms_gain, pc.lms_normalized), (0.25, true));
+        let pc = PipelineConfig::default().predictor.predictor_config();
+        assert_eq!(
+            (pc.mca_weighting, pc.mca_shift, pc.mca_validate_energy),
+            (McaWeighting::Inverse, 2, true)
+        );
+        assert_eq!(pc.lms_gain, PredictorConfig::default().lms_gain);
+        // Round trip through the TOML `shipcast run` hands its children.
+        let text = c.to_toml().unwrap();
+        assert_eq!(PipelineConfig::from_toml(&text, Path::new("t")).unwrap(), c);
     }
 
     #[test]

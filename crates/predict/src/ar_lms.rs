@@ -34,6 +34,7 @@ const NLMS_EPS: f64 = 1e-12;
 
 /// AR predictor with one LMS-adapted coefficient vector per forecast step.
 #[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(remote = "Self")]
 pub struct ArLmsPredictor {
     order: usize,
     horizon: usize,
@@ -51,7 +52,39 @@ pub struct ArLmsPredictor {
     diverged: Option<String>,
 }
 
+serde_validated!(ArLmsPredictor);
+
 impl ArLmsPredictor {
+    /// What a model file must satisfy (see `serde_validated!`): a positive finite gain,
+    /// order x horizon finite weights, a finite peak and power.
+    fn validate(&self) -> Result<(), String> {
+        if !(self.gain.is_finite() && self.gain > 0.0) {
+            return Err(format!(
+                "AR gain must be positive and finite, got {}",
+                self.gain
+            ));
+        }
+        if self.order.checked_mul(self.horizon) != Some(self.weights.len()) {
+            return Err(format!(
+                "AR weights hold {} coefficients; order {} x horizon {} needed",
+                self.weights.len(),
+                self.order,
+                self.horizon
+            ));
+        }
+        if self.weights.iter().any(|w| !w.is_finite()) {
+            return Err("AR weights hold a non-finite value".into());
+        }
+        for (name, value) in [("peak", self.peak), ("power", self.power)] {
+            if !(value.is_finite() && value >= 0.0) {
+                return Err(format!(
+                    "AR {name} must be finite and non-negative, got {value}"
+                ));
+            }
+        }
+        Ok(())
+    }
+
     /// An unfitted predictor; fails if the gain is not a positive finite number.
     pub fn new(config: &PredictorConfig) -> Result<Self, PredictError> {
         if !(config.lms_gain.is_finite() && config.lms_gain > 0.0) {
@@ -442,11 +475,11 @@ mod tests {
         p.fit(&sines(50, &[(1.0, 9.0, 0.0)])).unwrap();
         let mut model: serde_json::Value = serde_json::to_value(&p).unwrap();
         model["weights"].as_array_mut().unwrap().truncate(5);
-        let mut loaded: ArLmsPredictor = serde_json::from_value(model).unwrap();
-        let mut out = [0.0; 2];
-        assert!(matches!(
-            loaded.forecast(&[0.0; 4], &mut out),
-            Err(PredictError::Numerical(_))
-        ));
+        let err = serde_json::from_value::<ArLmsPredictor>(model).unwrap_err();
+        assert!(
+            err.to_string()
+                .contains("AR weights hold 5 coefficients; order 4 x horizon 2 needed"),
+            "{err}"
+        );
     }
 }

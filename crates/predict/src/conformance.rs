@@ -18,46 +18,8 @@ use super::{AnyPredictor, Method, PredictError, Predictor, PredictorConfig};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::cell::Cell;
 
-// ---------------------------------------------------------------------------------------------
-// Allocation counting. Counters are per thread so tests running in parallel do not see each
-// other's allocations.
-
-/// The system allocator, counting this thread's allocations and frees for
-/// [`allocations_during`]; install it with `#[global_allocator]`.
-pub struct CountingAllocator;
-
-thread_local! {
-    static ALLOCATIONS: Cell<usize> = const { Cell::new(0) };
-}
-
-fn count_allocation() {
-    // `try_with`: the thread-local may already be gone while a thread shuts down.
-    let _ = ALLOCATIONS.try_with(|c| c.set(c.get() + 1));
-}
-
-// SAFETY: every call is forwarded unchanged to the system allocator; counting touches only a
-// const-initialised thread-local `Cell`, which never allocates.
-unsafe impl GlobalAlloc for CountingAllocator {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        count_allocation();
-        System.alloc(layout)
-    }
-    unsafe fn alloc_zeroed(&self, layout: Layout) -> *mut u8 {
-        count_allocation();
-        System.alloc_zeroed(layout)
-    }
-    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        count_allocation();
-        System.realloc(ptr, layout, new_size)
-    }
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        count_allocation();
-        System.dealloc(ptr, layout)
-    }
-}
+pub use crate::alloc_count::{counted, CountingAllocator};
 
 /// Whether [`CountingAllocator`] is this binary's global allocator (else nothing is counted).
 pub fn counting_allocator_installed() -> bool {
@@ -66,12 +28,10 @@ pub fn counting_allocator_installed() -> bool {
     }) > 0
 }
 
-/// Allocations and frees made by this thread while running `f`; always 0 unless
+/// Allocations made by this thread while running `f`; always 0 unless
 /// [`CountingAllocator`] is installed.
 pub fn allocations_during(f: impl FnOnce()) -> usize {
-    let before = ALLOCATIONS.with(Cell::get);
-    f();
-    ALLOCATIONS.with(Cell::get) - before
+    counted(f).1 as usize
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -386,7 +346,7 @@ mod tests {
         let n = allocations_during(|| {
             std::hint::black_box(vec![1u8; 16]);
         });
-        assert_eq!(n, 2, "one allocation and one free");
+        assert_eq!(n, 1, "one allocation (frees are not counted)");
         // Another thread allocating while this one waits must not count here.
         let barrier = std::sync::Barrier::new(2);
         std::thread::scope(|s| {

@@ -36,6 +36,29 @@ use serde::{Deserialize, Serialize};
 use std::fmt;
 use std::str::FromStr;
 
+/// Serialize and Deserialize for a predictor whose derives say `#[serde(remote = "Self")]`:
+/// the derived code does the reading, then `validate(&self) -> Result<(), String>` runs, so a
+/// hand-edited model file cannot skip the checks the constructor and `fit` make (a wrong shape
+/// would slice out of range or multiply the wrong values). Its message names the field.
+macro_rules! serde_validated {
+    ($ty:ty) => {
+        impl serde::Serialize for $ty {
+            fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+                // The inherent function the derive generates, not this trait method.
+                <$ty>::serialize(self, serializer)
+            }
+        }
+        impl<'de> serde::Deserialize<'de> for $ty {
+            fn deserialize<D: serde::Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+                let value = <$ty>::deserialize(deserializer)?;
+                value.validate().map_err(serde::de::Error::custom)?;
+                Ok(value)
+            }
+        }
+    };
+}
+
+pub mod alloc_count;
 pub mod ar_lms;
 pub mod averaging;
 pub mod baseline;
@@ -52,7 +75,7 @@ pub mod conformance;
 // This crate's own tests count allocations (the conformance suite's allocation check).
 #[cfg(test)]
 #[global_allocator]
-static ALLOCATOR: conformance::CountingAllocator = conformance::CountingAllocator;
+static ALLOCATOR: alloc_count::CountingAllocator = alloc_count::CountingAllocator;
 
 pub use ar_lms::ArLmsPredictor;
 pub use averaging::{AverageMode, Averaging, AveragingWeights, ForecastAverager};
@@ -87,6 +110,9 @@ pub enum PredictError {
     /// A numerical step failed (singular matrix, eigen-decomposition did not converge, ...).
     #[error("numerical failure: {0}")]
     Numerical(String),
+    /// Validation (`mca_validate_energy`) rejected every candidate setting.
+    #[error("{0}: no candidate setting gave a usable predictor")]
+    NoUsableCandidate(Method),
 }
 
 /// The prediction methods shipcast knows, by their CLI names.

@@ -20,10 +20,11 @@ use super::{
     check_forecast_buffers, check_training, Diagnostics, Method, PredictError, Predictor,
     PredictorConfig,
 };
-use faer::linalg::matmul::matmul;
-use faer::linalg::solvers::Solve;
-use faer::{get_global_parallelism, Accum, Mat, MatRef, Side};
 use serde::{Deserialize, Serialize};
+use spectrum::{Spectrum, SpectrumModel};
+
+#[path = "mca_spectrum.rs"]
+mod spectrum;
 
 /// Energy thresholds tried when `mca_validate_energy` is on: from "only the null space" to
 /// "a tenth of the signal".
@@ -89,7 +90,7 @@ impl std::str::FromStr for McaWeighting {
 
 /// MCA predictor for one degree of freedom.
 #[derive(Clone, Debug, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(remote = "Self", deny_unknown_fields)]
 pub struct McaPredictor {
     order: usize,
     horizon: usize,
@@ -117,34 +118,41 @@ struct McaModel {
     ridge: f64,
 }
 
+serde_validated!(McaPredictor);
+
+impl McaModel {
+    fn new(
+        spectrum: &Spectrum,
+        weighting: McaWeighting,
+        energy: f64,
+        horizon: usize,
+        ridge: f64,
+    ) -> Result<Self, PredictError> {
+        let SpectrumModel {
+            prediction,
+            minor_components,
+        } = spectrum.model(weighting, energy, horizon, ridge)?;
+        Ok(Self {
+            prediction,
+            minor_components,
+            energy,
+            ridge,
+        })
+    }
+}
+
 impl McaPredictor {
     /// An unfitted MCA predictor. Horizon >= order (no past values left in the window), a zero
     /// shift, an energy outside [0, 1) or a negative ridge are infeasible.
     pub fn new(config: &PredictorConfig) -> Result<Self, PredictError> {
         let (order, horizon) = (config.order, config.horizon);
-        if horizon == 0 || horizon >= order {
-            return Err(PredictError::Infeasible(format!(
-                "MCA needs 1 <= horizon < order (the window of order values splits into \
-                 order - horizon past and horizon future values), got order {order}, horizon {horizon}"
-            )));
-        }
-        if config.mca_shift == 0 {
-            return Err(PredictError::Infeasible(
-                "MCA window shift must be at least 1".into(),
-            ));
-        }
-        if !(0.0..1.0).contains(&config.mca_energy) {
-            return Err(PredictError::Infeasible(format!(
-                "MCA energy threshold must be in [0, 1), got {}",
-                config.mca_energy
-            )));
-        }
-        if !(config.mca_ridge >= 0.0 && config.mca_ridge.is_finite()) {
-            return Err(PredictError::Infeasible(format!(
-                "MCA ridge must be finite and non-negative, got {}",
-                config.mca_ridge
-            )));
-        }
+        check_options(
+            order,
+            horizon,
+            config.mca_shift,
+            config.mca_energy,
+            config.mca_ridge,
+        )?;
         Ok(Self {
             order,
             horizon,
@@ -183,6 +191,46 @@ impl McaPredictor {
         Ok(())
     }
 
+    /// What a model file must satisfy (see `serde_validated!`): the constructor's checks, and a
+    /// fitted model's prediction matrix of horizon x (order - horizon).
+    fn validate(&self) -> Result<(), String> {
+        check_options(
+            self.order,
+            self.horizon,
+            self.shift,
+            self.energy,
+            self.ridge,
+        )
+        .map_err(|e| e.to_string())?;
+        let Some(model) = &self.model else {
+            return Ok(());
+        };
+        let (rows, cols) = (model.prediction.rows(), model.prediction.cols());
+        if (rows, cols) != (self.horizon, self.past_len()) {
+            return Err(format!(
+                "MCA model.prediction is {rows} x {cols}; horizon {} and order {} need {} x {}",
+                self.horizon,
+                self.order,
+                self.horizon,
+                self.past_len()
+            ));
+        }
+        if model.minor_components > self.order {
+            return Err(format!(
+                "MCA model.minor_components {} exceeds the order {}",
+                model.minor_components, self.order
+            ));
+        }
+        for (name, value) in [("energy", model.energy), ("ridge", model.ridge)] {
+            if !(value.is_finite() && value >= 0.0) {
+                return Err(format!(
+                    "MCA model.{name} must be finite and non-negative, got {value}"
+                ));
+            }
+        }
+        Ok(())
+    }
+
     /// The ridge as configured; 0 means `INVERSE_DEFAULT_RIDGE` with inverse weighting, where
     /// no ridge at all would let the null space of a rank-deficient R decide the forecast.
     fn configured_ridge(&self) -> f64 {
@@ -203,7 +251,7 @@ impl McaPredictor {
 
     fn fit_with(&self, train: &[f64], energy: f64, ridge: f64) -> Result<McaModel, PredictError> {
         let spectrum = Spectrum::of_windows(train, self.order, self.shift)?;
-        spectrum.model(self.weighting, energy, self.horizon, ridge)
+        McaModel::new(&spectrum, self.weighting, energy, self.horizon, ridge)
     }
 
     /// Choose the energy threshold (inverse weighting: the ridge) on the last fifth of the
@@ -225,7 +273,8 @@ impl McaPredictor {
         let mut best: Option<(f64, f64, f64)> = None;
         let mut best_key: Option<(f64, f64)> = None;
         for (energy, ridge) in self.candidates() {
-            let model = match spectrum.model(self.weighting, energy, self.horizon, ridge) {
+            let model = match McaModel::new(&spectrum, self.weighting, energy, self.horizon, ridge)
+            {
                 Ok(m) => m,
                 Err(e) => {
                     tracing::debug!(energy, ridge, error = %e, "MCA candidate rejected");
@@ -253,12 +302,43 @@ impl McaPredictor {
                 best_key = Some(key);
             }
         }
-        let (energy, ridge, rms) = best.ok_or_else(|| {
-            PredictError::Numerical("MCA: no candidate setting gave a usable predictor".into())
-        })?;
+        let (energy, ridge, rms) = best.ok_or(PredictError::NoUsableCandidate(Method::Mca))?;
         tracing::debug!(energy, ridge, weighting = %self.weighting, validation_rms = rms, "MCA setting chosen");
         self.fit_with(train, energy, ridge)
     }
+}
+
+/// The constructor's checks: 1 <= horizon < order, shift >= 1, energy in [0, 1), ridge finite
+/// and non-negative.
+fn check_options(
+    order: usize,
+    horizon: usize,
+    shift: usize,
+    energy: f64,
+    ridge: f64,
+) -> Result<(), PredictError> {
+    if horizon == 0 || horizon >= order {
+        return Err(PredictError::Infeasible(format!(
+            "MCA needs 1 <= horizon < order (the window of order values splits into \
+             order - horizon past and horizon future values), got order {order}, horizon {horizon}"
+        )));
+    }
+    if shift == 0 {
+        return Err(PredictError::Infeasible(
+            "MCA window shift must be at least 1".into(),
+        ));
+    }
+    if !(0.0..1.0).contains(&energy) {
+        return Err(PredictError::Infeasible(format!(
+            "MCA energy threshold must be in [0, 1), got {energy}"
+        )));
+    }
+    if !(ridge >= 0.0 && ridge.is_finite()) {
+        return Err(PredictError::Infeasible(format!(
+            "MCA ridge must be finite and non-negative, got {ridge}"
+        )));
+    }
+    Ok(())
 }
 
 /// Smallest training length for which validation leaves at least one window to fit on
@@ -305,159 +385,6 @@ fn validation_rms(
         origin += stride;
     }
     (sum / count.max(1) as f64).sqrt()
-}
-
-/// Eigen-decomposition of the window correlation matrix R = sum X X^T.
-struct Spectrum {
-    /// Ascending.
-    eigenvalues: Vec<f64>,
-    /// Column i belongs to eigenvalue i.
-    eigenvectors: Mat<f64>,
-}
-
-impl Spectrum {
-    /// Windows of length `n` starting at 0, shift, 2 shift, ... of `series`
-    /// (at least one window: callers check `series.len() >= n`).
-    fn of_windows(series: &[f64], n: usize, shift: usize) -> Result<Self, PredictError> {
-        let windows = (series.len() - n) / shift + 1;
-        let x = Mat::from_fn(n, windows, |i, j| series[j * shift + i]);
-        let mut r = Mat::<f64>::zeros(n, n);
-        matmul(
-            r.as_mut(),
-            Accum::Replace,
-            x.as_ref(),
-            x.transpose(),
-            1.0,
-            get_global_parallelism(),
-        );
-        let evd = r
-            .self_adjoint_eigen(Side::Lower)
-            .map_err(|e| PredictError::Numerical(format!("MCA eigen-decomposition: {e:?}")))?;
-        let eigenvalues = evd.S().column_vector().iter().copied().collect();
-        Ok(Self {
-            eigenvalues,
-            eigenvectors: evd.U().to_owned(),
-        })
-    }
-
-    /// Number of minor components for `energy`: the smallest eigenvalues whose sum is at most
-    /// `energy` of the trace, and at least `horizon` of them.
-    fn minor_count(&self, energy: f64, horizon: usize) -> usize {
-        let trace: f64 = self.eigenvalues.iter().sum();
-        let budget = energy * trace;
-        let mut cumulative = 0.0;
-        let mut count = 0;
-        for &lambda in &self.eigenvalues {
-            if cumulative + lambda > budget {
-                break;
-            }
-            cumulative += lambda;
-            count += 1;
-        }
-        count.max(horizon).min(self.eigenvalues.len())
-    }
-
-    fn model(
-        &self,
-        weighting: McaWeighting,
-        energy: f64,
-        horizon: usize,
-        ridge: f64,
-    ) -> Result<McaModel, PredictError> {
-        let (prediction, k) = match weighting {
-            McaWeighting::Paper => {
-                let k = self.minor_count(energy, horizon);
-                let minor = self.eigenvectors.as_ref().subcols(0, k);
-                (prediction_matrix(minor, horizon, ridge)?, k)
-            }
-            McaWeighting::Inverse => {
-                let weighted = self.inverse_weighted(ridge);
-                (
-                    prediction_matrix(weighted.as_ref(), horizon, 0.0)?,
-                    weighted.ncols(),
-                )
-            }
-        };
-        Ok(McaModel {
-            prediction,
-            minor_components: k,
-            energy,
-            ridge,
-        })
-    }
-
-    /// Every eigenvector v_i scaled by sqrt(w_i), w_i = eps / (lambda_i + eps), so that the
-    /// Gram matrices `prediction_matrix` forms are blocks of M = V diag(w) V^T. The common
-    /// factor eps leaves P unchanged and keeps w in (0, 1] (null space ~1, strong directions
-    /// ~eps/lambda), which keeps the Cholesky factorisation well scaled.
-    ///
-    /// eps = ridge * mean eigenvalue, floored at n * machine epsilon * largest eigenvalue: below
-    /// that the eigenvalues of a rank-deficient R (fewer windows than n) are rounding noise,
-    /// possibly negative (clamped to 0), and 1/lambda would be meaningless.
-    fn inverse_weighted(&self, ridge: f64) -> Mat<f64> {
-        let n = self.eigenvalues.len();
-        let largest = self.eigenvalues.last().copied().unwrap_or(0.0).max(0.0);
-        let mean = self.eigenvalues.iter().map(|l| l.max(0.0)).sum::<f64>() / n.max(1) as f64;
-        let eps = (ridge * mean).max(n as f64 * f64::EPSILON * largest);
-        // An all-zero training series has R = 0: any eps gives equal weights and P = 0.
-        let eps = if eps > 0.0 { eps } else { 1.0 };
-        let scale: Vec<f64> = self
-            .eigenvalues
-            .iter()
-            .map(|&l| (eps / (l.max(0.0) + eps)).sqrt())
-            .collect();
-        Mat::from_fn(n, n, |i, j| self.eigenvectors[(i, j)] * scale[j])
-    }
-}
-
-/// P = -(B2^T B2 + ridge)^-1 B2^T B1 from the minor eigenvectors (the columns of `minor`,
-/// n x k; B = minor^T, so B1^T = the first n1 rows and B2^T = the last `horizon` rows).
-fn prediction_matrix(
-    minor: MatRef<'_, f64>,
-    horizon: usize,
-    ridge: f64,
-) -> Result<LinearMap, PredictError> {
-    let n = minor.nrows();
-    let n1 = n - horizon;
-    let past = minor.subrows(0, n1);
-    let future = minor.subrows(n1, horizon);
-    let par = get_global_parallelism();
-    let mut gram = Mat::<f64>::zeros(horizon, horizon);
-    matmul(
-        gram.as_mut(),
-        Accum::Replace,
-        future,
-        future.transpose(),
-        1.0,
-        par,
-    );
-    if ridge > 0.0 {
-        let mean_diag = (0..horizon).map(|i| gram[(i, i)]).sum::<f64>() / horizon as f64;
-        for i in 0..horizon {
-            gram[(i, i)] += ridge * mean_diag;
-        }
-    }
-    let mut rhs = Mat::<f64>::zeros(horizon, n1);
-    matmul(
-        rhs.as_mut(),
-        Accum::Replace,
-        future,
-        past.transpose(),
-        -1.0,
-        par,
-    );
-    let llt = gram.llt(Side::Lower).map_err(|e| {
-        PredictError::Numerical(format!(
-            "MCA: B2^T B2 is not positive definite ({e}); more minor components or mca_ridge > 0 may help"
-        ))
-    })?;
-    llt.solve_in_place(rhs.as_mut());
-    let mut coef = Vec::with_capacity(horizon * n1);
-    for h in 0..horizon {
-        coef.extend((0..n1).map(|j| rhs[(h, j)]));
-    }
-    LinearMap::from_row_major(horizon, n1, coef)
-        .map_err(|e| PredictError::Numerical(format!("MCA prediction matrix: {e}")))
 }
 
 impl Predictor for McaPredictor {

@@ -4,6 +4,8 @@
 use super::*;
 use crate::conformance::{noisy_oscillation, nrmse_over_test, sum_of_sinusoids};
 use crate::AnyPredictor;
+use faer::linalg::solvers::Solve;
+use faer::{Mat, Side};
 
 fn config(order: usize, horizon: usize) -> PredictorConfig {
     PredictorConfig {
@@ -117,34 +119,60 @@ fn reference_prediction(x: &[f64], n: usize, h: usize, shift: usize, energy: f64
         .collect()
 }
 
-#[test]
-fn agrees_with_reference_implementation() {
-    let (n, h, shift) = (20, 5, 3);
-    let x = noisy_oscillation(400, 12);
-    for energy in [0.015, 0.1] {
+/// Largest |P - reference| relative to the reference's largest entry.
+fn relative_distance(map: &LinearMap, reference: &[Vec<f64>]) -> f64 {
+    let scale = reference
+        .iter()
+        .flatten()
+        .fold(0.0f64, |m, v| m.max(v.abs()));
+    let mut worst = 0.0f64;
+    for (i, row) in reference.iter().enumerate() {
+        for (got, want) in map.row(i).iter().zip(row) {
+            worst = worst.max((got - want).abs());
+        }
+    }
+    worst / scale
+}
+
+/// The paper's P for each energy equals `reference_prediction`'s.
+fn assert_matches_reference(x: &[f64], n: usize, h: usize, shift: usize, energies: &[f64]) {
+    for &energy in energies {
         let p = fitted(
             &PredictorConfig {
                 mca_shift: shift,
                 mca_energy: energy,
                 ..config(n, h)
             },
-            &x,
+            x,
         );
-        let reference = reference_prediction(&x, n, h, shift, energy);
-        let map = p.prediction_matrix().unwrap();
-        let scale = reference
-            .iter()
-            .flatten()
-            .fold(0.0f64, |m, v| m.max(v.abs()));
-        for (i, row) in reference.iter().enumerate() {
-            for (j, want) in row.iter().enumerate() {
-                let got = map.row(i)[j];
-                assert!(
-                    (got - want).abs() <= 1e-6 * scale,
-                    "energy {energy}: P[{i}][{j}] = {got}, reference {want}"
-                );
-            }
-        }
+        let reference = reference_prediction(x, n, h, shift, energy);
+        let distance = relative_distance(p.prediction_matrix().unwrap(), &reference);
+        assert!(distance <= 1e-6, "energy {energy}: P off by {distance:e}");
+    }
+}
+
+#[test]
+fn agrees_with_reference_implementation() {
+    assert_matches_reference(&noisy_oscillation(400, 12), 20, 5, 3, &[0.015, 0.1]);
+}
+
+#[test]
+fn fewer_windows_than_the_order_agree_with_the_full_decomposition() {
+    // 49 windows of 60 values: R has rank 49, the fit goes through the QR of the windows
+    // instead of the 60 x 60 eigen-decomposition the reference takes.
+    let (n, h, shift) = (60, 10, 5);
+    let x = noisy_oscillation(300, 22);
+    assert!((x.len() - n) / shift + 1 < n);
+    assert_matches_reference(&x, n, h, shift, &[0.015, 0.1, 0.5]);
+    for ridge in [1e-3, 0.1] {
+        let p = fitted(&inverse(n, h, shift, ridge), &x);
+        let want = conditional_mean(&x, n, h, shift, ridge);
+        let reference: Vec<Vec<f64>> = (0..h)
+            .map(|i| (0..n - h).map(|j| want[(i, j)]).collect())
+            .collect();
+        let distance = relative_distance(p.prediction_matrix().unwrap(), &reference);
+        assert!(distance <= 1e-6, "ridge {ridge}: P off by {distance:e}");
+        assert_eq!(p.diagnostics().minor_components, Some(n));
     }
 }
 
@@ -346,14 +374,25 @@ fn inverse_weighting_extrapolates_sinusoids_despite_a_rank_deficient_r() {
 }
 
 #[test]
-fn inverse_weighting_of_an_all_zero_series_predicts_zero() {
-    let p = fitted(&inverse(20, 5, 1, 0.0), &[0.0; 100]);
-    assert!(p
-        .prediction_matrix()
-        .unwrap()
-        .coefficients()
-        .iter()
-        .all(|&c| c == 0.0));
+fn an_all_zero_series_predicts_zero() {
+    // Shift 1: 81 windows of 20 (full decomposition); shift 10: 9 windows (through the QR).
+    for shift in [1, 10] {
+        for weighting in [McaWeighting::Inverse, McaWeighting::Paper] {
+            let c = PredictorConfig {
+                mca_weighting: weighting,
+                ..inverse(20, 5, shift, 0.0)
+            };
+            let p = fitted(&c, &[0.0; 100]);
+            assert!(
+                p.prediction_matrix()
+                    .unwrap()
+                    .coefficients()
+                    .iter()
+                    .all(|&c| c == 0.0),
+                "{weighting} shift {shift}"
+            );
+        }
+    }
 }
 
 #[test]

@@ -38,6 +38,7 @@ const INITIAL_STEP_FRACTION: f64 = 0.1;
 
 /// One-hidden-layer perceptron predicting all `horizon` steps at once.
 #[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(remote = "Self")]
 pub struct MlpPredictor {
     shape: Shape,
     epochs: usize,
@@ -52,7 +53,38 @@ pub struct MlpPredictor {
     final_loss: Option<f64>,
 }
 
+serde_validated!(MlpPredictor);
+
 impl MlpPredictor {
+    /// What a model file must satisfy (see `serde_validated!`): once fitted, as many finite
+    /// parameters as the shape needs and a positive finite scale.
+    fn validate(&self) -> Result<(), String> {
+        if self.params.is_empty() {
+            return Ok(());
+        }
+        let needed = self.shape.checked_len();
+        if needed != Some(self.params.len()) {
+            return Err(format!(
+                "MLP params hold {} values; {} inputs, {} hidden units and {} outputs need {}",
+                self.params.len(),
+                self.shape.inputs,
+                self.shape.hidden,
+                self.shape.outputs,
+                needed.map_or("more than memory holds".to_string(), |n| n.to_string())
+            ));
+        }
+        if self.params.iter().any(|p| !p.is_finite()) {
+            return Err("MLP params hold a non-finite value".into());
+        }
+        if !(self.scale.is_finite() && self.scale > 0.0) {
+            return Err(format!(
+                "MLP scale must be positive and finite, got {}",
+                self.scale
+            ));
+        }
+        Ok(())
+    }
+
     /// An unfitted network; fails on zero hidden units or epochs, or a network too large to
     /// address.
     pub fn new(config: &PredictorConfig) -> Result<Self, PredictError> {

@@ -17,7 +17,7 @@ use serde::{Deserialize, Serialize};
 /// Wiener predictor: an `horizon x order` coefficient matrix applied to the last `order`
 /// values (oldest first).
 #[derive(Clone, Debug, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(remote = "Self", deny_unknown_fields)]
 pub struct WienerPredictor {
     order: usize,
     horizon: usize,
@@ -65,6 +65,28 @@ impl WienerPredictor {
     /// `order` values (oldest first). `None` before fitting.
     pub fn coefficients(&self) -> Option<&LinearMap> {
         self.coefficients.as_ref()
+    }
+}
+
+serde_validated!(WienerPredictor);
+
+impl WienerPredictor {
+    /// What a model file must satisfy (see `serde_validated!`): order and horizon of at least
+    /// 1 and, once fitted, a horizon x order coefficient matrix.
+    fn validate(&self) -> Result<(), String> {
+        check_shape(self.order, self.horizon).map_err(|e| e.to_string())?;
+        match &self.coefficients {
+            Some(c) if (c.rows(), c.cols()) != (self.horizon, self.order) => Err(format!(
+                "Wiener coefficients are {} x {}; horizon {} and order {} need {} x {}",
+                c.rows(),
+                c.cols(),
+                self.horizon,
+                self.order,
+                self.horizon,
+                self.order
+            )),
+            _ => Ok(()),
+        }
     }
 }
 

@@ -157,13 +157,20 @@ impl Forecast {
     }
 }
 
-/// Why a JSON payload was rejected.
+/// Why a JSON payload was rejected. The parser's error is in the message, not chained as a
+/// `source`, so `{:#}` prints it once.
 #[derive(Debug, thiserror::Error)]
 pub enum PayloadError {
     #[error("forecast JSON: {0}")]
-    Json(#[from] serde_json::Error),
+    Json(serde_json::Error),
     #[error("forecast JSON: {0}")]
     Shape(String),
+}
+
+impl From<serde_json::Error> for PayloadError {
+    fn from(error: serde_json::Error) -> Self {
+        PayloadError::Json(error)
+    }
 }
 
 /// Borrowed JSON form of a forecast, for serialising without copies.

@@ -243,8 +243,13 @@ impl Engine {
             let fast = a.max(1.0 / RMS_MEMORY_FAST);
             self.mean_square_fast[d] += fast * (xd * xd - self.mean_square_fast[d]);
         }
-        self.take_models();
-        self.schedule_retrain();
+        // Retraining runs inline (replay) in the step, deterministically; in the background
+        // (the service), handing over models and copying the history for a retrain happen in
+        // `poll_models`, between forecasts, so the forecasting step never copies history.
+        if self.retrainer.is_inline() {
+            self.take_models();
+            self.schedule_retrain();
+        }
         if let Some(m) = self.models.as_mut() {
             let horizon = m.horizon();
             for (d, p) in m.predictors.iter_mut().enumerate() {
@@ -368,7 +373,8 @@ impl Engine {
     }
 
     /// Ask for a retrain when one is due: the first after `first_fit_s` of live data, then
-    /// every `retrain_every_s`, or at once when the sea changed.
+    /// every `retrain_every_s`, or at once when the sea changed (the one place that copies
+    /// history).
     fn schedule_retrain(&mut self) {
         let q = &self.config;
         if q.retrain_every_s <= 0.0 {
@@ -513,9 +519,14 @@ impl Engine {
         Ok(())
     }
 
-    /// Pick up a retrain finished in the background (the service calls this between samples).
+    /// Pick up a retrain finished in the background and hand a due retrain its copy of the
+    /// history (the service calls this between samples, after publishing: both stay off the
+    /// forecasting step). With an inline retrainer the step itself does both.
     pub fn poll_models(&mut self) {
-        self.take_models();
+        if !self.retrainer.is_inline() {
+            self.take_models();
+            self.schedule_retrain();
+        }
     }
 
     /// Live scores over the verification window.

@@ -101,6 +101,11 @@ impl Retrainer {
         }
     }
 
+    /// True if retraining runs in the caller's step.
+    pub fn is_inline(&self) -> bool {
+        matches!(self, Self::Inline { .. })
+    }
+
     /// False while a background fit is running (a request now would be dropped).
     pub fn is_ready(&self) -> bool {
         match self {

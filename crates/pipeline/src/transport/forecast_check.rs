@@ -35,8 +35,8 @@ impl From<PayloadError> for Rejection {
     }
 }
 
-/// Rejection counts by reason, for the consumer's closing log line.
-#[derive(Debug, Default, Clone, Copy, PartialEq, Eq)]
+/// Rejection counts by reason, for the consumer's closing log line and status.
+#[derive(Debug, Default, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct RejectionCounts {
     pub source: u64,
     pub seq: u64,
@@ -105,32 +105,49 @@ impl LivePublishers {
     }
 }
 
-/// Accepts forecasts from the one live predictor, with increasing seq, that pass the content
-/// checks; counts what it rejects by reason.
+/// The checks every consumer makes whatever its transport: the payload's own checks, and seq
+/// moving forward within one publisher's stream (`P` names the publisher as the transport
+/// does); counts what it accepts and rejects.
 #[derive(Debug)]
-pub struct ForecastGate {
+pub struct StreamChecks<P> {
     expected_dt_s: f64,
-    pub live: LivePublishers,
     /// Publisher and seq of the last accepted forecast.
-    last: Option<(String, u64)>,
+    last: Option<(P, u64)>,
     pub rejected: RejectionCounts,
     pub accepted: u64,
 }
 
-impl ForecastGate {
+impl<P: PartialEq + Clone> StreamChecks<P> {
     pub fn new(expected_dt_s: f64) -> Self {
         Self {
             expected_dt_s,
-            live: LivePublishers::default(),
             last: None,
             rejected: RejectionCounts::default(),
             accepted: 0,
         }
     }
 
-    /// Parse and check one received payload.
-    pub fn check(&mut self, received: &Received) -> Result<Forecast, Rejection> {
-        let result = self.check_uncounted(received);
+    /// Content and seq of a forecast from `publisher`, whose source the caller has checked.
+    fn follows(&mut self, publisher: &P, forecast: &Forecast) -> Result<(), Rejection> {
+        check_content(forecast, self.expected_dt_s)?;
+        // seq restarts with a new predictor; it must increase within one publisher's stream.
+        match &mut self.last {
+            Some((last_publisher, last_seq)) if last_publisher == publisher => {
+                if forecast.seq <= *last_seq {
+                    return Err(Rejection::SeqNotIncreasing {
+                        seq: forecast.seq,
+                        last: *last_seq,
+                    });
+                }
+                *last_seq = forecast.seq;
+            }
+            last => *last = Some((publisher.clone(), forecast.seq)),
+        }
+        Ok(())
+    }
+
+    /// Count the outcome of one check and pass it on.
+    fn count<T>(&mut self, result: Result<T, Rejection>) -> Result<T, Rejection> {
         match &result {
             Ok(_) => self.accepted += 1,
             Err(
@@ -143,40 +160,118 @@ impl ForecastGate {
         }
         result
     }
+}
+
+/// Accepts forecasts received over zenoh from the one live predictor (its publisher token),
+/// with increasing seq, that pass the content checks; counts what it rejects by reason.
+#[derive(Debug)]
+pub struct ForecastGate {
+    pub live: LivePublishers,
+    pub stream: StreamChecks<String>,
+}
+
+impl ForecastGate {
+    pub fn new(expected_dt_s: f64) -> Self {
+        Self {
+            live: LivePublishers::default(),
+            stream: StreamChecks::new(expected_dt_s),
+        }
+    }
+
+    /// Parse and check one received payload.
+    pub fn check(&mut self, received: &Received) -> Result<Forecast, Rejection> {
+        let result = self.check_uncounted(received);
+        self.stream.count(result)
+    }
 
     fn check_uncounted(&mut self, received: &Received) -> Result<Forecast, Rejection> {
-        let Some(publisher) = received.publisher.as_deref() else {
-            return Err(Rejection::NoPublisherId);
-        };
-        let live = match self.live.the_one() {
-            Ok(z) => z,
-            Err(0) => {
+        let publisher = check_source(&self.live, received)?;
+        let forecast = Forecast::from_json(&received.payload)?;
+        self.stream.follows(publisher, &forecast)?;
+        Ok(forecast)
+    }
+}
+
+/// The publisher id of `received` if it is the one live publisher of its key.
+pub fn check_source<'a>(
+    live: &LivePublishers,
+    received: &'a Received,
+) -> Result<&'a String, Rejection> {
+    let Some(publisher) = received.publisher.as_ref() else {
+        return Err(Rejection::NoPublisherId);
+    };
+    match live.the_one() {
+        Ok(z) if z == publisher => Ok(publisher),
+        Ok(z) => Err(Rejection::NotLivePublisher {
+            got: publisher.clone(),
+            live: z.to_string(),
+        }),
+        Err(0) => Err(Rejection::NotLivePublisher {
+            got: publisher.clone(),
+            live: "none".into(),
+        }),
+        Err(n) => Err(Rejection::SeveralPublishers(n)),
+    }
+}
+
+/// Accepts forecasts received over iceoryx2 (the deck). The sender is the publisher port that
+/// iceoryx2 itself records in each sample, which a sender cannot choose. The live predictor is
+/// the publisher the gate has been following for as long as it stays connected; when it goes
+/// and exactly one publisher is connected, that one is followed. Samples of any other
+/// publisher are rejected, so a second publisher on the service cannot interrupt the stream.
+#[derive(Debug)]
+pub struct IoxForecastGate {
+    followed: Option<u128>,
+    pub stream: StreamChecks<u128>,
+}
+
+impl IoxForecastGate {
+    pub fn new(expected_dt_s: f64) -> Self {
+        Self {
+            followed: None,
+            stream: StreamChecks::new(expected_dt_s),
+        }
+    }
+
+    /// Check `forecast` sent by publisher `origin` while `connected` are the publishers of
+    /// the service.
+    pub fn check(
+        &mut self,
+        origin: u128,
+        connected: &[u128],
+        forecast: &Forecast,
+    ) -> Result<(), Rejection> {
+        let result = self.check_uncounted(origin, connected, forecast);
+        self.stream.count(result)
+    }
+
+    fn check_uncounted(
+        &mut self,
+        origin: u128,
+        connected: &[u128],
+        forecast: &Forecast,
+    ) -> Result<(), Rejection> {
+        if self.followed.is_some_and(|f| !connected.contains(&f)) {
+            self.followed = None;
+        }
+        let followed = match (self.followed, connected) {
+            (Some(f), _) => f,
+            (None, [only]) => *self.followed.insert(*only),
+            (None, []) => {
                 return Err(Rejection::NotLivePublisher {
-                    got: publisher.to_string(),
+                    got: format!("{origin:032x}"),
                     live: "none".into(),
                 })
             }
-            Err(n) => return Err(Rejection::SeveralPublishers(n)),
+            (None, several) => return Err(Rejection::SeveralPublishers(several.len())),
         };
-        if publisher != live {
+        if origin != followed {
             return Err(Rejection::NotLivePublisher {
-                got: publisher.to_string(),
-                live: live.to_string(),
+                got: format!("{origin:032x}"),
+                live: format!("{followed:032x}"),
             });
         }
-        let forecast = Forecast::from_json(&received.payload)?;
-        check_content(&forecast, self.expected_dt_s)?;
-        // seq restarts with a new predictor; it must increase within one publisher's stream.
-        if let Some((last_publisher, last_seq)) = &self.last {
-            if last_publisher == publisher && forecast.seq <= *last_seq {
-                return Err(Rejection::SeqNotIncreasing {
-                    seq: forecast.seq,
-                    last: *last_seq,
-                });
-            }
-        }
-        self.last = Some((publisher.to_string(), forecast.seq));
-        Ok(forecast)
+        self.stream.follows(&origin, forecast)
     }
 }
 
@@ -276,9 +371,9 @@ mod tests {
             Err(Rejection::SeqNotIncreasing { seq: 2, last: 6 })
         );
         assert!(gate.check(&received(&forecast(7), Some("aaa"))).is_ok());
-        assert_eq!(gate.accepted, 3);
+        assert_eq!(gate.stream.accepted, 3);
         assert_eq!(
-            gate.rejected,
+            gate.stream.rejected,
             RejectionCounts {
                 source: 2,
                 seq: 2,
@@ -358,7 +453,55 @@ mod tests {
             matches!(r, Err(Rejection::Payload(ref m)) if m.contains("129")),
             "{r:?}"
         );
-        assert_eq!(gate.rejected.payload, 5);
-        assert_eq!(gate.accepted, 0);
+        assert_eq!(gate.stream.rejected.payload, 5);
+        assert_eq!(gate.stream.accepted, 0);
+    }
+
+    #[test]
+    fn iceoryx2_gate_follows_its_publisher_and_ignores_a_second_one() {
+        let mut gate = IoxForecastGate::new(0.5);
+        // Two publishers before any was followed: nobody can tell which is the predictor.
+        assert_eq!(
+            gate.check(1, &[1, 2], &forecast(1)),
+            Err(Rejection::SeveralPublishers(2))
+        );
+        assert!(gate.check(1, &[1], &forecast(1)).is_ok());
+        // A second publisher joins: its samples are rejected, the followed stream goes on.
+        assert!(matches!(
+            gate.check(2, &[1, 2], &forecast(987654321)),
+            Err(Rejection::NotLivePublisher { .. })
+        ));
+        assert!(gate.check(1, &[1, 2], &forecast(2)).is_ok());
+        assert_eq!(
+            gate.check(1, &[1, 2], &forecast(2)),
+            Err(Rejection::SeqNotIncreasing { seq: 2, last: 2 })
+        );
+        let mut nan = forecast(3);
+        nan.sigma[2][0] = f32::NAN;
+        assert!(matches!(
+            gate.check(1, &[1, 2], &nan),
+            Err(Rejection::Payload(_))
+        ));
+        // The predictor restarts as publisher 3 while 2 is still there: nothing is followed
+        // until one of them is alone.
+        assert_eq!(
+            gate.check(3, &[2, 3], &forecast(0)),
+            Err(Rejection::SeveralPublishers(2))
+        );
+        assert!(gate.check(3, &[3], &forecast(0)).is_ok());
+        // A sample still queued from a publisher that has gone.
+        assert!(matches!(
+            gate.check(4, &[], &forecast(5)),
+            Err(Rejection::NotLivePublisher { ref got, .. }) if got.ends_with('4')
+        ));
+        assert_eq!(gate.stream.accepted, 3);
+        assert_eq!(
+            gate.stream.rejected,
+            RejectionCounts {
+                source: 4,
+                seq: 1,
+                payload: 1
+            }
+        );
     }
 }

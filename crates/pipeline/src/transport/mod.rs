@@ -8,9 +8,10 @@ pub mod iox;
 pub mod naming;
 pub mod shutdown;
 pub mod zenoh;
+pub mod zenoh_refusals;
 pub mod zenoh_router;
 pub mod zenoh_security;
 
 pub use clock::monotonic_ns;
 pub use counters::{Counters, SeqCheck, SeqTracker};
-pub use naming::Names;
+pub use naming::{unique_instance, Names};

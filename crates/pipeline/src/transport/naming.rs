@@ -68,10 +68,20 @@ impl Names {
     }
 
     fn topic(&self, topic: &str) -> String {
+        format!("{}{}/{topic}", self.fleet_prefix(), self.vessel)
+    }
+
+    /// What every key of every vessel of this instance starts with: `[<instance>/]shipcast/`.
+    pub fn fleet_prefix(&self) -> String {
         match &self.instance {
-            Some(i) => format!("{i}/shipcast/{}/{topic}", self.vessel),
-            None => format!("shipcast/{}/{topic}", self.vessel),
+            Some(i) => format!("{i}/shipcast/"),
+            None => "shipcast/".to_string(),
         }
+    }
+
+    /// zenoh key expression of one topic of every vessel: `[<instance>/]shipcast/*/<topic>`.
+    pub fn every_vessel(&self, topic: &str) -> String {
+        format!("{}*/{topic}", self.fleet_prefix())
     }
 
     /// iceoryx2 service / zenoh key of the motion samples.
@@ -126,6 +136,21 @@ impl Names {
     }
 }
 
+/// An instance name that no other run, process or call uses: `tag`, the process id, a
+/// per-process counter and a clock reading (the counter keeps calls in the same nanosecond
+/// apart, the clock keeps a reused process id apart). Parallel tests and benchmark rounds get
+/// their own iceoryx2 services and zenoh keys with it.
+pub fn unique_instance(tag: &str) -> String {
+    use std::sync::atomic::{AtomicU64, Ordering};
+    static NEXT: AtomicU64 = AtomicU64::new(0);
+    let n = NEXT.fetch_add(1, Ordering::Relaxed);
+    let nanos = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map(|d| d.subsec_nanos())
+        .unwrap_or(0);
+    format!("{tag}-{}-{n}-{nanos}", std::process::id())
+}
+
 impl fmt::Display for Names {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(&self.topic("*"))
@@ -135,6 +160,15 @@ impl fmt::Display for Names {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn unique_instances_differ_and_are_valid_names() {
+        let a = unique_instance("t");
+        let b = unique_instance("t");
+        assert_ne!(a, b);
+        assert!(a.starts_with("t-"));
+        assert!(Names::new(Some(&a), "v").is_ok());
+    }
 
     #[test]
     fn names_follow_the_contract() {
@@ -157,6 +191,17 @@ mod tests {
         );
         assert_eq!(n.iox_prefix(), "iox2_t1_");
         assert_eq!(Names::new(Some(""), "x").unwrap().instance(), None);
+    }
+
+    #[test]
+    fn every_vessel_keys_cover_each_vessels_own_keys() {
+        let plain = Names::new(None, "ddg51").unwrap();
+        assert_eq!(plain.fleet_prefix(), "shipcast/");
+        assert_eq!(plain.every_vessel("forecast"), "shipcast/*/forecast");
+        let t = Names::new(Some("t1"), "ffg7").unwrap();
+        assert_eq!(t.every_vessel("advisory/*"), "t1/shipcast/*/advisory/*");
+        assert!(t.forecast().starts_with(&t.fleet_prefix()));
+        assert_eq!(t.forecast(), "t1/shipcast/ffg7/forecast");
     }
 
     #[test]

@@ -266,14 +266,30 @@ impl JsonPublisher {
         })
     }
 
-    /// Publish one JSON document.
+    /// Publish one JSON document, copied into a buffer of zenoh's (for documents built once,
+    /// such as the status; forecasts go through [`Self::put_shared`]).
     pub fn put(&self, json: &[u8]) -> Result<(), ZenohError> {
+        self.put_payload(ZBytes::from(json))
+    }
+
+    /// Publish one JSON document without copying it: zenoh takes a reference-counted handle
+    /// to `json`'s buffer. Once zenoh has written it to its links and dropped the handle, the
+    /// writer of the buffer can reuse it (see `ForecastJsonEncoder::encode_shared`).
+    pub fn put_shared(&self, json: bytes::Bytes) -> Result<(), ZenohError> {
+        self.put_payload(ZBytes::from(json))
+    }
+
+    fn put_payload(&self, payload: ZBytes) -> Result<(), ZenohError> {
         self.publisher
-            .put(json.to_vec())
+            .put(payload)
             // A reference-counted copy of the id, no allocation of its bytes.
             .attachment(self.publisher_id.clone())
             .wait()
-            .map_err(err(format!("put on '{}'", self.publisher.key_expr())))
+            // The context is formatted only on failure: a put that succeeds formats nothing.
+            .map_err(|e| ZenohError {
+                context: format!("put on '{}'", self.publisher.key_expr()),
+                detail: e.to_string(),
+            })
     }
 
     /// Serialise `value` as JSON and publish it.
@@ -314,6 +330,15 @@ pub struct Received {
     pub publisher: Option<String>,
 }
 
+fn received(sample: &Sample) -> Received {
+    Received {
+        payload: sample.payload().to_bytes().into_owned(),
+        publisher: sample
+            .attachment()
+            .and_then(|a| a.try_to_string().ok().map(|t| t.into_owned())),
+    }
+}
+
 /// Keeps the newest few payloads of one key; older ones are dropped, never queued without bound.
 pub struct LatestSubscriber {
     subscriber: Subscriber<RingChannelHandler<Sample>>,
@@ -344,12 +369,13 @@ impl LatestSubscriber {
             .subscriber
             .recv_timeout(timeout)
             .map_err(err("receive"))?;
-        Ok(sample.map(|s| Received {
-            payload: s.payload().to_bytes().into_owned(),
-            publisher: s
-                .attachment()
-                .and_then(|a| a.try_to_string().ok().map(|t| t.into_owned())),
-        }))
+        Ok(sample.map(|s| received(&s)))
+    }
+
+    /// The next payload waiting, if any, with the zenoh id its publisher attached.
+    pub fn try_recv_with_source(&self) -> Result<Option<Received>, ZenohError> {
+        let sample = self.subscriber.try_recv().map_err(err("receive"))?;
+        Ok(sample.map(|s| received(&s)))
     }
 
     /// The newest payload waiting, if any, discarding older ones.
@@ -398,7 +424,10 @@ mod tests {
         let endpoint = free_loopback_endpoint().unwrap();
         let a = open(&ZenohSettings::listen_on(&endpoint)).unwrap();
         let b = open(&ZenohSettings::connect_to(&endpoint)).unwrap();
-        let key = format!("unit-{}/shipcast/x/forecast", std::process::id());
+        let key = format!(
+            "{}/shipcast/x/forecast",
+            crate::transport::unique_instance("unit")
+        );
         let sub = LatestSubscriber::new(&b, &key).unwrap();
         let watch = LivelinessWatch::new(&b, &format!("{key}/alive")).unwrap();
         let publisher = JsonPublisher::new(&a, &key).unwrap();

@@ -49,6 +49,26 @@ pub struct AccessRules {
     pub publishers: Vec<String>,
     /// Certificate common names that may only subscribe, query and watch liveliness.
     pub subscribers: Vec<String>,
+    /// Wider key expressions on which subscribers may declare their interest (subscribe,
+    /// query, watch liveliness), e.g. a fleet router's `shipcast/*/**` at a vessel: zenoh
+    /// checks that a declaration's key lies within a rule's, and data still flows only on
+    /// `key_exprs`.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub interest_key_exprs: Vec<String>,
+    /// The vessels of a fleet, at its router: each pipeline identity may publish only on its
+    /// own vessel's keys (and hear the interest of subscribers on `key_exprs`).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub vessels: Vec<VesselAccess>,
+}
+
+/// One vessel's publisher in a fleet router's access rules.
+#[derive(Debug, Clone, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct VesselAccess {
+    /// Certificate common name of the vessel's pipeline.
+    pub publisher: String,
+    /// The vessel's keys, e.g. `shipcast/ddg51/**`.
+    pub key_exprs: Vec<String>,
 }
 
 const ALL_MESSAGES: [&str; 9] = [
@@ -78,14 +98,17 @@ impl AccessRules {
     /// zenoh's `access_control` section (JSON), default deny.
     pub fn to_zenoh_json(&self) -> serde_json::Value {
         use serde_json::json;
-        let rule = |id: &str, messages: &[&str], flows: &[&str]| {
+        let rule_on = |id: &str, messages: &[&str], flows: &[&str], keys: &[String]| {
             json!({
                 "id": id,
                 "messages": messages,
                 "flows": flows,
                 "permission": "allow",
-                "key_exprs": self.key_exprs,
+                "key_exprs": keys,
             })
+        };
+        let rule = |id: &str, messages: &[&str], flows: &[&str]| {
+            rule_on(id, messages, flows, &self.key_exprs)
         };
         let mut rules = Vec::new();
         let mut subjects = Vec::new();
@@ -98,7 +121,18 @@ impl AccessRules {
             );
         }
         if !self.subscribers.is_empty() {
-            rules.push(rule("subscribe-in", &SUBSCRIBER_INGRESS, &["ingress"]));
+            let interest: Vec<String> = self
+                .key_exprs
+                .iter()
+                .chain(&self.interest_key_exprs)
+                .cloned()
+                .collect();
+            rules.push(rule_on(
+                "subscribe-in",
+                &SUBSCRIBER_INGRESS,
+                &["ingress"],
+                &interest,
+            ));
             rules.push(rule("subscribe-out", &SUBSCRIBER_EGRESS, &["egress"]));
             subjects.push(json!({"id": "subscribers", "cert_common_names": self.subscribers}));
             policies.push(json!({
@@ -106,6 +140,22 @@ impl AccessRules {
                 "rules": ["subscribe-in", "subscribe-out"],
                 "subjects": ["subscribers"],
             }));
+        }
+        if !self.vessels.is_empty() {
+            // The router tells every vessel of the subscribers' interest in the fleet's keys,
+            // so that the vessel sends its forecasts; nothing else of the fleet reaches it.
+            rules.push(rule("fleet-interest", &SUBSCRIBER_INGRESS, &["egress"]));
+        }
+        for (i, vessel) in self.vessels.iter().enumerate() {
+            let id = format!("vessel-{i}");
+            rules.push(rule_on(
+                &id,
+                &ALL_MESSAGES,
+                &["ingress", "egress"],
+                &vessel.key_exprs,
+            ));
+            subjects.push(json!({"id": id, "cert_common_names": [vessel.publisher]}));
+            policies.push(json!({"id": id, "rules": [id, "fleet-interest"], "subjects": [id]}));
         }
         json!({
             "enabled": true,
@@ -216,6 +266,7 @@ mod tests {
             key_exprs: vec!["shipcast/ddg51/**".into()],
             publishers: vec!["ddg51-predictor".into()],
             subscribers: vec!["crane".into(), "shore".into()],
+            ..AccessRules::default()
         };
         let json = rules.to_zenoh_json();
         assert_eq!(json["default_permission"], "deny");
@@ -236,5 +287,64 @@ mod tests {
                 && r["messages"].as_array().unwrap().iter().any(|m| m == "put");
             assert!(!puts_in, "{r}");
         }
+    }
+
+    #[test]
+    fn a_fleet_router_limits_each_vessel_to_its_own_keys() {
+        let rules = AccessRules {
+            key_exprs: vec!["shipcast/*/**".into()],
+            subscribers: vec!["shore".into()],
+            vessels: ["a", "b"]
+                .iter()
+                .map(|v| VesselAccess {
+                    publisher: format!("{v}-pipeline"),
+                    key_exprs: vec![format!("shipcast/{v}/**")],
+                })
+                .collect(),
+            ..AccessRules::default()
+        };
+        let json = rules.to_zenoh_json();
+        let mut config = zenoh::Config::default();
+        config
+            .insert_json5("access_control", &json.to_string())
+            .expect("zenoh accepts the rules");
+        let rule = |id: &str| {
+            json["rules"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .find(|r| r["id"] == id)
+                .unwrap_or_else(|| panic!("no rule {id} in {json}"))
+                .clone()
+        };
+        // Each vessel may put only on its own keys; the fleet-wide rule it shares carries
+        // only declarations of interest, towards it.
+        assert_eq!(
+            rule("vessel-1")["key_exprs"],
+            serde_json::json!(["shipcast/b/**"])
+        );
+        let fleet = rule("fleet-interest");
+        assert_eq!(fleet["flows"], serde_json::json!(["egress"]));
+        assert!(!fleet["messages"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|m| m == "put"));
+        let policy_of_b = json["policies"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|p| p["id"] == "vessel-1")
+            .unwrap();
+        assert_eq!(
+            policy_of_b["rules"],
+            serde_json::json!(["vessel-1", "fleet-interest"])
+        );
+        // No "publishers": nobody may put on the fleet-wide keys.
+        assert!(json["rules"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .all(|r| r["id"] != "publish"));
     }
 }

@@ -1,0 +1,432 @@
+//! What the page shows, per vessel, and when a vessel counts as stale.
+//!
+//! The board keeps only the newest accepted message of each kind per vessel; a snapshot is what
+//! one server-sent event carries. A vessel whose newest forecast is older than `stale_after` is
+//! shown as stale: its forecast and advisory are withheld, never shown as if current.
+
+use serde::{Deserialize, Serialize};
+use shipcast_wire::payload::Forecast;
+use shipcast_wire::Dof;
+use std::collections::BTreeMap;
+use std::sync::Mutex;
+use std::time::{Duration, Instant};
+
+/// The deck limits drawn on the roll and pitch charts.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Limits {
+    pub roll_deg: f64,
+    pub pitch_deg: f64,
+}
+
+/// One motion's forecast: the mean and sigma per step (heave in m, roll and pitch in deg).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Track {
+    pub mean: Vec<f32>,
+    pub sigma: Vec<f32>,
+}
+
+impl Track {
+    fn of(f: &Forecast, dof: Dof, scale: f32) -> Self {
+        Track {
+            mean: f.mean_of(dof.index()).iter().map(|v| v * scale).collect(),
+            sigma: f.sigma_of(dof.index()).iter().map(|v| v * scale).collect(),
+        }
+    }
+}
+
+/// The newest accepted forecast of a vessel, as the page draws it.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ForecastView {
+    pub seq: u64,
+    pub time_s: f64,
+    pub model_version: u32,
+    pub dt_s: f64,
+    pub steps: u32,
+    pub heave: Track,
+    pub roll: Track,
+    pub pitch: Track,
+}
+
+impl ForecastView {
+    pub fn of(f: &Forecast) -> Self {
+        let deg = 180.0 / std::f32::consts::PI;
+        ForecastView {
+            seq: f.seq,
+            time_s: f.time_s,
+            model_version: f.model_version,
+            dt_s: f.dt_s,
+            steps: f.steps,
+            heave: Track::of(f, Dof::Heave, 1.0),
+            roll: Track::of(f, Dof::Roll, deg),
+            pitch: Track::of(f, Dof::Pitch, deg),
+        }
+    }
+}
+
+/// A window of the deck advisory (the fields the page shows).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct AdvisoryWindow {
+    pub start_s: f64,
+    pub end_s: f64,
+    pub confidence: f64,
+}
+
+/// The deck advisory of a station, as published on `.../advisory/<station>`; parsing it into
+/// this type is its check (a message of another shape is rejected).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct AdvisoryView {
+    pub forecast_seq: u64,
+    pub time_s: f64,
+    pub max_roll_deg: f64,
+    pub max_pitch_deg: f64,
+    pub max_vertical_velocity_mps: f64,
+    pub windows: Vec<AdvisoryWindow>,
+}
+
+/// The live skill of one DOF: NRMSE against predicting zero at 5, 10 and 20 s (None where the
+/// horizon or the scored forecasts do not reach), and the lead where skill ends.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct SkillView {
+    pub dof: String,
+    pub nrmse_at: [Option<f64>; 3],
+    pub skill_horizon_s: f64,
+}
+
+/// Leads at which the page shows the live skill [s].
+pub const SKILL_LEADS_S: [f64; 3] = [5.0, 10.0, 20.0];
+
+/// The part of the predictor's verification JSON the page uses.
+#[derive(Debug, Deserialize)]
+pub struct VerificationIn {
+    pub dt_s: f64,
+    pub dofs: Vec<DofVerificationIn>,
+}
+
+#[derive(Debug, Deserialize)]
+pub struct DofVerificationIn {
+    pub dof: String,
+    pub nrmse_zero: Vec<Option<f64>>,
+    pub skill_horizon_s: Option<f64>,
+}
+
+impl VerificationIn {
+    /// Skill of heave, roll and pitch; None when the message does not make sense.
+    fn skill(&self) -> Option<Vec<SkillView>> {
+        if !(self.dt_s.is_finite() && self.dt_s > 0.0) {
+            return None;
+        }
+        let shown = [Dof::Heave, Dof::Roll, Dof::Pitch];
+        let views = self
+            .dofs
+            .iter()
+            .filter(|d| shown.iter().any(|s| s.name() == d.dof))
+            .map(|d| SkillView {
+                dof: d.dof.clone(),
+                nrmse_at: SKILL_LEADS_S.map(|lead| {
+                    let k = (lead / self.dt_s).round() as usize;
+                    k.checked_sub(1)
+                        .and_then(|i| d.nrmse_zero.get(i).copied().flatten())
+                        .filter(|v| v.is_finite())
+                }),
+                skill_horizon_s: d.skill_horizon_s.filter(|v| v.is_finite()).unwrap_or(0.0),
+            })
+            .collect();
+        Some(views)
+    }
+}
+
+/// What one vessel shows in one snapshot.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct VesselView {
+    pub vessel: String,
+    /// No forecast for longer than the stale limit (or none yet): nothing current to show.
+    pub stale: bool,
+    /// Seconds since the newest accepted forecast arrived (None: none yet).
+    pub age_s: Option<f64>,
+    /// The newest accepted forecast; withheld while stale.
+    pub forecast: Option<ForecastView>,
+    /// Deck advisories per station; withheld while stale.
+    pub advisories: BTreeMap<String, AdvisoryView>,
+    pub skill: Vec<SkillView>,
+    /// Messages refused for this vessel (receive checks, malformed JSON).
+    pub rejected: u64,
+}
+
+/// One server-sent event: every vessel heard so far.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Snapshot {
+    pub limits: Limits,
+    pub stale_after_s: f64,
+    pub vessels: Vec<VesselView>,
+}
+
+/// Why a forecast was not put on the board.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum Refused {
+    #[error("forecast seq {got} does not follow {last} from a live publisher")]
+    Seq { last: u64, got: u64 },
+}
+
+#[derive(Debug, Default)]
+struct Vessel {
+    forecast: Option<ForecastView>,
+    forecast_at: Option<Instant>,
+    advisories: BTreeMap<String, AdvisoryView>,
+    skill: Vec<SkillView>,
+    rejected: u64,
+}
+
+/// The shared state of the display: written by the zenoh callbacks, read by the server.
+#[derive(Debug)]
+pub struct Board {
+    vessels: Mutex<BTreeMap<String, Vessel>>,
+    limits: Limits,
+    stale_after: Duration,
+}
+
+impl Board {
+    pub fn new(limits: Limits, stale_after: Duration) -> Self {
+        Board {
+            vessels: Mutex::new(BTreeMap::new()),
+            limits,
+            stale_after,
+        }
+    }
+
+    fn with_vessel<R>(&self, vessel: &str, f: impl FnOnce(&mut Vessel) -> R) -> R {
+        // A panic elsewhere never leaves the map half-written (every update is one assignment),
+        // so a poisoned lock is still safe to use.
+        let mut map = self.vessels.lock().unwrap_or_else(|p| p.into_inner());
+        f(map.entry(vessel.to_string()).or_default())
+    }
+
+    fn is_stale(&self, at: Option<Instant>, now: Instant) -> bool {
+        at.is_none_or(|t| now.saturating_duration_since(t) > self.stale_after)
+    }
+
+    /// Put a forecast (already through the content checks) on the board. Its seq must follow
+    /// the shown one, except after the vessel went stale (a restarted predictor counts from 0).
+    pub fn forecast(&self, vessel: &str, f: &Forecast, now: Instant) -> Result<(), Refused> {
+        self.with_vessel(vessel, |v| {
+            let live = !self.is_stale(v.forecast_at, now);
+            if let (true, Some(shown)) = (live, &v.forecast) {
+                if f.seq <= shown.seq {
+                    v.rejected += 1;
+                    return Err(Refused::Seq {
+                        last: shown.seq,
+                        got: f.seq,
+                    });
+                }
+            }
+            v.forecast = Some(ForecastView::of(f));
+            v.forecast_at = Some(now);
+            Ok(())
+        })
+    }
+
+    /// Count a message refused before it reached the board (bad JSON, failed checks).
+    pub fn reject(&self, vessel: &str) {
+        self.with_vessel(vessel, |v| v.rejected += 1);
+    }
+
+    pub fn advisory(&self, vessel: &str, station: &str, advisory: AdvisoryView) {
+        self.with_vessel(vessel, |v| {
+            v.advisories.insert(station.to_string(), advisory);
+        });
+    }
+
+    /// Take the live skill from a verification message; false (and counted) if it is malformed.
+    pub fn verification(&self, vessel: &str, report: &VerificationIn) -> bool {
+        match report.skill() {
+            Some(skill) => {
+                self.with_vessel(vessel, |v| v.skill = skill);
+                true
+            }
+            None => {
+                self.reject(vessel);
+                false
+            }
+        }
+    }
+
+    pub fn snapshot(&self, now: Instant) -> Snapshot {
+        let map = self.vessels.lock().unwrap_or_else(|p| p.into_inner());
+        let vessels = map
+            .iter()
+            .map(|(name, v)| {
+                let stale = self.is_stale(v.forecast_at, now);
+                VesselView {
+                    vessel: name.clone(),
+                    stale,
+                    age_s: v
+                        .forecast_at
+                        .map(|t| now.saturating_duration_since(t).as_secs_f64()),
+                    forecast: if stale { None } else { v.forecast.clone() },
+                    advisories: if stale {
+                        BTreeMap::new()
+                    } else {
+                        v.advisories.clone()
+                    },
+                    skill: v.skill.clone(),
+                    rejected: v.rejected,
+                }
+            })
+            .collect();
+        Snapshot {
+            limits: self.limits,
+            stale_after_s: self.stale_after.as_secs_f64(),
+            vessels,
+        }
+    }
+
+    /// The snapshot as the JSON one event carries.
+    pub fn snapshot_json(&self, now: Instant) -> String {
+        // Plain numbers, strings and maps with string keys: serialising cannot fail; if it
+        // ever did, the page would keep its last picture rather than get garbage.
+        serde_json::to_string(&self.snapshot(now)).unwrap_or_else(|_| "{}".to_string())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn board() -> Board {
+        Board::new(
+            Limits {
+                roll_deg: 2.5,
+                pitch_deg: 1.5,
+            },
+            Duration::from_secs(3),
+        )
+    }
+
+    fn forecast(seq: u64, heave: f32, roll_rad: f32) -> Forecast {
+        let mut f = Forecast {
+            seq,
+            time_s: seq as f64 * 0.5,
+            dt_s: 0.5,
+            steps: 4,
+            model_version: 1,
+            ..Forecast::default()
+        };
+        for k in 0..4 {
+            f.mean[Dof::Heave.index()][k] = heave;
+            f.sigma[Dof::Heave.index()][k] = 0.1 * (k + 1) as f32;
+            f.mean[Dof::Roll.index()][k] = roll_rad;
+        }
+        f
+    }
+
+    #[test]
+    fn a_forecast_is_shown_in_metres_and_degrees_with_only_its_valid_steps() {
+        let b = board();
+        let t0 = Instant::now();
+        b.forecast(
+            "ddg51",
+            &forecast(7, 1.25, std::f32::consts::PI / 180.0),
+            t0,
+        )
+        .unwrap();
+        let s = b.snapshot(t0);
+        assert_eq!(s.vessels.len(), 1);
+        let v = &s.vessels[0];
+        assert!(!v.stale);
+        let f = v.forecast.as_ref().unwrap();
+        assert_eq!(f.seq, 7);
+        assert_eq!(f.heave.mean, vec![1.25; 4]);
+        assert_eq!(f.heave.sigma.len(), 4);
+        assert!((f.heave.sigma[3] - 0.4).abs() < 1e-6);
+        assert!(
+            f.roll.mean.iter().all(|r| (r - 1.0).abs() < 1e-5),
+            "{:?}",
+            f.roll
+        );
+    }
+
+    #[test]
+    fn a_repeated_or_older_seq_from_a_live_vessel_is_refused_and_counted() {
+        let b = board();
+        let t0 = Instant::now();
+        b.forecast("a", &forecast(10, 1.0, 0.0), t0).unwrap();
+        let t1 = t0 + Duration::from_millis(500);
+        assert_eq!(
+            b.forecast("a", &forecast(10, 9.99, 0.0), t1),
+            Err(Refused::Seq { last: 10, got: 10 })
+        );
+        assert!(b.forecast("a", &forecast(3, 9.99, 0.0), t1).is_err());
+        let v = &b.snapshot(t1).vessels[0];
+        assert_eq!(v.rejected, 2);
+        assert_eq!(
+            v.forecast.as_ref().unwrap().heave.mean[0],
+            1.0,
+            "the forgery is not shown"
+        );
+    }
+
+    #[test]
+    fn a_vessel_without_forecasts_for_longer_than_the_limit_is_stale_and_shows_none() {
+        let b = board();
+        let t0 = Instant::now();
+        b.forecast("a", &forecast(1, 1.0, 0.0), t0).unwrap();
+        b.advisory(
+            "a",
+            "deck",
+            AdvisoryView {
+                forecast_seq: 1,
+                time_s: 0.5,
+                max_roll_deg: 1.0,
+                max_pitch_deg: 1.0,
+                max_vertical_velocity_mps: 0.5,
+                windows: vec![],
+            },
+        );
+        let just_in_time = b.snapshot(t0 + Duration::from_secs(3));
+        assert!(!just_in_time.vessels[0].stale);
+        assert_eq!(just_in_time.vessels[0].advisories.len(), 1);
+        let late = b.snapshot(t0 + Duration::from_millis(3001));
+        let v = &late.vessels[0];
+        assert!(v.stale);
+        assert!(v.forecast.is_none() && v.advisories.is_empty());
+        assert!((v.age_s.unwrap() - 3.001).abs() < 1e-9);
+        // After a gap a restarted predictor's seq 0 is accepted again.
+        let later = t0 + Duration::from_secs(10);
+        b.forecast("a", &forecast(0, 2.0, 0.0), later).unwrap();
+        assert!(!b.snapshot(later).vessels[0].stale);
+    }
+
+    #[test]
+    fn skill_is_read_at_5_10_and_20_s_and_a_bad_report_is_counted() {
+        let b = board();
+        let report: VerificationIn = serde_json::from_str(
+            r#"{"window_s":1200,"dt_s":0.5,"dofs":[
+                {"dof":"heave","nrmse_zero":[0.1,0.2,0.3,0.4,0.5,0.6,0.7,0.8,0.9,0.91],"skill_horizon_s":3.5},
+                {"dof":"surge","nrmse_zero":[0.5],"skill_horizon_s":1.0}]}"#,
+        )
+        .unwrap();
+        assert!(b.verification("a", &report));
+        let s = b.snapshot(Instant::now());
+        let skill = &s.vessels[0].skill;
+        assert_eq!(skill.len(), 1, "only heave, roll and pitch are shown");
+        // 5 s at 2 Hz is step 10 (index 9); 10 and 20 s lie beyond this report's steps.
+        assert_eq!(skill[0].nrmse_at, [Some(0.91), None, None]);
+        assert_eq!(skill[0].skill_horizon_s, 3.5);
+        let bad = VerificationIn {
+            dt_s: 0.0,
+            dofs: vec![],
+        };
+        assert!(!b.verification("a", &bad));
+        assert_eq!(b.snapshot(Instant::now()).vessels[0].rejected, 1);
+    }
+
+    #[test]
+    fn the_snapshot_is_json_the_page_can_read() {
+        let b = board();
+        b.forecast("ddg51", &forecast(1, 0.5, 0.0), Instant::now())
+            .unwrap();
+        let v: serde_json::Value = serde_json::from_str(&b.snapshot_json(Instant::now())).unwrap();
+        assert_eq!(v["vessels"][0]["vessel"], "ddg51");
+        assert_eq!(v["limits"]["roll_deg"], 2.5);
+        assert_eq!(v["vessels"][0]["forecast"]["heave"]["mean"][0], 0.5);
+    }
+}

@@ -1,0 +1,15 @@
+//! The live display (`shipcast display`): one web page, served by the binary itself (ship
+//! networks are offline: no CDN, fonts or scripts from elsewhere), that shows every vessel and
+//! station it hears on zenoh, updating as forecasts arrive.
+//!
+//! - [`board`]: what the page shows, per vessel: the newest accepted forecast of heave, roll and
+//!   pitch with sigma, the deck advisory, the live skill, and whether the vessel went stale.
+//! - [`feed`]: the zenoh subscriptions that fill the board (every vessel under one key
+//!   expression); a forecast must pass the receive checks before it is shown.
+//! - [`server`]: the HTTP server (axum): the page and a server-sent-event stream of board
+//!   snapshots. Each client is sent the newest snapshot at a fixed pace; a client that reads
+//!   slowly or never skips snapshots and holds nothing up.
+
+pub mod board;
+pub mod feed;
+pub mod server;

@@ -1,0 +1,140 @@
+//! The forecast path does not allocate in steady state: a whole engine step (ingest and
+//! decimation, scoring and calibration, the six-DOF forecast, the plausibility check, the
+//! Forecast payload) plus its JSON encoding for zenoh, counted by a global allocator.
+//!
+//! The allocator (`shipcast_predict::alloc_count`) counts per thread, and only while the
+//! measuring thread asks it to: the engine's retraining thread (and the test harness) allocate
+//! as they like. This test binary holds nothing else, so the counting allocator wraps no other
+//! test.
+
+use shipcast_bench::pipeline::{backfill_s, backfilled_engine, motion_record};
+use shipcast_pipeline::config::PipelineConfig;
+use shipcast_pipeline::engine::retrain::Retrainer;
+use shipcast_pipeline::engine::{startup, Engine};
+use shipcast_predict::alloc_count::{counted, CountingAllocator};
+use shipcast_wire::payload::MotionSample;
+use shipcast_wire::payload_json::ForecastJsonEncoder;
+
+#[global_allocator]
+static ALLOCATOR: CountingAllocator = CountingAllocator;
+
+/// What a stretch of forecasting did.
+#[derive(Debug, Default, PartialEq)]
+struct Stretch {
+    samples: u64,
+    forecasts: u64,
+    allocations: u64,
+    json_bytes: usize,
+}
+
+/// Feed `samples` of `record` from `from` as the service does: a forecast is encoded for zenoh
+/// (the handle is dropped, as zenoh drops it once written), the other samples prepare the
+/// next forecast; between samples the engine does its bookkeeping (`poll_models`, where a due
+/// retrain copies the history and a new model is swapped in), which is not counted.
+fn forecast_stretch(
+    engine: &mut Engine,
+    json: &mut ForecastJsonEncoder,
+    record: &[[f64; 6]],
+    from: u64,
+    rate_hz: f64,
+) -> Stretch {
+    let mut stretch = Stretch::default();
+    for (seq, dof) in (from..).zip(&record[from as usize..]) {
+        let sample = MotionSample {
+            seq,
+            stamp_ns: seq,
+            time_s: seq as f64 / rate_hz,
+            dof: *dof,
+        };
+        let ((forecast, bytes), n) = counted(|| {
+            let pushed = engine.push(&sample).expect("valid samples are accepted");
+            match pushed {
+                Some(f) => (true, json.encode_shared(f).expect("encode").len()),
+                None => {
+                    engine.prepare_next().expect("prepare");
+                    (false, 0)
+                }
+            }
+        });
+        engine.poll_models();
+        stretch.samples += 1;
+        stretch.forecasts += u64::from(forecast);
+        stretch.allocations += n;
+        stretch.json_bytes = stretch.json_bytes.max(bytes);
+    }
+    stretch
+}
+
+#[test]
+fn the_counter_sees_allocations() {
+    // Otherwise a broken counter would pass the test below.
+    let (v, n) = counted(|| std::hint::black_box(vec![1u8; 100]));
+    assert_eq!((v.len(), n), (100, 1));
+    let (_, n) = counted(|| ());
+    assert_eq!(n, 0);
+}
+
+#[test]
+fn engine_step_and_json_encoding_do_not_allocate_in_steady_state() {
+    // The service's defaults, retraining on: at 2 Hz the first live fit is due after 240 s
+    // and retrains every 300 s, so the measured stretch (20 minutes of record) holds retrains,
+    // all requested and swapped in between samples.
+    let config = PipelineConfig::default();
+    let q = &config.predictor;
+    let rate = config.producer.rate_hz;
+    let backfill = (backfill_s(q) * rate).round() as u64;
+    let warm = (120.0 * rate) as u64;
+    let measured = (1200.0 * rate) as u64;
+    let record = motion_record(&config, backfill + warm + measured).expect("simulated sea");
+    let mut engine = backfilled_engine(&config, &record, backfill).expect("engine");
+    let mut json = ForecastJsonEncoder::new();
+    // Warm-up: the first forecasts size whatever grows on first use.
+    let head = &record[..(backfill + warm) as usize];
+    let warm_up = forecast_stretch(&mut engine, &mut json, head, backfill, rate);
+    assert!(warm_up.forecasts > 0, "{warm_up:?}");
+
+    let retrains_before = engine.counts.retrains;
+    let stretch = forecast_stretch(&mut engine, &mut json, &record, backfill + warm, rate);
+    // One forecast per four samples at 8 -> 2 Hz.
+    assert_eq!(stretch.samples, measured);
+    assert_eq!(stretch.forecasts, measured / 4);
+    assert!(stretch.json_bytes > 1000, "{stretch:?}");
+    assert_eq!(stretch.allocations, 0, "{stretch:?}");
+    // The stretch really ran with retraining: at least one retrain was requested and done.
+    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(120);
+    while engine.counts.retrains == retrains_before && std::time::Instant::now() < deadline {
+        std::thread::sleep(std::time::Duration::from_millis(50));
+        engine.poll_models();
+    }
+    assert!(
+        engine.counts.retrains > retrains_before,
+        "{:?}",
+        engine.counts
+    );
+}
+
+#[test]
+fn an_inline_retrain_is_counted_in_the_step() {
+    // `shipcast replay` retrains inline, in the step (deterministic): there the step copies
+    // the history and fits, and the counter must see it. The same stretch as the service's.
+    let config = PipelineConfig::default();
+    let q = config.predictor.clone();
+    let rate = config.producer.rate_hz;
+    let backfill = (backfill_s(&q) * rate).round() as u64;
+    let measured = (600.0 * rate) as u64;
+    let record = motion_record(&config, backfill + measured).expect("simulated sea");
+    let models = startup::initial_models(&config).expect("start-up models");
+    let mut engine =
+        Engine::new(q.clone(), rate, models, Retrainer::inline(q)).expect("inline engine");
+    let mut json = ForecastJsonEncoder::new();
+    forecast_stretch(
+        &mut engine,
+        &mut json,
+        &record[..backfill as usize],
+        0,
+        rate,
+    );
+    let stretch = forecast_stretch(&mut engine, &mut json, &record, backfill, rate);
+    assert!(engine.counts.retrains > 0, "{:?}", engine.counts);
+    assert!(stretch.allocations > 0, "{stretch:?}");
+}
