@@ -10,7 +10,7 @@ use shipcast_series::motion_csv::MotionCsvWriter;
 use shipcast_sim::plot::plot_overview;
 use shipcast_sim::{
     ChangingMotion, Channel, CourseChange, Hull, MotionPoint, RaoSpec, Scenario, SeaChange,
-    ShipMotion, SimConfig,
+    ShipMotion, SimConfig, Station,
 };
 use std::fs::File;
 use std::io::BufWriter;
@@ -38,7 +38,13 @@ Non-stationary records: --course-change-s T --new-heading-deg D [--turn-s R] tur
 D over R s from record time T. --sea-change-s T --new-hs M --new-tp S [--ramp-s R] cross-fades
 (power-preserving) to an independent sea (seed + 1, DNV gamma) of Hs M and Tp S over R s from
 T. Both may be combined. Before T the record equals the stationary simulation; the producer
-uses such a record through `simulate --out F.csv` then `producer --input F.csv`.";
+uses such a record through `simulate --out F.csv` then `producer --input F.csv`.
+
+Two vessels in one sea: run simulate twice with the same sea options and seed, the second time
+with --vessel-x-m X --vessel-y-m Y [--vessel-heading-offset-deg D] [--hull-length L]: that vessel keeps
+station X m forward and Y m to starboard of the first, its bow D deg to starboard of the first's
+heading, and meets the same wave components, each phase-shifted by k (X cos b + Y sin b) (b its
+direction relative to the first vessel) and from the direction b - D (docs/two_ships.md).";
 
 #[derive(clap::Args, Debug)]
 #[command(after_help = AFTER_HELP)]
@@ -153,6 +159,44 @@ pub struct Args {
         allow_negative_numbers = true
     )]
     pub ramp_s: f64,
+    /// Simulate a second vessel of the same sea (same seed, --heading-deg relative to the
+    /// reference vessel) this far forward of the reference vessel's centre of gravity [m],
+    /// keeping station with it.
+    #[arg(
+        long = "vessel-x-m",
+        default_value_t = 0.0,
+        allow_negative_numbers = true,
+        conflicts_with_all = ["elevation", "course_change_s", "sea_change_s"]
+    )]
+    pub vessel_x_m: f64,
+    /// ... and this far to starboard of it [m].
+    #[arg(
+        long = "vessel-y-m",
+        default_value_t = 0.0,
+        allow_negative_numbers = true,
+        conflicts_with_all = ["elevation", "course_change_s", "sea_change_s"]
+    )]
+    pub vessel_y_m: f64,
+    /// Heading of the simulated vessel: its bow turned this many degrees to starboard of the
+    /// reference vessel's heading.
+    #[arg(
+        long = "vessel-heading-offset-deg",
+        default_value_t = 0.0,
+        allow_negative_numbers = true,
+        conflicts_with_all = ["elevation", "course_change_s", "sea_change_s"]
+    )]
+    pub vessel_heading_offset_deg: f64,
+}
+
+/// The station of the simulated vessel the arguments describe (the reference vessel by default).
+pub fn station_from_args(args: &Args) -> anyhow::Result<Station> {
+    let station = Station {
+        x_m: args.vessel_x_m,
+        y_m: args.vessel_y_m,
+        heading_offset_deg: args.vessel_heading_offset_deg,
+    };
+    station.validate()?;
+    Ok(station)
 }
 
 /// The simulator configuration the arguments describe.
@@ -282,7 +326,18 @@ pub(crate) fn degrees(ch: Channel, value: f64) -> String {
 
 fn run_stationary(args: &Args, cfg: &SimConfig) -> anyhow::Result<()> {
     let started = Instant::now();
-    let motion = ShipMotion::new(cfg)?;
+    let station = station_from_args(args)?;
+    let motion = ShipMotion::at_station(cfg, station)?;
+    if station != Station::REFERENCE {
+        tracing::info!(
+            "vessel at {} m forward, {} m starboard of the reference vessel, heading {} deg to \
+             starboard of it, in its sea (waves from {} deg relative to the reference bow)",
+            station.x_m,
+            station.y_m,
+            station.heading_offset_deg,
+            cfg.heading_deg
+        );
+    }
     let rows = (args.duration * args.rate).round().max(1.0) as u64;
     let mut out = RecordOut::create(&args.out)?;
     let progress = indicatif::ProgressBar::new(rows);
