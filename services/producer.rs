@@ -214,7 +214,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         None => {
             let mut sim = SimConfig::scenario(p.scenario);
             sim.seed = p.seed;
-            let motion = ShipMotion::new(&sim)?;
+            let motion = ShipMotion::at_station(&sim, p.station)?;
             let mut source = SimSource {
                 stream: motion.stream(p.rate_hz, 0.0)?,
             };

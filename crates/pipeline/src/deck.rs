@@ -8,9 +8,9 @@
 
 use crate::config::DeckConfig;
 use crate::decision::{Decider, Decision};
-use shipcast_wire::payload::{Forecast, MAX_STEPS};
 use glam::{DQuat, DVec3, EulerRot};
 use serde::{Deserialize, Serialize};
+use shipcast_wire::payload::{Forecast, MAX_STEPS};
 
 const HEAVE: usize = 2;
 const ROLL: usize = 3;

@@ -25,6 +25,7 @@ use serde::{Deserialize, Serialize};
 
 /// Position and heading of a simulated vessel relative to the reference vessel.
 #[derive(Clone, Copy, Debug, PartialEq, Default, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct Station {
     /// Forward of the reference vessel's centre of gravity [m].
     pub x_m: f64,

@@ -14,9 +14,9 @@ pub mod window;
 
 use crate::config::DeckConfig;
 use crate::deck::ShipPoint;
-use shipcast_wire::payload::{Forecast, MAX_STEPS};
 pub use correlation::ErrorCorrelation;
 use serde::{Deserialize, Serialize};
+use shipcast_wire::payload::{Forecast, MAX_STEPS};
 use window::{chain_within, cholesky_block, correlated_within, Lattice};
 
 /// The limited quantities, in the order of every per-quantity array here.

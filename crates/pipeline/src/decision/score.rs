@@ -13,8 +13,8 @@
 
 use super::{Decider, ErrorCorrelation, Tracks, NUM_QUANTITIES};
 use crate::config::DeckConfig;
-use shipcast_wire::payload::{Forecast, MAX_STEPS};
 use serde::Serialize;
+use shipcast_wire::payload::{Forecast, MAX_STEPS};
 use std::collections::{BTreeMap, VecDeque};
 
 /// How long before a quiet period began its announcement must have come [s].
@@ -446,9 +446,9 @@ mod tests {
 mod replay_tests {
     use crate::config::{DeckConfig, PredictorServiceConfig};
     use crate::engine::replay::replay_scored;
-    use shipcast_series::motion_csv::{Column, MotionData};
     use rand::SeedableRng;
     use rand_distr::{Distribution, Normal};
+    use shipcast_series::motion_csv::{Column, MotionData};
 
     /// A resonant AR(2) heave at 2 Hz (period 8 s, pole radius 0.95).
     fn ar2_heave(n: usize, seed: u64) -> MotionData {

@@ -356,7 +356,10 @@ mod tests {
         let sigma: Vec<f64> = (0..n).map(|k| 0.2 + 0.02 * k as f64).collect();
         let limit = 1.0;
         let fine = Lattice::new(32768, n);
-        let production = Lattice::new(super::super::LATTICE_POINTS, shipcast_wire::payload::MAX_STEPS);
+        let production = Lattice::new(
+            super::super::LATTICE_POINTS,
+            shipcast_wire::payload::MAX_STEPS,
+        );
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
         for &rho in &[0.0, 0.5, 0.9, 0.98] {
             let paths = 200_000;
