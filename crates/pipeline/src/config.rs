@@ -591,9 +591,10 @@ impl Default for RelativeConfig {
             two_ship: false,
             crane_vessel: None,
             target_vessel: "supply".to_string(),
-            // Alongside to starboard, 40 m between the centre lines, on the same course.
+            // Alongside to starboard, 40 m between the centres of gravity, its bow 10 deg to
+            // starboard of the crane vessel's: two headings, one sea (docs/two_ships.md).
             target_position_m: [0.0, 40.0],
-            target_heading_offset_deg: 0.0,
+            target_heading_offset_deg: 10.0,
             // On the target's deck, port side (facing the crane vessel), 6 m above its CG.
             landing_spot_m: [10.0, -8.0, -6.0],
             vertical_limit_m: 1.0,
