@@ -69,6 +69,14 @@ fn run_study(args: &Args, config: &PipelineConfig, a: &Path, b: &Path) -> anyhow
     limits::non_negative("--skip-s", args.skip_s, limits::MAX_SECONDS)
         .map_err(anyhow::Error::msg)?;
     let (crane, target) = (read_record(a)?, read_record(b)?);
+    let end_s = crane.time.last().copied().unwrap_or(0.0);
+    if args.skip_s >= end_s {
+        anyhow::bail!(
+            "--skip-s {} s skips the whole record (it ends at {end_s:.1} s in {})",
+            args.skip_s,
+            a.display()
+        );
+    }
     // Each ship's engine starts as its predictor would: the configured start-up model, fitted
     // on simulated history at that ship's station.
     let mut target_config = config.clone();

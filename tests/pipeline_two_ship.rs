@@ -99,3 +99,92 @@ fn a_target_that_is_the_crane_vessel_is_refused_in_one_line() {
     assert_eq!(stderr.lines().count(), 1, "{stderr}");
     assert!(stderr.contains("is the crane vessel itself"), "{stderr}");
 }
+
+#[test]
+fn the_two_ship_study_scores_the_relative_forecast_from_two_simulated_records() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = |n: &str| dir.path().join(n).to_str().unwrap().to_string();
+    let simulate = |out: &str, extra: &[&str]| {
+        let mut args = vec![
+            "simulate",
+            "--duration",
+            "900",
+            "--rate",
+            "8",
+            "--seed",
+            "3",
+            "--out",
+            out,
+        ];
+        args.extend_from_slice(extra);
+        pipeline_support::run_ok(&args);
+    };
+    let (a, b, same) = (path("a.csv"), path("b.csv"), path("same.csv"));
+    simulate(&a, &[]);
+    simulate(
+        &b,
+        &["--vessel-y-m", "40", "--vessel-heading-offset-deg", "10"],
+    );
+    simulate(&same, &["--vessel-x-m", "0"]);
+    let study = |config: &str, target: &str| -> serde_json::Value {
+        let out = pipeline_support::run_ok(&[
+            "relative",
+            "--config",
+            config,
+            "--crane-record",
+            &a,
+            "--target-record",
+            target,
+            "--skip-s",
+            "300",
+            "--json",
+        ]);
+        serde_json::from_str(&out).expect("one JSON report")
+    };
+    // The default geometry matches b.csv (40 m to starboard, bow +10 deg).
+    let plain = path("plain.toml");
+    std::fs::write(&plain, "").unwrap();
+    let r = study(&plain, &b);
+    assert_eq!(r["unpaired"], 0);
+    assert!(r["scored"].as_u64().unwrap() > 500, "{r}");
+    let leads = r["leads"].as_array().unwrap();
+    assert_eq!(leads.len(), 15);
+    for l in leads {
+        let f = |k: &str| l[k].as_f64().unwrap();
+        assert!(
+            f("relative_zero_rms") > 0.0 && f("relative_rms") > 0.0,
+            "{l}"
+        );
+        assert!(f("coverage_1sigma") < f("coverage_2sigma"), "{l}");
+        assert!(f("error_correlation").abs() <= 1.0, "{l}");
+    }
+    assert_eq!(r["own"].as_array().unwrap().len(), 12);
+    // The reference vessel against itself with the spot at the tip: no relative motion, no
+    // relative error, and the two ships' errors perfectly correlated.
+    let itself = path("itself.toml");
+    std::fs::write(
+        &itself,
+        "[relative]\ntarget_position_m = [0.0, 0.0]\ntarget_heading_offset_deg = 0.0\nlanding_spot_m = [10.0, 15.0, -20.0]\n",
+    )
+    .unwrap();
+    let r = study(&itself, &same);
+    for l in r["leads"].as_array().unwrap() {
+        assert_eq!(l["relative_rms"].as_f64().unwrap(), 0.0, "{l}");
+        assert!(
+            (l["error_correlation"].as_f64().unwrap() - 1.0).abs() < 1e-9,
+            "{l}"
+        );
+    }
+    // Skipping the whole record is one clear line.
+    let out = std::process::Command::new(pipeline_support::BIN)
+        .args(["relative", "--crane-record", &a, "--target-record", &b])
+        .args(["--skip-s", "5000"])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    let e = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        e.contains("skips the whole record") && e.lines().count() == 1,
+        "{e}"
+    );
+}

@@ -207,6 +207,7 @@ fn the_study_scores_the_relative_forecast_against_the_records() {
     // have no relative motion, and the relative forecast is exactly zero.
     config.crane.tip_m = [10.0, 5.0, -6.0];
     config.relative.landing_spot_m = [10.0, 5.0, -6.0];
+    config.relative.target_heading_offset_deg = 0.0;
     let a = record(900.0, 0.0);
     let (same, own_a, _) = study(&a, &a, &config, (None, None), 300.0, &|_| {}).unwrap();
     assert!(same.scored > 500, "{}", same.scored);
