@@ -4,7 +4,7 @@
 //! (`[relative]` of the configuration), each checked as the crane checks its own
 //! (`ForecastGate`: live publisher, increasing seq, sound content), combines the newest pair
 //! into the forecast of the crane tip relative to the landing spot with sigma and the lift
-//! go/no-go, prints it and publishes it on zenoh `.../<crane vessel>/advisory/lift` (JSON).
+//! go/no-go, prints it and publishes it on zenoh `.../<crane vessel>/advisory/relative` (JSON).
 //! Live, nothing verifies the relative forecast (the motion itself stays on each ship), so its
 //! sigma is the independent one and says so (`sigma_basis`); the study calibrates it.
 //!
@@ -192,7 +192,11 @@ impl Followed {
             self.publishers.update(&mut self.gate.live);
             match self.gate.check(&received) {
                 Ok(f) => {
-                    self.latest = Some(Box::new(f));
+                    // Reuses the box: nothing allocated per forecast once one arrived.
+                    match &mut self.latest {
+                        Some(latest) => **latest = f,
+                        None => self.latest = Some(Box::new(f)),
+                    }
                     fresh = true;
                 }
                 Err(e) => tracing::warn!(
@@ -216,7 +220,7 @@ fn run_live(args: &Args, config: &PipelineConfig) -> anyhow::Result<()> {
     let dt = 1.0 / config.predictor.sample_rate_hz;
     let mut crane = Followed::new(&session, &crane_names, dt)?;
     let mut target = Followed::new(&session, &target_names, dt)?;
-    let key = crane_names.advisory("lift");
+    let key = crane_names.advisory("relative");
     let publisher = if r.publish {
         let token = zn::liveliness_token(&session, &Names::liveliness(&key))?;
         Some((JsonPublisher::new(&session, &key)?, token))

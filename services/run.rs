@@ -343,7 +343,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             r.target_position_m[1],
             r.target_heading_offset_deg,
             r.landing_spot_m,
-            names.advisory("lift")
+            names.advisory("relative")
         );
     }
 
@@ -394,7 +394,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let mut verification = CheckedJson::new(&session, &names.verification())?;
     let mut lift = target
         .is_some()
-        .then(|| CheckedJson::new(&session, &names.advisory("lift")))
+        .then(|| CheckedJson::new(&session, &names.advisory("relative")))
         .transpose()?;
 
     let tty = std::io::stdout().is_terminal();

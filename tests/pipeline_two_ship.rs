@@ -37,7 +37,7 @@ fn a_two_ship_run_publishes_the_relative_forecast_of_both_vessels() {
     let names = p.names();
     let target = Names::new(Some(&p.instance), "tender").unwrap();
     let session = zn::open(&ZenohSettings::connect_to(&p.endpoint)).unwrap();
-    let lift = LatestSubscriber::new(&session, &names.advisory("lift")).unwrap();
+    let lift = LatestSubscriber::new(&session, &names.advisory("relative")).unwrap();
     let target_forecasts = LatestSubscriber::new(&session, &target.forecast()).unwrap();
     let advisory: RelativeAdvisory = poll_until(PATIENCE, Duration::from_millis(50), || {
         let bytes = lift.latest().ok().flatten()?;

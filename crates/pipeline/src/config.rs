@@ -579,7 +579,7 @@ pub struct RelativeConfig {
     pub calibration_halflife: f64,
     /// Verified forecasts (weighted) behind a step before its sigma is calibrated.
     pub calibration_min_verified: f64,
-    /// Publish the relative forecast on zenoh `.../<crane vessel>/advisory/lift`.
+    /// Publish the relative forecast on zenoh `.../<crane vessel>/advisory/relative`.
     pub publish: bool,
     /// Print one line every this many relative forecasts.
     pub print_every: u64,

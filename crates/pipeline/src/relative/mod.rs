@@ -391,7 +391,7 @@ pub fn decide(track: &RelativeTrack, limits: &LiftLimits, lattice: &Lattice) -> 
     }
 }
 
-/// The relative forecast as published on zenoh `.../advisory/lift` (JSON).
+/// The relative forecast as published on zenoh `.../advisory/relative` (JSON).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct RelativeAdvisory {
     pub crane_vessel: String,
