@@ -218,7 +218,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             let mut source = SimSource {
                 stream: motion.stream(p.rate_hz, 0.0)?,
             };
-            tracing::info!(scenario = ?p.scenario, seed = p.seed, rate_hz = p.rate_hz, speed = p.speed, "producer: simulating on {}", names.motion());
+            tracing::info!(scenario = ?p.scenario, seed = p.seed, station = ?p.station, rate_hz = p.rate_hz, speed = p.speed, "producer: simulating on {}", names.motion());
             publish_all(&mut source, &publisher, &p, limit, faults)
         }
     }
