@@ -15,6 +15,7 @@ mod paper;
 mod predictor;
 mod producer;
 mod progress;
+mod relative;
 mod replay;
 mod router;
 mod run;
@@ -51,6 +52,9 @@ enum Command {
     Deck(deck::Args),
     /// Crane-tip motion forecast (remote, zenoh).
     Crane(crane::Args),
+    /// Ship-to-ship relative motion (crane tip against a landing spot on another vessel) with
+    /// the lift go/no-go; with --crane-record/--target-record, the two-ship study.
+    Relative(relative::Args),
     /// Live display: a web page of every vessel's forecasts, advisories and skill.
     Display(display::Args),
     /// Benchmarks of the running system (latency).
@@ -133,6 +137,7 @@ fn main() -> ExitCode {
         Command::Predictor(a) => predictor::run(a),
         Command::Deck(a) => deck::run(a),
         Command::Crane(a) => crane::run(a),
+        Command::Relative(a) => relative::run(a),
         Command::Display(a) => display::run(a),
         Command::Bench(a) => bench::run(a),
         Command::Certs(a) => certs::run(a),

@@ -241,11 +241,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         None => {
             let mut sim = SimConfig::scenario(p.scenario);
             sim.seed = p.seed;
-            let motion = ShipMotion::new(&sim)?;
+            let motion = ShipMotion::at_station(&sim, p.station)?;
             let mut source = SimSource {
                 stream: motion.stream(p.rate_hz, 0.0)?,
             };
-            tracing::info!(scenario = ?p.scenario, seed = p.seed, rate_hz = p.rate_hz, speed = p.speed, "producer: simulating on {}", names.motion());
+            tracing::info!(scenario = ?p.scenario, seed = p.seed, station = ?p.station, rate_hz = p.rate_hz, speed = p.speed, "producer: simulating on {}", names.motion());
             publish_all(&mut source, &publisher, &p, limit, faults)
         }
     }

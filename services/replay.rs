@@ -5,7 +5,7 @@
 use crate::progress;
 use anyhow::Context;
 use shipcast_pipeline::config::PipelineConfig;
-use shipcast_pipeline::engine::replay::{replay, ReplayReport};
+use shipcast_pipeline::engine::replay::{replay_scored, ReplayReport};
 use shipcast_pipeline::engine::startup::initial_models;
 use shipcast_pipeline::limits;
 use shipcast_series::motion_csv::MotionData;
@@ -32,7 +32,8 @@ pub struct Args {
         allow_negative_numbers = true
     )]
     pub skip_s: f64,
-    /// One JSON object per DOF instead of the table.
+    /// One JSON object per DOF, then one `{"decisions": ...}` per station and MOT, instead of
+    /// the table.
     #[arg(long)]
     pub json: bool,
 }
@@ -67,14 +68,24 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         data.len() as u64,
         "{elapsed_precise} [{bar:30}] {pos}/{len} samples",
     );
-    let (report, _) = replay(&data, &config.predictor, models, args.skip_s, false, &|n| {
-        bar.inc(n)
-    })?;
+    let (report, _) = replay_scored(
+        &data,
+        &config.predictor,
+        models,
+        args.skip_s,
+        false,
+        Some(&config.deck),
+        &|n| bar.inc(n),
+    )?;
     bar.finish_and_clear();
     let mut out = std::io::stdout().lock();
     if args.json {
         for d in &report.dofs {
             serde_json::to_writer(&mut out, d)?;
+            writeln!(out)?;
+        }
+        for d in &report.decisions {
+            serde_json::to_writer(&mut out, &serde_json::json!({ "decisions": d }))?;
             writeln!(out)?;
         }
     } else {
@@ -119,6 +130,27 @@ fn table(r: &ReplayReport) -> String {
             d.std,
             d.implausible
         ));
+    }
+    for d in &r.decisions {
+        if d.calls == 0 {
+            s.push_str(&format!(
+                "{} MOT {:.0}s: no call (the horizon is shorter than the MOT)\n",
+                d.station, d.mot_s
+            ));
+            continue;
+        }
+        s.push_str(&format!(
+            "{} MOT {:.0}s: {} calls, {} go at p >= {:.2}, false go {:.3}, hit rate {:.3} of {} quiet periods, Brier {:.4} (base rate {:.4})\n",
+            d.station, d.mot_s, d.calls, d.go_calls, d.go_probability, d.false_go_rate,
+            d.hit_rate, d.quiet_periods, d.brier, d.brier_climatology
+        ));
+        s.push_str("  p bin      calls  stated  observed\n");
+        for b in d.reliability.iter().filter(|b| b.count > 0) {
+            s.push_str(&format!(
+                "  {:.1}-{:.1}  {:>7}  {:.3}   {:.3}\n",
+                b.p_lo, b.p_hi, b.count, b.stated, b.observed
+            ));
+        }
     }
     s
 }

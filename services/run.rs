@@ -1,7 +1,9 @@
 //! `shipcast run`: the whole pipeline from one config. Starts predictor, deck, crane, the live
 //! display (a web page) and producer as child processes of this executable, shows a compact
 //! live view (latest forecast, deck advisory, predictor counters) with the display's address,
-//! and stops them all on Ctrl-C or after `--duration`.
+//! and stops them all on Ctrl-C or after `--duration`. With `--two-ship` (or
+//! `relative.two_ship`) the target vessel of `[relative]` also gets a producer and a predictor
+//! (simulated at its station in the same sea) and the relative service runs too.
 //! The view checks what it shows as the crane does: forecasts through `ForecastGate`, the
 //! predictor's status and verification only from their live publisher; rejections are
 //! counted on the view's `checks` line and logged on one line each.
@@ -9,7 +11,9 @@
 use anyhow::Context;
 use shipcast_pipeline::child::{stop_all, ChildProcess};
 use shipcast_pipeline::config::CommonArgs;
+use shipcast_pipeline::config::PipelineConfig;
 use shipcast_pipeline::deck::Advisory;
+use shipcast_pipeline::relative::RelativeAdvisory;
 use shipcast_pipeline::transport::forecast_check::{
     check_source, ForecastGate, LivePublishers, PublisherWatch,
 };
@@ -37,6 +41,11 @@ pub struct Args {
     /// Do not start the live display.
     #[arg(long)]
     pub no_display: bool,
+    /// Two ships in one sea (also `relative.two_ship` in the config): the target vessel of
+    /// `[relative]` gets its own producer and predictor, simulated at its station, and the
+    /// relative service forecasts the crane tip against its landing spot.
+    #[arg(long)]
+    pub two_ship: bool,
 }
 
 /// The address the display will listen on: the one asked for (port 0: a free one), or the
@@ -73,11 +82,23 @@ impl Children {
         config: &Path,
         logs: &Path,
     ) -> anyhow::Result<()> {
+        self.spawn_as(name, name, args, config, logs)
+    }
+
+    /// `command` as a child whose log and name are `name` (the target vessel's services).
+    fn spawn_as(
+        &mut self,
+        name: &'static str,
+        command: &str,
+        args: &[&str],
+        config: &Path,
+        logs: &Path,
+    ) -> anyhow::Result<()> {
         let exe = std::env::current_exe().context("locating the shipcast executable")?;
         let log = std::fs::File::create(logs.join(format!("{name}.log")))
             .with_context(|| format!("creating the log of {name} in {}", logs.display()))?;
         let mut cmd = Command::new(exe);
-        cmd.arg(name)
+        cmd.arg(command)
             .arg("--config")
             .arg(config)
             .args(args)
@@ -127,6 +148,8 @@ impl Drop for Children {
 struct View {
     forecast: Option<Forecast>,
     advisory: Option<Advisory>,
+    /// The relative service's lift advisory (two ships only).
+    lift: Option<Option<RelativeAdvisory>>,
     status: Option<serde_json::Value>,
     verification: Option<serde_json::Value>,
     /// Forecasts rejected (by reason) and status or verification documents rejected.
@@ -198,6 +221,11 @@ impl View {
             None => "deck       no advisory yet".into(),
             Some(a) => a.summary(),
         });
+        match &self.lift {
+            None => {}
+            Some(None) => lines.push("lift       no relative forecast yet".into()),
+            Some(Some(a)) => lines.push(a.summary()),
+        }
         let (f, other) = self.rejected;
         lines.push(format!(
             "checks     rejected forecasts {} ({} source, {} seq, {} payload), status/verification {other}",
@@ -249,8 +277,42 @@ impl View {
     }
 }
 
+/// The target vessel's configuration of a two-ship run: its vessel name and station, its
+/// predictor listening on its own endpoint; the crane vessel's processes also connect there.
+fn two_ship_configs(config: &mut PipelineConfig) -> anyhow::Result<PipelineConfig> {
+    if config.zenoh.tls.is_some() {
+        anyhow::bail!("--two-ship runs on plain loopback zenoh; the configuration sets zenoh.tls");
+    }
+    if config.relative.crane_vessel(&config.vessel) != config.vessel {
+        anyhow::bail!(
+            "--two-ship: relative.crane_vessel must be the pipeline's vessel '{}'",
+            config.vessel
+        );
+    }
+    let endpoint = zn::free_loopback_endpoint()?;
+    let mut target = config.clone();
+    target.vessel = config.relative.target_vessel.clone();
+    target.relative.crane_vessel = Some(config.vessel.clone());
+    target.producer.station = crate::relative::target_station(config);
+    target.zenoh.listen = vec![endpoint.clone()];
+    target.zenoh.connect = config
+        .zenoh
+        .listen
+        .iter()
+        .chain(&config.zenoh.connect)
+        .cloned()
+        .collect();
+    config.zenoh.connect.push(endpoint);
+    target.validate()?;
+    Ok(target)
+}
+
+fn write_config(config: &PipelineConfig, path: &Path) -> anyhow::Result<()> {
+    std::fs::write(path, config.to_toml()?).with_context(|| format!("writing {}", path.display()))
+}
+
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let config = args.common.load()?;
+    let mut config = args.common.load()?;
     let limit = shutdown::RunLimit::new(args.common.duration()?);
     let names = config.names()?;
     let logs = match &args.log_dir {
@@ -258,9 +320,32 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         None => std::env::temp_dir().join(format!("shipcast-run-{}", std::process::id())),
     };
     std::fs::create_dir_all(&logs).with_context(|| format!("creating {}", logs.display()))?;
+    let two_ship = args.two_ship || config.relative.two_ship;
+    let target = two_ship
+        .then(|| two_ship_configs(&mut config))
+        .transpose()?;
     let config_path = logs.join("pipeline.toml");
-    std::fs::write(&config_path, config.to_toml()?)
-        .with_context(|| format!("writing {}", config_path.display()))?;
+    write_config(&config, &config_path)?;
+    let target_path = logs.join("target.toml");
+    if let Some(t) = &target {
+        write_config(t, &target_path)?;
+        let r = &config.relative;
+        println!(
+            "two ships in one sea (scenario {:?}, seed {}): {} with the crane (tip {:?} m), {} at \
+             {} m forward, {} m starboard, heading {:+} deg (landing spot {:?} m); each runs \
+             producer and predictor, `relative` publishes {}",
+            config.producer.scenario,
+            config.producer.seed,
+            config.vessel,
+            config.crane.tip_m,
+            t.vessel,
+            r.target_position_m[0],
+            r.target_position_m[1],
+            r.target_heading_offset_deg,
+            r.landing_spot_m,
+            names.advisory("relative")
+        );
+    }
 
     let mut children = Children { list: Vec::new() };
     // The predictor first: the producer waits until it has subscribed (its start-up training
@@ -268,6 +353,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     children.spawn("predictor", &[], &config_path, &logs)?;
     children.spawn("deck", &["--print-every", "10"], &config_path, &logs)?;
     children.spawn("crane", &[], &config_path, &logs)?;
+    if target.is_some() {
+        children.spawn_as("target-predictor", "predictor", &[], &target_path, &logs)?;
+        children.spawn("relative", &[], &config_path, &logs)?;
+    }
     let display = if args.no_display {
         None
     } else {
@@ -286,6 +375,15 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         &config_path,
         &logs,
     )?;
+    if target.is_some() {
+        children.spawn_as(
+            "target-producer",
+            "producer",
+            &["--wait-subscriber-s", "120"],
+            &target_path,
+            &logs,
+        )?;
+    }
 
     let session = zn::open(&config.zenoh.consumer_side())?;
     let forecasts = LatestSubscriber::new(&session, &names.forecast())?;
@@ -294,9 +392,16 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let advisories = LatestSubscriber::new(&session, &names.advisory("deck"))?;
     let mut status = CheckedJson::new(&session, &names.status("predictor"))?;
     let mut verification = CheckedJson::new(&session, &names.verification())?;
+    let mut lift = target
+        .is_some()
+        .then(|| CheckedJson::new(&session, &names.advisory("relative")))
+        .transpose()?;
 
     let tty = std::io::stdout().is_terminal();
-    let mut view = View::default();
+    let mut view = View {
+        lift: target.as_ref().map(|_| None),
+        ..View::default()
+    };
     let mut drawn = 0usize;
     let mut last_draw = Instant::now() - Duration::from_secs(10);
     let outcome = loop {
@@ -334,9 +439,17 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         if let Some(v) = verification.latest()? {
             view.verification = Some(v);
         }
+        if let Some(v) = lift
+            .as_mut()
+            .map(CheckedJson::latest)
+            .transpose()?
+            .flatten()
+        {
+            view.lift = Some(serde_json::from_value(v).ok());
+        }
         view.rejected = (
             gate.stream.rejected,
-            status.rejected + verification.rejected,
+            status.rejected + verification.rejected + lift.as_ref().map_or(0, |l| l.rejected),
         );
         if last_draw.elapsed() >= Duration::from_secs(1) {
             let page = display
@@ -365,6 +478,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     };
     children.stop();
     let _ = std::fs::remove_file(&config_path);
+    let _ = std::fs::remove_file(&target_path);
     let reason = outcome?;
     println!(
         "shipcast run: {reason}; all services stopped (logs in {})",

@@ -6,7 +6,9 @@
 use anyhow::Context;
 use shipcast_series::motion_csv::MotionCsvWriter;
 use shipcast_sim::plot::plot_overview;
-use shipcast_sim::{ChangingMotion, Channel, CourseChange, MotionPoint, SeaChange, ShipMotion};
+use shipcast_sim::{
+    ChangingMotion, Channel, CourseChange, MotionPoint, SeaChange, ShipMotion, Station,
+};
 use std::fs::File;
 use std::io::BufWriter;
 use std::path::{Path, PathBuf};
@@ -35,7 +37,13 @@ Non-stationary records: --course-change-s T --new-heading-deg D [--turn-s R] tur
 D over R s from record time T. --sea-change-s T --new-hs M --new-tp S [--ramp-s R] cross-fades
 (power-preserving) to an independent sea (seed + 1, DNV gamma) of Hs M and Tp S over R s from
 T. Both may be combined. Before T the record equals the stationary simulation; the producer
-uses such a record through `simulate --out F.csv` then `producer --input F.csv`.";
+uses such a record through `simulate --out F.csv` then `producer --input F.csv`.
+
+Two vessels in one sea: run simulate twice with the same sea options and seed, the second time
+with --vessel-x-m X --vessel-y-m Y [--vessel-heading-offset-deg D] [--hull-length L]: that vessel keeps
+station X m forward and Y m to starboard of the first, its bow D deg to starboard of the first's
+heading, and meets the same wave components, each phase-shifted by k (X cos b + Y sin b) (b its
+direction relative to the first vessel) and from the direction b - D (docs/two_ships.md).";
 
 #[derive(clap::Args, Debug)]
 #[command(after_help = AFTER_HELP)]
@@ -150,6 +158,33 @@ pub struct Args {
         allow_negative_numbers = true
     )]
     pub ramp_s: f64,
+    /// Simulate a second vessel of the same sea (same seed, --heading-deg relative to the
+    /// reference vessel) this far forward of the reference vessel's centre of gravity [m],
+    /// keeping station with it.
+    #[arg(
+        long = "vessel-x-m",
+        default_value_t = 0.0,
+        allow_negative_numbers = true,
+        conflicts_with_all = ["elevation", "course_change_s", "sea_change_s"]
+    )]
+    pub vessel_x_m: f64,
+    /// ... and this far to starboard of it [m].
+    #[arg(
+        long = "vessel-y-m",
+        default_value_t = 0.0,
+        allow_negative_numbers = true,
+        conflicts_with_all = ["elevation", "course_change_s", "sea_change_s"]
+    )]
+    pub vessel_y_m: f64,
+    /// Heading of the simulated vessel: its bow turned this many degrees to starboard of the
+    /// reference vessel's heading.
+    #[arg(
+        long = "vessel-heading-offset-deg",
+        default_value_t = 0.0,
+        allow_negative_numbers = true,
+        conflicts_with_all = ["elevation", "course_change_s", "sea_change_s"]
+    )]
+    pub vessel_heading_offset_deg: f64,
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
@@ -161,7 +196,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             course,
             sea,
         } => run_changing(&config, *duration_s, *course, *sea),
-        Record::Stationary { duration_s } => run_stationary(&config, *duration_s),
+        Record::Stationary {
+            duration_s,
+            station,
+        } => run_stationary(&config, *duration_s, *station),
     }
 }
 
@@ -221,9 +259,19 @@ pub(crate) fn degrees(ch: Channel, value: f64) -> String {
     }
 }
 
-fn run_stationary(config: &Config, duration_s: f64) -> anyhow::Result<()> {
+fn run_stationary(config: &Config, duration_s: f64, station: Station) -> anyhow::Result<()> {
     let started = Instant::now();
-    let motion = ShipMotion::new(&config.sim)?;
+    let motion = ShipMotion::at_station(&config.sim, station)?;
+    if station != Station::REFERENCE {
+        tracing::info!(
+            "vessel at {} m forward, {} m starboard of the reference vessel, heading {} deg to \
+             starboard of it, in its sea (waves from {} deg relative to the reference bow)",
+            station.x_m,
+            station.y_m,
+            station.heading_offset_deg,
+            config.sim.heading_deg
+        );
+    }
     let rows = (duration_s * config.rate_hz).round().max(1.0) as u64;
     let mut out = RecordOut::create(&config.out)?;
     let progress = indicatif::ProgressBar::new(rows);

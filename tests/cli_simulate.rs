@@ -436,3 +436,107 @@ fn course_and_sea_changes_keep_the_record_before_and_reach_the_new_condition_aft
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(!o.status.success() && err.contains("peak period"), "{err}");
 }
+
+/// The columns of a record (six DOF and the wave elevation), row-major.
+fn channels(path: &Path) -> Vec<[f64; 7]> {
+    let data = MotionData::read_path(path).unwrap();
+    let cols: Vec<&[f64]> = Dof::ALL
+        .iter()
+        .map(|&d| data.dof(d).unwrap())
+        .chain(std::iter::once(data.column("wave_m").unwrap()))
+        .collect();
+    (0..data.len())
+        .map(|i| std::array::from_fn(|c| cols[c][i]))
+        .collect()
+}
+
+/// Largest |a - sign * b| over every channel and row, relative to the largest |a|.
+fn mismatch(a: &[[f64; 7]], b: &[[f64; 7]], sign: f64) -> f64 {
+    assert_eq!(a.len(), b.len());
+    let scale = a.iter().flatten().fold(0.0f64, |m, v| m.max(v.abs()));
+    let worst = a
+        .iter()
+        .flatten()
+        .zip(b.iter().flatten())
+        .fold(0.0f64, |m, (x, y)| m.max((x - sign * y).abs()));
+    worst / scale
+}
+
+#[test]
+fn a_second_vessel_meets_the_same_waves_shifted_by_its_position() {
+    let dir = tempfile::tempdir().unwrap();
+    // `heading` is the mean wave direction relative to the reference vessel's bow.
+    let run_at = |name: &str, heading: &str, extra: &[&str]| {
+        let out = dir.path().join(name);
+        let mut args = vec![
+            "--tp",
+            "30",
+            "--components",
+            "1",
+            "--spreading",
+            "none",
+            "--speed-kn",
+            "0",
+            "--heading-deg",
+            heading,
+            "--duration",
+            "40",
+            "--rate",
+            "4",
+            "--out",
+            out.to_str().unwrap(),
+        ];
+        args.extend_from_slice(extra);
+        let o = simulate(&args);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        channels(&out)
+    };
+    let run = |name: &str, extra: &[&str]| run_at(name, "180", extra);
+    // Tp 30 s puts the single line (at the middle of the band, 2.7 times the peak frequency)
+    // at a wavelength the hull responds to, 2 pi g / w^2; head waves travel aft, along -x.
+    let mut cfg = SimConfig::scenario(Scenario::Paper);
+    cfg.components = Some(1);
+    cfg.spreading = "none".parse().unwrap();
+    cfg.speed_kn = 0.0;
+    cfg.heading_deg = 180.0;
+    cfg.tp_s = 30.0;
+    let omega = ShipMotion::new(&cfg).unwrap().components()[0].omega;
+    let wavelength = TAU * 9.81 / (omega * omega);
+    let reference = run("a.csv", &[]);
+    assert!(reference.iter().any(|r| r[2].abs() > 0.1), "no heave");
+    // Zero offset and the same heading: the reference record itself.
+    assert_eq!(
+        run("same.csv", &["--vessel-x-m", "0", "--vessel-y-m", "0"]),
+        reference
+    );
+    // One wavelength ahead: the same record; half a wavelength: every channel reversed.
+    let x = |v: f64| ["--vessel-x-m".to_string(), v.to_string()];
+    let one = x(wavelength);
+    let one = run("one.csv", &[&one[0], &one[1]]);
+    assert!(mismatch(&reference, &one, 1.0) < 1e-5);
+    let half = x(-wavelength / 2.0);
+    let half = run("half.csv", &[&half[0], &half[1]]);
+    assert!(mismatch(&reference, &half, -1.0) < 1e-5);
+    // Abeam of head waves the phase does not change at all, however far.
+    let abeam = (0.37 * wavelength).to_string();
+    let abeam = run("abeam.csv", &["--vessel-y-m", &abeam]);
+    assert!(mismatch(&reference, &abeam, 1.0) < 1e-5);
+    // A quarter wavelength is a quarter period later or earlier: not the same, not reversed.
+    let quarter = x(wavelength / 4.0);
+    let quarter = run("quarter.csv", &[&quarter[0], &quarter[1]]);
+    assert!(mismatch(&reference, &quarter, 1.0) > 0.5);
+    assert!(mismatch(&reference, &quarter, -1.0) > 0.5);
+    // At zero speed, turning the bow 30 deg to starboard is the same as waves 30 deg further
+    // round from the reference bow (150 deg).
+    let turned = run("turned.csv", &["--vessel-heading-offset-deg", "30"]);
+    assert_eq!(turned, run_at("direct.csv", "150", &[]));
+    assert!(
+        mismatch(&reference, &turned, 1.0) > 0.1,
+        "the turn changed nothing"
+    );
+    // Bad input is one clear line.
+    let o = simulate(&["--vessel-y-m", "inf", "--out", "x.csv"]);
+    assert!(!o.status.success());
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(e.contains("finite"), "{e}");
+}

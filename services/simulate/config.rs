@@ -8,7 +8,7 @@ use anyhow::Context;
 use shipcast_pipeline::config::MAX_PRODUCER_RATE_HZ;
 use shipcast_pipeline::limits;
 use shipcast_sim::{
-    CourseChange, Hull, RaoSpec, Scenario, SeaChange, SimConfig, Spectrum, SpectrumKind,
+    CourseChange, Hull, RaoSpec, Scenario, SeaChange, SimConfig, Spectrum, SpectrumKind, Station,
 };
 use std::path::PathBuf;
 
@@ -31,8 +31,9 @@ pub struct Config {
 /// The three kinds of record `simulate` writes.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Record {
-    /// A stationary simulated sea of `duration_s`.
-    Stationary { duration_s: f64 },
+    /// A stationary simulated sea of `duration_s`, seen by a vessel at `station` (the
+    /// reference vessel by default).
+    Stationary { duration_s: f64, station: Station },
     /// A simulated sea with a course and/or a sea-state change (at least one).
     Changing {
         duration_s: f64,
@@ -127,7 +128,16 @@ fn changes(args: &Args, duration_s: f64) -> anyhow::Result<Record> {
             sea,
         }
     } else {
-        Record::Stationary { duration_s }
+        let station = Station {
+            x_m: args.vessel_x_m,
+            y_m: args.vessel_y_m,
+            heading_offset_deg: args.vessel_heading_offset_deg,
+        };
+        station.validate()?;
+        Record::Stationary {
+            duration_s,
+            station,
+        }
     })
 }
 
@@ -177,7 +187,13 @@ mod tests {
     #[test]
     fn the_record_kind_follows_the_options() {
         let c = config(&["--out", "m.csv"]).unwrap();
-        assert_eq!(c.record, Record::Stationary { duration_s: 3600.0 });
+        assert_eq!(
+            c.record,
+            Record::Stationary {
+                duration_s: 3600.0,
+                station: Station::REFERENCE
+            }
+        );
         assert_eq!((c.rate_hz, c.sim.hs_m), (8.0, 3.05));
         let c = config(&[
             "--out",

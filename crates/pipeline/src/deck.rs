@@ -7,6 +7,7 @@
 //! officer reads it.
 
 use crate::config::DeckConfig;
+use crate::decision::{Decider, Decision};
 use glam::{DQuat, DVec3, EulerRot};
 use serde::{Deserialize, Serialize};
 use shipcast_wire::payload::{Forecast, MAX_STEPS};
@@ -87,6 +88,8 @@ pub struct Advisory {
     pub max_pitch_deg: f64,
     pub max_vertical_velocity_mps: f64,
     pub windows: Vec<Window>,
+    /// Go/no-go over the minimum operation time, with the joint window probability.
+    pub decision: Decision,
 }
 
 impl Advisory {
@@ -109,9 +112,10 @@ impl Advisory {
                 .join(", ")
         };
         format!(
-            "deck t={:.1}s v{}: max roll {:.1} deg pitch {:.1} deg vz {:.2} m/s; windows: {windows}",
+            "deck t={:.1}s v{}: {}; max roll {:.1} deg pitch {:.1} deg vz {:.2} m/s; windows: {windows}",
             self.time_s,
             self.model_version,
+            self.decision.summary(),
             self.max_roll_deg,
             self.max_pitch_deg,
             self.max_vertical_velocity_mps
@@ -127,6 +131,7 @@ pub struct DeckAdvisor {
     pitch_limit: f64,
     velocity_limit: f64,
     min_window_s: f64,
+    decider: Decider,
     z_up: [f64; MAX_STEPS],
     z_sigma: [f64; MAX_STEPS],
 }
@@ -139,6 +144,7 @@ impl DeckAdvisor {
             pitch_limit: config.pitch_limit_deg.to_radians(),
             velocity_limit: config.vertical_velocity_limit_mps,
             min_window_s: config.min_window_s,
+            decider: Decider::new(config),
             z_up: [0.0; MAX_STEPS],
             z_sigma: [0.0; MAX_STEPS],
         }
@@ -171,6 +177,7 @@ impl DeckAdvisor {
             max_pitch_deg: 0.0,
             max_vertical_velocity_mps: 0.0,
             windows: Vec::new(),
+            decision: self.decider.decide(forecast),
         };
         let mut open: Option<(usize, f64)> = None;
         for k in 0..=steps {

@@ -5,6 +5,8 @@
 //! - [`engine`]: the forecasting engine the predictor service, `shipcast replay` and the latency
 //!   bench drive (ingest, model set, retraining, verification, calibration).
 //! - [`deck`], [`crane`]: ship-point geometry, landing advisory, crane-tip forecast.
+//! - [`relative`]: ship-to-ship relative motion (crane tip against a landing spot), its
+//!   calibrated sigma, the lift go/no-go and the two-ship study.
 //! - [`limits`]: range checks of numeric command-line values and configuration keys.
 //! - [`child`], [`pacing`]: child processes that are always stopped and reaped, and paced loops.
 //! - [`certs`]: the CA and certificates of a secure setup (`shipcast certs`).
@@ -13,8 +15,10 @@ pub mod certs;
 pub mod child;
 pub mod config;
 pub mod crane;
+pub mod decision;
 pub mod deck;
 pub mod engine;
 pub mod limits;
 pub mod pacing;
+pub mod relative;
 pub mod transport;

@@ -9,6 +9,7 @@
 //!   curves (a boundary-element solution) to validate them against.
 //! - [`scenario`]: the `paper` and ss3..ss6 presets and [`SimConfig`].
 //! - [`motion`]: [`ShipMotion`], sampled at any instant or streamed at a fixed rate.
+//! - [`station`]: a second vessel in the same sea, at its own position and heading.
 //! - [`changes`]: [`ChangingMotion`], a course change and/or a sea-state change in a record.
 //! - [`measured`]: the ship's response to a measured wave-elevation record.
 //! - [`autocorr`]: exact variance, autocorrelation and encounter spectra of the record.
@@ -32,6 +33,7 @@ pub mod scenario;
 pub mod sea;
 pub mod spectrum;
 pub mod spreading;
+pub mod station;
 pub mod waterline;
 
 pub use autocorr::Channel;
@@ -45,6 +47,7 @@ pub use scenario::{RaoSpec, Scenario, SimConfig, KNOT_MPS};
 pub use sea::{Components, WaveComponent};
 pub use spectrum::{Spectrum, SpectrumKind};
 pub use spreading::Spreading;
+pub use station::Station;
 
 use std::path::{Path, PathBuf};
 

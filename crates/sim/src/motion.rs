@@ -9,6 +9,7 @@
 
 use super::rao::{Rao, Response};
 use super::sea::{draw_components, Components, WaveComponent};
+use super::station::Station;
 use super::{ClosedFormRao, RaoSpec, RaoTable, ScaledRaoTable, SimConfig, SimError, Spectrum};
 use std::borrow::Borrow;
 use std::sync::Arc;
@@ -84,7 +85,25 @@ impl ShipMotion {
 
     /// Same as `new` with any RAO source (`config.rao` is then not used).
     pub fn with_rao(config: &SimConfig, rao: Arc<dyn Rao>) -> Result<Self, SimError> {
+        Self::with_rao_at(config, rao, Station::REFERENCE)
+    }
+
+    /// The vessel of `config` (its hull, its speed) keeping `station` relative to the reference
+    /// vessel in the reference vessel's sea (`config`'s sea, heading and seed); see
+    /// [`super::station`].
+    pub fn at_station(config: &SimConfig, station: Station) -> Result<Self, SimError> {
+        let rao = build_rao(&config.rao)?;
+        Self::with_rao_at(config, rao, station)
+    }
+
+    /// [`ShipMotion::at_station`] with any RAO source.
+    pub fn with_rao_at(
+        config: &SimConfig,
+        rao: Arc<dyn Rao>,
+        station: Station,
+    ) -> Result<Self, SimError> {
         config.validate()?;
+        station.validate()?;
         let spectrum = Spectrum::new(config.spectrum, config.hs_m, config.tp_s, config.gamma)?;
         let layout = match config.components {
             Some(lines) => Components::FixedGrid { lines },
@@ -99,6 +118,11 @@ impl ShipMotion {
             layout,
             config.seed,
         )?;
+        let components = if station == Station::REFERENCE {
+            components
+        } else {
+            station.place(&components, speed)
+        };
         let coefficients = components
             .iter()
             .map(|c| {

@@ -9,7 +9,8 @@
 
 use super::retrain::Retrainer;
 use super::{Engine, EngineCounts};
-use crate::config::PredictorServiceConfig;
+use crate::config::{DeckConfig, PredictorServiceConfig};
+use crate::decision::score::{DecisionReport, DecisionScorer};
 use crate::engine::models::ModelSet;
 use serde::Serialize;
 use shipcast_series::motion_csv::MotionData;
@@ -50,7 +51,12 @@ pub struct ReplayReport {
     pub dt_s: f64,
     pub counts: EngineCounts,
     pub dofs: Vec<DofReplay>,
+    /// Deck decisions scored against the record (one per MOT; empty unless asked).
+    pub decisions: Vec<DecisionReport>,
 }
+
+/// Minimum operation times the replay scores deck decisions for [s].
+pub const DECISION_MOTS_S: [f64; 2] = [10.0, 30.0];
 
 /// Running sums of one DOF and step.
 #[derive(Debug, Clone, Copy, Default)]
@@ -98,6 +104,22 @@ pub fn replay(
     keep_forecasts: bool,
     progress: &dyn Fn(u64),
 ) -> anyhow::Result<(ReplayReport, Vec<Forecast>)> {
+    replay_scored(data, config, models, skip_s, keep_forecasts, None, progress)
+}
+
+/// [`replay`], also scoring the deck decisions of `deck` (for the MOTs of
+/// [`DECISION_MOTS_S`]) against the record.
+pub fn replay_scored(
+    data: &MotionData,
+    config: &PredictorServiceConfig,
+    models: Option<ModelSet>,
+    skip_s: f64,
+    keep_forecasts: bool,
+    deck: Option<&DeckConfig>,
+    progress: &dyn Fn(u64),
+) -> anyhow::Result<(ReplayReport, Vec<Forecast>)> {
+    let mut scorer = deck.map(|d| DecisionScorer::new("deck", d, &DECISION_MOTS_S));
+    let mut actual = Box::<Forecast>::default();
     let rate = median_rate(&data.time)?;
     let rate = (rate * 1e6).round() / 1e6;
     let mut engine = Engine::new(
@@ -153,6 +175,17 @@ pub fn replay(
         // The newest sample the forecast used is persistence's forecast.
         let last = sample_at(&data.time, f.time_s + delay, step_in).unwrap_or(i);
         scored += 1;
+        if let Some(scorer) = scorer.as_mut() {
+            actual.time_s = f.time_s;
+            actual.dt_s = f.dt_s;
+            actual.steps = f.steps;
+            for (d, column) in columns.iter().enumerate() {
+                for (k, &j) in idx.iter().enumerate() {
+                    actual.mean[d][k] = column.map_or(0.0, |c| c[j] as f32);
+                }
+            }
+            scorer.observe(f, &actual);
+        }
         for &dof in &present {
             let d = dof.index();
             let Some(col) = columns[d] else { continue };
@@ -229,6 +262,7 @@ pub fn replay(
             dt_s: dt,
             counts,
             dofs,
+            decisions: scorer.map_or_else(Vec::new, DecisionScorer::finish),
         },
         kept,
     ))

@@ -10,7 +10,7 @@ use shipcast_wire::payload::{MAX_STEPS, NUM_DOF};
 use std::time::Instant;
 
 /// Models to start with: the model file, or fitted on simulated history of the configured sea
-/// (another realisation than the producer's: seed + 1). Neither has been scored on the sea the
+/// (another realisation than the producer's: seed + 1, at the producer's station). Neither has been scored on the sea the
 /// ship is in, so the engine treats them as unverified (no skill until verified live).
 pub fn initial_models(config: &PipelineConfig) -> anyhow::Result<Option<ModelSet>> {
     let q = &config.predictor;
@@ -27,7 +27,7 @@ pub fn initial_models(config: &PipelineConfig) -> anyhow::Result<Option<ModelSet
     let p = &config.producer;
     let mut sim = SimConfig::scenario(p.scenario);
     sim.seed = p.seed.wrapping_add(1);
-    let motion = ShipMotion::new(&sim)?;
+    let motion = ShipMotion::at_station(&sim, p.station)?;
     let n = (q.warmup_s * p.rate_hz).ceil() as usize;
     let mut raw: Vec<Vec<f64>> = (0..NUM_DOF).map(|_| Vec::with_capacity(n)).collect();
     for point in motion.stream(p.rate_hz, 0.0)?.take(n) {

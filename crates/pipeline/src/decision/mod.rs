@@ -1,0 +1,349 @@
+//! Landing go/no-go decisions from a forecast: operator limits on roll, pitch and the deck
+//! point's vertical displacement and velocity, a minimum operation time (MOT), and for every
+//! forecast the probability that every limit holds over the whole of a window of MOT, from the
+//! joint distribution of the forecast errors across steps (docs/decisions.md).
+//!
+//! Error model: per quantity, the standardised errors form a Gaussian AR(1) chain in lead
+//! (corr between steps i and j = rho^|i-j|, rho from verified forecasts: [`ErrorCorrelation`]),
+//! and the quantities' chains are treated as independent of one another, so the window
+//! probability is the product of the per-quantity chain probabilities ([`window`]).
+
+pub mod correlation;
+pub mod score;
+pub mod window;
+
+use crate::config::DeckConfig;
+use crate::deck::ShipPoint;
+pub use correlation::ErrorCorrelation;
+use serde::{Deserialize, Serialize};
+use shipcast_wire::payload::{Forecast, MAX_STEPS};
+use window::{chain_within, cholesky_block, correlated_within, Lattice};
+
+/// The limited quantities, in the order of every per-quantity array here.
+pub const QUANTITIES: [&str; 4] = ["roll", "pitch", "deck_vertical_m", "deck_vertical_mps"];
+pub const NUM_QUANTITIES: usize = 4;
+
+const HEAVE: usize = 2;
+const ROLL: usize = 3;
+const PITCH: usize = 4;
+
+/// Lattice points per window probability: 128 keeps the estimate within about a point of the
+/// exact value (window::tests measure it against a Monte Carlo) at a cost the live service
+/// and replay can afford for every candidate window.
+const LATTICE_POINTS: usize = 128;
+
+/// The decision for one forecast (inside the advisory JSON on `.../advisory/<station>`).
+/// Times are seconds after the forecast's `time_s`; step k of a forecast is at (k + 1) dt.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Decision {
+    pub mot_s: f64,
+    /// Go threshold on the window probability.
+    pub go_probability: f64,
+    /// Go now: the window of MOT starting at the first step holds with at least
+    /// `go_probability`.
+    pub go: bool,
+    /// Probability that every limit holds over the window of MOT from the first step; None
+    /// when the forecast horizon is shorter than MOT (nothing can be decided).
+    pub probability_now: Option<f64>,
+    /// Start of the first window of MOT whose probability reaches `go_probability`.
+    pub next_window_s: Option<f64>,
+    pub next_window_probability: Option<f64>,
+    /// First step at which the predicted mean breaks a limit (None: not within the horizon).
+    pub next_exceedance_s: Option<f64>,
+    /// Step-to-step error correlation used, per quantity ([`QUANTITIES`]).
+    pub error_correlation: [f64; NUM_QUANTITIES],
+}
+
+impl Decision {
+    pub fn summary(&self) -> String {
+        let next = match (self.next_window_s, self.next_window_probability) {
+            (Some(s), Some(p)) => format!("next window in {s:.1}s ({:.0}%)", 100.0 * p),
+            _ => "no window in the horizon".into(),
+        };
+        let exceed = self
+            .next_exceedance_s
+            .map_or("no exceedance predicted".into(), |s| {
+                format!("exceedance in {s:.1}s")
+            });
+        let now = self
+            .probability_now
+            .map_or("MOT beyond the horizon".into(), |p| {
+                format!("{:.0}%", 100.0 * p)
+            });
+        format!(
+            "{} (MOT {:.0}s, {now}), {next}, {exceed}",
+            if self.go { "GO" } else { "NO-GO" },
+            self.mot_s
+        )
+    }
+}
+
+/// Means and sigmas of the limited quantities at every step of one forecast.
+#[derive(Debug, Clone)]
+pub struct Tracks {
+    pub steps: usize,
+    pub dt_s: f64,
+    pub mean: [[f64; MAX_STEPS]; NUM_QUANTITIES],
+    pub sigma: [[f64; MAX_STEPS]; NUM_QUANTITIES],
+}
+
+impl Default for Tracks {
+    fn default() -> Self {
+        Self {
+            steps: 0,
+            dt_s: 0.0,
+            mean: [[0.0; MAX_STEPS]; NUM_QUANTITIES],
+            sigma: [[0.0; MAX_STEPS]; NUM_QUANTITIES],
+        }
+    }
+}
+
+impl Tracks {
+    /// Fill from a forecast. The deck point's vertical sigma takes heave, roll and pitch errors
+    /// as independent; its velocity is the central difference over neighbouring steps, whose
+    /// sigma uses the displacement's error correlation `rho_z` between the two steps.
+    pub fn fill(&mut self, point: &ShipPoint, forecast: &Forecast, rho_z: f64) {
+        let steps = forecast.valid_steps();
+        self.steps = steps;
+        self.dt_s = forecast.dt_s;
+        for k in 0..steps {
+            let dof: [f64; 6] = std::array::from_fn(|d| f64::from(forecast.mean[d][k]));
+            let sig = |d: usize| f64::from(forecast.sigma[d][k]);
+            self.mean[0][k] = dof[ROLL];
+            self.sigma[0][k] = sig(ROLL);
+            self.mean[1][k] = dof[PITCH];
+            self.sigma[1][k] = sig(PITCH);
+            self.mean[2][k] = -point.displacement(dof).z;
+            self.sigma[2][k] = point.vertical_sigma(sig(HEAVE), sig(ROLL), sig(PITCH));
+        }
+        for k in 0..steps {
+            let (a, b) = match (k.checked_sub(1), k + 1 < steps) {
+                (Some(a), true) => (a, k + 1),
+                (None, true) => (k, k + 1),
+                (Some(a), false) => (a, k),
+                (None, false) => (k, k),
+            };
+            if a == b {
+                self.mean[3][k] = 0.0;
+                self.sigma[3][k] = 0.0;
+                continue;
+            }
+            let span = (b - a) as f64 * self.dt_s;
+            let (za, zb) = (self.mean[2][a], self.mean[2][b]);
+            let (sa, sb) = (self.sigma[2][a], self.sigma[2][b]);
+            let r = rho_z.clamp(0.0, 1.0).powi((b - a) as i32);
+            let var = sa * sa + sb * sb - 2.0 * r * sa * sb;
+            self.mean[3][k] = (zb - za) / span;
+            self.sigma[3][k] = var.max(0.0).sqrt() / span;
+        }
+    }
+}
+
+/// Operator limits in SI units (rad, rad, m, m/s), in the order of [`QUANTITIES`].
+pub fn limits(config: &DeckConfig) -> [f64; NUM_QUANTITIES] {
+    [
+        config.roll_limit_deg.to_radians(),
+        config.pitch_limit_deg.to_radians(),
+        config.vertical_displacement_limit_m,
+        config.vertical_velocity_limit_mps,
+    ]
+}
+
+/// Turns forecasts into decisions; holds its buffers, so deciding does not allocate.
+#[derive(Debug, Clone)]
+pub struct Decider {
+    point: ShipPoint,
+    limits: [f64; NUM_QUANTITIES],
+    mot_s: f64,
+    go_probability: f64,
+    rho: [f64; NUM_QUANTITIES],
+    lattice: Lattice,
+    tracks: Box<Tracks>,
+    /// Steps before k at which some mean breaks its limit (prefix counts).
+    breaks_before: [u32; MAX_STEPS + 1],
+    /// Full error correlation per quantity over `full_steps` steps (0: none, the AR(1) chain
+    /// with `rho` is used), and work buffers for its Cholesky factor.
+    full: Vec<Vec<f64>>,
+    full_steps: [usize; NUM_QUANTITIES],
+    chol: Vec<f64>,
+    y: Vec<f64>,
+}
+
+impl Decider {
+    pub fn new(config: &DeckConfig) -> Self {
+        Self::with_mot(config, config.mot_s)
+    }
+
+    pub fn with_mot(config: &DeckConfig, mot_s: f64) -> Self {
+        Self {
+            point: ShipPoint::new(config.point_m),
+            limits: limits(config),
+            mot_s,
+            go_probability: config.go_probability,
+            rho: config.error_correlation,
+            lattice: Lattice::new(LATTICE_POINTS, MAX_STEPS),
+            tracks: Box::default(),
+            breaks_before: [0; MAX_STEPS + 1],
+            full: vec![vec![0.0; MAX_STEPS * MAX_STEPS]; NUM_QUANTITIES],
+            full_steps: [0; NUM_QUANTITIES],
+            chol: vec![0.0; MAX_STEPS * MAX_STEPS],
+            y: vec![0.0; MAX_STEPS],
+        }
+    }
+
+    pub fn mot_s(&self) -> f64 {
+        self.mot_s
+    }
+
+    pub fn limits(&self) -> &[f64; NUM_QUANTITIES] {
+        &self.limits
+    }
+
+    pub fn point(&self) -> &ShipPoint {
+        &self.point
+    }
+
+    pub fn error_correlation(&self) -> [f64; NUM_QUANTITIES] {
+        self.rho
+    }
+
+    /// Use these step-to-step correlations (e.g. estimated from verified forecasts).
+    pub fn set_error_correlation(&mut self, rho: [f64; NUM_QUANTITIES]) {
+        self.rho = rho.map(|r| {
+            if r.is_finite() {
+                r.clamp(0.0, 1.0)
+            } else {
+                0.0
+            }
+        });
+    }
+
+    /// Use the full error correlations of `estimate` where it has them (else the AR(1) chain).
+    pub fn set_error_matrices(&mut self, estimate: &ErrorCorrelation, steps: usize) {
+        for q in 0..NUM_QUANTITIES {
+            self.full_steps[q] = if estimate.matrix(q, steps, &mut self.full[q]) {
+                steps
+            } else {
+                0
+            };
+        }
+    }
+
+    /// Steps in a window of MOT at step `dt_s`.
+    pub fn window_steps(&self, dt_s: f64) -> usize {
+        if dt_s.is_nan() || dt_s <= 0.0 {
+            return usize::MAX;
+        }
+        ((self.mot_s / dt_s) - 1e-9).ceil().max(1.0) as usize
+    }
+
+    pub fn tracks(&self) -> &Tracks {
+        &self.tracks
+    }
+
+    /// Load a forecast: its tracks and where their means break a limit.
+    pub fn load(&mut self, forecast: &Forecast) {
+        self.tracks.fill(&self.point, forecast, self.rho[2]);
+        let t = &self.tracks;
+        for k in 0..t.steps {
+            let breaks = (0..NUM_QUANTITIES)
+                .any(|q| t.mean[q][k].is_nan() || t.mean[q][k].abs() > self.limits[q]);
+            self.breaks_before[k + 1] = self.breaks_before[k] + u32::from(breaks);
+        }
+    }
+
+    /// Whether the loaded means hold every limit over steps [start, start + len).
+    pub fn mean_holds(&self, start: usize, len: usize) -> bool {
+        let end = start + len;
+        end <= self.tracks.steps && self.breaks_before[end] == self.breaks_before[start]
+    }
+
+    /// Probability that every limit holds over steps [start, start + len) of the loaded
+    /// forecast.
+    pub fn window_probability(&mut self, start: usize, len: usize) -> f64 {
+        let t = &self.tracks;
+        let end = (start + len).min(t.steps);
+        if start >= end {
+            return 0.0;
+        }
+        let mut p = 1.0;
+        for q in 0..NUM_QUANTITIES {
+            let (mean, sigma) = (&t.mean[q][start..end], &t.sigma[q][start..end]);
+            let m = self.full_steps[q];
+            let full = (m == t.steps
+                && cholesky_block(&self.full[q], m, start, end - start, &mut self.chol))
+            .then(|| {
+                correlated_within(
+                    mean,
+                    sigma,
+                    self.limits[q],
+                    &self.chol,
+                    &self.lattice,
+                    &mut self.y,
+                )
+            })
+            .flatten();
+            p *= full.unwrap_or_else(|| {
+                chain_within(mean, sigma, self.limits[q], self.rho[q], &self.lattice)
+            });
+            if p == 0.0 {
+                break;
+            }
+        }
+        p
+    }
+
+    /// First step at which a mean breaks a limit.
+    pub fn first_break(&self) -> Option<usize> {
+        (0..self.tracks.steps).find(|&k| self.breaks_before[k + 1] > self.breaks_before[k])
+    }
+
+    /// The decision for a forecast.
+    pub fn decide(&mut self, forecast: &Forecast) -> Decision {
+        self.load(forecast);
+        let dt = self.tracks.dt_s;
+        let steps = self.tracks.steps;
+        let n = self.window_steps(dt);
+        let time = |k: usize| (k + 1) as f64 * dt;
+        let mut decision = Decision {
+            mot_s: self.mot_s,
+            go_probability: self.go_probability,
+            go: false,
+            probability_now: None,
+            next_window_s: None,
+            next_window_probability: None,
+            next_exceedance_s: self.first_break().map(time),
+            error_correlation: self.rho,
+        };
+        if n > steps {
+            return decision;
+        }
+        let now = self.window_probability(0, n);
+        decision.probability_now = Some(now);
+        decision.go = now >= self.go_probability;
+        if let Some((s, p)) = self.next_window(n, self.go_probability) {
+            decision.next_window_s = Some(time(s));
+            decision.next_window_probability = Some(p);
+        }
+        decision
+    }
+
+    /// First start whose window of `n` steps holds with at least `threshold`: only windows
+    /// whose means hold every limit are candidates (one whose mean breaks a limit has a
+    /// probability below a half).
+    pub fn next_window(&mut self, n: usize, threshold: f64) -> Option<(usize, f64)> {
+        let steps = self.tracks.steps;
+        for s in 0..=steps.checked_sub(n)? {
+            if self.mean_holds(s, n) {
+                let p = self.window_probability(s, n);
+                if p >= threshold {
+                    return Some((s, p));
+                }
+            }
+        }
+        None
+    }
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,503 @@
+//! Decisions scored against what happened (inside `shipcast replay`): for every forecast, the
+//! go/no-go now with its probability p against whether every limit really held over the
+//! window, and the windows announced ahead against the record's actual quiet periods.
+//!
+//! - a call is every forecast whose horizon holds a window of MOT; a go is a call with p at or
+//!   above the threshold; a false go is a go whose window was exceeded;
+//! - a quiet period is a maximal run of record steps (on the forecast grid) in which every limit
+//!   holds, of at least MOT; it is hit when some forecast issued at least `LEAD_S` before it
+//!   began announced a go window (its first window with p at or above the threshold) lying
+//!   inside it;
+//! - the error correlation is estimated causally: a forecast's errors join the estimate only
+//!   once its whole horizon has happened.
+
+use super::{Decider, ErrorCorrelation, Tracks, NUM_QUANTITIES};
+use crate::config::DeckConfig;
+use serde::Serialize;
+use shipcast_wire::payload::{Forecast, MAX_STEPS};
+use std::collections::{BTreeMap, VecDeque};
+
+/// How long before a quiet period began its announcement must have come [s].
+pub const LEAD_S: f64 = 5.0;
+
+/// Thresholds of the false go against hit rate curve (the configured one is added).
+const CURVE: [f64; 8] = [0.5, 0.6, 0.7, 0.8, 0.9, 0.95, 0.98, 0.99];
+
+const BINS: usize = 10;
+
+#[derive(Debug, Clone, Serialize)]
+pub struct ReliabilityBin {
+    pub p_lo: f64,
+    pub p_hi: f64,
+    pub count: u64,
+    /// Mean stated probability of the calls in the bin.
+    pub stated: f64,
+    /// Fraction of them whose window held.
+    pub observed: f64,
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct CurvePoint {
+    pub threshold: f64,
+    pub go_calls: u64,
+    pub false_go_rate: f64,
+    pub hit_rate: f64,
+}
+
+/// `decisions` of one station and MOT in replay's output.
+#[derive(Debug, Clone, Serialize)]
+pub struct DecisionReport {
+    pub station: String,
+    pub mot_s: f64,
+    pub go_probability: f64,
+    pub window_steps: usize,
+    /// Forecasts whose horizon held a window of MOT.
+    pub calls: u64,
+    pub go_calls: u64,
+    pub false_go_rate: f64,
+    /// Actual quiet periods of at least MOT that forecasts could have announced.
+    pub quiet_periods: u64,
+    pub hit_rate: f64,
+    pub brier: f64,
+    /// Brier score of always stating the observed base rate (a Brier below it is skill).
+    pub brier_climatology: f64,
+    pub reliability: Vec<ReliabilityBin>,
+    /// Go windows announced ahead (start after the first step) and how many were exceeded.
+    pub announced_go: u64,
+    pub announced_false_go_rate: f64,
+    pub curve: Vec<CurvePoint>,
+    /// Step-to-step error correlation at the end of the replay (roll, pitch, deck vertical
+    /// displacement, deck vertical velocity).
+    pub error_correlation: [f64; NUM_QUANTITIES],
+}
+
+#[derive(Debug, Clone, Default)]
+struct Threshold {
+    value: f64,
+    go: u64,
+    false_go: u64,
+    /// Announced window start (grid index) -> earliest issue time [s].
+    announced: BTreeMap<i64, f64>,
+}
+
+#[derive(Debug, Clone)]
+struct PerMot {
+    decider: Decider,
+    calls: u64,
+    held: u64,
+    brier: f64,
+    bins: [(u64, f64, u64); BINS],
+    thresholds: Vec<Threshold>,
+    default_index: usize,
+    announced_go: u64,
+    announced_false: u64,
+    candidates: Vec<(usize, f64)>,
+}
+
+struct Pending {
+    ready_s: f64,
+    u: Box<[[f64; MAX_STEPS]; NUM_QUANTITIES]>,
+    steps: usize,
+}
+
+/// Scores the deck decisions of a replay, for several MOTs.
+pub struct DecisionScorer {
+    station: String,
+    per_mot: Vec<PerMot>,
+    correlation: ErrorCorrelation,
+    pending: VecDeque<Pending>,
+    actual: Box<Tracks>,
+    /// Record grid index -> every limit held at that step.
+    grid: BTreeMap<i64, bool>,
+    dt_s: f64,
+    first_s: f64,
+    last_s: f64,
+    horizon_s: f64,
+}
+
+impl DecisionScorer {
+    pub fn new(station: &str, config: &DeckConfig, mots: &[f64]) -> Self {
+        let per_mot = mots
+            .iter()
+            .map(|&mot| {
+                let mut values: Vec<f64> = CURVE.to_vec();
+                if !values
+                    .iter()
+                    .any(|v| (v - config.go_probability).abs() < 1e-12)
+                {
+                    values.push(config.go_probability);
+                }
+                values.sort_by(f64::total_cmp);
+                let default_index = values
+                    .iter()
+                    .position(|v| (v - config.go_probability).abs() < 1e-12)
+                    .unwrap_or(0);
+                PerMot {
+                    decider: Decider::with_mot(config, mot),
+                    calls: 0,
+                    held: 0,
+                    brier: 0.0,
+                    bins: [(0, 0.0, 0); BINS],
+                    thresholds: values
+                        .into_iter()
+                        .map(|value| Threshold {
+                            value,
+                            ..Threshold::default()
+                        })
+                        .collect(),
+                    default_index,
+                    announced_go: 0,
+                    announced_false: 0,
+                    candidates: Vec::with_capacity(MAX_STEPS),
+                }
+            })
+            .collect();
+        Self {
+            station: station.to_string(),
+            per_mot,
+            correlation: ErrorCorrelation::new(config.error_correlation),
+            pending: VecDeque::new(),
+            actual: Box::default(),
+            grid: BTreeMap::new(),
+            dt_s: f64::NAN,
+            first_s: f64::NAN,
+            last_s: f64::NAN,
+            horizon_s: 0.0,
+        }
+    }
+
+    /// Score one forecast; `actual` holds the record's values at the forecast's steps in its
+    /// `mean` (same steps and dt).
+    pub fn observe(&mut self, forecast: &Forecast, actual: &Forecast) {
+        let t0 = forecast.time_s;
+        let dt = forecast.dt_s;
+        if dt.is_nan() || dt <= 0.0 || !t0.is_finite() {
+            return;
+        }
+        // Errors of forecasts whose horizon has now happened join the correlation estimate.
+        while self.pending.front().is_some_and(|p| p.ready_s <= t0) {
+            if let Some(p) = self.pending.pop_front() {
+                for q in 0..NUM_QUANTITIES {
+                    self.correlation.add(q, &p.u[q][..p.steps]);
+                }
+            }
+        }
+        let rho = self.correlation.rho();
+        let Some(first) = self.per_mot.first_mut() else {
+            return;
+        };
+        first.decider.set_error_correlation(rho);
+        first
+            .decider
+            .set_error_matrices(&self.correlation, forecast.valid_steps());
+        first.decider.load(forecast);
+        let point = *first.decider.point();
+        let limits = *first.decider.limits();
+        self.actual.fill(&point, actual, 0.0);
+        let steps = first.decider.tracks().steps.min(self.actual.steps);
+        // Whether every limit held at each step, and the standardised errors.
+        let mut ok = [false; MAX_STEPS];
+        let mut u = Box::new([[f64::NAN; MAX_STEPS]; NUM_QUANTITIES]);
+        let tracks = first.decider.tracks();
+        for k in 0..steps {
+            ok[k] = (0..NUM_QUANTITIES).all(|q| self.actual.mean[q][k].abs() <= limits[q]);
+            for q in 0..NUM_QUANTITIES {
+                let s = tracks.sigma[q][k];
+                if s > 0.0 {
+                    u[q][k] = (self.actual.mean[q][k] - tracks.mean[q][k]) / s;
+                }
+            }
+        }
+        self.pending.push_back(Pending {
+            ready_s: t0 + (steps as f64 + 1.0) * dt,
+            u,
+            steps,
+        });
+        // Interior steps only: the end steps' velocity is a one-sided difference.
+        for (k, &held) in ok.iter().enumerate().take(steps.saturating_sub(1)).skip(1) {
+            let g = ((t0 + (k + 1) as f64 * dt) / dt).round() as i64;
+            self.grid.entry(g).or_insert(held);
+        }
+        if self.first_s.is_nan() {
+            self.first_s = t0;
+            self.dt_s = dt;
+        }
+        self.last_s = t0;
+        self.horizon_s = steps as f64 * dt;
+        for (i, m) in self.per_mot.iter_mut().enumerate() {
+            if i > 0 {
+                m.decider.set_error_correlation(rho);
+                m.decider
+                    .set_error_matrices(&self.correlation, forecast.valid_steps());
+                m.decider.load(forecast);
+            }
+            let n = m.decider.window_steps(dt);
+            if n > steps {
+                continue;
+            }
+            let holds = |s: usize| ok[s..s + n].iter().all(|&h| h);
+            let p = m.decider.window_probability(0, n);
+            let held = holds(0);
+            m.calls += 1;
+            m.held += u64::from(held);
+            m.brier += (p - f64::from(u8::from(held))).powi(2);
+            let bin = ((p * BINS as f64) as usize).min(BINS - 1);
+            m.bins[bin].0 += 1;
+            m.bins[bin].1 += p;
+            m.bins[bin].2 += u64::from(held);
+            m.candidates.clear();
+            for s in 0..=steps - n {
+                if m.decider.mean_holds(s, n) {
+                    m.candidates.push((s, m.decider.window_probability(s, n)));
+                }
+            }
+            for (j, th) in m.thresholds.iter_mut().enumerate() {
+                if p >= th.value {
+                    th.go += 1;
+                    th.false_go += u64::from(!held);
+                }
+                let Some(&(s, _)) = m.candidates.iter().find(|c| c.1 >= th.value) else {
+                    continue;
+                };
+                let g = ((t0 + (s + 1) as f64 * dt) / dt).round() as i64;
+                th.announced.entry(g).or_insert(t0);
+                if j == m.default_index && s > 0 {
+                    m.announced_go += 1;
+                    m.announced_false += u64::from(!holds(s));
+                }
+            }
+        }
+    }
+
+    pub fn finish(self) -> Vec<DecisionReport> {
+        let rate = |a: u64, b: u64| if b > 0 { a as f64 / b as f64 } else { f64::NAN };
+        // Quiet periods: runs of consecutive grid steps in which every limit held.
+        let mut runs: Vec<(i64, i64)> = Vec::new();
+        let mut open: Option<(i64, i64)> = None;
+        for (&g, &held) in &self.grid {
+            open = match (open, held) {
+                (Some((a, b)), true) if g == b + 1 => Some((a, g)),
+                (Some(run), _) => {
+                    runs.push(run);
+                    held.then_some((g, g))
+                }
+                (None, true) => Some((g, g)),
+                (None, false) => None,
+            };
+        }
+        runs.extend(open);
+        let dt = self.dt_s;
+        let rho = self.correlation.rho();
+        self.per_mot
+            .into_iter()
+            .map(|m| {
+                let n = m.decider.window_steps(dt) as i64;
+                // Periods a forecast could have announced LEAD_S ahead within its horizon.
+                let periods: Vec<(i64, i64)> = runs
+                    .iter()
+                    .copied()
+                    .filter(|&(a, b)| {
+                        let start = a as f64 * dt;
+                        b - a + 1 >= n
+                            && start - LEAD_S >= self.first_s
+                            && start <= self.last_s + self.horizon_s - (n as f64) * dt
+                    })
+                    .collect();
+                let hit = |th: &Threshold| {
+                    let hits = periods
+                        .iter()
+                        .filter(|&&(a, b)| {
+                            th.announced
+                                .range(a..=b + 1 - n)
+                                .any(|(_, &t0)| t0 <= a as f64 * dt - LEAD_S + 1e-9)
+                        })
+                        .count() as u64;
+                    rate(hits, periods.len() as u64)
+                };
+                let curve: Vec<CurvePoint> = m
+                    .thresholds
+                    .iter()
+                    .map(|th| CurvePoint {
+                        threshold: th.value,
+                        go_calls: th.go,
+                        false_go_rate: rate(th.false_go, th.go),
+                        hit_rate: hit(th),
+                    })
+                    .collect();
+                let base = rate(m.held, m.calls);
+                let default = &curve[m.default_index];
+                DecisionReport {
+                    station: self.station.clone(),
+                    mot_s: m.decider.mot_s(),
+                    go_probability: default.threshold,
+                    window_steps: n as usize,
+                    calls: m.calls,
+                    go_calls: default.go_calls,
+                    false_go_rate: default.false_go_rate,
+                    quiet_periods: periods.len() as u64,
+                    hit_rate: default.hit_rate,
+                    brier: if m.calls > 0 {
+                        m.brier / m.calls as f64
+                    } else {
+                        f64::NAN
+                    },
+                    brier_climatology: base * (1.0 - base),
+                    reliability: m
+                        .bins
+                        .iter()
+                        .enumerate()
+                        .map(|(i, &(count, p, held))| ReliabilityBin {
+                            p_lo: i as f64 / BINS as f64,
+                            p_hi: (i + 1) as f64 / BINS as f64,
+                            count,
+                            stated: if count > 0 {
+                                p / count as f64
+                            } else {
+                                f64::NAN
+                            },
+                            observed: rate(held, count),
+                        })
+                        .collect(),
+                    announced_go: m.announced_go,
+                    announced_false_go_rate: rate(m.announced_false, m.announced_go),
+                    curve,
+                    error_correlation: rho,
+                }
+            })
+            .collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A forecast with roll `roll_deg(k)` (sigma `sigma_deg`) issued at `t0`.
+    fn roll_forecast(t0: f64, roll_deg: impl Fn(f64) -> f64, sigma_deg: f64) -> Forecast {
+        let mut f = Forecast {
+            time_s: t0,
+            dt_s: 0.5,
+            steps: 40,
+            ..Forecast::default()
+        };
+        for k in 0..40 {
+            let t = t0 + (k + 1) as f64 * 0.5;
+            f.mean[3][k] = roll_deg(t).to_radians() as f32;
+            f.sigma[3][k] = sigma_deg.to_radians() as f32;
+        }
+        f
+    }
+
+    #[test]
+    fn a_perfect_forecast_scores_no_false_go_and_hits_every_quiet_period() {
+        // Roll alternates between 20 s quiet (1 deg) and 20 s rough (4 deg); the forecast is
+        // the truth with a tiny sigma.
+        let roll = |t: f64| if (t / 20.0) as i64 % 2 == 0 { 1.0 } else { 4.0 };
+        let config = DeckConfig {
+            point_m: [0.0; 3],
+            ..DeckConfig::default()
+        };
+        let mut scorer = DecisionScorer::new("deck", &config, &[10.0]);
+        let mut t0 = 0.0;
+        while t0 < 400.0 {
+            let f = roll_forecast(t0, roll, 0.01);
+            let truth = roll_forecast(t0, roll, 0.0);
+            scorer.observe(&f, &truth);
+            t0 += 0.5;
+        }
+        let r = &scorer.finish()[0];
+        assert_eq!(r.window_steps, 20);
+        assert!(r.go_calls > 0 && r.false_go_rate == 0.0, "{r:?}");
+        assert!(r.quiet_periods >= 8, "{r:?}");
+        assert_eq!(r.hit_rate, 1.0, "{r:?}");
+        assert!(r.brier < 1e-3, "{r:?}");
+        // Stated probabilities are 0 or 1 and right.
+        for b in r.reliability.iter().filter(|b| b.count > 0) {
+            assert!((b.observed - b.stated).abs() < 0.01, "{b:?}");
+        }
+    }
+
+    #[test]
+    fn a_forecast_blind_to_the_rough_periods_gives_false_goes() {
+        let roll = |t: f64| if (t / 20.0) as i64 % 2 == 0 { 1.0 } else { 4.0 };
+        let config = DeckConfig {
+            point_m: [0.0; 3],
+            ..DeckConfig::default()
+        };
+        let mut scorer = DecisionScorer::new("deck", &config, &[10.0, 30.0]);
+        let mut t0 = 0.0;
+        while t0 < 400.0 {
+            let f = roll_forecast(t0, |_| 0.0, 0.01);
+            scorer.observe(&f, &roll_forecast(t0, roll, 0.0));
+            t0 += 0.5;
+        }
+        let r = scorer.finish();
+        // Always go; the window is exceeded whenever it reaches a rough period: 3 in 4 calls.
+        assert_eq!(r[0].go_calls, r[0].calls);
+        assert!((r[0].false_go_rate - 0.75).abs() < 0.02, "{:?}", r[0]);
+        // MOT 30 s does not fit a 20 s horizon: no calls.
+        assert_eq!(r[1].calls, 0);
+        assert!(r[1].false_go_rate.is_nan());
+    }
+}
+
+/// Replay end to end on a Gaussian sea whose forecast errors are Gaussian by construction.
+#[cfg(test)]
+mod replay_tests {
+    use crate::config::{DeckConfig, PredictorServiceConfig};
+    use crate::engine::replay::replay_scored;
+    use rand::SeedableRng;
+    use rand_distr::{Distribution, Normal};
+    use shipcast_series::motion_csv::{Column, MotionData};
+
+    /// A resonant AR(2) heave at 2 Hz (period 8 s, pole radius 0.95).
+    fn ar2_heave(n: usize, seed: u64) -> MotionData {
+        let theta = std::f64::consts::TAU / 16.0;
+        let (a1, a2) = (2.0 * 0.95 * theta.cos(), -0.95 * 0.95);
+        let noise = Normal::new(0.0, 0.1).unwrap();
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+        let mut x = vec![0.0; n];
+        for t in 2..n {
+            x[t] = a1 * x[t - 1] + a2 * x[t - 2] + noise.sample(&mut rng);
+        }
+        MotionData {
+            time: (0..n).map(|i| i as f64 / 2.0).collect(),
+            columns: vec![Column {
+                name: "heave_m".into(),
+                values: x,
+            }],
+        }
+    }
+
+    #[test]
+    fn replay_scores_decisions_for_both_mots() {
+        let data = ar2_heave(2 * 1000, 5);
+        let deck = DeckConfig {
+            point_m: [0.0; 3],
+            vertical_displacement_limit_m: 1.0,
+            vertical_velocity_limit_mps: 10.0,
+            ..DeckConfig::default()
+        };
+        let config = PredictorServiceConfig::default();
+        let (report, _) =
+            replay_scored(&data, &config, None, 200.0, false, Some(&deck), &|_| {}).unwrap();
+        let [mot10, mot30] = &report.decisions[..] else {
+            panic!("{:?}", report.decisions);
+        };
+        assert_eq!((mot10.mot_s, mot30.mot_s), (10.0, 30.0));
+        assert!(mot10.calls > 1000, "{mot10:?}");
+        // The default 25 s horizon holds no 30 s window.
+        assert_eq!(mot30.calls, 0);
+        let counted: u64 = mot10.reliability.iter().map(|b| b.count).sum();
+        assert_eq!(counted, mot10.calls);
+        for b in mot10.reliability.iter().filter(|b| b.count > 0) {
+            assert!(b.stated >= b.p_lo && b.stated <= b.p_hi, "{b:?}");
+        }
+        assert!(mot10.brier >= 0.0 && mot10.brier <= 1.0);
+        assert!(mot10.quiet_periods > 0);
+        // Without a replay's deck section nothing is scored.
+        let (plain, _) =
+            crate::engine::replay::replay(&data, &config, None, 200.0, false, &|_| {}).unwrap();
+        assert!(plain.decisions.is_empty());
+    }
+}

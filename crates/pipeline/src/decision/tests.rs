@@ -1,0 +1,109 @@
+use super::*;
+
+/// A forecast at 2 Hz with roll following `roll_deg(k)`, everything else still, and the same
+/// sigma on every DOF.
+fn forecast(steps: usize, roll_deg: impl Fn(usize) -> f64, sigma: f32) -> Forecast {
+    let mut f = Forecast {
+        seq: 1,
+        time_s: 50.0,
+        dt_s: 0.5,
+        steps: steps as u32,
+        model_version: 1,
+        ..Forecast::default()
+    };
+    for k in 0..steps {
+        f.mean[ROLL][k] = roll_deg(k).to_radians() as f32;
+        for d in 0..6 {
+            f.sigma[d][k] = sigma;
+        }
+    }
+    f
+}
+
+fn config(mot_s: f64) -> DeckConfig {
+    DeckConfig {
+        point_m: [0.0, 0.0, 0.0],
+        mot_s,
+        ..DeckConfig::default()
+    }
+}
+
+#[test]
+fn go_flips_when_the_roll_limit_is_crossed() {
+    // Roll limit 2.5 deg, tiny sigma: the decision is the means' against the limit.
+    let mut decider = Decider::new(&config(5.0));
+    let below = decider.decide(&forecast(40, |_| 2.4, 1e-4));
+    assert!(below.go, "{below:?}");
+    assert!(below.probability_now.unwrap() > 0.99);
+    assert_eq!(below.next_window_s, Some(0.5));
+    assert_eq!(below.next_exceedance_s, None);
+    let above = decider.decide(&forecast(40, |_| 2.6, 1e-4));
+    assert!(!above.go, "{above:?}");
+    assert!(above.probability_now.unwrap() < 0.01);
+    assert_eq!(above.next_exceedance_s, Some(0.5));
+    assert_eq!(above.next_window_s, None);
+    // A tighter operator limit flips the same forecast to no-go.
+    let mut tight = Decider::new(&DeckConfig {
+        roll_limit_deg: 2.0,
+        ..config(5.0)
+    });
+    assert!(!tight.decide(&forecast(40, |_| 2.4, 1e-4)).go);
+}
+
+#[test]
+fn next_window_and_next_exceedance_are_found_in_the_horizon() {
+    let mut decider = Decider::new(&config(5.0));
+    // Roll 4 deg for steps 0..10, 1 deg from step 10 on: the first window starts at step 10
+    // (5.5 s after the forecast time); exceedance is predicted right away.
+    let d = decider.decide(&forecast(40, |k| if k < 10 { 4.0 } else { 1.0 }, 0.001));
+    assert!(!d.go);
+    assert_eq!(d.next_window_s, Some(5.5));
+    assert_eq!(d.next_exceedance_s, Some(0.5));
+    // Quiet now, exceedance at step 25 (13 s): go, and the exceedance time is told.
+    let d = decider.decide(&forecast(40, |k| if k < 25 { 1.0 } else { 4.0 }, 0.001));
+    assert!(d.go);
+    assert_eq!(d.next_exceedance_s, Some(13.0));
+    // A MOT longer than the horizon cannot be decided.
+    let mut long = Decider::new(&config(30.0));
+    let d = long.decide(&forecast(40, |_| 0.0, 0.001));
+    assert!(!d.go && d.probability_now.is_none(), "{d:?}");
+    assert!(d.summary().contains("NO-GO"), "{}", d.summary());
+}
+
+#[test]
+fn uncertainty_and_window_length_lower_the_probability() {
+    // Mean well inside (1 deg of 2.5), sigma 0.8 deg: every step is likely within, a longer
+    // window less so, and less correlated errors make it less likely still.
+    let sigma = 0.8f64.to_radians() as f32;
+    let f = forecast(60, |_| 1.0, sigma);
+    let mut short = Decider::new(&config(2.0));
+    let mut long = Decider::new(&config(20.0));
+    let p_short = short.decide(&f).probability_now.unwrap();
+    let p_long = long.decide(&f).probability_now.unwrap();
+    assert!(p_short > p_long, "{p_short} {p_long}");
+    long.set_error_correlation([0.5; NUM_QUANTITIES]);
+    let p_loose = long.decide(&f).probability_now.unwrap();
+    assert!(p_loose < p_long, "{p_loose} {p_long}");
+}
+
+#[test]
+fn deck_velocity_sigma_uses_the_step_correlation() {
+    // Heave sigma 0.1 m at every step: the central difference over 2 steps (1 s) has sigma
+    // 0.1 sqrt(2 - 2 rho^2), so perfectly correlated errors leave no velocity error.
+    let mut f = forecast(10, |_| 0.0, 0.0);
+    for k in 0..10 {
+        f.sigma[HEAVE][k] = 0.1;
+    }
+    let point = ShipPoint::new([0.0; 3]);
+    let mut t = Tracks::default();
+    t.fill(&point, &f, 0.0);
+    assert!(
+        (t.sigma[3][5] - 0.1 * 2f64.sqrt()).abs() < 1e-7,
+        "{}",
+        t.sigma[3][5]
+    );
+    t.fill(&point, &f, 1.0);
+    assert!(t.sigma[3][5].abs() < 1e-7);
+    t.fill(&point, &f, 0.5);
+    assert!((t.sigma[3][5] - 0.1 * (2.0f64 - 2.0 * 0.25).sqrt()).abs() < 1e-7);
+}

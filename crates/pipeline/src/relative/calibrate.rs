@@ -1,0 +1,200 @@
+//! Calibration of the relative sigma from verified relative errors.
+//!
+//! The two ships' forecast errors are correlated: the same unpredicted waves reach both, a
+//! little later or earlier and through other RAOs. The variance of the relative error is
+//! var_A + var_B - 2 cov(A, B), and neither the covariance nor how well each ship's sigma
+//! holds at the other ship's point is known in advance. So for each axis and step the relative
+//! sigma is the independent one, sqrt(var_A + var_B), times
+//! sqrt(sum of verified e_rel^2 / sum of the independent variances of those forecasts),
+//! exponentially weighted over verified forecasts (half-life in forecasts). Only forecasts whose
+//! every step has been observed are verified (the caller feeds them in time order: causal).
+//! Until a step has `min_weight` of verified forecasts behind it, `scale` is None and the
+//! independent sigma stands. The correlation of the two ships' errors is estimated alongside,
+//! for the report.
+
+use super::RelativeTrack;
+use shipcast_wire::payload::MAX_STEPS;
+
+/// Running, exponentially weighted sums of verified relative forecasts.
+#[derive(Debug, Clone)]
+pub struct SigmaCalibration {
+    decay: f64,
+    min_weight: f64,
+    weight: [f64; MAX_STEPS],
+    /// Squared relative errors.
+    ee: [[f64; MAX_STEPS]; 3],
+    /// Independent variances (var_A + var_B).
+    vv: [[f64; MAX_STEPS]; 3],
+    /// Products of the two ships' own point errors (A's tip, B's spot in A's axes).
+    aa: [[f64; MAX_STEPS]; 3],
+    bb: [[f64; MAX_STEPS]; 3],
+    ab: [[f64; MAX_STEPS]; 3],
+    verified: u64,
+}
+
+impl SigmaCalibration {
+    /// Sums that forget with a half-life of `halflife` verified forecasts and are used once
+    /// `min_weight` verified forecasts stand behind a step.
+    pub fn new(halflife: f64, min_weight: f64) -> Self {
+        let decay = if halflife.is_finite() && halflife > 0.0 {
+            0.5f64.powf(1.0 / halflife)
+        } else {
+            1.0
+        };
+        Self {
+            decay,
+            min_weight: min_weight.max(1.0),
+            weight: [0.0; MAX_STEPS],
+            ee: [[0.0; MAX_STEPS]; 3],
+            vv: [[0.0; MAX_STEPS]; 3],
+            aa: [[0.0; MAX_STEPS]; 3],
+            bb: [[0.0; MAX_STEPS]; 3],
+            ab: [[0.0; MAX_STEPS]; 3],
+            verified: 0,
+        }
+    }
+
+    /// Adds a verified forecast: `track` as it was issued, `actual_tip[k]` and `actual_spot[k]`
+    /// the observed displacements of the two points (A's axes) at its step k.
+    pub fn observe(
+        &mut self,
+        track: &RelativeTrack,
+        actual_tip: &[[f64; 3]],
+        actual_spot: &[[f64; 3]],
+    ) {
+        let steps = track.steps().min(actual_tip.len()).min(actual_spot.len());
+        self.verified += 1;
+        let d = self.decay;
+        for k in 0..steps {
+            self.weight[k] = d * self.weight[k] + 1.0;
+            for axis in 0..3 {
+                let ea = actual_tip[k][axis] - track.tip.mean[axis][k];
+                let eb = actual_spot[k][axis] - track.spot.mean[axis][k];
+                let e = ea - eb;
+                let v = track.tip.var[axis][k] + track.spot.var[axis][k];
+                self.ee[axis][k] = d * self.ee[axis][k] + e * e;
+                self.vv[axis][k] = d * self.vv[axis][k] + v;
+                self.aa[axis][k] = d * self.aa[axis][k] + ea * ea;
+                self.bb[axis][k] = d * self.bb[axis][k] + eb * eb;
+                self.ab[axis][k] = d * self.ab[axis][k] + ea * eb;
+            }
+        }
+    }
+
+    /// Forecasts verified so far.
+    pub fn verified(&self) -> u64 {
+        self.verified
+    }
+
+    /// Factor on the independent sigma of `axis` at step `k`, once enough is verified.
+    pub fn scale(&self, axis: usize, k: usize) -> Option<f64> {
+        (k < MAX_STEPS && self.weight[k] >= self.min_weight && self.vv[axis][k] > 0.0)
+            .then(|| (self.ee[axis][k] / self.vv[axis][k]).sqrt())
+    }
+
+    /// Correlation of the two ships' point errors on `axis` at step `k` (weighted, about zero
+    /// mean), once enough is verified.
+    pub fn correlation(&self, axis: usize, k: usize) -> Option<f64> {
+        let den = (self.aa[axis][k] * self.bb[axis][k]).sqrt();
+        (k < MAX_STEPS && self.weight[k] >= self.min_weight && den > 0.0)
+            .then(|| self.ab[axis][k] / den)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    /// A standard normal draw (Box-Muller).
+    fn normal(rng: &mut ChaCha8Rng) -> f64 {
+        let u: f64 = rng.random::<f64>().max(1e-300);
+        let v: f64 = rng.random();
+        (-2.0 * u.ln()).sqrt() * (std::f64::consts::TAU * v).cos()
+    }
+
+    /// Feeds `n` forecasts whose two point errors (sigma `sa`, `sb`, correlation `rho`) hit
+    /// zero-mean tracks, then returns the calibration and the fraction of the next `n`
+    /// relative errors within the calibrated and within the independent +-1 sigma at step 0.
+    fn run(rho: f64, sa: f64, sb: f64, n: usize) -> (SigmaCalibration, f64, f64) {
+        let mut rng = ChaCha8Rng::seed_from_u64(11);
+        let mut cal = SigmaCalibration::new(f64::INFINITY, 50.0);
+        let mut track = RelativeTrack::default();
+        track.alignment.steps = 2;
+        for k in 0..2 {
+            track.tip.var[2][k] = sa * sa;
+            track.spot.var[2][k] = sb * sb;
+        }
+        let draw = |rng: &mut ChaCha8Rng| {
+            let (z1, z2) = (normal(rng), normal(rng));
+            let ea = sa * z1;
+            let eb = sb * (rho * z1 + (1.0 - rho * rho).sqrt() * z2);
+            ([[0.0, 0.0, ea]; 2], [[0.0, 0.0, eb]; 2])
+        };
+        for _ in 0..n {
+            let (tip, spot) = draw(&mut rng);
+            cal.observe(&track, &tip, &spot);
+        }
+        let independent = (sa * sa + sb * sb).sqrt();
+        let calibrated = cal.scale(2, 0).unwrap() * independent;
+        let (mut in_cal, mut in_ind) = (0usize, 0usize);
+        for _ in 0..n {
+            let (tip, spot) = draw(&mut rng);
+            let e = (tip[0][2] - spot[0][2]).abs();
+            in_cal += usize::from(e <= calibrated);
+            in_ind += usize::from(e <= independent);
+        }
+        (cal, in_cal as f64 / n as f64, in_ind as f64 / n as f64)
+    }
+
+    #[test]
+    fn correlated_errors_shrink_the_relative_sigma_to_what_was_verified() {
+        // Equal sigmas, correlation 0.8: var_rel = 2 s^2 (1 - 0.8), scale sqrt(0.2).
+        let (cal, cover_cal, cover_ind) = run(0.8, 0.3, 0.3, 20_000);
+        let scale = cal.scale(2, 0).unwrap();
+        assert!((scale - 0.2f64.sqrt()).abs() < 0.02, "{scale}");
+        assert!((cal.correlation(2, 0).unwrap() - 0.8).abs() < 0.02);
+        // Calibrated +-1 sigma covers 68 %; taken as independent it covers far more (the
+        // sigma is too wide by 1 / sqrt(0.2)).
+        assert!((cover_cal - 0.6827).abs() < 0.02, "{cover_cal}");
+        assert!(cover_ind > 0.97, "{cover_ind}");
+        // Anti-correlated errors add up: the scale exceeds 1.
+        let (cal, cover_cal, _) = run(-0.5, 0.2, 0.4, 20_000);
+        let expect = ((0.04 + 0.16 + 2.0 * 0.5 * 0.08) / 0.2f64).sqrt();
+        assert!((cal.scale(2, 0).unwrap() - expect).abs() < 0.03);
+        assert!((cover_cal - 0.6827).abs() < 0.02, "{cover_cal}");
+        // Axes and steps nobody verified have no scale.
+        assert_eq!(cal.scale(0, 0), None);
+        assert_eq!(cal.scale(2, 2), None);
+    }
+
+    #[test]
+    fn nothing_is_scaled_before_enough_is_verified_and_old_errors_fade() {
+        let mut cal = SigmaCalibration::new(10.0, 20.0);
+        let mut track = RelativeTrack::default();
+        track.alignment.steps = 1;
+        track.tip.var[2][0] = 1.0;
+        for i in 0..19 {
+            cal.observe(&track, &[[0.0, 0.0, 3.0]], &[[0.0; 3]]);
+            assert_eq!(cal.scale(2, 0), None, "after {i}");
+        }
+        // With a half-life of 10 the weight tends to 1 / (1 - 0.5^0.1) = 14.9 < 20: never.
+        for _ in 0..200 {
+            cal.observe(&track, &[[0.0, 0.0, 3.0]], &[[0.0; 3]]);
+        }
+        assert_eq!(cal.scale(2, 0), None);
+        let mut cal = SigmaCalibration::new(10.0, 5.0);
+        for _ in 0..100 {
+            cal.observe(&track, &[[0.0, 0.0, 3.0]], &[[0.0; 3]]);
+        }
+        assert!((cal.scale(2, 0).unwrap() - 3.0).abs() < 1e-9);
+        // Errors of 1 from now on: after 10 half-lives the old ones weigh 1/1024.
+        for _ in 0..100 {
+            cal.observe(&track, &[[0.0, 0.0, 1.0]], &[[0.0; 3]]);
+        }
+        let s = cal.scale(2, 0).unwrap();
+        assert!(s > 1.0 && s < 1.01, "{s}");
+        assert_eq!(cal.verified(), 200);
+    }
+}

@@ -1,0 +1,473 @@
+//! Ship-to-ship relative motion: the forecast of a point on ship A (the crane tip) relative to a
+//! point on ship B (the landing spot), from both ships' forecasts, with sigma, and a go/no-go
+//! on the relative excursion limits (docs/two_ships.md).
+//!
+//! Kinematics (small, linearised rigid-body motion; docs/two_ships.md section "Kinematics"):
+//! - A point at lever arm r from a ship's centre of gravity moves by
+//!   d = (surge, sway, heave) + R(roll, pitch, yaw) r - r, in that ship's axes (the mean uses
+//!   the exact rotation, [`ShipPoint::displacement`]). Its variance per axis is linearised,
+//!   d = t + theta x r, with the six DOF errors of one ship taken as independent:
+//!   var dx = s_surge^2 + (r_z s_pitch)^2 + (r_y s_yaw)^2,
+//!   var dy = s_sway^2 + (r_z s_roll)^2 + (r_x s_yaw)^2,
+//!   var dz = s_heave^2 + (r_y s_roll)^2 + (r_x s_pitch)^2.
+//! - Ship B keeps station: its rest position and heading offset psi in A's axes are fixed. B's
+//!   displacement is turned into A's axes by the rotation psi about z (down); the relative
+//!   displacement (how the vector from the spot to the tip changes from rest) is
+//!   d_A(tip) - R_z(psi) d_B(spot), in A's axes (x forward, y starboard, z down).
+//! - Sigma: the errors of two ships in the same sea are correlated (the same unpredicted waves
+//!   reach both), so sqrt(var_A + var_B) is only where sigma starts. [`calibrate`] scales it per
+//!   axis and step by the ratio of the verified relative errors' mean square to the
+//!   independent variance, from forecasts whose whole horizon has passed (causal); until
+//!   enough are verified the independent sigma is used and the output says so.
+//!
+//! The two forecasts must share a clock (`time_s`: the simulator's record time in the two-ship
+//! scenario, a common time base such as UTC for real ships). They are aligned on the later
+//! origin: the older forecast's steps are shifted by the whole number of steps between them.
+
+pub mod calibrate;
+pub mod study;
+
+use crate::config::RelativeConfig;
+use crate::decision::window::{chain_within, Lattice};
+use crate::deck::ShipPoint;
+use calibrate::SigmaCalibration;
+use serde::{Deserialize, Serialize};
+use shipcast_wire::payload::{Forecast, MAX_STEPS};
+
+/// Axes of every per-axis array here: x forward, y starboard, z down (A's axes).
+pub const AXES: [&str; 3] = ["x", "y", "z"];
+
+const SURGE: usize = 0;
+const SWAY: usize = 1;
+const HEAVE: usize = 2;
+const ROLL: usize = 3;
+const PITCH: usize = 4;
+const YAW: usize = 5;
+
+/// Where the two points are: the tip on A (A's axes), the spot on B (B's axes), B's station.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Geometry {
+    pub tip: ShipPoint,
+    pub spot: ShipPoint,
+    /// B's centre of gravity forward and to starboard of A's [m].
+    pub target_position_m: [f64; 2],
+    /// B's bow turned this far to starboard of A's heading [rad].
+    pub target_heading_offset_rad: f64,
+}
+
+impl Geometry {
+    /// The geometry of a configuration: `tip_m` on the crane vessel, the rest from `relative`.
+    pub fn new(tip_m: [f64; 3], relative: &RelativeConfig) -> Self {
+        Self {
+            tip: ShipPoint::new(tip_m),
+            spot: ShipPoint::new(relative.landing_spot_m),
+            target_position_m: relative.target_position_m,
+            target_heading_offset_rad: relative.target_heading_offset_deg.to_radians(),
+        }
+    }
+
+    /// The vector from the spot to the tip at rest, in A's axes [m].
+    pub fn rest_m(&self) -> [f64; 3] {
+        let spot = rotate_z(
+            self.target_heading_offset_rad,
+            self.spot.lever_arm.to_array(),
+        );
+        let t = self.tip.lever_arm;
+        [
+            t.x - self.target_position_m[0] - spot[0],
+            t.y - self.target_position_m[1] - spot[1],
+            t.z - spot[2],
+        ]
+    }
+}
+
+/// `v` given in axes turned `psi` to starboard, expressed in the unturned axes.
+fn rotate_z(psi: f64, v: [f64; 3]) -> [f64; 3] {
+    let (s, c) = psi.sin_cos();
+    [c * v[0] - s * v[1], s * v[0] + c * v[1], v[2]]
+}
+
+/// Displacement of `point` for the ship's six DOF values, turned into A's axes by `psi`.
+pub fn point_displacement(point: &ShipPoint, psi: f64, dof: [f64; 6]) -> [f64; 3] {
+    rotate_z(psi, point.displacement(dof).to_array())
+}
+
+/// Linearised variance per axis of a point's displacement from the six DOF sigmas (independent
+/// within one ship), in the ship's own axes.
+pub fn point_variance(point: &ShipPoint, sigma: [f64; 6]) -> [f64; 3] {
+    let r = point.lever_arm;
+    let v: [f64; 6] = sigma.map(|s| s * s);
+    [
+        v[SURGE] + r.z * r.z * v[PITCH] + r.y * r.y * v[YAW],
+        v[SWAY] + r.z * r.z * v[ROLL] + r.x * r.x * v[YAW],
+        v[HEAVE] + r.y * r.y * v[ROLL] + r.x * r.x * v[PITCH],
+    ]
+}
+
+/// A variance per axis given in axes turned `psi`, in the unturned axes (cross terms dropped:
+/// the axes' errors are taken as independent).
+fn rotate_variance(psi: f64, v: [f64; 3]) -> [f64; 3] {
+    let (s, c) = psi.sin_cos();
+    [
+        c * c * v[0] + s * s * v[1],
+        s * s * v[0] + c * c * v[1],
+        v[2],
+    ]
+}
+
+/// One point's predicted displacement and its variance per axis and step, in A's axes.
+#[derive(Debug, Clone)]
+pub struct PointTrack {
+    pub steps: usize,
+    pub mean: [[f64; MAX_STEPS]; 3],
+    pub var: [[f64; MAX_STEPS]; 3],
+}
+
+impl Default for PointTrack {
+    fn default() -> Self {
+        Self {
+            steps: 0,
+            mean: [[0.0; MAX_STEPS]; 3],
+            var: [[0.0; MAX_STEPS]; 3],
+        }
+    }
+}
+
+impl PointTrack {
+    /// Steps `skip..skip + steps` of `forecast` for `point` on a ship turned `psi` from A.
+    pub fn fill(
+        &mut self,
+        point: &ShipPoint,
+        psi: f64,
+        forecast: &Forecast,
+        skip: usize,
+        steps: usize,
+    ) {
+        self.steps = steps;
+        for k in 0..steps {
+            let j = k + skip;
+            let dof: [f64; 6] = std::array::from_fn(|d| f64::from(forecast.mean[d][j]));
+            let sigma: [f64; 6] = std::array::from_fn(|d| f64::from(forecast.sigma[d][j]));
+            let m = point_displacement(point, psi, dof);
+            let v = rotate_variance(psi, point_variance(point, sigma));
+            for a in 0..3 {
+                self.mean[a][k] = m[a];
+                self.var[a][k] = v[a];
+            }
+        }
+    }
+}
+
+/// How two forecasts line up on their shared clock.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Alignment {
+    /// The later of the two origins: step k of the relative forecast is at time_s + (k+1) dt.
+    pub time_s: f64,
+    /// Steps of A's and B's forecast to skip.
+    pub skip_a: usize,
+    pub skip_b: usize,
+    pub steps: usize,
+    /// How far the older forecast's shifted steps are from the common step times [s]
+    /// (at most half a step).
+    pub misalignment_s: f64,
+}
+
+/// Why two forecasts cannot be combined.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum AlignError {
+    #[error("the forecasts' steps differ ({0} s against {1} s)")]
+    StepMismatch(f64, f64),
+    #[error("the forecasts' origins are {0:.1} s apart, no step in common")]
+    TooFarApart(f64),
+}
+
+/// Aligns `a` and `b` on the later origin.
+pub fn align(a: &Forecast, b: &Forecast) -> Result<Alignment, AlignError> {
+    let dt = a.dt_s;
+    if !(dt > 0.0 && (a.dt_s - b.dt_s).abs() <= 1e-9 * dt) {
+        return Err(AlignError::StepMismatch(a.dt_s, b.dt_s));
+    }
+    let gap = a.time_s - b.time_s;
+    let shift = (gap.abs() / dt).round();
+    let misalignment_s = gap.abs() - shift * dt;
+    let (skip_a, skip_b) = if gap >= 0.0 {
+        (0, shift as usize)
+    } else {
+        (shift as usize, 0)
+    };
+    let steps_a = a.valid_steps().saturating_sub(skip_a);
+    let steps_b = b.valid_steps().saturating_sub(skip_b);
+    let steps = steps_a.min(steps_b);
+    if !gap.is_finite() || steps == 0 {
+        return Err(AlignError::TooFarApart(gap.abs()));
+    }
+    Ok(Alignment {
+        time_s: a.time_s.max(b.time_s),
+        skip_a,
+        skip_b,
+        steps,
+        misalignment_s,
+    })
+}
+
+/// Where the relative sigma came from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SigmaBasis {
+    /// sqrt(var_A + var_B): the two ships' errors taken as independent (nothing verified yet).
+    Independent,
+    /// Scaled by verified relative errors (every step and axis had enough of them).
+    Calibrated,
+    /// Some steps or axes calibrated, the others independent.
+    Partly,
+}
+
+/// The relative forecast of one pair of forecasts (work buffers included: reused, it does not
+/// allocate).
+#[derive(Debug, Clone)]
+pub struct RelativeTrack {
+    pub alignment: Alignment,
+    pub dt_s: f64,
+    /// Relative displacement of the tip from the spot, from rest, per axis and step [m].
+    pub mean: [[f64; MAX_STEPS]; 3],
+    pub sigma: [[f64; MAX_STEPS]; 3],
+    /// sqrt(var_A + var_B), what independence would give.
+    pub sigma_independent: [[f64; MAX_STEPS]; 3],
+    pub basis: SigmaBasis,
+    pub tip: PointTrack,
+    pub spot: PointTrack,
+}
+
+impl Default for RelativeTrack {
+    fn default() -> Self {
+        Self {
+            alignment: Alignment {
+                time_s: 0.0,
+                skip_a: 0,
+                skip_b: 0,
+                steps: 0,
+                misalignment_s: 0.0,
+            },
+            dt_s: 0.0,
+            mean: [[0.0; MAX_STEPS]; 3],
+            sigma: [[0.0; MAX_STEPS]; 3],
+            sigma_independent: [[0.0; MAX_STEPS]; 3],
+            basis: SigmaBasis::Independent,
+            tip: PointTrack::default(),
+            spot: PointTrack::default(),
+        }
+    }
+}
+
+impl RelativeTrack {
+    pub fn steps(&self) -> usize {
+        self.alignment.steps
+    }
+
+    /// Combines `a` (the crane vessel's forecast) and `b` (the target's) for `geometry`,
+    /// with sigma scaled by `calibration`.
+    pub fn fill(
+        &mut self,
+        geometry: &Geometry,
+        a: &Forecast,
+        b: &Forecast,
+        calibration: &SigmaCalibration,
+    ) -> Result<(), AlignError> {
+        let al = align(a, b)?;
+        self.alignment = al;
+        self.dt_s = a.dt_s;
+        self.tip.fill(&geometry.tip, 0.0, a, al.skip_a, al.steps);
+        self.spot.fill(
+            &geometry.spot,
+            geometry.target_heading_offset_rad,
+            b,
+            al.skip_b,
+            al.steps,
+        );
+        let (mut scaled, mut total) = (0usize, 0usize);
+        for axis in 0..3 {
+            for k in 0..al.steps {
+                self.mean[axis][k] = self.tip.mean[axis][k] - self.spot.mean[axis][k];
+                let independent = (self.tip.var[axis][k] + self.spot.var[axis][k]).sqrt();
+                self.sigma_independent[axis][k] = independent;
+                total += 1;
+                self.sigma[axis][k] = match calibration.scale(axis, k) {
+                    Some(s) => {
+                        scaled += 1;
+                        s * independent
+                    }
+                    None => independent,
+                };
+            }
+        }
+        self.basis = match scaled {
+            0 => SigmaBasis::Independent,
+            n if n == total => SigmaBasis::Calibrated,
+            _ => SigmaBasis::Partly,
+        };
+        Ok(())
+    }
+
+    /// Horizontal distance of the relative mean from rest at step k [m].
+    pub fn horizontal_m(&self, k: usize) -> f64 {
+        self.mean[0][k].hypot(self.mean[1][k])
+    }
+}
+
+/// The lift's limits: the tip's excursion relative to the spot.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LiftLimits {
+    pub vertical_m: f64,
+    /// Applied to each horizontal axis (along and across A): a box, not a circle.
+    pub horizontal_m: f64,
+    pub mot_s: f64,
+    pub go_probability: f64,
+    /// Step-to-step correlation of the standardised relative errors (AR(1) in lead).
+    pub error_correlation: f64,
+}
+
+impl LiftLimits {
+    pub fn new(config: &RelativeConfig) -> Self {
+        Self {
+            vertical_m: config.vertical_limit_m,
+            horizontal_m: config.horizontal_limit_m,
+            mot_s: config.mot_s,
+            go_probability: config.go_probability,
+            error_correlation: config.error_correlation,
+        }
+    }
+
+    fn limit(&self, axis: usize) -> f64 {
+        if axis == 2 {
+            self.vertical_m
+        } else {
+            self.horizontal_m
+        }
+    }
+}
+
+/// The simple lift go/no-go on a relative forecast (the window probability of the lift
+/// station is the place to swap in a richer model; this one multiplies the three axes' AR(1)
+/// chain probabilities of `decision::window`, taking the axes as independent).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct LiftDecision {
+    pub mot_s: f64,
+    pub go_probability: f64,
+    pub go: bool,
+    /// Probability that every limit holds over the window of MOT from the first step (None:
+    /// the forecast is shorter than MOT).
+    pub probability_now: Option<f64>,
+    /// First step at which the predicted mean breaks a limit.
+    pub next_exceedance_s: Option<f64>,
+}
+
+/// Decides on `track` against `limits`; `lattice` has at least as many dimensions as the
+/// window has steps.
+pub fn decide(track: &RelativeTrack, limits: &LiftLimits, lattice: &Lattice) -> LiftDecision {
+    let steps = track.steps();
+    let window = ((limits.mot_s / track.dt_s).ceil() as usize).max(1);
+    let probability_now = (window <= steps && window <= lattice.dims()).then(|| {
+        (0..3)
+            .map(|axis| {
+                chain_within(
+                    &track.mean[axis][..window],
+                    &track.sigma[axis][..window],
+                    limits.limit(axis),
+                    limits.error_correlation,
+                    lattice,
+                )
+            })
+            .product::<f64>()
+    });
+    let next_exceedance_s = (0..steps)
+        .find(|&k| (0..3).any(|axis| track.mean[axis][k].abs() > limits.limit(axis)))
+        .map(|k| (k + 1) as f64 * track.dt_s);
+    LiftDecision {
+        mot_s: limits.mot_s,
+        go_probability: limits.go_probability,
+        go: probability_now.is_some_and(|p| p >= limits.go_probability),
+        probability_now,
+        next_exceedance_s,
+    }
+}
+
+/// The relative forecast as published on zenoh `.../advisory/relative` (JSON).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RelativeAdvisory {
+    pub crane_vessel: String,
+    pub target_vessel: String,
+    pub crane_seq: u64,
+    pub target_seq: u64,
+    pub time_s: f64,
+    pub dt_s: f64,
+    pub misalignment_s: f64,
+    /// Vector from the spot to the tip at rest, A's axes [m].
+    pub rest_m: [f64; 3],
+    /// Relative displacement per axis (x forward, y starboard, z down of the crane vessel)
+    /// and step [m].
+    pub mean_m: [Vec<f64>; 3],
+    pub sigma_m: [Vec<f64>; 3],
+    pub sigma_independent_m: [Vec<f64>; 3],
+    pub sigma_basis: SigmaBasis,
+    pub decision: LiftDecision,
+}
+
+impl RelativeAdvisory {
+    /// One console line: the relative vertical motion (positive: tip rising away from the
+    /// spot) at a few leads and the decision.
+    pub fn summary(&self) -> String {
+        let mut line = format!(
+            "lift {}->{} t={:.1}s:",
+            self.crane_vessel, self.target_vessel, self.time_s
+        );
+        for target in [5.0, 10.0, 20.0] {
+            let k = ((target / self.dt_s).round() as usize).saturating_sub(1);
+            if let (Some(m), Some(s)) = (self.mean_m[2].get(k), self.sigma_m[2].get(k)) {
+                line.push_str(&format!(" +{target:.0}s up {:+.2}±{:.2} m", -m, s));
+            }
+        }
+        let d = &self.decision;
+        line.push_str(&format!(
+            " | {} (MOT {:.0}s, {}), sigma {:?}",
+            if d.go { "GO" } else { "NO-GO" },
+            d.mot_s,
+            d.probability_now
+                .map_or("MOT beyond the horizon".into(), |p| format!(
+                    "{:.0}%",
+                    100.0 * p
+                )),
+            self.sigma_basis
+        ));
+        line
+    }
+}
+
+/// Builds the advisory of `track` (allocates the published vectors).
+pub fn advisory(
+    track: &RelativeTrack,
+    geometry: &Geometry,
+    names: (&str, &str),
+    seqs: (u64, u64),
+    decision: LiftDecision,
+) -> RelativeAdvisory {
+    let n = track.steps();
+    let per_axis = |v: &[[f64; MAX_STEPS]; 3]| std::array::from_fn(|a| v[a][..n].to_vec());
+    RelativeAdvisory {
+        crane_vessel: names.0.to_string(),
+        target_vessel: names.1.to_string(),
+        crane_seq: seqs.0,
+        target_seq: seqs.1,
+        time_s: track.alignment.time_s,
+        dt_s: track.dt_s,
+        misalignment_s: track.alignment.misalignment_s,
+        rest_m: geometry.rest_m(),
+        mean_m: per_axis(&track.mean),
+        sigma_m: per_axis(&track.sigma),
+        sigma_independent_m: per_axis(&track.sigma_independent),
+        sigma_basis: track.basis,
+        decision,
+    }
+}
+
+#[cfg(test)]
+mod tests;

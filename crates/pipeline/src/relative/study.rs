@@ -1,0 +1,320 @@
+//! The two-ship study: each ship's record replayed through the engine exactly as its predictor
+//! would run it (`engine::replay`), the two forecast streams combined into the relative forecast
+//! as the relative service does, the sigma calibrated causally from relative forecasts whose
+//! whole horizon has passed, and every relative forecast scored against the true relative
+//! motion of the two records, beside each ship's own point forecast (the tip on A, the spot on
+//! B) at the same leads.
+
+use super::calibrate::SigmaCalibration;
+use super::{point_displacement, Geometry, RelativeTrack, AXES};
+use crate::config::PipelineConfig;
+use crate::engine::models::ModelSet;
+use crate::engine::replay::{replay, ReplayReport};
+use serde::Serialize;
+use shipcast_series::motion_csv::MotionData;
+use shipcast_wire::Dof;
+use std::collections::VecDeque;
+
+/// Leads the study reports [s].
+pub const STUDY_LEADS_S: [f64; 5] = [5.0, 10.0, 15.0, 20.0, 25.0];
+
+/// Scores of one axis at one lead.
+#[derive(Debug, Clone, Serialize)]
+pub struct LeadScore {
+    pub axis: &'static str,
+    pub lead_s: f64,
+    pub scored: u64,
+    /// RMS error of the relative forecast, and the RMS of the true relative motion (what
+    /// predicting no relative motion scores).
+    pub relative_rms: f64,
+    pub relative_zero_rms: f64,
+    /// RMS error of each ship's own point forecast (A's tip, B's spot, A's axes) and the RMS of
+    /// the point's motion.
+    pub tip_rms: f64,
+    pub tip_zero_rms: f64,
+    pub spot_rms: f64,
+    pub spot_zero_rms: f64,
+    /// Correlation of the two ships' point errors.
+    pub error_correlation: f64,
+    pub mean_sigma: f64,
+    pub mean_sigma_independent: f64,
+    /// Fractions of relative errors within +-1 and +-2 sigma, with the calibrated sigma (as
+    /// issued) and with the independent one.
+    pub coverage_1sigma: f64,
+    pub coverage_2sigma: f64,
+    pub coverage_1sigma_independent: f64,
+    pub coverage_2sigma_independent: f64,
+}
+
+/// Each ship's own DOF forecast at the study's leads.
+#[derive(Debug, Clone, Serialize)]
+pub struct OwnDof {
+    pub vessel: &'static str,
+    pub dof: &'static str,
+    pub lead_s: Vec<f64>,
+    pub rms: Vec<f64>,
+    pub zero_rms: Vec<f64>,
+}
+
+/// The whole study.
+#[derive(Debug, Clone, Serialize)]
+pub struct StudyReport {
+    pub rest_m: [f64; 3],
+    pub pairs: u64,
+    pub scored: u64,
+    pub unpaired: u64,
+    /// Record time of the first relative forecast issued with a fully calibrated sigma.
+    pub calibrated_from_s: Option<f64>,
+    pub leads: Vec<LeadScore>,
+    pub own: Vec<OwnDof>,
+}
+
+#[derive(Debug, Clone, Copy, Default)]
+struct Sums {
+    n: f64,
+    rel: f64,
+    rel_zero: f64,
+    tip: f64,
+    tip_zero: f64,
+    spot: f64,
+    spot_zero: f64,
+    ab: f64,
+    sigma: f64,
+    sigma_ind: f64,
+    in1: f64,
+    in2: f64,
+    in1_ind: f64,
+    in2_ind: f64,
+}
+
+/// One record's points, looked up by time.
+struct Truth<'a> {
+    data: &'a MotionData,
+    columns: [Option<&'a [f64]>; 6],
+    step: f64,
+}
+
+impl<'a> Truth<'a> {
+    fn new(data: &'a MotionData) -> Self {
+        let columns = std::array::from_fn(|d| data.dof(Dof::ALL[d]).ok());
+        let step = data
+            .time
+            .windows(2)
+            .map(|p| p[1] - p[0])
+            .find(|s| *s > 0.0)
+            .unwrap_or(1.0);
+        Self {
+            data,
+            columns,
+            step,
+        }
+    }
+
+    /// The six DOF at record time `t`, if a sample was recorded there.
+    fn dof_at(&self, t: f64) -> Option<[f64; 6]> {
+        let time = &self.data.time;
+        let i = time.partition_point(|&x| x < t - 0.25 * self.step);
+        (i < time.len() && (time[i] - t).abs() <= 0.25 * self.step)
+            .then(|| std::array::from_fn(|d| self.columns[d].map_or(0.0, |c| c[i])))
+    }
+}
+
+/// The observed tip and spot displacements at every step of `track`, if all were recorded.
+fn observed(
+    track: &RelativeTrack,
+    geometry: &Geometry,
+    a: &Truth,
+    b: &Truth,
+    tip: &mut Vec<[f64; 3]>,
+    spot: &mut Vec<[f64; 3]>,
+) -> bool {
+    tip.clear();
+    spot.clear();
+    for k in 0..track.steps() {
+        let t = track.alignment.time_s + (k + 1) as f64 * track.dt_s;
+        let (Some(da), Some(db)) = (a.dof_at(t), b.dof_at(t)) else {
+            return false;
+        };
+        tip.push(point_displacement(&geometry.tip, 0.0, da));
+        spot.push(point_displacement(
+            &geometry.spot,
+            geometry.target_heading_offset_rad,
+            db,
+        ));
+    }
+    true
+}
+
+/// Replays `crane` and `target` (records on one clock) with `config` and scores the relative
+/// forecasts issued at record time >= `skip_s`. `models` start each ship's engine (None: no
+/// skill until the first live fit).
+pub fn study(
+    crane: &MotionData,
+    target: &MotionData,
+    config: &PipelineConfig,
+    models: (Option<ModelSet>, Option<ModelSet>),
+    skip_s: f64,
+    progress: &dyn Fn(u64),
+) -> anyhow::Result<(StudyReport, ReplayReport, ReplayReport)> {
+    let (report_a, fa) = replay(crane, &config.predictor, models.0, skip_s, true, progress)?;
+    let (report_b, fb) = replay(target, &config.predictor, models.1, skip_s, true, progress)?;
+    let geometry = Geometry::new(config.crane.tip_m, &config.relative);
+    let r = &config.relative;
+    let mut calibration = SigmaCalibration::new(r.calibration_halflife, r.calibration_min_verified);
+    let (ta, tb) = (Truth::new(crane), Truth::new(target));
+    let dt = config.predictor.sample_rate_hz.recip();
+    let lead_k: Vec<usize> = STUDY_LEADS_S
+        .iter()
+        .map(|l| ((l / dt).round() as usize).max(1) - 1)
+        .collect();
+    let mut sums = vec![[Sums::default(); 3]; lead_k.len()];
+    let mut pending: VecDeque<Box<RelativeTrack>> = VecDeque::new();
+    let (mut tip, mut spot) = (Vec::new(), Vec::new());
+    let (mut pairs, mut scored, mut unpaired) = (0u64, 0u64, 0u64);
+    let mut calibrated_from_s = None;
+    let mut j = 0usize;
+    for a in &fa {
+        // B's forecast issued at the same record time (both engines run on one clock).
+        while j < fb.len() && fb[j].time_s < a.time_s - 0.25 * dt {
+            j += 1;
+        }
+        let Some(b) = fb
+            .get(j)
+            .filter(|b| (b.time_s - a.time_s).abs() <= 0.25 * dt)
+        else {
+            unpaired += 1;
+            continue;
+        };
+        // Verify what has fully passed by now: causal.
+        while let Some(old) = pending.front() {
+            let end = old.alignment.time_s + old.steps() as f64 * old.dt_s;
+            if end > a.time_s + 1e-9 {
+                break;
+            }
+            if let Some(old) = pending.pop_front() {
+                if observed(&old, &geometry, &ta, &tb, &mut tip, &mut spot) {
+                    calibration.observe(&old, &tip, &spot);
+                }
+            }
+        }
+        let mut track = Box::<RelativeTrack>::default();
+        if track.fill(&geometry, a, b, &calibration).is_err() {
+            unpaired += 1;
+            continue;
+        }
+        pairs += 1;
+        if calibrated_from_s.is_none() && track.basis == super::SigmaBasis::Calibrated {
+            calibrated_from_s = Some(track.alignment.time_s);
+        }
+        if track.alignment.time_s >= skip_s
+            && observed(&track, &geometry, &ta, &tb, &mut tip, &mut spot)
+        {
+            scored += 1;
+            score(&track, &tip, &spot, &lead_k, &mut sums);
+        }
+        pending.push_back(track);
+    }
+    let leads = finish(&sums);
+    let own = own_scores(&report_a, &report_b, &lead_k);
+    Ok((
+        StudyReport {
+            rest_m: geometry.rest_m(),
+            pairs,
+            scored,
+            unpaired,
+            calibrated_from_s,
+            leads,
+            own,
+        },
+        report_a,
+        report_b,
+    ))
+}
+
+fn score(
+    track: &RelativeTrack,
+    tip: &[[f64; 3]],
+    spot: &[[f64; 3]],
+    lead_k: &[usize],
+    sums: &mut [[Sums; 3]],
+) {
+    for (i, &k) in lead_k.iter().enumerate() {
+        if k >= track.steps() {
+            continue;
+        }
+        for axis in 0..3 {
+            let truth = tip[k][axis] - spot[k][axis];
+            let e = truth - track.mean[axis][k];
+            let ea = tip[k][axis] - track.tip.mean[axis][k];
+            let eb = spot[k][axis] - track.spot.mean[axis][k];
+            let (s, si) = (track.sigma[axis][k], track.sigma_independent[axis][k]);
+            let acc = &mut sums[i][axis];
+            acc.n += 1.0;
+            acc.rel += e * e;
+            acc.rel_zero += truth * truth;
+            acc.tip += ea * ea;
+            acc.tip_zero += tip[k][axis].powi(2);
+            acc.spot += eb * eb;
+            acc.spot_zero += spot[k][axis].powi(2);
+            acc.ab += ea * eb;
+            acc.sigma += s;
+            acc.sigma_ind += si;
+            let inside = |w: f64| f64::from(u8::from(e.abs() <= w));
+            acc.in1 += inside(s);
+            acc.in2 += inside(2.0 * s);
+            acc.in1_ind += inside(si);
+            acc.in2_ind += inside(2.0 * si);
+        }
+    }
+}
+
+fn finish(sums: &[[Sums; 3]]) -> Vec<LeadScore> {
+    let mut out = Vec::new();
+    for (i, per_axis) in sums.iter().enumerate() {
+        for (axis, s) in per_axis.iter().enumerate() {
+            let n = s.n.max(1.0);
+            let rms = |v: f64| (v / n).sqrt();
+            out.push(LeadScore {
+                axis: AXES[axis],
+                lead_s: STUDY_LEADS_S[i],
+                scored: s.n as u64,
+                relative_rms: rms(s.rel),
+                relative_zero_rms: rms(s.rel_zero),
+                tip_rms: rms(s.tip),
+                tip_zero_rms: rms(s.tip_zero),
+                spot_rms: rms(s.spot),
+                spot_zero_rms: rms(s.spot_zero),
+                error_correlation: s.ab / (s.tip * s.spot).sqrt(),
+                mean_sigma: s.sigma / n,
+                mean_sigma_independent: s.sigma_ind / n,
+                coverage_1sigma: s.in1 / n,
+                coverage_2sigma: s.in2 / n,
+                coverage_1sigma_independent: s.in1_ind / n,
+                coverage_2sigma_independent: s.in2_ind / n,
+            });
+        }
+    }
+    out
+}
+
+fn own_scores(a: &ReplayReport, b: &ReplayReport, lead_k: &[usize]) -> Vec<OwnDof> {
+    let mut out = Vec::new();
+    for (vessel, report) in [("crane", a), ("target", b)] {
+        for d in &report.dofs {
+            let pick = |v: &[f64]| -> Vec<f64> {
+                lead_k
+                    .iter()
+                    .map(|&k| v.get(k).copied().unwrap_or(f64::NAN))
+                    .collect()
+            };
+            out.push(OwnDof {
+                vessel,
+                dof: d.dof,
+                lead_s: STUDY_LEADS_S.to_vec(),
+                rms: pick(&d.rms),
+                zero_rms: pick(&d.zero_rms),
+            });
+        }
+    }
+    out
+}

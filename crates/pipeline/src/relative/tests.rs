@@ -1,0 +1,252 @@
+//! Relative kinematics, alignment, the lift decision and the two-ship study on records with
+//! known relations.
+
+use super::calibrate::SigmaCalibration;
+use super::study::{study, STUDY_LEADS_S};
+use super::*;
+use crate::config::PipelineConfig;
+use shipcast_series::motion_csv::{Column, MotionData};
+
+fn forecast(time_s: f64, steps: u32, dof: [f32; 6], sigma: [f32; 6]) -> Forecast {
+    let mut f = Forecast {
+        time_s,
+        dt_s: 0.5,
+        steps,
+        ..Forecast::default()
+    };
+    for d in 0..6 {
+        for k in 0..steps as usize {
+            f.mean[d][k] = dof[d];
+            f.sigma[d][k] = sigma[d];
+        }
+    }
+    f
+}
+
+fn geometry(tip: [f64; 3], spot: [f64; 3], psi_deg: f64) -> Geometry {
+    let config = RelativeConfig {
+        landing_spot_m: spot,
+        target_position_m: [0.0, 40.0],
+        target_heading_offset_deg: psi_deg,
+        ..RelativeConfig::default()
+    };
+    Geometry::new(tip, &config)
+}
+
+fn relative(g: &Geometry, a: &Forecast, b: &Forecast) -> RelativeTrack {
+    let mut t = RelativeTrack::default();
+    t.fill(g, a, b, &SigmaCalibration::new(10.0, 10.0)).unwrap();
+    t
+}
+
+const NONE: [f32; 6] = [0.0; 6];
+
+#[test]
+fn relative_motion_follows_rigid_body_kinematics() {
+    let g = geometry([0.0, 15.0, -20.0], [0.0, -8.0, -6.0], 0.0);
+    // A heaves 1 m down: the tip goes down 1 m against a still spot.
+    let heave = [0.0, 0.0, 1.0, 0.0, 0.0, 0.0];
+    let t = relative(
+        &g,
+        &forecast(0.0, 4, heave, NONE),
+        &forecast(0.0, 4, NONE, NONE),
+    );
+    assert!((t.mean[2][0] - 1.0).abs() < 1e-6 && t.mean[0][0].abs() < 1e-9);
+    // Both heave the same: no relative motion.
+    let t = relative(
+        &g,
+        &forecast(0.0, 4, heave, NONE),
+        &forecast(0.0, 4, heave, NONE),
+    );
+    assert!(t.mean[2][3].abs() < 1e-6);
+    // A small roll phi of A moves the tip (y 15, z -20) by (0, 20 phi, 15 phi) to first order.
+    let phi = 1e-3f32;
+    let roll = [0.0, 0.0, 0.0, phi, 0.0, 0.0];
+    let t = relative(
+        &g,
+        &forecast(0.0, 4, roll, NONE),
+        &forecast(0.0, 4, NONE, NONE),
+    );
+    assert!((t.mean[1][0] - 20.0 * f64::from(phi)).abs() < 1e-5);
+    assert!((t.mean[2][0] - 15.0 * f64::from(phi)).abs() < 1e-5);
+    // B turned 90 deg to starboard: B's surge is A's sway, so the spot moving 1 m along B's
+    // bow moves the tip 1 m to A's port relative to it.
+    let g = geometry([0.0, 15.0, -20.0], [0.0, 0.0, 0.0], 90.0);
+    let surge = [1.0, 0.0, 0.0, 0.0, 0.0, 0.0];
+    let t = relative(
+        &g,
+        &forecast(0.0, 4, NONE, NONE),
+        &forecast(0.0, 4, surge, NONE),
+    );
+    assert!((t.mean[1][0] + 1.0).abs() < 1e-6 && t.mean[0][0].abs() < 1e-6);
+    // Rest vector: tip (0, 15, -20) minus B's CG (0, 40) minus the spot (0).
+    assert_eq!(g.rest_m(), [0.0, -25.0, -20.0]);
+}
+
+#[test]
+fn independent_sigma_adds_both_ships_linearised_variances() {
+    let g = geometry([0.0, 15.0, -20.0], [30.0, 0.0, 0.0], 90.0);
+    // A: heave 0.3 m, roll 0.01 rad -> tip z variance 0.09 + (15 * 0.01)^2.
+    let a = forecast(0.0, 4, NONE, [0.0, 0.0, 0.3, 0.01, 0.0, 0.0]);
+    // B: pitch 0.02 rad at 30 m forward -> spot z variance (30 * 0.02)^2; surge 0.5 m turned
+    // 90 deg lands on A's y.
+    let b = forecast(0.0, 4, NONE, [0.5, 0.0, 0.0, 0.0, 0.02, 0.0]);
+    let t = relative(&g, &a, &b);
+    let z = (0.09f64 + 0.0225 + 0.36).sqrt();
+    assert!(
+        (t.sigma_independent[2][0] - z).abs() < 1e-6,
+        "{}",
+        t.sigma_independent[2][0]
+    );
+    // y: A's roll at z = -20 (20 * 0.01) and B's surge 0.5.
+    let y = (0.04f64 + 0.25).sqrt();
+    assert!((t.sigma_independent[1][0] - y).abs() < 1e-6);
+    assert_eq!(t.basis, SigmaBasis::Independent);
+    assert_eq!(t.sigma, t.sigma_independent);
+}
+
+#[test]
+fn forecasts_are_aligned_on_the_later_origin() {
+    let g = geometry([0.0; 3], [0.0; 3], 0.0);
+    let mut a = forecast(10.0, 8, NONE, NONE);
+    let b = forecast(11.0, 8, NONE, NONE);
+    // A's step k is at 10 + (k + 1) 0.5: its steps 2.. meet B's 0..
+    for k in 0..8 {
+        a.mean[2][k] = k as f32;
+    }
+    let t = relative(&g, &a, &b);
+    assert_eq!(
+        (t.alignment.skip_a, t.alignment.skip_b, t.steps()),
+        (2, 0, 6)
+    );
+    assert_eq!(t.alignment.time_s, 11.0);
+    assert!((t.mean[2][0] - 2.0).abs() < 1e-9);
+    let al = align(&forecast(10.1, 8, NONE, NONE), &b).unwrap();
+    assert_eq!(al.skip_a, 2);
+    assert!((al.misalignment_s - (-0.1)).abs() < 1e-9);
+    assert!(matches!(
+        align(&forecast(0.0, 8, NONE, NONE), &b),
+        Err(AlignError::TooFarApart(_))
+    ));
+    let mut other = b;
+    other.dt_s = 0.25;
+    assert!(matches!(
+        align(&a, &other),
+        Err(AlignError::StepMismatch(..))
+    ));
+}
+
+#[test]
+fn the_lift_decision_flips_when_the_relative_motion_crosses_a_limit() {
+    let config = RelativeConfig::default();
+    let limits = LiftLimits::new(&config);
+    let lattice = Lattice::new(128, 64);
+    let g = geometry([0.0; 3], [0.0; 3], 0.0);
+    let calm = [0.0, 0.0, 0.5, 0.0, 0.0, 0.0];
+    let sigma = [0.05, 0.05, 0.05, 0.0, 0.0, 0.0];
+    let still = forecast(0.0, 50, NONE, NONE);
+    let t = relative(&g, &forecast(0.0, 50, calm, sigma), &still);
+    let d = decide(&t, &limits, &lattice);
+    assert!(d.go, "{d:?}");
+    assert!(d.probability_now.unwrap() > 0.99);
+    assert_eq!(d.next_exceedance_s, None);
+    // 1.2 m relative heave from step 10 on: beyond the 1 m limit inside the MOT.
+    let mut rough = forecast(0.0, 50, calm, sigma);
+    for k in 9..50 {
+        rough.mean[2][k] = 1.2;
+    }
+    let t = relative(&g, &rough, &still);
+    let d = decide(&t, &limits, &lattice);
+    assert!(!d.go && d.probability_now.unwrap() < 0.01, "{d:?}");
+    assert_eq!(d.next_exceedance_s, Some(5.0));
+    // A forecast shorter than the MOT decides nothing.
+    let t = relative(
+        &g,
+        &forecast(0.0, 10, calm, sigma),
+        &forecast(0.0, 10, NONE, NONE),
+    );
+    let d = decide(&t, &limits, &lattice);
+    assert!(!d.go && d.probability_now.is_none());
+    // The advisory carries the published steps and survives JSON.
+    let adv = advisory(&t, &g, ("ddg51", "supply"), (7, 9), d);
+    assert_eq!(adv.mean_m[2].len(), 10);
+    let back: RelativeAdvisory =
+        serde_json::from_str(&serde_json::to_string(&adv).unwrap()).unwrap();
+    assert_eq!(back, adv);
+    assert!(adv.summary().contains("ddg51->supply"), "{}", adv.summary());
+}
+
+/// A record of heave, roll and pitch at 2 Hz: two sines per DOF with a phase `shift`.
+fn record(seconds: f64, shift: f64) -> MotionData {
+    let n = (seconds * 2.0) as usize;
+    let time: Vec<f64> = (0..n).map(|i| i as f64 / 2.0).collect();
+    let wave = |amp: f64, period: f64, t: f64| {
+        amp * (std::f64::consts::TAU * t / period + shift).sin()
+            + 0.4 * amp * (std::f64::consts::TAU * t / (period * 1.37) + shift).sin()
+    };
+    let column = |name: &str, amp: f64, period: f64| Column {
+        name: name.into(),
+        values: time.iter().map(|&t| wave(amp, period, t)).collect(),
+    };
+    MotionData {
+        columns: vec![
+            column("heave_m", 1.0, 9.0),
+            column("roll_rad", 0.03, 11.0),
+            column("pitch_rad", 0.01, 7.5),
+        ],
+        time,
+    }
+}
+
+#[test]
+fn the_study_scores_the_relative_forecast_against_the_records() {
+    let mut config = PipelineConfig::default();
+    config.predictor.first_fit_s = 120.0;
+    config.relative.calibration_min_verified = 20.0;
+    // The tip and the spot at the same lever arm, B at the same heading: two identical records
+    // have no relative motion, and the relative forecast is exactly zero.
+    config.crane.tip_m = [10.0, 5.0, -6.0];
+    config.relative.landing_spot_m = [10.0, 5.0, -6.0];
+    config.relative.target_heading_offset_deg = 0.0;
+    let a = record(900.0, 0.0);
+    let (same, own_a, _) = study(&a, &a, &config, (None, None), 300.0, &|_| {}).unwrap();
+    assert!(same.scored > 500, "{}", same.scored);
+    assert_eq!(same.leads.len(), 3 * STUDY_LEADS_S.len());
+    for l in &same.leads {
+        assert_eq!(l.relative_rms, 0.0, "{l:?}");
+        assert_eq!(l.relative_zero_rms, 0.0);
+    }
+    let heave = same
+        .leads
+        .iter()
+        .find(|l| l.axis == "z" && l.lead_s == 10.0)
+        .unwrap();
+    assert!(heave.tip_rms > 0.0 && (heave.tip_rms - heave.spot_rms).abs() < 1e-12);
+    assert!((heave.error_correlation - 1.0).abs() < 1e-9);
+    // The own heave forecast of ship A is the plain replay's.
+    let own = same
+        .own
+        .iter()
+        .find(|o| o.vessel == "crane" && o.dof == "heave")
+        .unwrap();
+    let d = own_a.dofs.iter().find(|d| d.dof == "heave").unwrap();
+    assert_eq!(own.rms[1], d.rms[19]);
+    // B the negative of A (every sine shifted by pi): the engine is linear, so B's forecasts
+    // are the negatives of A's; up to the second-order terms of the rotations the relative
+    // motion and error are twice A's, the errors perfectly anti-correlated, and the
+    // calibrated sigma 2 sigma_A, sqrt(2) times the independent sqrt(2) sigma_A.
+    let b = record(900.0, std::f64::consts::PI);
+    let (opposite, _, _) = study(&a, &b, &config, (None, None), 300.0, &|_| {}).unwrap();
+    let z = opposite
+        .leads
+        .iter()
+        .find(|l| l.axis == "z" && l.lead_s == 10.0)
+        .unwrap();
+    let near = |x: f64, y: f64| (x - y).abs() < 0.01 * y;
+    assert!(near(z.relative_zero_rms, 2.0 * z.tip_zero_rms), "{z:?}");
+    assert!(near(z.relative_rms, 2.0 * z.tip_rms), "{z:?}");
+    assert!(z.error_correlation < -0.99, "{z:?}");
+    assert!(opposite.calibrated_from_s.is_some());
+    let ratio = z.mean_sigma / z.mean_sigma_independent;
+    assert!((ratio - std::f64::consts::SQRT_2).abs() < 0.05, "{z:?}");
+}

@@ -1,0 +1,288 @@
+//! `shipcast relative`: ship-to-ship relative motion (docs/two_ships.md).
+//!
+//! Live: subscribes over zenoh to the forecasts of the crane vessel and of the target vessel
+//! (`[relative]` of the configuration), each checked as the crane checks its own
+//! (`ForecastGate`: live publisher, increasing seq, sound content), combines the newest pair
+//! into the forecast of the crane tip relative to the landing spot with sigma and the lift
+//! go/no-go, prints it and publishes it on zenoh `.../<crane vessel>/advisory/relative` (JSON).
+//! Live, nothing verifies the relative forecast (the motion itself stays on each ship), so its
+//! sigma is the independent one and says so (`sigma_basis`); the study calibrates it.
+//!
+//! Study (`--crane-record A.csv --target-record B.csv`): both records replayed through the
+//! engine, the relative forecast scored against the records' true relative motion beside each
+//! ship's own forecast, with the sigma calibrated causally from verified relative errors.
+
+use crate::progress;
+use anyhow::Context;
+use shipcast_pipeline::config::{CommonArgs, PipelineConfig};
+use shipcast_pipeline::decision::window::Lattice;
+use shipcast_pipeline::engine::startup::initial_models;
+use shipcast_pipeline::limits;
+use shipcast_pipeline::relative::calibrate::SigmaCalibration;
+use shipcast_pipeline::relative::study::{study, StudyReport};
+use shipcast_pipeline::relative::{advisory, decide, Geometry, LiftLimits, RelativeTrack};
+use shipcast_pipeline::transport::forecast_check::{ForecastGate, PublisherWatch};
+use shipcast_pipeline::transport::zenoh::{self as zn, JsonPublisher, LatestSubscriber};
+use shipcast_pipeline::transport::{shutdown, Names};
+use shipcast_series::motion_csv::MotionData;
+use shipcast_wire::payload::{Forecast, MAX_STEPS};
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    #[command(flatten)]
+    pub common: CommonArgs,
+    /// Study mode: the crane vessel's motion record (replayed, no processes).
+    #[arg(long, value_name = "A.csv", requires = "target_record")]
+    pub crane_record: Option<PathBuf>,
+    /// Study mode: the target vessel's motion record, on the same clock.
+    #[arg(long, value_name = "B.csv", requires = "crane_record")]
+    pub target_record: Option<PathBuf>,
+    /// Study mode: score only relative forecasts issued at record time >= S.
+    #[arg(long, default_value_t = 1200.0, value_name = "S")]
+    pub skip_s: f64,
+    /// Study mode: the report as JSON instead of the table.
+    #[arg(long)]
+    pub json: bool,
+}
+
+pub fn run(args: Args) -> anyhow::Result<()> {
+    let config = args.common.load()?;
+    match (&args.crane_record, &args.target_record) {
+        (Some(a), Some(b)) => run_study(&args, &config, a, b),
+        _ => run_live(&args, &config),
+    }
+}
+
+fn read_record(path: &Path) -> anyhow::Result<MotionData> {
+    let data =
+        MotionData::read_path(path).with_context(|| format!("reading {}", path.display()))?;
+    if data.dofs().is_empty() {
+        anyhow::bail!("{}: no motion column", path.display());
+    }
+    Ok(data)
+}
+
+fn run_study(args: &Args, config: &PipelineConfig, a: &Path, b: &Path) -> anyhow::Result<()> {
+    limits::non_negative("--skip-s", args.skip_s, limits::MAX_SECONDS)
+        .map_err(anyhow::Error::msg)?;
+    let (crane, target) = (read_record(a)?, read_record(b)?);
+    let end_s = crane.time.last().copied().unwrap_or(0.0);
+    if args.skip_s >= end_s {
+        anyhow::bail!(
+            "--skip-s {} s skips the whole record (it ends at {end_s:.1} s in {})",
+            args.skip_s,
+            a.display()
+        );
+    }
+    // Each ship's engine starts as its predictor would: the configured start-up model, fitted
+    // on simulated history at that ship's station.
+    let mut target_config = config.clone();
+    target_config.producer.station = target_station(config);
+    let models = (initial_models(config)?, initial_models(&target_config)?);
+    let bar = progress::styled(
+        (crane.len() + target.len()) as u64,
+        "{elapsed_precise} [{bar:30}] {pos}/{len} samples",
+    );
+    let (report, _, _) = study(&crane, &target, config, models, args.skip_s, &|n| {
+        bar.inc(n)
+    })?;
+    bar.finish_and_clear();
+    let mut out = std::io::stdout().lock();
+    if args.json {
+        serde_json::to_writer(&mut out, &report)?;
+        writeln!(out)?;
+    } else {
+        write!(out, "{}", table(&report))?;
+    }
+    Ok(())
+}
+
+/// Where `shipcast run` simulates the target vessel: the configured relative position.
+pub fn target_station(config: &PipelineConfig) -> shipcast_sim::Station {
+    let r = &config.relative;
+    shipcast_sim::Station {
+        x_m: r.target_position_m[0],
+        y_m: r.target_position_m[1],
+        heading_offset_deg: r.target_heading_offset_deg,
+    }
+}
+
+fn table(r: &StudyReport) -> String {
+    let mut s = format!(
+        "relative: {} forecast pairs, {} scored, {} unpaired; sigma calibrated from {}; rest vector spot->tip {:?} m\n",
+        r.pairs,
+        r.scored,
+        r.unpaired,
+        r.calibrated_from_s
+            .map_or("never (too few verified)".into(), |t| format!("{t:.0} s")),
+        r.rest_m
+    );
+    s.push_str(
+        "axis lead  rel_rms  rel_std  tip_rms  spot_rms  err_corr  sigma   sigma_ind  cov1   cov2   cov1_ind cov2_ind\n",
+    );
+    for l in &r.leads {
+        s.push_str(&format!(
+            "{:<4} {:>3.0}s  {:<8.3} {:<8.3} {:<8.3} {:<9.3} {:<+9.2} {:<7.3} {:<10.3} {:<6.3} {:<6.3} {:<8.3} {:<8.3}\n",
+            l.axis,
+            l.lead_s,
+            l.relative_rms,
+            l.relative_zero_rms,
+            l.tip_rms,
+            l.spot_rms,
+            l.error_correlation,
+            l.mean_sigma,
+            l.mean_sigma_independent,
+            l.coverage_1sigma,
+            l.coverage_2sigma,
+            l.coverage_1sigma_independent,
+            l.coverage_2sigma_independent
+        ));
+    }
+    s.push_str("own forecasts (RMS error / RMS of the motion) at 5 10 15 20 25 s:\n");
+    for o in r
+        .own
+        .iter()
+        .filter(|o| ["heave", "roll", "pitch"].contains(&o.dof))
+    {
+        let cells: Vec<String> = o
+            .rms
+            .iter()
+            .zip(&o.zero_rms)
+            .map(|(e, z)| format!("{e:.4}/{z:.4}"))
+            .collect();
+        s.push_str(&format!(
+            "  {:<6} {:<5} {}\n",
+            o.vessel,
+            o.dof,
+            cells.join("  ")
+        ));
+    }
+    s
+}
+
+/// One vessel's forecast stream over zenoh, checked.
+struct Followed {
+    name: String,
+    subscriber: LatestSubscriber,
+    publishers: PublisherWatch,
+    gate: ForecastGate,
+    latest: Option<Box<Forecast>>,
+}
+
+impl Followed {
+    fn new(session: &zenoh::Session, names: &Names, dt: f64) -> anyhow::Result<Self> {
+        Ok(Self {
+            name: names.vessel().to_string(),
+            subscriber: LatestSubscriber::new(session, &names.forecast())?,
+            publishers: PublisherWatch::new(session, &names.forecast())?,
+            gate: ForecastGate::new(dt),
+            latest: None,
+        })
+    }
+
+    /// Takes every waiting forecast; true when an accepted one arrived.
+    fn poll(&mut self) -> anyhow::Result<bool> {
+        let mut fresh = false;
+        self.publishers.update(&mut self.gate.live);
+        while let Some(received) = self.subscriber.try_recv_with_source()? {
+            // A token may arrive just after the first forecast of its publisher.
+            self.publishers.update(&mut self.gate.live);
+            match self.gate.check(&received) {
+                Ok(f) => {
+                    // Reuses the box: nothing allocated per forecast once one arrived.
+                    match &mut self.latest {
+                        Some(latest) => **latest = f,
+                        None => self.latest = Some(Box::new(f)),
+                    }
+                    fresh = true;
+                }
+                Err(e) => tracing::warn!(
+                    rejected = self.gate.stream.rejected.total(),
+                    "relative: {} forecast rejected: {e}",
+                    self.name
+                ),
+            }
+        }
+        Ok(fresh)
+    }
+}
+
+fn run_live(args: &Args, config: &PipelineConfig) -> anyhow::Result<()> {
+    let r = &config.relative;
+    let limit = shutdown::RunLimit::new(args.common.duration()?);
+    let instance = config.instance.as_deref();
+    let crane_names = Names::new(instance, r.crane_vessel(&config.vessel))?;
+    let target_names = Names::new(instance, &r.target_vessel)?;
+    let session = zn::open(&config.zenoh.consumer_side())?;
+    let dt = 1.0 / config.predictor.sample_rate_hz;
+    let mut crane = Followed::new(&session, &crane_names, dt)?;
+    let mut target = Followed::new(&session, &target_names, dt)?;
+    let key = crane_names.advisory("relative");
+    let publisher = if r.publish {
+        let token = zn::liveliness_token(&session, &Names::liveliness(&key))?;
+        Some((JsonPublisher::new(&session, &key)?, token))
+    } else {
+        None
+    };
+    let geometry = Geometry::new(config.crane.tip_m, r);
+    let lift = LiftLimits::new(r);
+    let lattice = Lattice::new(128, MAX_STEPS);
+    // Nothing verifies live: the calibration stays empty and the sigma independent.
+    let calibration = SigmaCalibration::new(r.calibration_halflife, r.calibration_min_verified);
+    let mut track = Box::<RelativeTrack>::default();
+    tracing::info!(
+        tip_m = ?config.crane.tip_m,
+        spot_m = ?r.landing_spot_m,
+        target_position_m = ?r.target_position_m,
+        target_heading_offset_deg = r.target_heading_offset_deg,
+        "relative: {} against {}, publishing on {key}",
+        crane_names.forecast(),
+        target_names.forecast()
+    );
+    let (mut count, mut misaligned) = (0u64, 0u64);
+    let stdout = std::io::stdout();
+    while !limit.reached() {
+        let fresh = crane.poll()? | target.poll()?;
+        let (Some(a), Some(b)) = (&crane.latest, &target.latest) else {
+            std::thread::sleep(Duration::from_millis(20));
+            continue;
+        };
+        if !fresh {
+            std::thread::sleep(Duration::from_millis(20));
+            continue;
+        }
+        if let Err(e) = track.fill(&geometry, a, b, &calibration) {
+            misaligned += 1;
+            tracing::warn!(misaligned, "relative: cannot combine the forecasts: {e}");
+            continue;
+        }
+        let decision = decide(&track, &lift, &lattice);
+        let adv = advisory(
+            &track,
+            &geometry,
+            (crane_names.vessel(), target_names.vessel()),
+            (a.seq, b.seq),
+            decision,
+        );
+        if let Some((p, _)) = &publisher {
+            p.put_serialize(&adv)?;
+        }
+        if count % r.print_every == 0 {
+            // A closed stdout must not stop the service.
+            let _ = writeln!(stdout.lock(), "{}", adv.summary());
+        }
+        count += 1;
+    }
+    let (ra, rb) = (crane.gate.stream.rejected, target.gate.stream.rejected);
+    tracing::info!(
+        "relative: stopped after {count} relative forecasts; rejected {} from {}, {} from {}, {misaligned} pairs not combinable",
+        ra.total(),
+        crane.name,
+        rb.total(),
+        target.name
+    );
+    Ok(())
+}

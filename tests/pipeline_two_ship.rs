@@ -1,0 +1,190 @@
+//! Two ships in one sea: `shipcast run --two-ship` runs a producer and a predictor per vessel
+//! and the relative service, which publishes the crane tip's forecast relative to the landing
+//! spot on the other vessel, with sigma and the lift decision, on zenoh.
+
+mod pipeline_support;
+
+use pipeline_support::{Proc, TestPipeline, PATIENCE};
+use shipcast_pipeline::pacing::poll_until;
+use shipcast_pipeline::relative::{RelativeAdvisory, SigmaBasis};
+use shipcast_pipeline::transport::zenoh::{self as zn, LatestSubscriber, ZenohSettings};
+use shipcast_pipeline::transport::Names;
+use shipcast_wire::payload::Forecast;
+use std::time::Duration;
+
+#[test]
+fn a_two_ship_run_publishes_the_relative_forecast_of_both_vessels() {
+    let p = TestPipeline::new(
+        "twoship",
+        "[relative]\ntarget_vessel = \"tender\"\ntarget_heading_offset_deg = 20.0\n",
+    );
+    let logs = tempfile::tempdir().unwrap();
+    let config = p.config.to_str().unwrap().to_string();
+    let mut run = Proc::spawn(
+        "run",
+        &[
+            "run",
+            "--config",
+            &config,
+            "--two-ship",
+            "--duration",
+            "30",
+            "--no-display",
+            "--log-dir",
+            logs.path().to_str().unwrap(),
+        ],
+    );
+    let names = p.names();
+    let target = Names::new(Some(&p.instance), "tender").unwrap();
+    let session = zn::open(&ZenohSettings::connect_to(&p.endpoint)).unwrap();
+    let lift = LatestSubscriber::new(&session, &names.advisory("relative")).unwrap();
+    let target_forecasts = LatestSubscriber::new(&session, &target.forecast()).unwrap();
+    let advisory: RelativeAdvisory = poll_until(PATIENCE, Duration::from_millis(50), || {
+        let bytes = lift.latest().ok().flatten()?;
+        Some(serde_json::from_slice(&bytes).expect("the lift advisory is RelativeAdvisory JSON"))
+    })
+    .unwrap_or_else(|| panic!("no lift advisory; run:\n{}", run.stdout().join("\n")));
+    assert_eq!(advisory.crane_vessel, names.vessel());
+    assert_eq!(advisory.target_vessel, "tender");
+    // Nothing verifies the relative forecast live: the independent sigma, and said so.
+    assert_eq!(advisory.sigma_basis, SigmaBasis::Independent);
+    assert_eq!(advisory.sigma_m, advisory.sigma_independent_m);
+    let steps = advisory.mean_m[2].len();
+    assert!(steps > 0 && advisory.mean_m.iter().all(|m| m.len() == steps));
+    assert!(advisory
+        .sigma_m
+        .iter()
+        .flatten()
+        .all(|s| s.is_finite() && *s > 0.0));
+    assert!(advisory.misalignment_s.abs() <= advisory.dt_s / 2.0 + 1e-9);
+    let d = advisory.decision;
+    assert_eq!(
+        d.go,
+        d.probability_now.is_some_and(|p| p >= d.go_probability)
+    );
+    // The target vessel's own predictor publishes under its own name, at its own station
+    // (another sea state at the point, so another forecast than the crane vessel's).
+    let bytes = poll_until(PATIENCE, Duration::from_millis(50), || {
+        target_forecasts.latest().ok().flatten()
+    })
+    .expect("a forecast of the target vessel");
+    let forecast = Forecast::from_json(&bytes).expect("forecast JSON");
+    assert!(forecast.valid_steps() > 0);
+
+    assert!(run.wait_exit().success(), "{}", run.stderr().join("\n"));
+    let stdout = run.stdout().join("\n");
+    assert!(stdout.contains("two ships in one sea"), "{stdout}");
+    assert!(stdout.contains("heading +20 deg"), "{stdout}");
+    assert!(stdout.contains("lift ddg51->tender"), "{stdout}");
+    for name in ["target-producer", "target-predictor", "relative"] {
+        let log = std::fs::read_to_string(logs.path().join(format!("{name}.log"))).unwrap();
+        assert!(log.contains("stopped"), "{name}:\n{log}");
+    }
+    let relative = std::fs::read_to_string(logs.path().join("relative.log")).unwrap();
+    assert!(
+        relative.contains("rejected 0 from ddg51, 0 from tender, 0 pairs not combinable"),
+        "{relative}"
+    );
+}
+
+#[test]
+fn a_target_that_is_the_crane_vessel_is_refused_in_one_line() {
+    let p = TestPipeline::new("twoship-bad", "[relative]\ntarget_vessel = \"ddg51\"\n");
+    let out = std::process::Command::new(pipeline_support::BIN)
+        .args(["relative", "--config", p.config.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(stderr.lines().count(), 1, "{stderr}");
+    assert!(stderr.contains("is the crane vessel itself"), "{stderr}");
+}
+
+#[test]
+fn the_two_ship_study_scores_the_relative_forecast_from_two_simulated_records() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = |n: &str| dir.path().join(n).to_str().unwrap().to_string();
+    let simulate = |out: &str, extra: &[&str]| {
+        let mut args = vec![
+            "simulate",
+            "--duration",
+            "900",
+            "--rate",
+            "8",
+            "--seed",
+            "3",
+            "--out",
+            out,
+        ];
+        args.extend_from_slice(extra);
+        pipeline_support::run_ok(&args);
+    };
+    let (a, b, same) = (path("a.csv"), path("b.csv"), path("same.csv"));
+    simulate(&a, &[]);
+    simulate(
+        &b,
+        &["--vessel-y-m", "40", "--vessel-heading-offset-deg", "10"],
+    );
+    simulate(&same, &["--vessel-x-m", "0"]);
+    let study = |config: &str, target: &str| -> serde_json::Value {
+        let out = pipeline_support::run_ok(&[
+            "relative",
+            "--config",
+            config,
+            "--crane-record",
+            &a,
+            "--target-record",
+            target,
+            "--skip-s",
+            "300",
+            "--json",
+        ]);
+        serde_json::from_str(&out).expect("one JSON report")
+    };
+    // The default geometry matches b.csv (40 m to starboard, bow +10 deg).
+    let plain = path("plain.toml");
+    std::fs::write(&plain, "").unwrap();
+    let r = study(&plain, &b);
+    assert_eq!(r["unpaired"], 0);
+    assert!(r["scored"].as_u64().unwrap() > 500, "{r}");
+    let leads = r["leads"].as_array().unwrap();
+    assert_eq!(leads.len(), 15);
+    for l in leads {
+        let f = |k: &str| l[k].as_f64().unwrap();
+        assert!(
+            f("relative_zero_rms") > 0.0 && f("relative_rms") > 0.0,
+            "{l}"
+        );
+        assert!(f("coverage_1sigma") < f("coverage_2sigma"), "{l}");
+        assert!(f("error_correlation").abs() <= 1.0, "{l}");
+    }
+    assert_eq!(r["own"].as_array().unwrap().len(), 12);
+    // The reference vessel against itself with the spot at the tip: no relative motion, no
+    // relative error, and the two ships' errors perfectly correlated.
+    let itself = path("itself.toml");
+    std::fs::write(
+        &itself,
+        "[relative]\ntarget_position_m = [0.0, 0.0]\ntarget_heading_offset_deg = 0.0\nlanding_spot_m = [10.0, 15.0, -20.0]\n",
+    )
+    .unwrap();
+    let r = study(&itself, &same);
+    for l in r["leads"].as_array().unwrap() {
+        assert_eq!(l["relative_rms"].as_f64().unwrap(), 0.0, "{l}");
+        assert!(
+            (l["error_correlation"].as_f64().unwrap() - 1.0).abs() < 1e-9,
+            "{l}"
+        );
+    }
+    // Skipping the whole record is one clear line.
+    let out = std::process::Command::new(pipeline_support::BIN)
+        .args(["relative", "--crane-record", &a, "--target-record", &b])
+        .args(["--skip-s", "5000"])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    let e = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        e.contains("skips the whole record") && e.lines().count() == 1,
+        "{e}"
+    );
+}
