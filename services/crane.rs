@@ -17,17 +17,39 @@ pub struct Args {
     #[command(flatten)]
     pub common: CommonArgs,
     /// Crane tip from the centre of gravity [m] as X,Y,Z (x forward, y starboard, z down).
-    #[arg(long, value_name = "X,Y,Z", value_delimiter = ',', num_args = 3)]
+    // Not `num_args = 3`: clap counts the arguments before splitting at the commas, so
+    // `--tip 1,2,3` was refused ("3 values required") and only `--tip 1 2 3` worked. Both
+    // forms are taken now, and `tip_from` checks the count. Hyphen values are allowed because
+    // "-12.5,0,-4" as a whole is not a number to clap.
+    #[arg(
+        long,
+        value_name = "X,Y,Z",
+        value_delimiter = ',',
+        num_args = 1..=3,
+        allow_hyphen_values = true
+    )]
     pub tip: Option<Vec<f64>>,
+}
+
+/// The tip position `--tip` gives: exactly three finite numbers.
+fn tip_from(values: &[f64]) -> anyhow::Result<[f64; 3]> {
+    match values {
+        [x, y, z] if values.iter().all(|v| v.is_finite()) => Ok([*x, *y, *z]),
+        _ => anyhow::bail!(
+            "--tip must be three finite numbers X,Y,Z, got {}",
+            values
+                .iter()
+                .map(f64::to_string)
+                .collect::<Vec<_>>()
+                .join(",")
+        ),
+    }
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
     let mut config = args.common.load()?;
     if let Some(t) = &args.tip {
-        if t.iter().any(|v| !v.is_finite()) {
-            anyhow::bail!("--tip must be three finite numbers");
-        }
-        config.crane.tip_m = [t[0], t[1], t[2]];
+        config.crane.tip_m = tip_from(t)?;
     }
     let limit = shutdown::RunLimit::new(args.common.duration()?);
     let names = config.names()?;
@@ -78,4 +100,36 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         r.payload
     );
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn tip_takes_comma_separated_values_including_negative_ones() {
+        // Regression: `--tip 1,2,3` used to be refused by clap.
+        let a = crate::parse_args::<Args>(&["--tip", "1,2,3"]);
+        assert_eq!(tip_from(&a.tip.unwrap()).unwrap(), [1.0, 2.0, 3.0]);
+        let a = crate::parse_args::<Args>(&["--tip", "-12.5,0,-4"]);
+        assert_eq!(tip_from(&a.tip.unwrap()).unwrap(), [-12.5, 0.0, -4.0]);
+        let a = crate::parse_args::<Args>(&["--tip", "1", "2", "3"]);
+        assert_eq!(tip_from(&a.tip.unwrap()).unwrap(), [1.0, 2.0, 3.0]);
+    }
+
+    #[test]
+    fn tip_with_another_count_or_a_non_finite_value_is_one_line_error() {
+        for (argv, shown) in [
+            ("1,2", "1,2"),
+            ("1,2,3,4", "1,2,3,4"),
+            ("1,NaN,3", "1,NaN,3"),
+        ] {
+            let a = crate::parse_args::<Args>(&["--tip", argv]);
+            let e = format!("{:#}", tip_from(&a.tip.unwrap()).unwrap_err());
+            assert_eq!(
+                e,
+                format!("--tip must be three finite numbers X,Y,Z, got {shown}")
+            );
+        }
+    }
 }
