@@ -289,7 +289,7 @@ fn the_page_shows_live_forecasts_and_marks_a_vanished_vessel_stale() {
         "document.querySelector('.vessel .advisory').textContent",
         |v| {
             v.as_str()
-                .filter(|t| t.starts_with("deck: "))
+                .filter(|t| t.starts_with("deck: GO ") || t.starts_with("deck: NO-GO "))
                 .map(str::to_string)
         },
     );

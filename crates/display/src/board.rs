@@ -63,24 +63,36 @@ impl ForecastView {
     }
 }
 
-/// A window of the deck advisory (the fields the page shows).
+/// The go/no-go of a station's advisory, as the deck's landing decision and the lift decision
+/// of `shipcast relative` publish it (`decision` in their JSON): the fields the page shows.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct AdvisoryWindow {
-    pub start_s: f64,
-    pub end_s: f64,
-    pub confidence: f64,
+pub struct DecisionView {
+    pub mot_s: f64,
+    pub go_probability: f64,
+    pub go: bool,
+    /// Probability that every limit holds over the window of MOT from now; None when the
+    /// horizon is shorter than MOT.
+    pub probability_now: Option<f64>,
+    /// Start of the first window that reaches `go_probability` (the lift decision has none).
+    #[serde(default)]
+    pub next_window_s: Option<f64>,
+    #[serde(default)]
+    pub next_window_probability: Option<f64>,
+    /// First step at which a predicted mean breaks a limit.
+    pub next_exceedance_s: Option<f64>,
 }
 
-/// The deck advisory of a station, as published on `.../advisory/<station>`; parsing it into
-/// this type is its check (a message of another shape is rejected).
+/// A station's advisory, as published on `.../advisory/<station>`; parsing it into this type
+/// is its check (a message without a decision is rejected).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct AdvisoryView {
-    pub forecast_seq: u64,
     pub time_s: f64,
-    pub max_roll_deg: f64,
-    pub max_pitch_deg: f64,
-    pub max_vertical_velocity_mps: f64,
-    pub windows: Vec<AdvisoryWindow>,
+    /// The deck's predicted maxima over the horizon (a lift advisory has none).
+    #[serde(default)]
+    pub max_roll_deg: Option<f64>,
+    #[serde(default)]
+    pub max_pitch_deg: Option<f64>,
+    pub decision: DecisionView,
 }
 
 /// The live skill of one DOF: NRMSE against predicting zero at 5, 10 and 20 s (None where the
@@ -364,6 +376,63 @@ mod tests {
         );
     }
 
+    /// A calm forecast of `steps` steps: every motion small, sigma small.
+    fn calm_forecast(steps: usize) -> Forecast {
+        let mut f = Forecast {
+            seq: 7,
+            time_s: 100.0,
+            dt_s: 0.5,
+            steps: steps as u32,
+            ..Forecast::default()
+        };
+        for d in 0..6 {
+            for k in 0..steps {
+                f.mean[d][k] = 0.001;
+                f.sigma[d][k] = 0.001;
+            }
+        }
+        f
+    }
+
+    #[test]
+    fn the_deck_advisory_the_deck_publishes_parses_with_its_decision() {
+        // The real advisor's JSON, not a copy of its shape: a drift between the two fails here.
+        use shipcast_pipeline::config::DeckConfig;
+        use shipcast_pipeline::deck::DeckAdvisor;
+        let mut advisor = DeckAdvisor::new(&DeckConfig::default());
+        let json = serde_json::to_vec(&advisor.advise(&calm_forecast(50))).unwrap();
+        let a: AdvisoryView = serde_json::from_slice(&json).unwrap();
+        assert_eq!(a.time_s, 100.0);
+        assert!(a.max_roll_deg.is_some() && a.max_pitch_deg.is_some());
+        // A calm sea with tiny sigma: go now, no exceedance.
+        assert!(a.decision.go, "{:?}", a.decision);
+        assert!(a.decision.probability_now.unwrap() > 0.99);
+        assert_eq!(a.decision.next_exceedance_s, None);
+        // A heave far beyond the displacement limit from step 20 on: no go later.
+        let mut f = calm_forecast(50);
+        for k in 20..50 {
+            f.mean[2][k] = 10.0;
+        }
+        let json = serde_json::to_vec(&advisor.advise(&f)).unwrap();
+        let a: AdvisoryView = serde_json::from_slice(&json).unwrap();
+        assert!(a.decision.next_exceedance_s.unwrap() > 9.0);
+    }
+
+    #[test]
+    fn a_lift_advisory_parses_and_a_message_without_a_decision_is_refused() {
+        let lift = serde_json::json!({
+            "crane_vessel": "a", "target_vessel": "b", "time_s": 12.5,
+            "decision": {"mot_s": 10.0, "go_probability": 0.9, "go": false,
+                         "probability_now": 0.4, "next_exceedance_s": 3.0}
+        });
+        let a: AdvisoryView = serde_json::from_value(lift).unwrap();
+        assert!(!a.decision.go);
+        assert_eq!(a.decision.next_window_s, None);
+        assert_eq!(a.max_roll_deg, None);
+        let old = serde_json::json!({"forecast_seq": 1, "time_s": 1.0, "windows": []});
+        assert!(serde_json::from_value::<AdvisoryView>(old).is_err());
+    }
+
     #[test]
     fn a_vessel_without_forecasts_for_longer_than_the_limit_is_stale_and_shows_none() {
         let b = board();
@@ -373,12 +442,18 @@ mod tests {
             "a",
             "deck",
             AdvisoryView {
-                forecast_seq: 1,
                 time_s: 0.5,
-                max_roll_deg: 1.0,
-                max_pitch_deg: 1.0,
-                max_vertical_velocity_mps: 0.5,
-                windows: vec![],
+                max_roll_deg: Some(1.0),
+                max_pitch_deg: Some(1.0),
+                decision: DecisionView {
+                    mot_s: 10.0,
+                    go_probability: 0.95,
+                    go: true,
+                    probability_now: Some(0.97),
+                    next_window_s: Some(0.0),
+                    next_window_probability: Some(0.97),
+                    next_exceedance_s: None,
+                },
             },
         );
         let just_in_time = b.snapshot(t0 + Duration::from_secs(3));
