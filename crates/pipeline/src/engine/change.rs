@@ -61,6 +61,11 @@ impl ChangeDetector {
         change
     }
 
+    /// True once DOF `d` has had standardised errors to watch (it moves and is forecast).
+    pub fn has_evidence(&self, d: usize) -> bool {
+        self.seen[d] > 0
+    }
+
     /// Factor (>= 1) by which sigma should grow now, before the calibration has caught up:
     /// sqrt(mean - 1), so the ordinary swings of the mean with wave groups (up to 2) leave
     /// sigma alone, while a real excess (mean 9: errors 3 x sigma) is met almost in full.

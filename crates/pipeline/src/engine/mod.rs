@@ -93,6 +93,11 @@ pub struct Engine {
     values: u64,
     generation: u64,
     last_fit_at: Option<u64>,
+    /// Value count at a detected change of sea, until the values since then fill three
+    /// held-out parts: meanwhile retrains are judged on those values (`models::fit_recent`).
+    changed_at: Option<u64>,
+    /// Value index of each DOF's latest detected change.
+    change_seen_at: [Option<u64>; NUM_DOF],
     retrain_due: Option<&'static str>,
     next_version: u32,
     prepared_for: Option<(u64, u32)>,
@@ -133,6 +138,8 @@ impl Engine {
             values: 0,
             generation: 0,
             last_fit_at: None,
+            changed_at: None,
+            change_seen_at: [None; NUM_DOF],
             retrain_due: None,
             next_version: models.as_ref().map_or(1, |m| m.version + 1),
             prepared_for: None,
@@ -223,6 +230,7 @@ impl Engine {
             self.generation = self.ingest.generation();
             self.log.clear();
             self.last_fit_at = None;
+            self.changed_at = None;
         }
         self.last_time_s = v.time_s;
         let index = self.values;
@@ -320,7 +328,35 @@ impl Engine {
                 );
                 self.calib.discount(d, KEPT_AFTER_CHANGE);
                 self.retrain_due.get_or_insert("sea changed");
+                self.change_seen_at[d] = Some(self.values);
+                self.note_change_of_sea();
             }
+        }
+    }
+
+    /// A change of sea moves every DOF: once at least half of those that move (have errors to
+    /// watch) have detected one within the detector's memory, the history before is another
+    /// sea, and retrains fit and judge on the values from now on (`schedule_retrain`). One DOF
+    /// alone (a wave group that stretched its errors, measured on the Gullfaks record) is only
+    /// recalibrated. Later detections of the same change (a sea still growing) do not move the
+    /// start: the held-out part is always the newest values, so the newest sea judges anyway,
+    /// and waiting for the last detection delayed the first refit by minutes.
+    fn note_change_of_sea(&mut self) {
+        if self.changed_at.is_some() {
+            return;
+        }
+        let now = self.values;
+        let memory = CHANGE_MEMORY as u64;
+        let agreeing = self
+            .change_seen_at
+            .iter()
+            .filter(|at| at.is_some_and(|a| a + memory >= now))
+            .count();
+        let moving = (0..NUM_DOF)
+            .filter(|&d| self.change.has_evidence(d))
+            .count();
+        if agreeing >= moving.div_ceil(2).max(1) {
+            self.changed_at = Some(now);
         }
     }
 
@@ -384,18 +420,38 @@ impl Engine {
         let len = self.ingest.len() as u64;
         let first = (q.first_fit_s * rate).round() as u64;
         let every = (q.retrain_every_s * rate).round() as u64;
-        let reason = match (self.retrain_due, self.last_fit_at) {
-            (Some(r), _) => Some(r),
-            (None, None) if len >= first.max(1) => Some("first fit on live data"),
-            (None, Some(at)) if every > 0 && self.values >= at + every => Some("scheduled"),
+        // After a change of sea (until the values since then fill three held-out parts, from
+        // when on the held-out part is the configured one again), every retrain judges on the
+        // new sea only (`models::fit_recent`), and refits come each time those values have
+        // doubled (or after `every`, whichever is first): each fit then has twice the data of
+        // the last, and the total cost stays within twice that of the final fit.
+        let end = q.retrain_window.min(3 * q.holdout) as u64;
+        let since_change = self.changed_at.map(|at| self.values - at);
+        if since_change.is_some_and(|n| n >= end) {
+            self.changed_at = None;
+        }
+        let since_change = since_change.filter(|&n| n < end);
+        let changed_at = self.changed_at.unwrap_or(0);
+        let reason = match (self.retrain_due, self.last_fit_at, since_change) {
+            (Some(r), _, _) => Some(r),
+            (None, None, _) if len >= first.max(1) => Some("first fit on live data"),
+            (None, Some(at), Some(n)) => (n >= first.max(1)
+                && (n >= 2 * at.saturating_sub(changed_at) || self.values >= at + every.max(1)))
+            .then_some("refit on the changed sea"),
+            (None, Some(at), None) if every > 0 && self.values >= at + every => Some("scheduled"),
             _ => None,
         };
         let Some(reason) = reason else { return };
         let take = self.ingest.len().min(q.retrain_window);
+        // Too few new values to fit and score anything on them alone (the retrain at the
+        // detection itself): judged on the whole window, as without a change.
+        let recent = since_change
+            .map(|n| n as usize)
+            .filter(|&n| n < take && models::any_feasible_order(q, n, models::holdout_for(q, n)));
         // Checked before copying the history: while a fit is still running, or the data allow
         // no order yet, a due retrain waits without copying anything on every value.
         if !self.retrainer.is_ready()
-            || !models::any_feasible_order(q, take, models::holdout_for(q, take))
+            || !models::any_feasible_order(q, take, models::holdout_within(q, take, recent))
         {
             return;
         }
@@ -409,6 +465,7 @@ impl Engine {
             series,
             version: self.next_version,
             running: self.models.clone(),
+            recent,
             reason,
         };
         if self.retrainer.request(job) {

@@ -39,6 +39,9 @@ pub struct DofReplay {
     /// RMS error of the 10 s step per minute of record time (by issue time; NaN where nothing
     /// was scored): how the error evolves, e.g. how fast it recovers after a change of sea.
     pub rms_10s_by_minute: Vec<f64>,
+    /// RMS of predicting zero at the same step and minutes (the motion's own level then): the
+    /// error over it is the skill, free of the wave groups' swings of the motion itself.
+    pub zero_rms_10s_by_minute: Vec<f64>,
 }
 
 /// The step whose error `rms_10s_by_minute` follows [s].
@@ -140,7 +143,7 @@ pub fn replay_scored(
         .ceil()
         .max(0.0) as usize
         + 1;
-    let mut trace = vec![vec![(0.0f64, 0u64); minutes]; NUM_DOF];
+    let mut trace = vec![vec![(0.0f64, 0.0f64, 0u64); minutes]; NUM_DOF];
     let mut scored = 0u64;
     let mut kept = Vec::new();
     let mut unreported = 0u64;
@@ -206,8 +209,10 @@ pub fn replay_scored(
                 max_abs[d] = max_abs[d].max(e.abs());
                 if k == trace_k {
                     let minute = ((f.time_s / 60.0).floor().max(0.0) as usize).min(minutes - 1);
-                    trace[d][minute].0 += e * e;
-                    trace[d][minute].1 += 1;
+                    let t = &mut trace[d][minute];
+                    t.0 += e * e;
+                    t.1 += x * x;
+                    t.2 += 1;
                 }
             }
         }
@@ -243,16 +248,8 @@ pub fn replay_scored(
                 coverage_1sigma: per(&|a| if a.n > 0.0 { a.in1 / a.n } else { f64::NAN }),
                 coverage_2sigma: per(&|a| if a.n > 0.0 { a.in2 / a.n } else { f64::NAN }),
                 max_abs_error: max_abs[d],
-                rms_10s_by_minute: trace[d]
-                    .iter()
-                    .map(|&(ss, n)| {
-                        if n > 0 {
-                            (ss / n as f64).sqrt()
-                        } else {
-                            f64::NAN
-                        }
-                    })
-                    .collect(),
+                rms_10s_by_minute: by_minute(&trace[d], |t| t.0),
+                zero_rms_10s_by_minute: by_minute(&trace[d], |t| t.1),
             }
         })
         .collect();
@@ -266,4 +263,18 @@ pub fn replay_scored(
         },
         kept,
     ))
+}
+
+/// Per minute, the root of the mean of one of the trace's sums (NaN where nothing was scored).
+fn by_minute(trace: &[(f64, f64, u64)], sum: impl Fn(&(f64, f64, u64)) -> f64) -> Vec<f64> {
+    trace
+        .iter()
+        .map(|t| {
+            if t.2 > 0 {
+                (sum(t) / t.2 as f64).sqrt()
+            } else {
+                f64::NAN
+            }
+        })
+        .collect()
 }

@@ -17,6 +17,9 @@ pub struct Job {
     pub version: u32,
     /// The running models, scored on the same newest data as the new fit.
     pub running: Option<ModelSet>,
+    /// After a change of sea, how many of the newest values are from the new sea (fitted on
+    /// and scored on separately: `models::fit_recent`).
+    pub recent: Option<usize>,
     /// Why it was asked for (logs).
     pub reason: &'static str,
 }
@@ -33,9 +36,9 @@ pub struct Outcome {
 /// Fit and score, on whichever thread calls it.
 pub fn run_job(job: Job, config: &PredictorServiceConfig) -> anyhow::Result<Outcome> {
     let t = Instant::now();
-    let set = models::fit(&job.series, config, job.version)?;
+    let set = models::fit_recent(&job.series, config, job.version, job.recent)?;
     let running_score = match job.running {
-        Some(mut running) => models::score_on(&mut running, &job.series, config),
+        Some(mut running) => models::score_on(&mut running, &job.series, config, job.recent),
         None => [f64::NAN; NUM_DOF],
     };
     Ok(Outcome {
