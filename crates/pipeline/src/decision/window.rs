@@ -71,6 +71,17 @@ fn first_primes(n: usize) -> Vec<u64> {
     primes
 }
 
+/// One step of Genz's separation of variables: with the standardised error of this step
+/// `centre + scale * w` (w standard normal given the steps before), the CDF value of w at the
+/// band's lower edge and the probability that |mean + sigma z| <= limit.
+fn conditional_band(mean: f64, sigma: f64, limit: f64, centre: f64, scale: f64) -> (f64, f64) {
+    let a = (-limit - mean) / sigma;
+    let b = (limit - mean) / sigma;
+    let lo = normal_cdf((a - centre) / scale);
+    let hi = normal_cdf((b - centre) / scale);
+    (lo, (hi - lo).max(0.0))
+}
+
 /// P(|mean_k + sigma_k z_k| <= limit for every k) for the AR(1) chain z with correlation
 /// `rho` between neighbouring steps. A step with zero or unknown sigma counts as certain (it
 /// holds or fails on its mean alone) and does not break the chain. Steps beyond the lattice's
@@ -99,15 +110,11 @@ pub fn chain_within(mean: &[f64], sigma: &[f64], limit: f64, rho: f64, lattice: 
             if certain(s) {
                 continue;
             }
-            let a = (-limit - mean[k]) / s;
-            let b = (limit - mean[k]) / s;
             let (centre, scale) = match z_prev {
                 Some(z) => (rho * z, innovation),
                 None => (0.0, 1.0),
             };
-            let lo = normal_cdf((a - centre) / scale);
-            let hi = normal_cdf((b - centre) / scale);
-            let p = (hi - lo).max(0.0);
+            let (lo, p) = conditional_band(mean[k], s, limit, centre, scale);
             weight *= p;
             if weight == 0.0 {
                 break;
@@ -151,11 +158,7 @@ pub fn correlated_within(
             let row = &chol[k * n..k * n + k + 1];
             let centre: f64 = row[..k].iter().zip(&y[..k]).map(|(l, w)| l * w).sum();
             let scale = row[k];
-            let a = (-limit - mean[k]) / sigma[k];
-            let b = (limit - mean[k]) / sigma[k];
-            let lo = normal_cdf((a - centre) / scale);
-            let hi = normal_cdf((b - centre) / scale);
-            let p = (hi - lo).max(0.0);
+            let (lo, p) = conditional_band(mean[k], sigma[k], limit, centre, scale);
             weight *= p;
             if weight == 0.0 {
                 break;
