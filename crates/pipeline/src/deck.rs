@@ -11,10 +11,11 @@ use crate::decision::{Decider, Decision};
 use glam::{DQuat, DVec3, EulerRot};
 use serde::{Deserialize, Serialize};
 use shipcast_wire::payload::{Forecast, MAX_STEPS};
+use shipcast_wire::Dof;
 
-const HEAVE: usize = 2;
-const ROLL: usize = 3;
-const PITCH: usize = 4;
+const HEAVE: usize = Dof::Heave.index();
+const ROLL: usize = Dof::Roll.index();
+const PITCH: usize = Dof::Pitch.index();
 
 /// A point fixed on the ship, given from the centre of gravity in ship axes.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -247,7 +248,7 @@ pub fn normal_cdf(x: f64) -> f64 {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
     #[test]
@@ -279,8 +280,13 @@ mod tests {
         assert_eq!(prob_within(1.5, 0.0, 1.0), 0.0);
     }
 
-    /// A forecast with roll following `roll_deg(k)` and everything else still.
-    fn forecast_with_roll(steps: usize, roll_deg: impl Fn(usize) -> f64, sigma: f32) -> Forecast {
+    /// A forecast at 2 Hz with roll following `roll_deg(k)`, everything else still, and the
+    /// same sigma on every DOF (also the decision tests' fixture).
+    pub(crate) fn forecast_with_roll(
+        steps: usize,
+        roll_deg: impl Fn(usize) -> f64,
+        sigma: f32,
+    ) -> Forecast {
         let mut f = Forecast {
             seq: 3,
             time_s: 100.0,

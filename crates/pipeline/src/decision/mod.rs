@@ -17,15 +17,16 @@ use crate::deck::ShipPoint;
 pub use correlation::ErrorCorrelation;
 use serde::{Deserialize, Serialize};
 use shipcast_wire::payload::{Forecast, MAX_STEPS};
+use shipcast_wire::Dof;
 use window::{chain_within, cholesky_block, correlated_within, Lattice};
 
 /// The limited quantities, in the order of every per-quantity array here.
 pub const QUANTITIES: [&str; 4] = ["roll", "pitch", "deck_vertical_m", "deck_vertical_mps"];
 pub const NUM_QUANTITIES: usize = 4;
 
-const HEAVE: usize = 2;
-const ROLL: usize = 3;
-const PITCH: usize = 4;
+const HEAVE: usize = Dof::Heave.index();
+const ROLL: usize = Dof::Roll.index();
+const PITCH: usize = Dof::Pitch.index();
 
 /// Lattice points per window probability: 128 keeps the estimate within about a point of the
 /// exact value (window::tests measure it against a Monte Carlo) at a cost the live service

@@ -1,24 +1,6 @@
 use super::*;
 
-/// A forecast at 2 Hz with roll following `roll_deg(k)`, everything else still, and the same
-/// sigma on every DOF.
-fn forecast(steps: usize, roll_deg: impl Fn(usize) -> f64, sigma: f32) -> Forecast {
-    let mut f = Forecast {
-        seq: 1,
-        time_s: 50.0,
-        dt_s: 0.5,
-        steps: steps as u32,
-        model_version: 1,
-        ..Forecast::default()
-    };
-    for k in 0..steps {
-        f.mean[ROLL][k] = roll_deg(k).to_radians() as f32;
-        for d in 0..6 {
-            f.sigma[d][k] = sigma;
-        }
-    }
-    f
-}
+use crate::deck::tests::forecast_with_roll as forecast;
 
 fn config(mot_s: f64) -> DeckConfig {
     DeckConfig {

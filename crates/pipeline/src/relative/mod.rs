@@ -33,16 +33,17 @@ use crate::deck::ShipPoint;
 use calibrate::SigmaCalibration;
 use serde::{Deserialize, Serialize};
 use shipcast_wire::payload::{Forecast, MAX_STEPS};
+use shipcast_wire::Dof;
 
 /// Axes of every per-axis array here: x forward, y starboard, z down (A's axes).
 pub const AXES: [&str; 3] = ["x", "y", "z"];
 
-const SURGE: usize = 0;
-const SWAY: usize = 1;
-const HEAVE: usize = 2;
-const ROLL: usize = 3;
-const PITCH: usize = 4;
-const YAW: usize = 5;
+const SURGE: usize = Dof::Surge.index();
+const SWAY: usize = Dof::Sway.index();
+const HEAVE: usize = Dof::Heave.index();
+const ROLL: usize = Dof::Roll.index();
+const PITCH: usize = Dof::Pitch.index();
+const YAW: usize = Dof::Yaw.index();
 
 /// Where the two points are: the tip on A (A's axes), the spot on B (B's axes), B's station.
 #[derive(Debug, Clone, Copy, PartialEq)]
