@@ -42,7 +42,10 @@ def run(args):
 
 def replay(path, skip_s):
     text = run(["replay", "--input", path, "--skip-s", str(skip_s), "--json"])
-    return [json.loads(line) for line in text.splitlines() if line.strip()]
+    rows = [json.loads(line) for line in text.splitlines() if line.strip()]
+    # The per-DOF lines only: replay's `{"decisions": ...}` lines (one per station and MOT)
+    # follow them and are the decisions study's business (docs/decisions.md).
+    return [r for r in rows if "dof" in r]
 
 
 def recovery_minutes(trace, change_s, window=3):

@@ -4,15 +4,20 @@
 //! the publisher it follows, with increasing seq and sound content, are used
 //! (`IoxForecastGate`); rejections are counted, logged on one line each, and published with
 //! the deck's counters on `.../status/deck`.
+//!
+//! The deck also reads the motion samples: once a forecast's horizon has happened, the
+//! decider verifies it against them, and its window probabilities come from the errors that
+//! really happened, as `shipcast replay`'s do from the record (docs/decisions.md).
 
 use shipcast_pipeline::config::CommonArgs;
+use shipcast_pipeline::decision::outcomes::{OutcomeCounts, Outcomes};
 use shipcast_pipeline::deck::DeckAdvisor;
 use shipcast_pipeline::limits as value_limits;
 use shipcast_pipeline::transport::forecast_check::{IoxForecastGate, RejectionCounts};
 use shipcast_pipeline::transport::iox::{self, IoxSubscriber, Sizing, WaitMode};
 use shipcast_pipeline::transport::zenoh::{self as zn, JsonPublisher};
 use shipcast_pipeline::transport::{shutdown, Names};
-use shipcast_wire::payload::{limits, Forecast};
+use shipcast_wire::payload::{limits, Forecast, MotionSample};
 use std::io::Write;
 use std::time::{Duration, Instant};
 
@@ -41,6 +46,18 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         Sizing::FORECAST,
         WaitMode::Event,
     )?;
+    let motion = IoxSubscriber::<MotionSample>::new(
+        &node,
+        &names.motion(),
+        Sizing::MOTION,
+        WaitMode::Event,
+    )?;
+    let horizon_s = config.predictor.horizon as f64 / config.predictor.sample_rate_hz;
+    let mut outcomes = Outcomes::new(
+        config.producer.rate_hz,
+        horizon_s,
+        config.predictor.sample_rate_hz,
+    );
     let session;
     let publisher = if config.deck.publish && !args.no_publish {
         session = zn::open(&config.zenoh.consumer_side())?;
@@ -66,9 +83,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let stdout = std::io::stdout();
     while !limit.reached() {
         forecasts.wait(Duration::from_millis(100))?;
+        // What happened: forecasts whose horizon is now past teach the decider.
+        while let Some(sample) = motion.receive()? {
+            outcomes.push_sample(&sample);
+        }
+        outcomes.verify_ready(advisor.decider_mut());
         if let Some((_, status, _)) = &publisher {
             if last_status.elapsed() >= STATUS_EVERY {
-                status.put_serialize(&DeckStatus::new(count, &gate))?;
+                status.put_serialize(&DeckStatus::new(count, &gate, outcomes.counts))?;
                 last_status = Instant::now();
             }
         }
@@ -95,6 +117,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         last_forecast = Instant::now();
         waiting_reported = false;
         let advisory = advisor.advise(&forecast);
+        outcomes.push_decision(&forecast, advisor.decider());
         if let Some((p, _, _)) = &publisher {
             p.put_serialize(&advisory)?;
         }
@@ -106,7 +129,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         count += 1;
     }
     if let Some((_, status, _)) = &publisher {
-        status.put_serialize(&DeckStatus::new(count, &gate))?;
+        status.put_serialize(&DeckStatus::new(count, &gate, outcomes.counts))?;
     }
     let r = gate.stream.rejected;
     tracing::info!(
@@ -128,14 +151,17 @@ struct DeckStatus {
     advisories: u64,
     accepted: u64,
     rejected: RejectionCounts,
+    /// Forecasts verified against the motion (and those that could not be).
+    outcomes: OutcomeCounts,
 }
 
 impl DeckStatus {
-    fn new(advisories: u64, gate: &IoxForecastGate) -> Self {
+    fn new(advisories: u64, gate: &IoxForecastGate, outcomes: OutcomeCounts) -> Self {
         Self {
             advisories,
             accepted: gate.stream.accepted,
             rejected: gate.stream.rejected,
+            outcomes,
         }
     }
 }

@@ -144,11 +144,11 @@ fn table(r: &ReplayReport) -> String {
             d.station, d.mot_s, d.calls, d.go_calls, d.go_probability, d.false_go_rate,
             d.hit_rate, d.quiet_periods, d.brier, d.brier_climatology
         ));
-        s.push_str("  p bin      calls  stated  observed\n");
+        s.push_str("  p bin      calls  episodes  stated  observed\n");
         for b in d.reliability.iter().filter(|b| b.count > 0) {
             s.push_str(&format!(
-                "  {:.1}-{:.1}  {:>7}  {:.3}   {:.3}\n",
-                b.p_lo, b.p_hi, b.count, b.stated, b.observed
+                "  {:.1}-{:.1}  {:>7}  {:>8}  {:.3}   {:.3}\n",
+                b.p_lo, b.p_hi, b.count, b.episodes, b.stated, b.observed
             ));
         }
     }

@@ -138,3 +138,63 @@ fn an_inline_retrain_is_counted_in_the_step() {
     assert!(engine.counts.retrains > 0, "{:?}", engine.counts);
     assert!(stretch.allocations > 0, "{stretch:?}");
 }
+
+#[test]
+fn deciding_and_verifying_from_a_full_error_ensemble_do_not_allocate() {
+    use shipcast_pipeline::config::DeckConfig;
+    use shipcast_pipeline::decision::outcomes::Outcomes;
+    use shipcast_pipeline::decision::{ensemble, Decider};
+    use shipcast_wire::payload::Forecast;
+    // A swell in roll sampled at 8 Hz, forecasts at 2 Hz with a 25 s horizon: the deck's
+    // live loop (samples in, due forecasts verified, a decision, the forecast kept for
+    // verification), first until the ensemble's ring is full, then counted.
+    let roll = |t: f64| (2.0 * (t * std::f64::consts::TAU / 9.0).sin()).to_radians();
+    let forecast_at = |t0: f64| {
+        let mut f = Forecast {
+            time_s: t0,
+            dt_s: 0.5,
+            steps: 50,
+            ..Forecast::default()
+        };
+        for k in 0..50 {
+            f.mean[3][k] = (0.9 * roll(t0 + (k + 1) as f64 * 0.5)) as f32;
+            for d in 0..6 {
+                f.sigma[d][k] = 0.3f64.to_radians() as f32;
+            }
+        }
+        f
+    };
+    let mut decider = Decider::new(&DeckConfig::default());
+    let mut outcomes = Outcomes::new(8.0, 25.0, 2.0);
+    let full = ensemble::DEFAULT_CAPACITY * ensemble::DEFAULT_STRIDE + 60;
+    let (mut allocations, mut sample) = (0, 0u64);
+    for step in 0..(full + 400) {
+        let t0 = step as f64 * 0.5;
+        let f = forecast_at(t0);
+        let (decision, n) = counted(|| {
+            while sample as f64 / 8.0 <= t0 + 1e-9 {
+                let t = sample as f64 / 8.0;
+                let mut dof = [0.0; 6];
+                dof[3] = roll(t);
+                outcomes.push_sample(&MotionSample {
+                    seq: sample,
+                    stamp_ns: sample,
+                    time_s: t,
+                    dof,
+                });
+                sample += 1;
+            }
+            outcomes.verify_ready(&mut decider);
+            let decision = decider.decide(&f);
+            outcomes.push_decision(&f, &decider);
+            decision
+        });
+        if step >= full {
+            allocations += n;
+            assert_eq!(decision.ensemble_members, ensemble::DEFAULT_CAPACITY);
+        }
+    }
+    assert_eq!(decider.ensemble().len(), ensemble::DEFAULT_CAPACITY);
+    assert_eq!(outcomes.counts.unverifiable, 0, "{:?}", outcomes.counts);
+    assert_eq!(allocations, 0);
+}

@@ -80,6 +80,10 @@ pub struct DecisionView {
     pub next_window_probability: Option<f64>,
     /// First step at which a predicted mean breaks a limit.
     pub next_exceedance_s: Option<f64>,
+    /// Verified error paths behind the deck's probability; 0 while it still comes from the
+    /// Gaussian model and may not say go (the lift decision does not send it).
+    #[serde(default)]
+    pub ensemble_members: Option<usize>,
 }
 
 /// A station's advisory, as published on `.../advisory/<station>`; parsing it into this type
@@ -399,7 +403,16 @@ mod tests {
         // The real advisor's JSON, not a copy of its shape: a drift between the two fails here.
         use shipcast_pipeline::config::DeckConfig;
         use shipcast_pipeline::deck::DeckAdvisor;
-        let mut advisor = DeckAdvisor::new(&DeckConfig::default());
+        // A fresh deck has verified no forecast yet: the model's probability, no go.
+        let mut fresh = DeckAdvisor::new(&DeckConfig::default());
+        let json = serde_json::to_vec(&fresh.advise(&calm_forecast(50))).unwrap();
+        let a: AdvisoryView = serde_json::from_slice(&json).unwrap();
+        assert!(!a.decision.go && a.decision.ensemble_members == Some(0));
+        assert!(a.decision.probability_now.unwrap() > 0.99);
+        let mut advisor = DeckAdvisor::new(&DeckConfig {
+            go_needs_verified_errors: false,
+            ..DeckConfig::default()
+        });
         let json = serde_json::to_vec(&advisor.advise(&calm_forecast(50))).unwrap();
         let a: AdvisoryView = serde_json::from_slice(&json).unwrap();
         assert_eq!(a.time_s, 100.0);
@@ -453,6 +466,7 @@ mod tests {
                     next_window_s: Some(0.0),
                     next_window_probability: Some(0.97),
                     next_exceedance_s: None,
+                    ensemble_members: Some(300),
                 },
             },
         );

@@ -504,6 +504,10 @@ pub struct DeckConfig {
     /// enough verified forecasts estimate it (roll, pitch, deck vertical displacement, deck
     /// vertical velocity); docs/decisions.md says where the defaults come from.
     pub error_correlation: [f64; 4],
+    /// Go (now or a next window) only once the probability comes from verified forecast
+    /// errors (the error ensemble, docs/decisions.md); before that the Gaussian model's
+    /// probability is stated but never says go. False lets the model decide from the start.
+    pub go_needs_verified_errors: bool,
     /// Publish the advisory on zenoh `.../advisory/deck`.
     pub publish: bool,
 }
@@ -521,6 +525,7 @@ impl Default for DeckConfig {
             mot_s: 10.0,
             go_probability: 0.95,
             error_correlation: [0.95, 0.95, 0.95, 0.8],
+            go_needs_verified_errors: true,
             publish: true,
         }
     }

@@ -167,6 +167,15 @@ impl DeckAdvisor {
         (v, s)
     }
 
+    /// The decider behind the advisory's `decision` (to verify its forecasts).
+    pub fn decider(&self) -> &Decider {
+        &self.decider
+    }
+
+    pub fn decider_mut(&mut self) -> &mut Decider {
+        &mut self.decider
+    }
+
     pub fn advise(&mut self, forecast: &Forecast) -> Advisory {
         let steps = vertical_track(&self.point, forecast, &mut self.z_up, &mut self.z_sigma);
         let dt = forecast.dt_s;

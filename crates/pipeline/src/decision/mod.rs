@@ -6,15 +6,21 @@
 //! Error model: per quantity, the standardised errors form a Gaussian AR(1) chain in lead
 //! (corr between steps i and j = rho^|i-j|, rho from verified forecasts: [`ErrorCorrelation`]),
 //! and the quantities' chains are treated as independent of one another, so the window
-//! probability is the product of the per-quantity chain probabilities ([`window`]).
+//! probability is the product of the per-quantity chain probabilities ([`window`]). Once
+//! enough forecasts were verified, the errors that really happened replace that model: the
+//! probability is the share of an ensemble of recent verified error paths under which the
+//! window holds ([`ensemble`]).
 
 pub mod correlation;
+pub mod ensemble;
+pub mod outcomes;
 pub mod score;
 pub mod window;
 
 use crate::config::DeckConfig;
 use crate::deck::ShipPoint;
 pub use correlation::ErrorCorrelation;
+pub use ensemble::ErrorEnsemble;
 use serde::{Deserialize, Serialize};
 use shipcast_wire::payload::{Forecast, MAX_STEPS};
 use shipcast_wire::Dof;
@@ -53,6 +59,9 @@ pub struct Decision {
     pub next_exceedance_s: Option<f64>,
     /// Step-to-step error correlation used, per quantity ([`QUANTITIES`]).
     pub error_correlation: [f64; NUM_QUANTITIES],
+    /// Verified error paths the probabilities come from (0: the Gaussian model).
+    #[serde(default)]
+    pub ensemble_members: usize,
 }
 
 impl Decision {
@@ -140,6 +149,28 @@ impl Tracks {
     }
 }
 
+/// The standardised errors u = (actual - mean) / sigma of a forecast's tracks against what
+/// happened (`actual` filled from the record's values at the same steps; its sigma unused),
+/// over the steps both cover; NaN where sigma is zero. Returns the steps filled.
+pub fn standardised_errors(
+    predicted: &Tracks,
+    actual: &Tracks,
+    u: &mut [[f64; MAX_STEPS]; NUM_QUANTITIES],
+) -> usize {
+    let steps = predicted.steps.min(actual.steps);
+    for (q, row) in u.iter_mut().enumerate() {
+        for (k, x) in row.iter_mut().enumerate().take(steps) {
+            let s = predicted.sigma[q][k];
+            *x = if s > 0.0 {
+                (actual.mean[q][k] - predicted.mean[q][k]) / s
+            } else {
+                f64::NAN
+            };
+        }
+    }
+    steps
+}
+
 /// Operator limits in SI units (rad, rad, m, m/s), in the order of [`QUANTITIES`].
 pub fn limits(config: &DeckConfig) -> [f64; NUM_QUANTITIES] {
     [
@@ -157,6 +188,7 @@ pub struct Decider {
     limits: [f64; NUM_QUANTITIES],
     mot_s: f64,
     go_probability: f64,
+    go_needs_verified: bool,
     rho: [f64; NUM_QUANTITIES],
     lattice: Lattice,
     tracks: Box<Tracks>,
@@ -168,6 +200,13 @@ pub struct Decider {
     full_steps: [usize; NUM_QUANTITIES],
     chol: Vec<f64>,
     y: Vec<f64>,
+    /// Verified error paths, and per member the prefix counts of the loaded forecast's
+    /// broken steps under them (used when `from_ensemble`).
+    ensemble: ErrorEnsemble,
+    fail_before: Vec<u16>,
+    usable: Vec<bool>,
+    from_ensemble: bool,
+    u: Box<[[f64; MAX_STEPS]; NUM_QUANTITIES]>,
 }
 
 impl Decider {
@@ -181,6 +220,7 @@ impl Decider {
             limits: limits(config),
             mot_s,
             go_probability: config.go_probability,
+            go_needs_verified: config.go_needs_verified_errors,
             rho: config.error_correlation,
             lattice: Lattice::new(LATTICE_POINTS, MAX_STEPS),
             tracks: Box::default(),
@@ -189,7 +229,37 @@ impl Decider {
             full_steps: [0; NUM_QUANTITIES],
             chol: vec![0.0; MAX_STEPS * MAX_STEPS],
             y: vec![0.0; MAX_STEPS],
+            fail_before: vec![0; ensemble::DEFAULT_CAPACITY * (MAX_STEPS + 1)],
+            usable: vec![false; ensemble::DEFAULT_CAPACITY],
+            ensemble: ErrorEnsemble::default(),
+            from_ensemble: false,
+            u: Box::new([[f64::NAN; MAX_STEPS]; NUM_QUANTITIES]),
         }
+    }
+
+    /// Add the standardised errors of a verified forecast (u = (actual - mean) / sigma per
+    /// quantity and step, as this decider's tracks define them) to the error ensemble.
+    pub fn add_verified(&mut self, u: &[[f64; MAX_STEPS]; NUM_QUANTITIES], steps: usize) {
+        self.ensemble.offer(u, steps);
+    }
+
+    /// Verify a forecast this decider loaded (`predicted`, a copy of [`Self::tracks`] then)
+    /// against what happened (`actual`, filled by [`Self::fill_tracks`] from the recorded
+    /// values at its steps): its errors join the ensemble. The live deck's path
+    /// ([`outcomes`]); replay hands the same errors over through [`Self::add_verified`].
+    pub fn verify(&mut self, predicted: &Tracks, actual: &Tracks) {
+        let steps = standardised_errors(predicted, actual, &mut self.u);
+        self.ensemble.offer(&self.u, steps);
+    }
+
+    /// The tracks of the recorded values in `actual.mean` (its sigma unused), as this
+    /// decider's forecast tracks are made.
+    pub fn fill_tracks(&self, actual: &Forecast, out: &mut Tracks) {
+        out.fill(&self.point, actual, 0.0);
+    }
+
+    pub fn ensemble(&self) -> &ErrorEnsemble {
+        &self.ensemble
     }
 
     pub fn mot_s(&self) -> f64 {
@@ -251,6 +321,17 @@ impl Decider {
                 .any(|q| t.mean[q][k].is_nan() || t.mean[q][k].abs() > self.limits[q]);
             self.breaks_before[k + 1] = self.breaks_before[k] + u32::from(breaks);
         }
+        self.from_ensemble = self.ensemble.ready();
+        if self.from_ensemble {
+            self.ensemble.failures(
+                &t.mean,
+                &t.sigma,
+                &self.limits,
+                t.steps,
+                &mut self.fail_before,
+                &mut self.usable,
+            );
+        }
     }
 
     /// Whether the loaded means hold every limit over steps [start, start + len).
@@ -266,6 +347,11 @@ impl Decider {
         let end = (start + len).min(t.steps);
         if start >= end {
             return 0.0;
+        }
+        if self.from_ensemble {
+            if let Some(p) = ensemble::share_within(&self.fail_before, &self.usable, start, end) {
+                return p;
+            }
         }
         let mut p = 1.0;
         for q in 0..NUM_QUANTITIES {
@@ -294,6 +380,12 @@ impl Decider {
         p
     }
 
+    /// Whether the loaded forecast's probabilities may say go: they come from verified
+    /// errors, or the configuration lets the Gaussian model decide.
+    pub fn may_go(&self) -> bool {
+        self.from_ensemble || !self.go_needs_verified
+    }
+
     /// First step at which a mean breaks a limit.
     pub fn first_break(&self) -> Option<usize> {
         (0..self.tracks.steps).find(|&k| self.breaks_before[k + 1] > self.breaks_before[k])
@@ -315,12 +407,20 @@ impl Decider {
             next_window_probability: None,
             next_exceedance_s: self.first_break().map(time),
             error_correlation: self.rho,
+            ensemble_members: if self.from_ensemble {
+                self.ensemble.len()
+            } else {
+                0
+            },
         };
         if n > steps {
             return decision;
         }
         let now = self.window_probability(0, n);
         decision.probability_now = Some(now);
+        if !self.may_go() {
+            return decision;
+        }
         decision.go = now >= self.go_probability;
         if let Some((s, p)) = self.next_window(n, self.go_probability) {
             decision.next_window_s = Some(time(s));

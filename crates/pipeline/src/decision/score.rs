@@ -11,7 +11,7 @@
 //! - the error correlation is estimated causally: a forecast's errors join the estimate only
 //!   once its whole horizon has happened.
 
-use super::{Decider, ErrorCorrelation, Tracks, NUM_QUANTITIES};
+use super::{standardised_errors, Decider, ErrorCorrelation, Tracks, NUM_QUANTITIES};
 use crate::config::DeckConfig;
 use serde::Serialize;
 use shipcast_wire::payload::{Forecast, MAX_STEPS};
@@ -34,6 +34,12 @@ pub struct ReliabilityBin {
     pub stated: f64,
     /// Fraction of them whose window held.
     pub observed: f64,
+    /// Episodes among the calls: a call issued more than MOT after the start of the bin's
+    /// current episode starts a new one, so the windows of different episodes do not
+    /// overlap. Calls of one episode judge overlapping windows of the same sea and mostly
+    /// share their outcome: the observed frequency is known to about +-1/sqrt(episodes), not
+    /// +-1/sqrt(count).
+    pub episodes: u64,
 }
 
 #[derive(Debug, Clone, Serialize)]
@@ -87,6 +93,8 @@ struct PerMot {
     held: u64,
     brier: f64,
     bins: [(u64, f64, u64); BINS],
+    /// Per bin: episodes and the issue time of the current one's first call.
+    episodes: [(u64, f64); BINS],
     thresholds: Vec<Threshold>,
     default_index: usize,
     announced_go: u64,
@@ -138,6 +146,7 @@ impl DecisionScorer {
                     held: 0,
                     brier: 0.0,
                     bins: [(0, 0.0, 0); BINS],
+                    episodes: [(0, f64::NEG_INFINITY); BINS],
                     thresholds: values
                         .into_iter()
                         .map(|value| Threshold {
@@ -180,6 +189,9 @@ impl DecisionScorer {
                 for q in 0..NUM_QUANTITIES {
                     self.correlation.add(q, &p.u[q][..p.steps]);
                 }
+                for m in &mut self.per_mot {
+                    m.decider.add_verified(&p.u, p.steps);
+                }
             }
         }
         let rho = self.correlation.rho();
@@ -198,15 +210,9 @@ impl DecisionScorer {
         // Whether every limit held at each step, and the standardised errors.
         let mut ok = [false; MAX_STEPS];
         let mut u = Box::new([[f64::NAN; MAX_STEPS]; NUM_QUANTITIES]);
-        let tracks = first.decider.tracks();
-        for k in 0..steps {
-            ok[k] = (0..NUM_QUANTITIES).all(|q| self.actual.mean[q][k].abs() <= limits[q]);
-            for q in 0..NUM_QUANTITIES {
-                let s = tracks.sigma[q][k];
-                if s > 0.0 {
-                    u[q][k] = (self.actual.mean[q][k] - tracks.mean[q][k]) / s;
-                }
-            }
+        standardised_errors(first.decider.tracks(), &self.actual, &mut u);
+        for (k, held) in ok.iter_mut().enumerate().take(steps) {
+            *held = (0..NUM_QUANTITIES).all(|q| self.actual.mean[q][k].abs() <= limits[q]);
         }
         self.pending.push_back(Pending {
             ready_s: t0 + (steps as f64 + 1.0) * dt,
@@ -238,6 +244,8 @@ impl DecisionScorer {
             let holds = |s: usize| ok[s..s + n].iter().all(|&h| h);
             let p = m.decider.window_probability(0, n);
             let held = holds(0);
+            // A go (now or announced) only where the live decider could say one.
+            let may_go = m.decider.may_go();
             m.calls += 1;
             m.held += u64::from(held);
             m.brier += (p - f64::from(u8::from(held))).powi(2);
@@ -245,14 +253,19 @@ impl DecisionScorer {
             m.bins[bin].0 += 1;
             m.bins[bin].1 += p;
             m.bins[bin].2 += u64::from(held);
+            let episode = &mut m.episodes[bin];
+            if t0 - episode.1 > m.decider.mot_s() {
+                episode.0 += 1;
+                episode.1 = t0;
+            }
             m.candidates.clear();
-            for s in 0..=steps - n {
+            for s in (0..=steps - n).filter(|_| may_go) {
                 if m.decider.mean_holds(s, n) {
                     m.candidates.push((s, m.decider.window_probability(s, n)));
                 }
             }
             for (j, th) in m.thresholds.iter_mut().enumerate() {
-                if p >= th.value {
+                if may_go && p >= th.value {
                     th.go += 1;
                     th.false_go += u64::from(!held);
                 }
@@ -346,7 +359,8 @@ impl DecisionScorer {
                         .bins
                         .iter()
                         .enumerate()
-                        .map(|(i, &(count, p, held))| ReliabilityBin {
+                        .zip(&m.episodes)
+                        .map(|((i, &(count, p, held)), &(episodes, _))| ReliabilityBin {
                             p_lo: i as f64 / BINS as f64,
                             p_hi: (i + 1) as f64 / BINS as f64,
                             count,
@@ -356,6 +370,7 @@ impl DecisionScorer {
                                 f64::NAN
                             },
                             observed: rate(held, count),
+                            episodes,
                         })
                         .collect(),
                     announced_go: m.announced_go,
@@ -371,6 +386,7 @@ impl DecisionScorer {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::decision::ensemble;
 
     /// A forecast with roll `roll_deg(k)` (sigma `sigma_deg`) issued at `t0`.
     fn roll_forecast(t0: f64, roll_deg: impl Fn(f64) -> f64, sigma_deg: f64) -> Forecast {
@@ -388,56 +404,110 @@ mod tests {
         f
     }
 
-    #[test]
-    fn a_perfect_forecast_scores_no_false_go_and_hits_every_quiet_period() {
-        // Roll alternates between 20 s quiet (1 deg) and 20 s rough (4 deg); the forecast is
-        // the truth with a tiny sigma.
-        let roll = |t: f64| if (t / 20.0) as i64 % 2 == 0 { 1.0 } else { 4.0 };
-        let config = DeckConfig {
-            point_m: [0.0; 3],
-            ..DeckConfig::default()
-        };
-        let mut scorer = DecisionScorer::new("deck", &config, &[10.0]);
-        let mut t0 = 0.0;
-        while t0 < 400.0 {
-            let f = roll_forecast(t0, roll, 0.01);
-            let truth = roll_forecast(t0, roll, 0.0);
-            scorer.observe(&f, &truth);
-            t0 += 0.5;
-        }
-        let r = &scorer.finish()[0];
-        assert_eq!(r.window_steps, 20);
-        assert!(r.go_calls > 0 && r.false_go_rate == 0.0, "{r:?}");
-        assert!(r.quiet_periods >= 8, "{r:?}");
-        assert_eq!(r.hit_rate, 1.0, "{r:?}");
-        assert!(r.brier < 1e-3, "{r:?}");
-        // Stated probabilities are 0 or 1 and right.
-        for b in r.reliability.iter().filter(|b| b.count > 0) {
-            assert!((b.observed - b.stated).abs() < 0.01, "{b:?}");
+    /// Roll alternates between 20 s quiet (1 deg) and 20 s rough (4 deg).
+    fn quiet_then_rough(t: f64) -> f64 {
+        if (t / 20.0) as i64 % 2 == 0 {
+            1.0
+        } else {
+            4.0
         }
     }
 
+    /// Record time from which forecasts are decided from the error ensemble: the
+    /// MIN_MEMBERS-th kept member (one in DEFAULT_STRIDE forecasts, 0.5 s apart) is verified
+    /// 20.5 s after its issue.
+    fn ensemble_ready_s() -> f64 {
+        ((ensemble::MIN_MEMBERS - 1) * ensemble::DEFAULT_STRIDE) as f64 * 0.5 + 20.5
+    }
+
+    fn score(config: &DeckConfig, forecast: impl Fn(f64) -> f64) -> Vec<DecisionReport> {
+        let mut scorer = DecisionScorer::new("deck", config, &[10.0, 30.0]);
+        let mut t0 = 0.0;
+        while t0 < 1000.0 {
+            let f = roll_forecast(t0, &forecast, 0.01);
+            scorer.observe(&f, &roll_forecast(t0, quiet_then_rough, 0.0));
+            t0 += 0.5;
+        }
+        scorer.finish()
+    }
+
     #[test]
-    fn a_forecast_blind_to_the_rough_periods_gives_false_goes() {
-        let roll = |t: f64| if (t / 20.0) as i64 % 2 == 0 { 1.0 } else { 4.0 };
+    fn a_perfect_forecast_scores_no_false_go_and_hits_every_quiet_period_once_verified() {
+        // The forecast is the truth with a tiny sigma.
         let config = DeckConfig {
             point_m: [0.0; 3],
             ..DeckConfig::default()
         };
-        let mut scorer = DecisionScorer::new("deck", &config, &[10.0, 30.0]);
-        let mut t0 = 0.0;
-        while t0 < 400.0 {
-            let f = roll_forecast(t0, |_| 0.0, 0.01);
-            scorer.observe(&f, &roll_forecast(t0, roll, 0.0));
-            t0 += 0.5;
+        let r = &score(&config, quiet_then_rough)[0];
+        assert_eq!(r.window_steps, 20);
+        assert!(r.go_calls > 0 && r.false_go_rate == 0.0, "{r:?}");
+        // Quiet periods begin every 40 s; those from 40 s to 1000 s can be announced 5 s
+        // ahead within the record (the last forecast, at 999.5 s, reaches 1019.5 s). Go needs verified errors: a period is hit when it begins
+        // at least 5 s after the ensemble is ready, and missed when the last forecast 5 s
+        // before it came earlier.
+        assert_eq!(r.quiet_periods, 25, "{r:?}");
+        let missed = (40..=1000)
+            .step_by(40)
+            .filter(|&a| (a as f64) - LEAD_S < ensemble_ready_s())
+            .count();
+        let hits = (r.hit_rate * r.quiet_periods as f64).round() as usize;
+        assert_eq!(hits, 25 - missed, "{r:?}");
+        assert!(r.brier < 1e-3, "{r:?}");
+        // Stated probabilities are near 0 or 1 and right.
+        for b in r.reliability.iter().filter(|b| b.count > 0) {
+            assert!((b.observed - b.stated).abs() < 0.01, "{b:?}");
         }
-        let r = scorer.finish();
-        // Always go; the window is exceeded whenever it reaches a rough period: 3 in 4 calls.
-        assert_eq!(r[0].go_calls, r[0].calls);
-        assert!((r[0].false_go_rate - 0.75).abs() < 0.02, "{:?}", r[0]);
+        // Per 40 s cycle, the calls issued from 0.5 s before a quiet period to 9.5 s into it
+        // hold (top bin: one episode, 10 s long) and those from 10 s to 39 s do not (bottom
+        // bin: episodes from 10, 20.5 and 31 s). Issues run from 0 to 999.5 s: 25 cycles, and
+        // the last call opens a 26th top episode.
+        let (bottom, top) = (&r.reliability[0], &r.reliability[BINS - 1]);
+        assert_eq!((bottom.episodes, top.episodes), (75, 26), "{r:?}");
+    }
+
+    #[test]
+    fn a_forecast_blind_to_the_rough_periods_never_says_go_once_its_errors_are_known() {
+        let trusting = DeckConfig {
+            point_m: [0.0; 3],
+            go_needs_verified_errors: false,
+            ..DeckConfig::default()
+        };
+        let r = score(&trusting, |_| 0.0);
+        // Until the ensemble is ready, the Gaussian model with its tiny sigma says go at every
+        // call (when the configuration lets it), and the window is exceeded whenever it
+        // reaches a rough period: 3 in 4 calls.
+        let gaussian_calls = ensemble_ready_s() / 0.5;
+        assert!(
+            (r[0].go_calls as f64 - gaussian_calls).abs() <= 2.0,
+            "{} {gaussian_calls}",
+            r[0].go_calls
+        );
+        assert!((r[0].false_go_rate - 0.75).abs() < 0.03, "{:?}", r[0]);
+        // From then on the ensemble replays the errors that happened: a blind forecast's
+        // window holds as often as the record's windows did (11 of every 40 starts), which is
+        // what it states; never a go.
+        let late: Vec<_> = r[0].reliability.iter().filter(|b| b.p_hi <= 0.9).collect();
+        let count: u64 = late.iter().map(|b| b.count).sum();
+        assert!(
+            count as f64 >= r[0].calls as f64 - gaussian_calls - 2.0,
+            "{:?}",
+            r[0]
+        );
+        for b in late.iter().filter(|b| b.count >= 100) {
+            assert!((b.stated - 11.0 / 40.0).abs() < 0.1, "{b:?}");
+            assert!((b.observed - b.stated).abs() < 0.1, "{b:?}");
+        }
         // MOT 30 s does not fit a 20 s horizon: no calls.
         assert_eq!(r[1].calls, 0);
         assert!(r[1].false_go_rate.is_nan());
+        // By default go needs verified errors: the blind forecast never says go.
+        let config = DeckConfig {
+            go_needs_verified_errors: true,
+            ..trusting
+        };
+        let r = score(&config, |_| 0.0);
+        assert_eq!(r[0].go_calls, 0, "{:?}", r[0]);
+        assert_eq!(r[0].hit_rate, 0.0);
     }
 }
 

@@ -2,12 +2,52 @@ use super::*;
 
 use crate::deck::tests::forecast_with_roll as forecast;
 
+/// The Gaussian model decides from the first forecast: these tests are about it.
 fn config(mot_s: f64) -> DeckConfig {
     DeckConfig {
         point_m: [0.0, 0.0, 0.0],
         mot_s,
+        go_needs_verified_errors: false,
         ..DeckConfig::default()
     }
+}
+
+#[test]
+fn by_default_go_waits_for_verified_errors_and_then_comes_from_them() {
+    let config = DeckConfig {
+        go_needs_verified_errors: true,
+        ..config(5.0)
+    };
+    let mut decider = Decider::new(&config);
+    let quiet = forecast(40, |_| 1.0, 0.1f64.to_radians() as f32);
+    let d = decider.decide(&quiet);
+    // The model's probability is stated, but it says neither go nor a next window.
+    assert!(d.probability_now.unwrap() > 0.99, "{d:?}");
+    assert!(
+        !d.go && d.next_window_s.is_none() && d.ensemble_members == 0,
+        "{d:?}"
+    );
+    // Verified errors of 3 sigma in roll at every step, one forecast in two (the rest 0):
+    // on this forecast (1 deg, sigma 0.1 deg, limit 2.5 deg) none breaks the limit.
+    let mut u = [[0.0; MAX_STEPS]; NUM_QUANTITIES];
+    u[0] = [3.0; MAX_STEPS];
+    for _ in 0..ensemble::MIN_MEMBERS * ensemble::DEFAULT_STRIDE {
+        decider.add_verified(&u, 40);
+    }
+    let d = decider.decide(&quiet);
+    assert_eq!(d.ensemble_members, ensemble::MIN_MEMBERS);
+    let all = ensemble::MIN_MEMBERS as f64;
+    assert_eq!(d.probability_now, Some((all + 1.0) / (all + 2.0)));
+    assert!(d.go && d.next_window_s == Some(0.5), "{d:?}");
+    // The same errors on a forecast of 1.5 deg with sigma 0.4 deg reach 2.7 deg: every
+    // member breaks the limit, where the Gaussian model (3 sigma errors being rare) states
+    // a high probability for this window.
+    let wide = forecast(40, |_| 1.5, 0.4f64.to_radians() as f32);
+    let gaussian = Decider::new(&config).decide(&wide).probability_now.unwrap();
+    assert!(gaussian > 0.9, "{gaussian}");
+    let d = decider.decide(&wide);
+    assert_eq!(d.probability_now, Some(1.0 / (all + 2.0)));
+    assert!(!d.go, "{d:?}");
 }
 
 #[test]

@@ -1,0 +1,290 @@
+//! Outcomes of live decisions: a live service that decides on forecasts also receives the
+//! motion samples, keeps the last horizon of them, and once a forecast's whole horizon has
+//! happened hands the decider what really happened at its steps ([`Decider::verify`]): the
+//! errors join its ensemble as replay's do from the record. Step k (1-based) of a forecast is
+//! matched to the sample recorded at `time_s + k dt`, within a quarter of the input step.
+//!
+//! Buffers are sized once ([`Outcomes::new`]); pushing samples and decisions and verifying
+//! them do not allocate.
+
+use super::{Decider, Tracks};
+use shipcast_wire::payload::{Forecast, MotionSample, NUM_DOF};
+use std::collections::VecDeque;
+
+/// A decision waiting for its horizon to happen.
+struct Waiting {
+    time_s: f64,
+    dt_s: f64,
+    steps: usize,
+    predicted: Tracks,
+}
+
+/// What became of the decisions handed to [`Outcomes`].
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize)]
+pub struct OutcomeCounts {
+    /// Decisions verified against the motion.
+    pub verified: u64,
+    /// Dropped: a step had no sample (gap, late start, or too many waiting).
+    pub unverifiable: u64,
+}
+
+pub struct Outcomes {
+    samples: VecDeque<(f64, [f64; NUM_DOF])>,
+    sample_capacity: usize,
+    waiting: VecDeque<Box<Waiting>>,
+    spare: Vec<Box<Waiting>>,
+    waiting_capacity: usize,
+    input_step_s: f64,
+    actual: Box<Forecast>,
+    actual_tracks: Box<Tracks>,
+    pub counts: OutcomeCounts,
+}
+
+impl Outcomes {
+    /// `input_rate_hz`: the motion samples' rate; `horizon_s`: the forecasts' horizon;
+    /// `forecast_rate_hz`: how often forecasts arrive at most.
+    pub fn new(input_rate_hz: f64, horizon_s: f64, forecast_rate_hz: f64) -> Self {
+        // A margin beyond the horizon: forecasts lag the newest sample (the decimation
+        // filter's delay) and arrive a little after it.
+        let span = horizon_s.max(0.0) + 10.0;
+        let sample_capacity = ((input_rate_hz.max(1.0) * span).ceil() as usize).clamp(16, 1 << 16);
+        let waiting_capacity = ((forecast_rate_hz.max(0.1) * span).ceil() as usize).clamp(4, 1024);
+        let spare = (0..=waiting_capacity)
+            .map(|_| {
+                Box::new(Waiting {
+                    time_s: f64::NAN,
+                    dt_s: f64::NAN,
+                    steps: 0,
+                    predicted: Tracks::default(),
+                })
+            })
+            .collect();
+        Self {
+            samples: VecDeque::with_capacity(sample_capacity),
+            sample_capacity,
+            waiting: VecDeque::with_capacity(waiting_capacity + 1),
+            spare,
+            waiting_capacity,
+            input_step_s: 1.0 / input_rate_hz.max(1e-6),
+            actual: Box::default(),
+            actual_tracks: Box::default(),
+            counts: OutcomeCounts::default(),
+        }
+    }
+
+    /// A motion sample (in time order; an older or non-finite one is ignored).
+    pub fn push_sample(&mut self, sample: &MotionSample) {
+        if !sample.is_finite() || self.samples.back().is_some_and(|b| b.0 >= sample.time_s) {
+            return;
+        }
+        if self.samples.len() == self.sample_capacity {
+            self.samples.pop_front();
+        }
+        self.samples.push_back((sample.time_s, sample.dof));
+    }
+
+    /// The forecast `decider` just decided on (its tracks are copied), to be verified once it
+    /// has happened.
+    pub fn push_decision(&mut self, forecast: &Forecast, decider: &Decider) {
+        if self.waiting.len() >= self.waiting_capacity {
+            if let Some(old) = self.waiting.pop_front() {
+                self.counts.unverifiable += 1;
+                self.spare.push(old);
+            }
+        }
+        let Some(mut w) = self.spare.pop() else {
+            return;
+        };
+        w.time_s = forecast.time_s;
+        w.dt_s = forecast.dt_s;
+        w.steps = forecast.valid_steps();
+        w.predicted.clone_from(decider.tracks());
+        self.waiting.push_back(w);
+    }
+
+    /// Verify every waiting decision whose horizon the samples now cover.
+    pub fn verify_ready(&mut self, decider: &mut Decider) {
+        let Some(newest) = self.samples.back().map(|s| s.0) else {
+            return;
+        };
+        while let Some(w) = self.waiting.front() {
+            let end = w.time_s + w.steps as f64 * w.dt_s;
+            // A forecast whose time is not finite never comes due: drop it now.
+            if end.is_finite() && end > newest + 0.25 * self.input_step_s {
+                break;
+            }
+            let Some(w) = self.waiting.pop_front() else {
+                break;
+            };
+            if self.fill_actual(&w) {
+                decider.fill_tracks(&self.actual, &mut self.actual_tracks);
+                decider.verify(&w.predicted, &self.actual_tracks);
+                self.counts.verified += 1;
+            } else {
+                self.counts.unverifiable += 1;
+            }
+            self.spare.push(w);
+        }
+    }
+
+    /// The recorded motion at the steps of `w` into `self.actual`; false if a step has none.
+    fn fill_actual(&mut self, w: &Waiting) -> bool {
+        if !(w.time_s.is_finite() && w.dt_s > 0.0) {
+            return false;
+        }
+        self.actual.time_s = w.time_s;
+        self.actual.dt_s = w.dt_s;
+        self.actual.steps = w.steps as u32;
+        let tol = 0.25 * self.input_step_s;
+        for k in 0..w.steps {
+            let t = w.time_s + (k + 1) as f64 * w.dt_s;
+            let i = self.samples.partition_point(|s| s.0 < t - tol);
+            match self.samples.get(i) {
+                Some(&(ts, dof)) if (ts - t).abs() <= tol => {
+                    for (d, v) in dof.iter().enumerate() {
+                        self.actual.mean[d][k] = *v as f32;
+                    }
+                }
+                _ => return false,
+            }
+        }
+        true
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::DeckConfig;
+    use crate::decision::{ensemble, standardised_errors};
+    use shipcast_wire::payload::MAX_STEPS;
+
+    /// Roll of a slow swell sampled at 8 Hz; forecasts at 2 Hz whose mean is 0.8 of it, so
+    /// the errors are not what the Gaussian model assumes.
+    fn roll_at(t: f64) -> f64 {
+        (2.2 * (t * std::f64::consts::TAU / 40.0).sin()).to_radians()
+    }
+
+    fn forecast_at(t0: f64) -> Forecast {
+        let mut f = Forecast {
+            time_s: t0,
+            dt_s: 0.5,
+            steps: 50,
+            ..Forecast::default()
+        };
+        for k in 0..50 {
+            let t = t0 + (k + 1) as f64 * 0.5;
+            f.mean[3][k] = (0.8 * roll_at(t)) as f32;
+            for d in 0..6 {
+                f.sigma[d][k] = 0.2f64.to_radians() as f32;
+            }
+        }
+        f
+    }
+
+    fn sample(i: u64) -> MotionSample {
+        let t = i as f64 / 8.0;
+        let mut dof = [0.0; 6];
+        dof[3] = roll_at(t);
+        MotionSample {
+            seq: i,
+            stamp_ns: 0,
+            time_s: t,
+            dof,
+        }
+    }
+
+    /// The live path (samples in, outcomes found by time) teaches the decider exactly what
+    /// the replay path (errors from the record, handed over once the horizon passed) does.
+    #[test]
+    fn live_outcomes_teach_the_same_as_replay() {
+        let config = DeckConfig {
+            point_m: [0.0; 3],
+            ..DeckConfig::default()
+        };
+        let mut live = Decider::new(&config);
+        let mut replay = Decider::new(&config);
+        let mut outcomes = Outcomes::new(8.0, 25.0, 2.0);
+        type Due = (f64, Box<[[f64; MAX_STEPS]; 4]>, usize);
+        let mut queue: VecDeque<Due> = VecDeque::new();
+        let mut i = 0u64;
+        let mut last = None;
+        for step in 0..(2 * 600) {
+            let t0 = step as f64 * 0.5;
+            // The motion up to t0 arrives first.
+            while (i as f64) / 8.0 <= t0 + 1e-9 {
+                outcomes.push_sample(&sample(i));
+                i += 1;
+            }
+            outcomes.verify_ready(&mut live);
+            while queue.front().is_some_and(|q| q.0 <= t0) {
+                if let Some((_, u, steps)) = queue.pop_front() {
+                    replay.add_verified(&u, steps);
+                }
+            }
+            let f = forecast_at(t0);
+            let d_live = live.decide(&f);
+            let d_replay = replay.decide(&f);
+            assert_eq!(d_live, d_replay, "t0 {t0}");
+            outcomes.push_decision(&f, &live);
+            let mut truth = f;
+            for k in 0..50 {
+                truth.mean[3][k] = roll_at(t0 + (k + 1) as f64 * 0.5) as f32;
+            }
+            let mut actual = Tracks::default();
+            replay.fill_tracks(&truth, &mut actual);
+            let mut u = Box::new([[f64::NAN; MAX_STEPS]; 4]);
+            let steps = standardised_errors(replay.tracks(), &actual, &mut u);
+            queue.push_back((t0 + 25.0, u, steps));
+            last = Some(d_live);
+        }
+        assert!(outcomes.counts.verified > 1000, "{:?}", outcomes.counts);
+        assert_eq!(outcomes.counts.unverifiable, 0);
+        assert!(live.ensemble().len() >= ensemble::MIN_MEMBERS);
+        // The last decision came from the ensemble of verified errors.
+        let last = last.unwrap();
+        assert_eq!(last.ensemble_members, live.ensemble().len(), "{last:?}");
+    }
+
+    #[test]
+    fn a_gap_in_the_motion_makes_a_decision_unverifiable() {
+        let mut decider = Decider::new(&DeckConfig::default());
+        let mut outcomes = Outcomes::new(8.0, 25.0, 2.0);
+        let f = forecast_at(0.0);
+        decider.decide(&f);
+        outcomes.push_decision(&f, &decider);
+        for i in (0..(8 * 30)).filter(|i| !(80..90).contains(i)) {
+            outcomes.push_sample(&sample(i)); // 10 s .. 11.125 s missing
+        }
+        // Out of order and non-finite samples are ignored.
+        outcomes.push_sample(&MotionSample {
+            time_s: 1.0,
+            ..MotionSample::default()
+        });
+        outcomes.push_sample(&MotionSample {
+            time_s: f64::NAN,
+            ..MotionSample::default()
+        });
+        outcomes.verify_ready(&mut decider);
+        assert_eq!(
+            outcomes.counts,
+            OutcomeCounts {
+                verified: 0,
+                unverifiable: 1
+            }
+        );
+        assert!(decider.ensemble().is_empty());
+    }
+
+    #[test]
+    fn a_forecast_with_a_non_finite_time_is_dropped_not_kept_forever() {
+        let mut decider = Decider::new(&DeckConfig::default());
+        let mut outcomes = Outcomes::new(8.0, 25.0, 2.0);
+        let mut f = forecast_at(0.0);
+        f.time_s = f64::NAN;
+        outcomes.push_decision(&f, &decider);
+        outcomes.push_sample(&sample(0));
+        outcomes.verify_ready(&mut decider);
+        assert_eq!(outcomes.counts.unverifiable, 1);
+    }
+}
