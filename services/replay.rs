@@ -144,6 +144,20 @@ fn table(r: &ReplayReport) -> String {
             d.station, d.mot_s, d.calls, d.go_calls, d.go_probability, d.false_go_rate,
             d.hit_rate, d.quiet_periods, d.brier, d.brier_climatology
         ));
+        s.push_str(&format!(
+            "  threshold  go calls  false go  hit rate announced {:?} s ahead\n",
+            d.hit_leads_s
+        ));
+        for c in &d.curve {
+            let hits: Vec<String> = c.hit_rate_by_lead.iter().map(|h| format!("{h:.3}")).collect();
+            s.push_str(&format!(
+                "  {:.2}  {:>8}  {:>8.3}  {}\n",
+                c.threshold,
+                c.go_calls,
+                c.false_go_rate,
+                hits.join(" ")
+            ));
+        }
         s.push_str("  p bin      calls  episodes  stated  observed\n");
         for b in d.reliability.iter().filter(|b| b.count > 0) {
             s.push_str(&format!(

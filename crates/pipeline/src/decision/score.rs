@@ -42,12 +42,18 @@ pub struct ReliabilityBin {
     pub episodes: u64,
 }
 
+/// Leads of `hit_rate_by_lead` [s].
+pub const HIT_LEADS_S: [f64; 5] = [0.0, 1.0, 2.0, 3.0, LEAD_S];
+
 #[derive(Debug, Clone, Serialize)]
 pub struct CurvePoint {
     pub threshold: f64,
     pub go_calls: u64,
     pub false_go_rate: f64,
     pub hit_rate: f64,
+    /// The hit rate had the announcement been needed only `HIT_LEADS_S` before the period
+    /// began (the same periods): which lead the forecast's skill allows.
+    pub hit_rate_by_lead: [f64; HIT_LEADS_S.len()],
 }
 
 /// `decisions` of one station and MOT in replay's output.
@@ -64,6 +70,8 @@ pub struct DecisionReport {
     /// Actual quiet periods of at least MOT that forecasts could have announced.
     pub quiet_periods: u64,
     pub hit_rate: f64,
+    /// `hit_rate_by_lead` of the curve's points [s].
+    pub hit_leads_s: [f64; HIT_LEADS_S.len()],
     pub brier: f64,
     /// Brier score of always stating the observed base rate (a Brier below it is skill).
     pub brier_climatology: f64,
@@ -316,17 +324,18 @@ impl DecisionScorer {
                             && start <= self.last_s + self.horizon_s - (n as f64) * dt
                     })
                     .collect();
-                let hit = |th: &Threshold| {
+                let hit_with_lead = |th: &Threshold, lead_s: f64| {
                     let hits = periods
                         .iter()
                         .filter(|&&(a, b)| {
                             th.announced
                                 .range(a..=b + 1 - n)
-                                .any(|(_, &t0)| t0 <= a as f64 * dt - LEAD_S + 1e-9)
+                                .any(|(_, &t0)| t0 <= a as f64 * dt - lead_s + 1e-9)
                         })
                         .count() as u64;
                     rate(hits, periods.len() as u64)
                 };
+                let hit = |th: &Threshold| hit_with_lead(th, LEAD_S);
                 let curve: Vec<CurvePoint> = m
                     .thresholds
                     .iter()
@@ -335,10 +344,12 @@ impl DecisionScorer {
                         go_calls: th.go,
                         false_go_rate: rate(th.false_go, th.go),
                         hit_rate: hit(th),
+                        hit_rate_by_lead: HIT_LEADS_S.map(|lead_s| hit_with_lead(th, lead_s)),
                     })
                     .collect();
                 let base = rate(m.held, m.calls);
                 let default = &curve[m.default_index];
+
                 DecisionReport {
                     station: self.station.clone(),
                     mot_s: m.decider.mot_s(),
@@ -349,6 +360,7 @@ impl DecisionScorer {
                     false_go_rate: default.false_go_rate,
                     quiet_periods: periods.len() as u64,
                     hit_rate: default.hit_rate,
+                    hit_leads_s: HIT_LEADS_S,
                     brier: if m.calls > 0 {
                         m.brier / m.calls as f64
                     } else {
@@ -452,6 +464,12 @@ mod tests {
             .count();
         let hits = (r.hit_rate * r.quiet_periods as f64).round() as usize;
         assert_eq!(hits, 25 - missed, "{r:?}");
+        // A shorter lead can only find more periods announced, and the 5 s one is the
+        // headline figure.
+        let default = r.curve.iter().find(|c| c.threshold == r.go_probability).unwrap();
+        let by_lead = default.hit_rate_by_lead;
+        assert!(by_lead.windows(2).all(|w| w[0] >= w[1]), "{by_lead:?}");
+        assert_eq!(by_lead.last(), Some(&r.hit_rate));
         assert!(r.brier < 1e-3, "{r:?}");
         // Stated probabilities are near 0 or 1 and right.
         for b in r.reliability.iter().filter(|b| b.count > 0) {
