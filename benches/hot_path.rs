@@ -233,7 +233,7 @@ fn payload_write(c: &mut Criterion) {
                 .expect("send");
             // The benchmark's reader drains every 20 ms: about 20 stamps at 1 kHz.
             sent += 1;
-            if sent % 32 == 0 {
+            if sent.is_multiple_of(32) {
                 reader.drain(&mut tally).expect("drain");
             }
         });

@@ -86,7 +86,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             }
         };
         tip_track(&tip, &forecast, &mut track);
-        if count % config.crane.print_every == 0 {
+        if count.is_multiple_of(config.crane.print_every) {
             let _ = writeln!(stdout.lock(), "{}", summary(&forecast, &track));
         }
         count += 1;

@@ -121,7 +121,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         if let Some((p, _, _)) = &publisher {
             p.put_serialize(&advisory)?;
         }
-        if count % print_every == 0 {
+        if count.is_multiple_of(print_every) {
             let mut out = stdout.lock();
             // A closed stdout (e.g. piped into `head`) must not stop the advisory service.
             let _ = writeln!(out, "{}", advisory.summary());

@@ -286,7 +286,10 @@ fn publish_all(
             time_s,
             dof,
         };
-        if faults.nan_every.is_some_and(|n| seq > 0 && seq % n == 0) {
+        if faults
+            .nan_every
+            .is_some_and(|n| seq > 0 && seq.is_multiple_of(n))
+        {
             sample.dof[Dof::Heave.index()] = f64::NAN;
         }
         publisher.send(&sample)?;
@@ -294,7 +297,7 @@ fn publish_all(
         if let Some(prev) = previous.filter(|_| {
             faults
                 .reorder_every
-                .is_some_and(|n| seq > 0 && seq % n == 0)
+                .is_some_and(|n| seq > 0 && seq.is_multiple_of(n))
         }) {
             // A stale sample arriving late: same seq and time as one already sent.
             publisher.send(&prev)?;

@@ -149,7 +149,11 @@ fn table(r: &ReplayReport) -> String {
             d.hit_leads_s
         ));
         for c in &d.curve {
-            let hits: Vec<String> = c.hit_rate_by_lead.iter().map(|h| format!("{h:.3}")).collect();
+            let hits: Vec<String> = c
+                .hit_rate_by_lead
+                .iter()
+                .map(|h| format!("{h:.3}"))
+                .collect();
             s.push_str(&format!(
                 "  {:.2}  {:>8}  {:>8.3}  {}\n",
                 c.threshold,

@@ -193,7 +193,10 @@ fn the_deck_rejects_a_second_iceoryx2_publisher_and_keeps_advising() {
     // The deck verifies its forecasts against the motion once their horizon has happened
     // (25 s of record, 1.25 s at 20x): its decisions learn from what really happened.
     let verified = wait_deck_status(&status, &deck, |s| count(s, &["outcomes", "verified"]) > 20);
-    assert!(count(&verified, &["outcomes", "verified"]) > 20, "{verified}");
+    assert!(
+        count(&verified, &["outcomes", "verified"]) > 20,
+        "{verified}"
+    );
 }
 
 #[test]

@@ -165,7 +165,7 @@ pub fn score_averaged_forecasts(
         averager.push(&forecast, &mut combined)?;
         predict_time += start.elapsed().as_secs_f64();
         forecasts += 1;
-        if origin < first_scored || (origin - first_scored) % stride != 0 {
+        if origin < first_scored || !(origin - first_scored).is_multiple_of(stride) {
             continue;
         }
         sums.add(series, clean, origin, &combined)?;

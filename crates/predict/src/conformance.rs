@@ -95,7 +95,8 @@ pub fn rms_over_test(p: &mut impl Predictor, x: &[f64], train_len: usize, stride
         if p.is_online() {
             p.update(&x[..origin]).expect("update");
         }
-        if origin < first || (origin - first) % stride != 0 || origin + horizon > x.len() {
+        if origin < first || !(origin - first).is_multiple_of(stride) || origin + horizon > x.len()
+        {
             continue;
         }
         p.forecast(&x[origin - order..origin], &mut forecast)

@@ -5,7 +5,7 @@
 //! CPU at run time; the portable plain loop `apply_loop` is kept because the benchmark
 //! (`benches/predict.rs`) compares the two (MCA-800 on an AVX-512 VM: faer 4.4 us, loop 5.4 us
 //! per 50-step forecast). An f32 copy of the matrix halves the memory traffic for callers that
-//! accept single-precision arithmetic.
+//! accept single-precision arithmetic (`apply_f32`).
 //!
 //! Forecasts go through `apply_prepared`, which splits the product in two: the columns of all
 //! but the newest input, which `prepare` may compute ahead of time from values already known,
@@ -13,11 +13,25 @@
 //! after publishing a forecast then has 50 multiply-adds to do when the next value arrives
 //! instead of the whole product. Both parts always run on the same internal buffers, so the
 //! result is the same bit for bit whether or not `prepare` ran.
+//!
+//! The first part reads most of the matrix (MCA-800: 50 x 749 coefficients per DOF, 1.8 MB
+//! for six DOF in f64, about what the L2 cache holds), so its speed is that of the memory. Where
+//! storing the coefficients in f32 provably costs nothing that matters, it reads the f32 copy
+//! and multiplies and sums in f64 ([`MIXED_MAX_ROUNDING`]): half the traffic, the same
+//! arithmetic.
 
 use faer::linalg::matmul::matmul;
 use faer::{Accum, ColMut, ColRef, MatRef, Par};
 use serde::{Deserialize, Serialize};
 use std::ops::{Add, Mul};
+
+/// The largest sum over a row of |c - f32(c)| at which `apply_prepared` uses the f32 copy of the
+/// coefficients (with f64 products and sums). A forecast is linear in its inputs, so rounding
+/// the coefficients moves it by at most this times the largest input: 10 um per metre of
+/// motion, against forecast errors of centimetres to metres. Well-conditioned maps (row L1
+/// norms up to a few hundred) pass; the ill-conditioned ones a tiny ridge can give on a
+/// clean sea (row norms of 1e6 with cancelling terms) stay in f64.
+pub const MIXED_MAX_ROUNDING: f64 = 1e-5;
 
 /// A dense row-major matrix with preallocated scratch space, so applying it never allocates.
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -35,6 +49,8 @@ pub struct LinearMap {
     partial: Vec<f64>,
     /// True when `partial` was computed from `known` (by `prepare`).
     prepared: bool,
+    /// `partial` is computed from `coef_f32` with f64 arithmetic (see [`MIXED_MAX_ROUNDING`]).
+    mixed: bool,
 }
 
 /// What is stored in a model file: the f64 matrix only; the f32 copy and the scratch buffer
@@ -82,7 +98,17 @@ impl LinearMap {
                 i % cols.max(1)
             ));
         }
-        let coef_f32 = coef.iter().map(|&c| c as f32).collect();
+        let coef_f32: Vec<f32> = coef.iter().map(|&c| c as f32).collect();
+        let rounding = coef
+            .chunks(cols.max(1))
+            .zip(coef_f32.chunks(cols.max(1)))
+            .map(|(row, row32)| {
+                row.iter()
+                    .zip(row32)
+                    .map(|(&c, &c32)| (c - f64::from(c32)).abs())
+                    .sum::<f64>()
+            })
+            .fold(0.0, f64::max);
         Ok(Self {
             rows,
             cols,
@@ -93,7 +119,13 @@ impl LinearMap {
             known: vec![0.0; cols.saturating_sub(1)],
             partial: vec![0.0; rows],
             prepared: false,
+            mixed: rounding <= MIXED_MAX_ROUNDING,
         })
+    }
+
+    /// Whether forecasts read the f32 copy of the coefficients (with f64 arithmetic).
+    pub fn is_mixed(&self) -> bool {
+        self.mixed
     }
 
     /// Number of outputs.
@@ -175,6 +207,10 @@ impl LinearMap {
             self.partial.fill(0.0);
             return;
         }
+        if self.mixed {
+            mixed_product(&self.coef_f32, self.cols, &self.known, &mut self.partial);
+            return;
+        }
         let m = MatRef::from_row_major_slice(&self.coef, self.rows, self.cols).subcols(0, k);
         matmul(
             ColMut::from_slice_mut(&mut self.partial),
@@ -213,6 +249,192 @@ impl LinearMap {
             *o = f64::from(v);
         }
     }
+}
+
+/// `out[r] = sum_j f64(coef[r * cols + j]) * x[j]` over the first `x.len()` columns of each
+/// row of the row-major f32 `coef`. With AVX-512 or AVX2 when the CPU has them; every path does
+/// the same fused multiply-adds in the same order, so all give the same bits (the portable
+/// path's `mul_add` is slow only on a CPU without FMA, which has neither vector path).
+fn mixed_product(coef: &[f32], cols: usize, x: &[f64], out: &mut [f64]) {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx512f") {
+        // SAFETY: the CPU supports AVX-512F, the only feature `mixed_product_avx512` is
+        // compiled for; the function touches memory only through its slice arguments.
+        unsafe { mixed_product_avx512(coef, cols, x, out) };
+        return;
+    }
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma") {
+        // SAFETY: the CPU supports AVX2 and FMA, the features `mixed_product_avx2` is compiled
+        // for; the function touches memory only through its slice arguments.
+        unsafe { mixed_product_avx2(coef, cols, x, out) };
+        return;
+    }
+    mixed_product_portable(coef, cols, x, out);
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+fn mixed_product_avx2(coef: &[f32], cols: usize, x: &[f64], out: &mut [f64]) {
+    for (row, o) in coef.chunks_exact(cols).zip(out.iter_mut()) {
+        *o = mixed_dot_avx2(&row[..x.len()], x);
+    }
+}
+
+/// [`mixed_dot`] with 4-wide AVX2 registers: register r holds lanes 4r..4r+4 of the portable
+/// version's 32 accumulators, added in the same order, and the reduction is the portable
+/// one's, so the result has the same bits.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+fn mixed_dot_avx2(a: &[f32], b: &[f64]) -> f64 {
+    use std::arch::x86_64::{
+        __m256d, _mm256_cvtps_pd, _mm256_fmadd_pd, _mm256_loadu_pd, _mm256_setzero_pd,
+        _mm256_storeu_pd, _mm_loadu_ps,
+    };
+    const LANES: usize = 32;
+    let n = a.len().min(b.len());
+    let mut acc: [__m256d; LANES / 4] = [_mm256_setzero_pd(); LANES / 4];
+    let mut i = 0;
+    while i + LANES <= n {
+        for (r, acc) in acc.iter_mut().enumerate() {
+            let j = i + 4 * r;
+            // SAFETY: j + 4 <= i + LANES <= n, and n is at most the length of both slices:
+            // the loads read four in-bounds elements of each (unaligned loads).
+            let (wide, y) = unsafe {
+                (
+                    _mm256_cvtps_pd(_mm_loadu_ps(a.as_ptr().add(j))),
+                    _mm256_loadu_pd(b.as_ptr().add(j)),
+                )
+            };
+            *acc = _mm256_fmadd_pd(wide, y, *acc);
+        }
+        i += LANES;
+    }
+    let mut lanes = [0.0f64; LANES];
+    for (r, acc) in acc.iter().enumerate() {
+        // SAFETY: lanes[4r..4r + 4] is in bounds (r < LANES / 4); an unaligned store.
+        unsafe { _mm256_storeu_pd(lanes.as_mut_ptr().add(4 * r), *acc) };
+    }
+    let mut sum = 0.0;
+    for (&x, &y) in a[i..n].iter().zip(&b[i..n]) {
+        sum = f64::from(x).mul_add(y, sum);
+    }
+    reduce_lanes(lanes) + sum
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+fn mixed_product_avx512(coef: &[f32], cols: usize, x: &[f64], out: &mut [f64]) {
+    // Four rows at a time share each load of x and keep 16 independent sums in flight.
+    let rows = out.len().min(coef.len() / cols);
+    let (coef, out) = (&coef[..rows * cols], &mut out[..rows]);
+    let (blocks, rest) = (
+        coef.chunks_exact(4 * cols),
+        coef.chunks_exact(4 * cols).remainder(),
+    );
+    let mut outs = out.chunks_exact_mut(4);
+    for (block, o) in blocks.zip(&mut outs) {
+        let n = x.len();
+        let row = |r: usize| &block[r * cols..r * cols + n];
+        o.copy_from_slice(&mixed_dot4_avx512([row(0), row(1), row(2), row(3)], x));
+    }
+    // One to three rows left: a block of four with the last one repeated (its sum is the
+    // same bits in every slot).
+    let n = x.len();
+    let mut left = rest.chunks_exact(cols).map(|r| &r[..n]);
+    if let Some(r0) = left.next() {
+        let r1 = left.next().unwrap_or(r0);
+        let r2 = left.next().unwrap_or(r1);
+        let sums = mixed_dot4_avx512([r0, r1, r2, r2], x);
+        let o = outs.into_remainder();
+        let k = o.len();
+        o.copy_from_slice(&sums[..k]);
+    }
+}
+
+/// [`mixed_dot`] of four rows with the same x, with 8-wide AVX-512 registers: for each row,
+/// register r holds lanes 8r..8r+8 of the portable version's 32 accumulators (same order, same
+/// reduction, same bits).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+fn mixed_dot4_avx512(a: [&[f32]; 4], b: &[f64]) -> [f64; 4] {
+    use std::arch::x86_64::{
+        __m512d, _mm256_loadu_ps, _mm512_cvtps_pd, _mm512_fmadd_pd, _mm512_loadu_pd,
+        _mm512_setzero_pd, _mm512_storeu_pd,
+    };
+    const LANES: usize = 32;
+    let n = a.iter().map(|r| r.len()).fold(b.len(), usize::min);
+    let mut acc: [[__m512d; LANES / 8]; 4] = [[_mm512_setzero_pd(); LANES / 8]; 4];
+    let mut i = 0;
+    while i + LANES <= n {
+        for r in 0..LANES / 8 {
+            let j = i + 8 * r;
+            // SAFETY: j + 8 <= i + LANES <= n, at most the length of b: eight in-bounds
+            // elements (an unaligned load).
+            let y = unsafe { _mm512_loadu_pd(b.as_ptr().add(j)) };
+            for (row, acc) in a.iter().zip(acc.iter_mut()) {
+                // SAFETY: as above, n is at most the length of every row.
+                let wide = unsafe { _mm512_cvtps_pd(_mm256_loadu_ps(row.as_ptr().add(j))) };
+                acc[r] = _mm512_fmadd_pd(wide, y, acc[r]);
+            }
+        }
+        i += LANES;
+    }
+    let mut sums = [0.0; 4];
+    for ((row, acc), s) in a.iter().zip(&acc).zip(&mut sums) {
+        let mut lanes = [0.0f64; LANES];
+        for (r, acc) in acc.iter().enumerate() {
+            // SAFETY: lanes[8r..8r + 8] is in bounds (r < LANES / 8); an unaligned store.
+            unsafe { _mm512_storeu_pd(lanes.as_mut_ptr().add(8 * r), *acc) };
+        }
+        let mut tail = 0.0;
+        for (&x, &y) in row[i..n].iter().zip(&b[i..n]) {
+            tail = f64::from(x).mul_add(y, tail);
+        }
+        *s = reduce_lanes(lanes) + tail;
+    }
+    sums
+}
+
+/// Pairwise reduction of [`mixed_dot`]'s accumulators.
+#[inline(always)]
+fn reduce_lanes<const LANES: usize>(mut acc: [f64; LANES]) -> f64 {
+    let mut width = LANES;
+    while width > 1 {
+        width /= 2;
+        for i in 0..width {
+            acc[i] += acc[i + width];
+        }
+    }
+    acc[0]
+}
+
+#[inline(always)]
+fn mixed_product_portable(coef: &[f32], cols: usize, x: &[f64], out: &mut [f64]) {
+    for (row, o) in coef.chunks_exact(cols).zip(out.iter_mut()) {
+        *o = mixed_dot(&row[..x.len()], x);
+    }
+}
+
+/// [`dot`] of f32 values widened to f64 with f64 values, with 32 accumulators: eight 4-wide
+/// AVX2 registers in [`mixed_dot_avx2`], enough to hide the latency of the additions.
+#[inline(always)]
+fn mixed_dot(a: &[f32], b: &[f64]) -> f64 {
+    const LANES: usize = 32;
+    let mut acc = [0.0f64; LANES];
+    let chunks_a = a.chunks_exact(LANES);
+    let chunks_b = b.chunks_exact(LANES);
+    let (tail_a, tail_b) = (chunks_a.remainder(), chunks_b.remainder());
+    for (ca, cb) in chunks_a.zip(chunks_b) {
+        for i in 0..LANES {
+            acc[i] = f64::from(ca[i]).mul_add(cb[i], acc[i]);
+        }
+    }
+    let mut sum = 0.0;
+    for (&x, &y) in tail_a.iter().zip(tail_b) {
+        sum = f64::from(x).mul_add(y, sum);
+    }
+    reduce_lanes(acc) + sum
 }
 
 /// Dot product with eight independent accumulators: the compiler keeps them in vector
@@ -260,7 +482,7 @@ mod tests {
     fn forecast_sized() -> (LinearMap, Vec<f64>) {
         let (rows, cols) = (50, 350);
         let coef = (0..rows * cols)
-            .map(|i| ((i * 7919 % 1000) as f64 / 500.0 - 1.0) * 1e3)
+            .map(|i| ((i * 7919 % 1000) as f64 / 500.0 - 1.0) * 1e3 / 3.0)
             .collect();
         let series = (0..1200)
             .map(|t| (0.11 * t as f64).sin() + 0.3 * (0.037 * t as f64).cos())
@@ -295,6 +517,83 @@ mod tests {
                 assert!((d - e).abs() <= 1e-9 * d.abs().max(1.0), "{d} vs {e}");
             }
         }
+    }
+
+    /// A well-conditioned forecast-sized map (row L1 norms about 25).
+    fn well_conditioned() -> LinearMap {
+        let (rows, cols) = (50, 749);
+        let coef = (0..rows * cols)
+            .map(|i| ((i * 7919 % 1000) as f64 / 500.0 - 1.0) / 15.0)
+            .collect();
+        LinearMap::from_row_major(rows, cols, coef).unwrap()
+    }
+
+    #[test]
+    fn a_well_conditioned_map_forecasts_from_f32_coefficients_within_the_bound() {
+        let mut map = well_conditioned();
+        assert!(map.is_mixed());
+        // The ill-conditioned map of the test above (row L1 norms of about 6e4, coefficients f32
+        // cannot hold) stays in f64.
+        assert!(!forecast_sized().0.is_mixed());
+        let (rows, cols) = (map.rows(), map.cols());
+        let series: Vec<f64> = (0..3000)
+            .map(|t| 2.0 * (0.11 * t as f64).sin() + 0.7 * (0.037 * t as f64).cos())
+            .collect();
+        let largest = series.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        let (mut out, mut exact, mut again) = (vec![0.0; rows], vec![0.0; rows], vec![0.0; rows]);
+        for t in (cols..series.len()).step_by(101) {
+            let x = &series[t - cols..t];
+            map.apply_prepared(x, &mut out);
+            // The definition in f64, summed exactly enough (the terms are O(1)).
+            for (r, e) in exact.iter_mut().enumerate() {
+                *e = map.row(r).iter().zip(x).map(|(a, b)| a * b).sum();
+            }
+            for (o, e) in out.iter().zip(&exact) {
+                assert!((o - e).abs() <= MIXED_MAX_ROUNDING * largest, "{o} vs {e}");
+            }
+            // Prepared or not, the same bits.
+            map.prepare(&series[..t - 1]);
+            map.apply_prepared(x, &mut again);
+            assert!(out
+                .iter()
+                .zip(&again)
+                .all(|(a, b)| a.to_bits() == b.to_bits()));
+        }
+    }
+
+    #[test]
+    fn the_vector_and_the_portable_mixed_products_give_the_same_bits() {
+        // Row counts that leave 0 to 3 rows after the blocks of four.
+        for rows in [49, 50, 51, 52] {
+            same_bits_on_every_path(rows);
+        }
+    }
+
+    fn same_bits_on_every_path(rows: usize) {
+        let coef = (0..rows * 749)
+            .map(|i| ((i * 7919 % 1000) as f64 / 500.0 - 1.0) / 15.0)
+            .collect();
+        let map = LinearMap::from_row_major(rows, 749, coef).unwrap();
+        let x: Vec<f64> = (0..748).map(|i| (i as f64 * 0.3).cos()).collect();
+        let (mut fast, mut portable) = (vec![0.0; rows], vec![0.0; rows]);
+        mixed_product(&map.coef_f32, map.cols, &x, &mut fast);
+        mixed_product_portable(&map.coef_f32, map.cols, &x, &mut portable);
+        assert!(fast
+            .iter()
+            .zip(&portable)
+            .all(|(a, b)| a.to_bits() == b.to_bits()));
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
+        {
+            // The AVX2 path too, where AVX-512 took precedence above.
+            // SAFETY: the CPU supports AVX2 and FMA, the features the function is compiled for.
+            unsafe { mixed_product_avx2(&map.coef_f32, map.cols, &x, &mut fast) };
+            assert!(fast
+                .iter()
+                .zip(&portable)
+                .all(|(a, b)| a.to_bits() == b.to_bits()));
+        }
+        assert!(fast.iter().all(|v| v.is_finite() && *v != 0.0));
     }
 
     #[test]

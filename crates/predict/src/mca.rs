@@ -179,7 +179,9 @@ impl McaPredictor {
     /// for a well-conditioned P: with eigenvalue weighting and the small ridge validation
     /// picks on a clean sea (1e-12), P's rows reach an L1 norm of 1e6 with cancelling terms,
     /// and f32 rounding moves the forecast by about 2.5 % of the motion's std (1e-2 m of
-    /// heave at order 400), so the services forecast in f64. Never allocates.
+    /// heave at order 400), so the services' `forecast` keeps f64 arithmetic and reads the f32
+    /// coefficients only where their rounding provably does not matter
+    /// (`linear_map::MIXED_MAX_ROUNDING`). Never allocates.
     pub fn forecast_f32(&mut self, past: &[f64], out: &mut [f64]) -> Result<(), PredictError> {
         let n1 = self.past_len();
         let model = self

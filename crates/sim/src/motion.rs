@@ -275,7 +275,7 @@ impl Phasors {
 
     /// The next sample; `coefficients` must be the ones given to `new`.
     pub(crate) fn next_point(&mut self, coefficients: &[Coefficients]) -> MotionPoint {
-        if self.step > 0 && self.step % RESYNC_STEPS == 0 {
+        if self.step > 0 && self.step.is_multiple_of(RESYNC_STEPS) {
             self.resync(coefficients);
         }
         let mut acc = [0.0; CHANNELS];

@@ -80,7 +80,7 @@ impl ErrorEnsemble {
     /// non-finite u, from a zero sigma or a missing value, counts as no error). One offer in
     /// `stride` is kept; allocation happens only while the ring fills.
     pub fn offer(&mut self, u: &[[f64; MAX_STEPS]; NUM_QUANTITIES], steps: usize) {
-        let keep = self.offered % self.stride as u64 == 0;
+        let keep = self.offered.is_multiple_of(self.stride as u64);
         self.offered += 1;
         if !keep {
             return;

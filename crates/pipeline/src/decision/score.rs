@@ -466,7 +466,11 @@ mod tests {
         assert_eq!(hits, 25 - missed, "{r:?}");
         // A shorter lead can only find more periods announced, and the 5 s one is the
         // headline figure.
-        let default = r.curve.iter().find(|c| c.threshold == r.go_probability).unwrap();
+        let default = r
+            .curve
+            .iter()
+            .find(|c| c.threshold == r.go_probability)
+            .unwrap();
         let by_lead = default.hit_rate_by_lead;
         assert!(by_lead.windows(2).all(|w| w[0] >= w[1]), "{by_lead:?}");
         assert_eq!(by_lead.last(), Some(&r.hit_rate));

@@ -62,7 +62,7 @@ fn first_primes(n: usize) -> Vec<u64> {
         if primes
             .iter()
             .take_while(|&&p| p * p <= c)
-            .all(|&p| c % p != 0)
+            .all(|&p| !c.is_multiple_of(p))
         {
             primes.push(c);
         }
