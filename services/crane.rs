@@ -3,7 +3,7 @@
 //! Only forecasts from the live predictor, with increasing seq and sound content, are used
 //! (`ForecastGate`); every rejection is counted and logged on one line.
 
-use shipcast_pipeline::config::CommonArgs;
+use shipcast_pipeline::config::{CommonArgs, PipelineConfig};
 use shipcast_pipeline::crane::{summary, tip_track};
 use shipcast_pipeline::deck::ShipPoint;
 use shipcast_pipeline::transport::forecast_check::{ForecastGate, PublisherWatch};
@@ -17,15 +17,16 @@ pub struct Args {
     #[command(flatten)]
     pub common: CommonArgs,
     /// Crane tip from the centre of gravity [m] as X,Y,Z (x forward, y starboard, z down).
-    // Not `num_args = 3`: clap counts the arguments before splitting at the commas, so
-    // `--tip 1,2,3` was refused ("3 values required") and only `--tip 1 2 3` worked. Both
-    // forms are taken now, and `tip_from` checks the count. Hyphen values are allowed because
-    // "-12.5,0,-4" as a whole is not a number to clap.
+    // One argument split at its commas: clap counts arguments before splitting, so
+    // `num_args = 3` refused `--tip 1,2,3`, and `num_args = 1..=3` with hyphen values took the
+    // next flag as a value (`--tip 1,2,3 --duration 5`: "invalid float literal"). Hyphen
+    // values are allowed because "-12.5,0,-4" as a whole is not a number to clap; `tip_from`
+    // checks the count.
     #[arg(
         long,
         value_name = "X,Y,Z",
         value_delimiter = ',',
-        num_args = 1..=3,
+        num_args = 1,
         allow_hyphen_values = true
     )]
     pub tip: Option<Vec<f64>>,
@@ -46,12 +47,37 @@ fn tip_from(values: &[f64]) -> anyhow::Result<[f64; 3]> {
     }
 }
 
-pub fn run(args: Args) -> anyhow::Result<()> {
-    let mut config = args.common.load()?;
-    if let Some(t) = &args.tip {
-        config.crane.tip_m = tip_from(t)?;
+/// What the crane runs with, every value checked: built from [`Args`] by [`Config::try_from`]
+/// (the configuration file, `--tip` over it, then the checks).
+#[derive(Debug, Clone)]
+pub struct Config {
+    /// Its `crane.tip_m` is `--tip` when given.
+    pub pipeline: PipelineConfig,
+    /// Wall-clock limit (`--duration`).
+    pub limit: Option<Duration>,
+}
+
+impl TryFrom<Args> for Config {
+    type Error = anyhow::Error;
+
+    fn try_from(args: Args) -> anyhow::Result<Self> {
+        let mut pipeline = args.common.load()?;
+        if let Some(t) = &args.tip {
+            pipeline.crane.tip_m = tip_from(t)?;
+        }
+        Ok(Config {
+            pipeline,
+            limit: args.common.duration()?,
+        })
     }
-    let limit = shutdown::RunLimit::new(args.common.duration()?);
+}
+
+pub fn run(args: Args) -> anyhow::Result<()> {
+    let Config {
+        pipeline: config,
+        limit,
+    } = Config::try_from(args)?;
+    let limit = shutdown::RunLimit::new(limit);
     let names = config.names()?;
     let session = zn::open(&config.zenoh.consumer_side())?;
     let forecasts = LatestSubscriber::new(&session, &names.forecast())?;
@@ -113,8 +139,27 @@ mod tests {
         assert_eq!(tip_from(&a.tip.unwrap()).unwrap(), [1.0, 2.0, 3.0]);
         let a = crate::parse_args::<Args>(&["--tip", "-12.5,0,-4"]);
         assert_eq!(tip_from(&a.tip.unwrap()).unwrap(), [-12.5, 0.0, -4.0]);
-        let a = crate::parse_args::<Args>(&["--tip", "1", "2", "3"]);
+        // Regression: with `num_args = 1..=3` the flag after the tip was taken as a value.
+        let a = crate::parse_args::<Args>(&["--tip", "1,2,3", "--duration", "4"]);
         assert_eq!(tip_from(&a.tip.unwrap()).unwrap(), [1.0, 2.0, 3.0]);
+        assert_eq!(a.common.duration, Some(4.0));
+    }
+
+    #[test]
+    fn the_tip_flag_overrides_the_configuration_and_is_checked() {
+        let c =
+            crate::validated::<Args, Config>(&["--tip", "4,-1,-20", "--duration", "3"]).unwrap();
+        assert_eq!(c.pipeline.crane.tip_m, [4.0, -1.0, -20.0]);
+        assert_eq!(c.limit, Some(Duration::from_secs(3)));
+        let c = crate::validated::<Args, Config>(&[]).unwrap();
+        assert_eq!(
+            c.pipeline.crane.tip_m,
+            PipelineConfig::default().crane.tip_m
+        );
+        assert_eq!(
+            crate::refused::<Args, Config>(&["--tip", "1,2"]),
+            "--tip must be three finite numbers X,Y,Z, got 1,2"
+        );
     }
 
     #[test]

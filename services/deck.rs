@@ -9,7 +9,7 @@
 //! decider verifies it against them, and its window probabilities come from the errors that
 //! really happened, as `shipcast replay`'s do from the record (docs/decisions.md).
 
-use shipcast_pipeline::config::CommonArgs;
+use shipcast_pipeline::config::{CommonArgs, PipelineConfig};
 use shipcast_pipeline::decision::outcomes::{OutcomeCounts, Outcomes};
 use shipcast_pipeline::deck::DeckAdvisor;
 use shipcast_pipeline::limits as value_limits;
@@ -33,11 +33,47 @@ pub struct Args {
     pub no_publish: bool,
 }
 
+/// What the deck runs with, every value checked: built from [`Args`] by [`Config::try_from`]
+/// (the configuration file, the flags over it, then the checks).
+#[derive(Debug, Clone)]
+pub struct Config {
+    pub pipeline: PipelineConfig,
+    /// Wall-clock limit (`--duration`).
+    pub limit: Option<Duration>,
+    /// Print every N-th advisory, N >= 1.
+    pub print_every: u64,
+    /// Publish the advisory on zenoh (`[deck] publish` and not `--no-publish`).
+    pub publish: bool,
+}
+
+impl TryFrom<Args> for Config {
+    type Error = anyhow::Error;
+
+    fn try_from(args: Args) -> anyhow::Result<Self> {
+        let pipeline = args.common.load()?;
+        let print_every = crate::checked(value_limits::count(
+            "--print-every",
+            args.print_every,
+            1,
+            u64::MAX,
+        ))?;
+        Ok(Config {
+            publish: pipeline.deck.publish && !args.no_publish,
+            pipeline,
+            limit: args.common.duration()?,
+            print_every,
+        })
+    }
+}
+
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let config = args.common.load()?;
-    let print_every = value_limits::count("--print-every", args.print_every, 1, u64::MAX)
-        .map_err(anyhow::Error::msg)?;
-    let limit = shutdown::RunLimit::new(args.common.duration()?);
+    let Config {
+        pipeline: config,
+        limit,
+        print_every,
+        publish,
+    } = Config::try_from(args)?;
+    let limit = shutdown::RunLimit::new(limit);
     let names = config.names()?;
     let node = iox::node(&names, "deck")?;
     let forecasts = IoxSubscriber::<Forecast>::new(
@@ -59,7 +95,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         config.predictor.sample_rate_hz,
     );
     let session;
-    let publisher = if config.deck.publish && !args.no_publish {
+    let publisher = if publish {
         session = zn::open(&config.zenoh.consumer_side())?;
         let key = names.advisory("deck");
         let token = zn::liveliness_token(&session, &Names::liveliness(&key))?;
@@ -163,5 +199,23 @@ impl DeckStatus {
             rejected: gate.stream.rejected,
             outcomes,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn flags_are_checked_and_no_publish_wins_over_the_configuration() {
+        let c = crate::validated::<Args, Config>(&["--print-every", "10"]).unwrap();
+        assert_eq!(c.print_every, 10);
+        assert!(c.publish, "the default configuration publishes");
+        assert!(
+            !crate::validated::<Args, Config>(&["--no-publish"])
+                .unwrap()
+                .publish
+        );
+        assert!(crate::refused::<Args, Config>(&["--print-every", "0"]).contains("--print-every"));
     }
 }

@@ -38,29 +38,63 @@ pub struct Args {
     pub json: bool,
 }
 
-pub fn run(args: Args) -> anyhow::Result<()> {
-    limits::non_negative("--skip-s", args.skip_s, limits::MAX_SECONDS)
-        .map_err(anyhow::Error::msg)?;
-    let mut config = PipelineConfig::load(args.config.as_deref())?;
-    if args.model.is_some() {
-        config.predictor.model = args.model.clone();
+/// What replay runs, every value checked: built from [`Args`] by [`Config::try_from`] (the
+/// configuration file, `--model` over it, then the checks). The record itself is checked when
+/// it is read.
+#[derive(Debug, Clone)]
+pub struct Config {
+    pub input: PathBuf,
+    /// Its `predictor.model` is `--model` when given.
+    pub pipeline: PipelineConfig,
+    /// Non-negative and finite.
+    pub skip_s: f64,
+    pub json: bool,
+}
+
+impl TryFrom<Args> for Config {
+    type Error = anyhow::Error;
+
+    fn try_from(args: Args) -> anyhow::Result<Self> {
+        crate::checked(limits::non_negative(
+            "--skip-s",
+            args.skip_s,
+            limits::MAX_SECONDS,
+        ))?;
+        let mut pipeline = PipelineConfig::load(args.config.as_deref())?;
+        if args.model.is_some() {
+            pipeline.predictor.model = args.model;
+        }
+        pipeline.validate()?;
+        Ok(Config {
+            input: args.input,
+            pipeline,
+            skip_s: args.skip_s,
+            json: args.json,
+        })
     }
-    config.validate()?;
-    let data = MotionData::read_path(&args.input)
-        .with_context(|| format!("reading {}", args.input.display()))?;
+}
+
+pub fn run(args: Args) -> anyhow::Result<()> {
+    let Config {
+        input,
+        pipeline: config,
+        skip_s,
+        json,
+    } = Config::try_from(args)?;
+    let data =
+        MotionData::read_path(&input).with_context(|| format!("reading {}", input.display()))?;
     if data.dofs().is_empty() {
         anyhow::bail!(
             "{}: no motion column (surge_m, sway_m, heave_m, roll_rad, pitch_rad, yaw_rad)",
-            args.input.display()
+            input.display()
         );
     }
     // Skipping the whole record would score nothing and print a table of NaN.
     let end_s = data.time.last().copied().unwrap_or(0.0);
-    if args.skip_s >= end_s {
+    if skip_s >= end_s {
         anyhow::bail!(
-            "--skip-s {} s skips the whole record (it ends at {end_s:.1} s in {})",
-            args.skip_s,
-            args.input.display()
+            "--skip-s {skip_s} s skips the whole record (it ends at {end_s:.1} s in {})",
+            input.display()
         );
     }
     let models = initial_models(&config)?;
@@ -72,14 +106,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         &data,
         &config.predictor,
         models,
-        args.skip_s,
+        skip_s,
         false,
         Some(&config.deck),
         &|n| bar.inc(n),
     )?;
     bar.finish_and_clear();
     let mut out = std::io::stdout().lock();
-    if args.json {
+    if json {
         for d in &report.dofs {
             serde_json::to_writer(&mut out, d)?;
             writeln!(out)?;
@@ -171,4 +205,30 @@ fn table(r: &ReplayReport) -> String {
         }
     }
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_model_flag_overrides_the_configuration_and_skip_s_is_checked() {
+        let c = crate::validated::<Args, Config>(&[
+            "--input", "x.csv", "--model", "m.json", "--skip-s", "60", "--json",
+        ])
+        .unwrap();
+        assert_eq!(c.pipeline.predictor.model, Some(PathBuf::from("m.json")));
+        assert_eq!((c.skip_s, c.json), (60.0, true));
+        assert_eq!(c.input, PathBuf::from("x.csv"));
+        assert!(crate::validated::<Args, Config>(&["--input", "x.csv"])
+            .unwrap()
+            .pipeline
+            .predictor
+            .model
+            .is_none());
+        for bad in ["-1", "nan"] {
+            let e = crate::refused::<Args, Config>(&["--input", "x.csv", "--skip-s", bad]);
+            assert!(e.starts_with("--skip-s"), "{e}");
+        }
+    }
 }

@@ -311,16 +311,57 @@ fn write_config(config: &PipelineConfig, path: &Path) -> anyhow::Result<()> {
     std::fs::write(path, config.to_toml()?).with_context(|| format!("writing {}", path.display()))
 }
 
+/// What `run` starts, every value checked: built from [`Args`] by [`Config::try_from`] (the
+/// configuration file, the flags over it, then the checks).
+#[derive(Debug, Clone)]
+pub struct Config {
+    pub pipeline: PipelineConfig,
+    /// Wall-clock limit (`--duration`).
+    pub limit: Option<Duration>,
+    /// Directory of the children's logs; it exists.
+    pub log_dir: PathBuf,
+    /// Where the live display listens (None: `--no-display`); free when checked.
+    pub display: Option<std::net::SocketAddr>,
+    /// `--two-ship` or `relative.two_ship`.
+    pub two_ship: bool,
+}
+
+impl TryFrom<Args> for Config {
+    type Error = anyhow::Error;
+
+    fn try_from(args: Args) -> anyhow::Result<Self> {
+        let pipeline = args.common.load()?;
+        let log_dir = match args.log_dir {
+            Some(d) => d,
+            None => std::env::temp_dir().join(format!("shipcast-run-{}", std::process::id())),
+        };
+        std::fs::create_dir_all(&log_dir)
+            .with_context(|| format!("creating {}", log_dir.display()))?;
+        let display = if args.no_display {
+            None
+        } else {
+            Some(display_address(args.display.as_deref())?)
+        };
+        Ok(Config {
+            two_ship: args.two_ship || pipeline.relative.two_ship,
+            pipeline,
+            limit: args.common.duration()?,
+            log_dir,
+            display,
+        })
+    }
+}
+
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let mut config = args.common.load()?;
-    let limit = shutdown::RunLimit::new(args.common.duration()?);
+    let Config {
+        pipeline: mut config,
+        limit,
+        log_dir: logs,
+        display,
+        two_ship,
+    } = Config::try_from(args)?;
+    let limit = shutdown::RunLimit::new(limit);
     let names = config.names()?;
-    let logs = match &args.log_dir {
-        Some(d) => d.clone(),
-        None => std::env::temp_dir().join(format!("shipcast-run-{}", std::process::id())),
-    };
-    std::fs::create_dir_all(&logs).with_context(|| format!("creating {}", logs.display()))?;
-    let two_ship = args.two_ship || config.relative.two_ship;
     let target = two_ship
         .then(|| two_ship_configs(&mut config))
         .transpose()?;
@@ -357,18 +398,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         children.spawn_as("target-predictor", "predictor", &[], &target_path, &logs)?;
         children.spawn("relative", &[], &config_path, &logs)?;
     }
-    let display = if args.no_display {
-        None
-    } else {
-        let address = display_address(args.display.as_deref())?;
+    if let Some(address) = display {
         children.spawn(
             "display",
             &["--listen", &address.to_string()],
             &config_path,
             &logs,
         )?;
-        Some(address)
-    };
+    }
     children.spawn(
         "producer",
         &["--wait-subscriber-s", "120"],
@@ -526,5 +563,32 @@ impl CheckedJson {
             }
         }
         Ok(newest)
+    }
+}
+
+#[cfg(test)]
+mod config_tests {
+    use super::*;
+
+    #[test]
+    fn the_display_flags_and_two_ship_are_resolved_and_checked() {
+        let logs = std::env::temp_dir().join(format!("shipcast-run-test-{}", std::process::id()));
+        let dir = logs.to_str().unwrap();
+        let c = crate::validated::<Args, Config>(&["--log-dir", dir, "--no-display"]).unwrap();
+        assert!(c.display.is_none() && !c.two_ship && logs.is_dir());
+        assert_eq!(c.log_dir, logs);
+        let c = crate::validated::<Args, Config>(&[
+            "--log-dir",
+            dir,
+            "--display",
+            "127.0.0.1:0",
+            "--two-ship",
+        ])
+        .unwrap();
+        let address = c.display.unwrap();
+        assert!(address.ip().is_loopback() && address.port() != 0 && c.two_ship);
+        let e = crate::refused::<Args, Config>(&["--log-dir", dir, "--display", "localhost"]);
+        assert!(e.starts_with("--display must be HOST:PORT"), "{e}");
+        let _ = std::fs::remove_dir_all(&logs);
     }
 }
