@@ -41,18 +41,77 @@ pub struct Args {
     #[arg(long, value_name = "B.csv", requires = "crane_record")]
     pub target_record: Option<PathBuf>,
     /// Study mode: score only relative forecasts issued at record time >= S.
-    #[arg(long, default_value_t = 1200.0, value_name = "S")]
+    #[arg(
+        long,
+        default_value_t = 1200.0,
+        value_name = "S",
+        allow_negative_numbers = true
+    )]
     pub skip_s: f64,
     /// Study mode: the report as JSON instead of the table.
     #[arg(long)]
     pub json: bool,
 }
 
+/// What `relative` does, every value checked: built from [`Args`] by [`Config::try_from`].
+#[derive(Debug, Clone)]
+pub struct Config {
+    pub pipeline: PipelineConfig,
+    pub mode: Mode,
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub enum Mode {
+    /// Follow both vessels' forecasts over zenoh, until the wall-clock limit (`--duration`).
+    Live { limit: Option<Duration> },
+    /// Replay both records; score relative forecasts issued at record time >= `skip_s`
+    /// (non-negative and finite).
+    Study {
+        crane_record: PathBuf,
+        target_record: PathBuf,
+        skip_s: f64,
+        json: bool,
+    },
+}
+
+impl TryFrom<Args> for Config {
+    type Error = anyhow::Error;
+
+    fn try_from(args: Args) -> anyhow::Result<Self> {
+        let pipeline = args.common.load()?;
+        let mode = match (args.crane_record, args.target_record) {
+            (Some(crane_record), Some(target_record)) => {
+                crate::checked(limits::non_negative(
+                    "--skip-s",
+                    args.skip_s,
+                    limits::MAX_SECONDS,
+                ))?;
+                Mode::Study {
+                    crane_record,
+                    target_record,
+                    skip_s: args.skip_s,
+                    json: args.json,
+                }
+            }
+            // clap requires both or neither.
+            _ => Mode::Live {
+                limit: args.common.duration()?,
+            },
+        };
+        Ok(Config { pipeline, mode })
+    }
+}
+
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let config = args.common.load()?;
-    match (&args.crane_record, &args.target_record) {
-        (Some(a), Some(b)) => run_study(&args, &config, a, b),
-        _ => run_live(&args, &config),
+    let Config { pipeline, mode } = Config::try_from(args)?;
+    match mode {
+        Mode::Study {
+            crane_record,
+            target_record,
+            skip_s,
+            json,
+        } => run_study(&pipeline, &crane_record, &target_record, skip_s, json),
+        Mode::Live { limit } => run_live(&pipeline, limit),
     }
 }
 
@@ -65,15 +124,18 @@ fn read_record(path: &Path) -> anyhow::Result<MotionData> {
     Ok(data)
 }
 
-fn run_study(args: &Args, config: &PipelineConfig, a: &Path, b: &Path) -> anyhow::Result<()> {
-    limits::non_negative("--skip-s", args.skip_s, limits::MAX_SECONDS)
-        .map_err(anyhow::Error::msg)?;
+fn run_study(
+    config: &PipelineConfig,
+    a: &Path,
+    b: &Path,
+    skip_s: f64,
+    json: bool,
+) -> anyhow::Result<()> {
     let (crane, target) = (read_record(a)?, read_record(b)?);
     let end_s = crane.time.last().copied().unwrap_or(0.0);
-    if args.skip_s >= end_s {
+    if skip_s >= end_s {
         anyhow::bail!(
-            "--skip-s {} s skips the whole record (it ends at {end_s:.1} s in {})",
-            args.skip_s,
+            "--skip-s {skip_s} s skips the whole record (it ends at {end_s:.1} s in {})",
             a.display()
         );
     }
@@ -86,12 +148,10 @@ fn run_study(args: &Args, config: &PipelineConfig, a: &Path, b: &Path) -> anyhow
         (crane.len() + target.len()) as u64,
         "{elapsed_precise} [{bar:30}] {pos}/{len} samples",
     );
-    let (report, _, _) = study(&crane, &target, config, models, args.skip_s, &|n| {
-        bar.inc(n)
-    })?;
+    let (report, _, _) = study(&crane, &target, config, models, skip_s, &|n| bar.inc(n))?;
     bar.finish_and_clear();
     let mut out = std::io::stdout().lock();
-    if args.json {
+    if json {
         serde_json::to_writer(&mut out, &report)?;
         writeln!(out)?;
     } else {
@@ -210,9 +270,9 @@ impl Followed {
     }
 }
 
-fn run_live(args: &Args, config: &PipelineConfig) -> anyhow::Result<()> {
+fn run_live(config: &PipelineConfig, limit: Option<Duration>) -> anyhow::Result<()> {
     let r = &config.relative;
-    let limit = shutdown::RunLimit::new(args.common.duration()?);
+    let limit = shutdown::RunLimit::new(limit);
     let instance = config.instance.as_deref();
     let crane_names = Names::new(instance, r.crane_vessel(&config.vessel))?;
     let target_names = Names::new(instance, &r.target_vessel)?;
@@ -285,4 +345,48 @@ fn run_live(args: &Args, config: &PipelineConfig) -> anyhow::Result<()> {
         target.name
     );
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn both_records_make_a_study_and_skip_s_is_checked_only_there() {
+        let c = crate::validated::<Args, Config>(&[
+            "--crane-record",
+            "a.csv",
+            "--target-record",
+            "b.csv",
+            "--skip-s",
+            "60",
+            "--json",
+        ])
+        .unwrap();
+        assert_eq!(
+            c.mode,
+            Mode::Study {
+                crane_record: "a.csv".into(),
+                target_record: "b.csv".into(),
+                skip_s: 60.0,
+                json: true
+            }
+        );
+        let c = crate::validated::<Args, Config>(&["--duration", "2"]).unwrap();
+        assert_eq!(
+            c.mode,
+            Mode::Live {
+                limit: Some(Duration::from_secs(2))
+            }
+        );
+        let e = crate::refused::<Args, Config>(&[
+            "--crane-record",
+            "a.csv",
+            "--target-record",
+            "b.csv",
+            "--skip-s",
+            "-5",
+        ]);
+        assert!(e.starts_with("--skip-s"), "{e}");
+    }
 }
