@@ -562,6 +562,43 @@ mod replay_tests {
     }
 
     #[test]
+    fn on_a_stationary_gaussian_sea_the_stated_probabilities_hold_within_chance() {
+        // Two hours of the AR(2) heave, limit about its RMS: the engine's errors are Gaussian
+        // and stationary, so once verified errors decide, every well-filled bin's observed
+        // frequency must lie within chance of what it stated. Chance: the binomial spread of
+        // the bin's episodes (calls at least MOT apart), at 3 sigma, with 2 points for the
+        // ensemble's own sampling.
+        let data = ar2_heave(2 * 7200, 11);
+        let rms = (data.columns[0].values.iter().map(|v| v * v).sum::<f64>()
+            / data.columns[0].values.len() as f64)
+            .sqrt();
+        let deck = DeckConfig {
+            point_m: [0.0; 3],
+            vertical_displacement_limit_m: 1.2 * rms,
+            vertical_velocity_limit_mps: 100.0,
+            ..DeckConfig::default()
+        };
+        let config = PredictorServiceConfig::default();
+        let (report, _) =
+            replay_scored(&data, &config, None, 600.0, false, Some(&deck), &|_| {}).unwrap();
+        let mot10 = &report.decisions[0];
+        let filled: Vec<_> = mot10
+            .reliability
+            .iter()
+            .filter(|b| b.episodes >= 30)
+            .collect();
+        assert!(filled.len() >= 5, "{mot10:?}");
+        for b in filled {
+            let spread = (b.stated * (1.0 - b.stated) / b.episodes as f64).sqrt();
+            assert!(
+                (b.observed - b.stated).abs() <= 3.0 * spread + 0.02,
+                "{b:?} (3 sigma {:.3})",
+                3.0 * spread
+            );
+        }
+    }
+
+    #[test]
     fn replay_scores_decisions_for_both_mots() {
         let data = ar2_heave(2 * 1000, 5);
         let deck = DeckConfig {
