@@ -5,7 +5,8 @@
 //! (`IoxForecastGate`); rejections are counted, logged on one line each, and published with
 //! the deck's counters on `.../status/deck`.
 //!
-//! The deck also reads the motion samples: once a forecast's horizon has happened, the
+//! The decision also goes to local readers over iceoryx2 on `.../advisory/deck`
+//! (`DecisionSample`). The deck also reads the motion samples: once a forecast's horizon has happened, the
 //! decider verifies it against them, and its window probabilities come from the errors that
 //! really happened, as `shipcast replay`'s do from the record (docs/decisions.md).
 
@@ -13,11 +14,12 @@ use shipcast_pipeline::config::{CommonArgs, PipelineConfig};
 use shipcast_pipeline::decision::outcomes::{OutcomeCounts, Outcomes};
 use shipcast_pipeline::deck::DeckAdvisor;
 use shipcast_pipeline::limits as value_limits;
+use shipcast_pipeline::transport::clock::monotonic_ns;
 use shipcast_pipeline::transport::forecast_check::{IoxForecastGate, RejectionCounts};
-use shipcast_pipeline::transport::iox::{self, IoxSubscriber, Sizing, WaitMode};
+use shipcast_pipeline::transport::iox::{self, IoxPublisher, IoxSubscriber, Sizing, WaitMode};
 use shipcast_pipeline::transport::zenoh::{self as zn, JsonPublisher};
 use shipcast_pipeline::transport::{shutdown, Names};
-use shipcast_wire::payload::{limits, Forecast, MotionSample};
+use shipcast_wire::payload::{limits, DecisionSample, Forecast, MotionSample};
 use std::io::Write;
 use std::time::{Duration, Instant};
 
@@ -88,6 +90,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         Sizing::MOTION,
         WaitMode::Event,
     )?;
+    let local =
+        IoxPublisher::<DecisionSample>::new(&node, &names.advisory("deck"), Sizing::FORECAST)?;
     let horizon_s = config.predictor.horizon as f64 / config.predictor.sample_rate_hz;
     let mut outcomes = Outcomes::new(
         config.producer.rate_hz,
@@ -154,6 +158,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         waiting_reported = false;
         let advisory = advisor.advise(&forecast);
         outcomes.push_decision(&forecast, advisor.decider());
+        local.send(
+            &advisory
+                .decision
+                .sample(forecast.seq, forecast.time_s, monotonic_ns()),
+        )?;
         if let Some((p, _, _)) = &publisher {
             p.put_serialize(&advisory)?;
         }

@@ -249,12 +249,45 @@ impl TryFrom<ForecastJson> for Forecast {
     }
 }
 
+/// A station's go/no-go decision on one forecast (docs/decisions.md), for local readers over
+/// iceoryx2 on `shipcast/<vessel>/advisory/<station>` (80 bytes): the `decision` of the JSON
+/// advisory, with NaN where that has `null`. Times are seconds after the forecast's `time_s`.
+#[derive(Debug, Clone, Copy, PartialEq, Default, ZeroCopySend)]
+#[type_name("shipcast::DecisionSample")]
+#[repr(C)]
+pub struct DecisionSample {
+    /// seq of the forecast decided on.
+    pub forecast_seq: u64,
+    /// CLOCK_MONOTONIC when the decision was published.
+    pub stamp_ns: u64,
+    /// The forecast's `time_s` (record time).
+    pub time_s: f64,
+    /// Minimum operation time [s] and the go threshold.
+    pub mot_s: f64,
+    pub go_probability: f64,
+    /// Probability that every limit holds over the window of MOT from the first step (NaN:
+    /// the horizon is shorter than MOT).
+    pub probability_now: f64,
+    /// Start of the first window of MOT reaching the threshold, and its probability.
+    pub next_window_s: f64,
+    pub next_window_probability: f64,
+    /// First predicted exceedance of a limit.
+    pub next_exceedance_s: f64,
+    /// 1: go now, 0: no-go.
+    pub go: u32,
+    /// Verified error paths behind the probabilities (0: the Gaussian model, no go).
+    pub ensemble_members: u32,
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
 
     #[test]
     fn payload_sizes_and_type_names_are_the_contract() {
+        assert_eq!(std::mem::size_of::<DecisionSample>(), 80);
+        assert_eq!(std::mem::offset_of!(DecisionSample, go), 72);
+        assert_eq!(std::mem::offset_of!(DecisionSample, ensemble_members), 76);
         assert_eq!(std::mem::size_of::<MotionSample>(), 72);
         assert_eq!(std::mem::align_of::<MotionSample>(), 8);
         assert_eq!(
@@ -268,6 +301,7 @@ mod tests {
         unsafe {
             assert_eq!(MotionSample::type_name(), "shipcast::MotionSample");
             assert_eq!(Forecast::type_name(), "shipcast::Forecast");
+            assert_eq!(DecisionSample::type_name(), "shipcast::DecisionSample");
         }
     }
 

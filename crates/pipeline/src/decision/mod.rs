@@ -22,7 +22,7 @@ use crate::deck::ShipPoint;
 pub use correlation::ErrorCorrelation;
 pub use ensemble::ErrorEnsemble;
 use serde::{Deserialize, Serialize};
-use shipcast_wire::payload::{Forecast, MAX_STEPS};
+use shipcast_wire::payload::{DecisionSample, Forecast, MAX_STEPS};
 use shipcast_wire::Dof;
 use window::{chain_within, cholesky_block, correlated_within, Lattice};
 
@@ -65,6 +65,24 @@ pub struct Decision {
 }
 
 impl Decision {
+    /// The decision as the iceoryx2 payload for local readers (NaN for absent values).
+    pub fn sample(&self, forecast_seq: u64, time_s: f64, stamp_ns: u64) -> DecisionSample {
+        let nan = |v: Option<f64>| v.unwrap_or(f64::NAN);
+        DecisionSample {
+            forecast_seq,
+            stamp_ns,
+            time_s,
+            mot_s: self.mot_s,
+            go_probability: self.go_probability,
+            probability_now: nan(self.probability_now),
+            next_window_s: nan(self.next_window_s),
+            next_window_probability: nan(self.next_window_probability),
+            next_exceedance_s: nan(self.next_exceedance_s),
+            go: u32::from(self.go),
+            ensemble_members: u32::try_from(self.ensemble_members).unwrap_or(u32::MAX),
+        }
+    }
+
     pub fn summary(&self) -> String {
         let next = match (self.next_window_s, self.next_window_probability) {
             (Some(s), Some(p)) => format!("next window in {s:.1}s ({:.0}%)", 100.0 * p),
