@@ -1,4 +1,5 @@
-//! The documented consumers (examples/*.py and examples/*_forecast_*.rs) against a real pipeline,
+//! The documented consumers (examples/*.py, examples/*_forecast_*.rs and
+//! examples/local_decision_reader.rs) against a real pipeline,
 //! so the examples cannot rot: each must exit 0 after `--count 3` and print forecast lines whose
 //! content is plausible. The Python test needs python3; when it lacks `eclipse-zenoh` and
 //! `iceoryx2` at the pinned versions, it installs them from PyPI into a virtual environment under
@@ -250,6 +251,47 @@ fn rust_examples_read_forecasts_over_zenoh_and_iceoryx2() {
         Consumer::Iceoryx2 => ExampleProc::rust(dir, "local_forecast_reader", args),
     });
     check_both(zenoh, iox);
+}
+
+/// examples/local_decision_reader.rs reads the deck's decisions over iceoryx2: it exits 0 after
+/// `--count 5` with five decision lines whose verdict agrees with their probability, threshold
+/// and evidence (a fresh deck has verified nothing yet: no go).
+#[test]
+fn the_rust_decision_reader_reads_the_deck_over_iceoryx2() {
+    let p = TestPipeline::new("decex", "[producer]\nspeed = 20.0\nbackfill_s = 0.0\n");
+    let predictor = p.spawn("predictor", &[]);
+    predictor.wait_for("(iceoryx2 and zenoh)");
+    let _deck = p.spawn("deck", &[]);
+    let reader = ExampleProc::rust(
+        p.dir.path(),
+        "local_decision_reader",
+        &["--instance", &p.instance, "--count", "5"],
+    );
+    let _producer = p.spawn("producer", &["--wait-subscriber-s", "30"]);
+    let out = reader.finish();
+    assert!(out.status.success(), "{}\n{}", out.stdout, out.stderr);
+    let lines: Vec<&str> = out
+        .stdout
+        .lines()
+        .filter(|l| l.starts_with("deck seq "))
+        .collect();
+    assert_eq!(lines.len(), 5, "{}", out.stdout);
+    for line in lines {
+        let words: Vec<&str> = line.split_whitespace().collect();
+        let after = |w: &str| words.iter().position(|x| *x == w).map(|i| words[i + 1]);
+        let members: u64 = words[words.len() - 3].parse().expect(line);
+        let go = words[4] == "GO";
+        assert!(go || words[4] == "NO-GO", "{line}");
+        if let Some(p) = after("p") {
+            let p: f64 = p.parse().expect(line);
+            let threshold: f64 = after("(threshold")
+                .and_then(|t| t.trim_end_matches("),").parse().ok())
+                .expect(line);
+            assert!((0.0..=1.0).contains(&p), "{line}");
+            assert_eq!(go, members > 0 && p >= threshold - 5e-4, "{line}");
+        }
+        assert!(!go || members > 0, "a go without verified errors: {line}");
+    }
 }
 
 /// The transport an example reads from.
