@@ -10,9 +10,11 @@
 //! cargo run --release --example local_decision_reader -- [--instance NAME] [--vessel ddg51] [--station deck] [--count N]
 //! ```
 
+#[path = "common/iox_reader.rs"]
+mod iox_reader;
+
 use iceoryx2::port::listener::ListenerWaitError;
-use iceoryx2::prelude::*;
-use shipcast_wire::payload::{limits, DecisionSample};
+use shipcast_wire::payload::DecisionSample;
 use std::process::ExitCode;
 use std::time::Duration;
 
@@ -64,40 +66,13 @@ fn seconds(v: f64, absent: &str) -> String {
 }
 
 fn run(options: &Options) -> Result<(), Box<dyn std::error::Error>> {
-    let mut name = format!("shipcast/{}/advisory/{}", options.vessel, options.station);
-    let mut config = iceoryx2::config::Config::default();
-    if !options.instance.is_empty() {
-        name = format!("{}/{name}", options.instance);
-        let prefix = format!("iox2_{}_", options.instance);
-        config.global.prefix = FileName::new(prefix.as_bytes())?;
-    }
-    let node = NodeBuilder::new()
-        .config(&config)
-        .create::<ipc::Service>()?;
-    // The same limits as the deck, so whichever process comes first creates a service the
-    // other can open.
-    let service = node
-        .service_builder(&name.as_str().try_into()?)
-        .publish_subscribe::<DecisionSample>()
-        .max_publishers(limits::MAX_PUBLISHERS)
-        .max_subscribers(limits::MAX_SUBSCRIBERS)
-        .max_nodes(limits::MAX_NODES)
-        .subscriber_max_buffer_size(limits::FORECAST_BUFFER)
-        .history_size(limits::FORECAST_HISTORY)
-        .enable_safe_overflow(true)
-        .open_or_create()?;
-    let subscriber = service.subscriber_builder().create()?;
-    // The deck notifies this event service after every decision.
-    let event_name = format!("{name}/event");
-    let event = node
-        .service_builder(&event_name.as_str().try_into()?)
-        .event()
-        .max_notifiers(limits::MAX_NOTIFIERS)
-        .max_listeners(limits::MAX_LISTENERS)
-        .max_nodes(limits::MAX_NODES)
-        .open_or_create()?;
-    let listener = event.listener_builder().create()?;
-    eprintln!("reading {name} (iceoryx2)");
+    // The deck notifies the event service after every sample: no polling needed.
+    let reader = iox_reader::open::<DecisionSample>(
+        &options.instance,
+        &format!("{}/advisory/{}", options.vessel, options.station),
+    )?;
+    let (subscriber, listener) = (&reader.subscriber, &reader.listener);
+    eprintln!("reading {} (iceoryx2)", reader.name);
 
     let mut received = 0;
     while options.count == 0 || received < options.count {
@@ -110,7 +85,8 @@ fn run(options: &Options) -> Result<(), Box<dyn std::error::Error>> {
             let d: &DecisionSample = &sample;
             // Shared memory is written by another process: check what is printed.
             let p = d.probability_now;
-            if d.go > 1 || !(d.mot_s > 0.0) || !(p.is_nan() || (0.0..=1.0).contains(&p)) {
+            let bad_mot = d.mot_s.is_nan() || d.mot_s <= 0.0;
+            if d.go > 1 || bad_mot || !(p.is_nan() || (0.0..=1.0).contains(&p)) {
                 eprintln!(
                     "skipped a decision with go {}, MOT {}, p {p}",
                     d.go, d.mot_s

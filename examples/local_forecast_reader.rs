@@ -12,9 +12,11 @@
 //! With `--instance NAME` the pipeline's service names start with `NAME/` and its iceoryx2 files
 //! with the prefix `iox2_NAME_`; pass the same `--instance` here.
 
+#[path = "common/iox_reader.rs"]
+mod iox_reader;
+
 use iceoryx2::port::listener::ListenerWaitError;
-use iceoryx2::prelude::*;
-use shipcast_wire::payload::{limits, Forecast, MAX_STEPS};
+use shipcast_wire::payload::{Forecast, MAX_STEPS};
 use shipcast_wire::Dof;
 use std::process::ExitCode;
 use std::time::Duration;
@@ -56,40 +58,11 @@ fn parse_options() -> Result<Options, String> {
 }
 
 fn run(options: &Options) -> Result<(), Box<dyn std::error::Error>> {
-    let mut name = format!("shipcast/{}/forecast", options.vessel);
-    let mut config = iceoryx2::config::Config::default();
-    if !options.instance.is_empty() {
-        name = format!("{}/{name}", options.instance);
-        let prefix = format!("iox2_{}_", options.instance);
-        config.global.prefix = FileName::new(prefix.as_bytes())?;
-    }
-    let node = NodeBuilder::new()
-        .config(&config)
-        .create::<ipc::Service>()?;
-    // The same limits as the predictor, so whichever process comes first creates a service the
-    // other can open.
-    let service = node
-        .service_builder(&name.as_str().try_into()?)
-        .publish_subscribe::<Forecast>()
-        .max_publishers(limits::MAX_PUBLISHERS)
-        .max_subscribers(limits::MAX_SUBSCRIBERS)
-        .max_nodes(limits::MAX_NODES)
-        .subscriber_max_buffer_size(limits::FORECAST_BUFFER)
-        .history_size(limits::FORECAST_HISTORY)
-        .enable_safe_overflow(true)
-        .open_or_create()?;
-    let subscriber = service.subscriber_builder().create()?;
-    // The predictor notifies this event service after every forecast: no polling needed.
-    let event_name = format!("{name}/event");
-    let event = node
-        .service_builder(&event_name.as_str().try_into()?)
-        .event()
-        .max_notifiers(limits::MAX_NOTIFIERS)
-        .max_listeners(limits::MAX_LISTENERS)
-        .max_nodes(limits::MAX_NODES)
-        .open_or_create()?;
-    let listener = event.listener_builder().create()?;
-    eprintln!("reading {name} (iceoryx2)");
+    // The predictor notifies the event service after every sample: no polling needed.
+    let reader =
+        iox_reader::open::<Forecast>(&options.instance, &format!("{}/forecast", options.vessel))?;
+    let (subscriber, listener) = (&reader.subscriber, &reader.listener);
+    eprintln!("reading {} (iceoryx2)", reader.name);
 
     let mut received = 0;
     while options.count == 0 || received < options.count {

@@ -1,0 +1,63 @@
+//! What both local examples need to read a shipcast payload over iceoryx2: the node (with the
+//! instance's file prefix), the pub-sub service with shipcast's limits, and the listener of its
+//! event service, which the publisher notifies after every sample.
+
+use iceoryx2::port::listener::Listener;
+use iceoryx2::port::subscriber::Subscriber;
+use iceoryx2::prelude::*;
+use shipcast_wire::payload::limits;
+use std::fmt::Debug;
+
+pub struct Reader<T: Debug + ZeroCopySend + 'static> {
+    // Kept alive for as long as the ports are used.
+    _node: Node<ipc::Service>,
+    pub subscriber: Subscriber<ipc::Service, T, ()>,
+    pub listener: Listener<ipc::Service>,
+    /// The full service name, instance prefix included.
+    pub name: String,
+}
+
+/// Open `shipcast/<service>` (after `<instance>/` when an instance is given) for reading `T`.
+pub fn open<T: Debug + ZeroCopySend + 'static>(
+    instance: &str,
+    service: &str,
+) -> Result<Reader<T>, Box<dyn std::error::Error>> {
+    let mut name = format!("shipcast/{service}");
+    let mut config = iceoryx2::config::Config::default();
+    if !instance.is_empty() {
+        name = format!("{instance}/{name}");
+        let prefix = format!("iox2_{instance}_");
+        config.global.prefix = FileName::new(prefix.as_bytes())?;
+    }
+    let node = NodeBuilder::new()
+        .config(&config)
+        .create::<ipc::Service>()?;
+    // The same limits as the publishing service, so whichever process comes first creates a
+    // service the other can open.
+    let pubsub = node
+        .service_builder(&name.as_str().try_into()?)
+        .publish_subscribe::<T>()
+        .max_publishers(limits::MAX_PUBLISHERS)
+        .max_subscribers(limits::MAX_SUBSCRIBERS)
+        .max_nodes(limits::MAX_NODES)
+        .subscriber_max_buffer_size(limits::FORECAST_BUFFER)
+        .history_size(limits::FORECAST_HISTORY)
+        .enable_safe_overflow(true)
+        .open_or_create()?;
+    let subscriber = pubsub.subscriber_builder().create()?;
+    let event_name = format!("{name}/event");
+    let event = node
+        .service_builder(&event_name.as_str().try_into()?)
+        .event()
+        .max_notifiers(limits::MAX_NOTIFIERS)
+        .max_listeners(limits::MAX_LISTENERS)
+        .max_nodes(limits::MAX_NODES)
+        .open_or_create()?;
+    let listener = event.listener_builder().create()?;
+    Ok(Reader {
+        _node: node,
+        subscriber,
+        listener,
+        name,
+    })
+}
