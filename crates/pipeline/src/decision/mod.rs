@@ -189,6 +189,14 @@ pub fn standardised_errors(
     steps
 }
 
+/// Steps in a window of `mot_s` at step `dt_s` (usize::MAX for a step that is not positive).
+pub fn window_steps(mot_s: f64, dt_s: f64) -> usize {
+    if dt_s.is_nan() || dt_s <= 0.0 {
+        return usize::MAX;
+    }
+    ((mot_s / dt_s) - 1e-9).ceil().max(1.0) as usize
+}
+
 /// Operator limits in SI units (rad, rad, m, m/s), in the order of [`QUANTITIES`].
 pub fn limits(config: &DeckConfig) -> [f64; NUM_QUANTITIES] {
     [
@@ -229,14 +237,11 @@ pub struct Decider {
 
 impl Decider {
     pub fn new(config: &DeckConfig) -> Self {
-        Self::with_mot(config, config.mot_s)
-    }
-
-    pub fn with_mot(config: &DeckConfig, mot_s: f64) -> Self {
+        let ensemble = ErrorEnsemble::default();
         Self {
             point: ShipPoint::new(config.point_m),
             limits: limits(config),
-            mot_s,
+            mot_s: config.mot_s,
             go_probability: config.go_probability,
             go_needs_verified: config.go_needs_verified_errors,
             rho: config.error_correlation,
@@ -247,9 +252,9 @@ impl Decider {
             full_steps: [0; NUM_QUANTITIES],
             chol: vec![0.0; MAX_STEPS * MAX_STEPS],
             y: vec![0.0; MAX_STEPS],
-            fail_before: vec![0; ensemble::DEFAULT_CAPACITY * (MAX_STEPS + 1)],
-            usable: vec![false; ensemble::DEFAULT_CAPACITY],
-            ensemble: ErrorEnsemble::default(),
+            fail_before: vec![0; ensemble.capacity() * (MAX_STEPS + 1)],
+            usable: vec![false; ensemble.capacity()],
+            ensemble,
             from_ensemble: false,
             u: Box::new([[f64::NAN; MAX_STEPS]; NUM_QUANTITIES]),
         }
@@ -280,16 +285,8 @@ impl Decider {
         &self.ensemble
     }
 
-    pub fn mot_s(&self) -> f64 {
-        self.mot_s
-    }
-
     pub fn limits(&self) -> &[f64; NUM_QUANTITIES] {
         &self.limits
-    }
-
-    pub fn point(&self) -> &ShipPoint {
-        &self.point
     }
 
     pub fn error_correlation(&self) -> [f64; NUM_QUANTITIES] {
@@ -318,12 +315,9 @@ impl Decider {
         }
     }
 
-    /// Steps in a window of MOT at step `dt_s`.
+    /// Steps in a window of this decider's MOT at step `dt_s`.
     pub fn window_steps(&self, dt_s: f64) -> usize {
-        if dt_s.is_nan() || dt_s <= 0.0 {
-            return usize::MAX;
-        }
-        ((self.mot_s / dt_s) - 1e-9).ceil().max(1.0) as usize
+        window_steps(self.mot_s, dt_s)
     }
 
     pub fn tracks(&self) -> &Tracks {

@@ -11,7 +11,7 @@
 //! - the error correlation is estimated causally: a forecast's errors join the estimate only
 //!   once its whole horizon has happened.
 
-use super::{standardised_errors, Decider, ErrorCorrelation, Tracks, NUM_QUANTITIES};
+use super::{standardised_errors, window_steps, Decider, ErrorCorrelation, Tracks, NUM_QUANTITIES};
 use crate::config::DeckConfig;
 use serde::Serialize;
 use shipcast_wire::payload::{Forecast, MAX_STEPS};
@@ -96,7 +96,7 @@ struct Threshold {
 
 #[derive(Debug, Clone)]
 struct PerMot {
-    decider: Decider,
+    mot_s: f64,
     calls: u64,
     held: u64,
     brier: f64,
@@ -119,6 +119,9 @@ struct Pending {
 /// Scores the deck decisions of a replay, for several MOTs.
 pub struct DecisionScorer {
     station: String,
+    /// One decider serves every MOT: the window length is an argument of its probabilities,
+    /// and its error model does not depend on it.
+    decider: Decider,
     per_mot: Vec<PerMot>,
     correlation: ErrorCorrelation,
     pending: VecDeque<Pending>,
@@ -149,7 +152,7 @@ impl DecisionScorer {
                     .position(|v| (v - config.go_probability).abs() < 1e-12)
                     .unwrap_or(0);
                 PerMot {
-                    decider: Decider::with_mot(config, mot),
+                    mot_s: mot,
                     calls: 0,
                     held: 0,
                     brier: 0.0,
@@ -171,6 +174,7 @@ impl DecisionScorer {
             .collect();
         Self {
             station: station.to_string(),
+            decider: Decider::new(config),
             per_mot,
             correlation: ErrorCorrelation::new(config.error_correlation),
             pending: VecDeque::new(),
@@ -197,28 +201,23 @@ impl DecisionScorer {
                 for q in 0..NUM_QUANTITIES {
                     self.correlation.add(q, &p.u[q][..p.steps]);
                 }
-                for m in &mut self.per_mot {
-                    m.decider.add_verified(&p.u, p.steps);
-                }
+                self.decider.add_verified(&p.u, p.steps);
             }
         }
-        let rho = self.correlation.rho();
-        let Some(first) = self.per_mot.first_mut() else {
+        if self.per_mot.is_empty() {
             return;
-        };
-        first.decider.set_error_correlation(rho);
-        first
-            .decider
-            .set_error_matrices(&self.correlation, forecast.valid_steps());
-        first.decider.load(forecast);
-        let point = *first.decider.point();
-        let limits = *first.decider.limits();
-        self.actual.fill(&point, actual, 0.0);
-        let steps = first.decider.tracks().steps.min(self.actual.steps);
+        }
+        let decider = &mut self.decider;
+        decider.set_error_correlation(self.correlation.rho());
+        decider.set_error_matrices(&self.correlation, forecast.valid_steps());
+        decider.load(forecast);
+        let limits = *decider.limits();
+        decider.fill_tracks(actual, &mut self.actual);
+        let steps = decider.tracks().steps.min(self.actual.steps);
         // Whether every limit held at each step, and the standardised errors.
         let mut ok = [false; MAX_STEPS];
         let mut u = Box::new([[f64::NAN; MAX_STEPS]; NUM_QUANTITIES]);
-        standardised_errors(first.decider.tracks(), &self.actual, &mut u);
+        standardised_errors(decider.tracks(), &self.actual, &mut u);
         for (k, held) in ok.iter_mut().enumerate().take(steps) {
             *held = (0..NUM_QUANTITIES).all(|q| self.actual.mean[q][k].abs() <= limits[q]);
         }
@@ -238,22 +237,16 @@ impl DecisionScorer {
         }
         self.last_s = t0;
         self.horizon_s = steps as f64 * dt;
-        for (i, m) in self.per_mot.iter_mut().enumerate() {
-            if i > 0 {
-                m.decider.set_error_correlation(rho);
-                m.decider
-                    .set_error_matrices(&self.correlation, forecast.valid_steps());
-                m.decider.load(forecast);
-            }
-            let n = m.decider.window_steps(dt);
+        // A go (now or announced) only where the live decider could say one.
+        let may_go = decider.may_go();
+        for m in &mut self.per_mot {
+            let n = window_steps(m.mot_s, dt);
             if n > steps {
                 continue;
             }
             let holds = |s: usize| ok[s..s + n].iter().all(|&h| h);
-            let p = m.decider.window_probability(0, n);
+            let p = decider.window_probability(0, n);
             let held = holds(0);
-            // A go (now or announced) only where the live decider could say one.
-            let may_go = m.decider.may_go();
             m.calls += 1;
             m.held += u64::from(held);
             m.brier += (p - f64::from(u8::from(held))).powi(2);
@@ -262,14 +255,14 @@ impl DecisionScorer {
             m.bins[bin].1 += p;
             m.bins[bin].2 += u64::from(held);
             let episode = &mut m.episodes[bin];
-            if t0 - episode.1 > m.decider.mot_s() {
+            if t0 - episode.1 > m.mot_s {
                 episode.0 += 1;
                 episode.1 = t0;
             }
             m.candidates.clear();
             for s in (0..=steps - n).filter(|_| may_go) {
-                if m.decider.mean_holds(s, n) {
-                    m.candidates.push((s, m.decider.window_probability(s, n)));
+                if decider.mean_holds(s, n) {
+                    m.candidates.push((s, decider.window_probability(s, n)));
                 }
             }
             for (j, th) in m.thresholds.iter_mut().enumerate() {
@@ -312,7 +305,7 @@ impl DecisionScorer {
         self.per_mot
             .into_iter()
             .map(|m| {
-                let n = m.decider.window_steps(dt) as i64;
+                let n = window_steps(m.mot_s, dt) as i64;
                 // Periods a forecast could have announced LEAD_S ahead within its horizon.
                 let periods: Vec<(i64, i64)> = runs
                     .iter()
@@ -352,7 +345,7 @@ impl DecisionScorer {
 
                 DecisionReport {
                     station: self.station.clone(),
-                    mot_s: m.decider.mot_s(),
+                    mot_s: m.mot_s,
                     go_probability: default.threshold,
                     window_steps: n as usize,
                     calls: m.calls,
