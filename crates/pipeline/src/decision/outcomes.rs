@@ -157,29 +157,26 @@ mod tests {
     use super::*;
     use crate::config::DeckConfig;
     use crate::decision::{ensemble, standardised_errors};
+    use crate::deck::tests::forecast_with_roll;
     use shipcast_wire::payload::MAX_STEPS;
 
-    /// Roll of a slow swell sampled at 8 Hz; forecasts at 2 Hz whose mean is 0.8 of it, so
-    /// the errors are not what the Gaussian model assumes.
+    /// Roll of a slow swell [deg] sampled at 8 Hz; forecasts at 2 Hz whose mean is 0.8 of
+    /// it, so the errors are not what the Gaussian model assumes.
+    fn roll_deg(t: f64) -> f64 {
+        2.2 * (t * std::f64::consts::TAU / 40.0).sin()
+    }
+
     fn roll_at(t: f64) -> f64 {
-        (2.2 * (t * std::f64::consts::TAU / 40.0).sin()).to_radians()
+        roll_deg(t).to_radians()
     }
 
     fn forecast_at(t0: f64) -> Forecast {
-        let mut f = Forecast {
-            time_s: t0,
-            dt_s: 0.5,
-            steps: 50,
-            ..Forecast::default()
-        };
-        for k in 0..50 {
-            let t = t0 + (k + 1) as f64 * 0.5;
-            f.mean[3][k] = (0.8 * roll_at(t)) as f32;
-            for d in 0..6 {
-                f.sigma[d][k] = 0.2f64.to_radians() as f32;
-            }
-        }
-        f
+        let f = forecast_with_roll(
+            50,
+            |k| 0.8 * roll_deg(t0 + (k + 1) as f64 * 0.5),
+            0.2f64.to_radians() as f32,
+        );
+        Forecast { time_s: t0, ..f }
     }
 
     fn sample(i: u64) -> MotionSample {

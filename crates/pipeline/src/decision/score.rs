@@ -392,21 +392,17 @@ impl DecisionScorer {
 mod tests {
     use super::*;
     use crate::decision::ensemble;
+    use crate::deck::tests::forecast_with_roll;
 
-    /// A forecast with roll `roll_deg(k)` (sigma `sigma_deg`) issued at `t0`.
+    /// The deck tests' forecast issued at `t0`, roll `roll_deg(t)` at each step's time t, and
+    /// sigma `sigma_deg` (on every DOF).
     fn roll_forecast(t0: f64, roll_deg: impl Fn(f64) -> f64, sigma_deg: f64) -> Forecast {
-        let mut f = Forecast {
-            time_s: t0,
-            dt_s: 0.5,
-            steps: 40,
-            ..Forecast::default()
-        };
-        for k in 0..40 {
-            let t = t0 + (k + 1) as f64 * 0.5;
-            f.mean[3][k] = roll_deg(t).to_radians() as f32;
-            f.sigma[3][k] = sigma_deg.to_radians() as f32;
-        }
-        f
+        let f = forecast_with_roll(
+            40,
+            |k| roll_deg(t0 + (k + 1) as f64 * 0.5),
+            sigma_deg.to_radians() as f32,
+        );
+        Forecast { time_s: t0, ..f }
     }
 
     /// Roll alternates between 20 s quiet (1 deg) and 20 s rough (4 deg).
