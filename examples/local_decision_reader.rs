@@ -12,49 +12,13 @@
 
 #[path = "common/iox_reader.rs"]
 mod iox_reader;
+#[path = "common/options.rs"]
+mod options;
 
 use iceoryx2::port::listener::ListenerWaitError;
 use shipcast_wire::payload::DecisionSample;
 use std::process::ExitCode;
 use std::time::Duration;
-
-struct Options {
-    instance: String,
-    vessel: String,
-    station: String,
-    /// Stop after this many decisions; 0 runs until Ctrl-C.
-    count: usize,
-}
-
-fn parse_options() -> Result<Options, String> {
-    let mut options = Options {
-        instance: String::new(),
-        vessel: "ddg51".into(),
-        station: "deck".into(),
-        count: 0,
-    };
-    let mut args = std::env::args().skip(1);
-    while let Some(flag) = args.next() {
-        let mut value = || args.next().ok_or(format!("{flag} needs a value"));
-        match flag.as_str() {
-            "--instance" => options.instance = value()?,
-            "--vessel" => options.vessel = value()?,
-            "--station" => options.station = value()?,
-            "--count" => {
-                let v = value()?;
-                options.count = v
-                    .parse()
-                    .map_err(|_| format!("--count must be a whole number, got '{v}'"))?;
-            }
-            other => {
-                return Err(format!(
-                    "unknown option '{other}' (--instance, --vessel, --station, --count)"
-                ))
-            }
-        }
-    }
-    Ok(options)
-}
 
 /// "in 3.5 s" or the text for an absent value (NaN in the payload).
 fn seconds(v: f64, absent: &str) -> String {
@@ -65,11 +29,12 @@ fn seconds(v: f64, absent: &str) -> String {
     }
 }
 
-fn run(options: &Options) -> Result<(), Box<dyn std::error::Error>> {
+fn run(options: &options::Options) -> Result<(), Box<dyn std::error::Error>> {
+    let station = options.get("--station").unwrap_or("deck");
     // The deck notifies the event service after every sample: no polling needed.
     let reader = iox_reader::open::<DecisionSample>(
         &options.instance,
-        &format!("{}/advisory/{}", options.vessel, options.station),
+        &format!("{}/advisory/{station}", options.vessel),
     )?;
     let (subscriber, listener) = (&reader.subscriber, &reader.listener);
     eprintln!("reading {} (iceoryx2)", reader.name);
@@ -102,7 +67,7 @@ fn run(options: &Options) -> Result<(), Box<dyn std::error::Error>> {
             };
             println!(
                 "{} seq {} t={:.1}s: {verdict} {now} (threshold {:.2}), next window {}, next exceedance {}, from {} verified errors",
-                options.station,
+                station,
                 d.forecast_seq,
                 d.time_s,
                 d.go_probability,
@@ -116,7 +81,9 @@ fn run(options: &Options) -> Result<(), Box<dyn std::error::Error>> {
 }
 
 fn main() -> ExitCode {
-    let result = parse_options().map_err(Into::into).and_then(|o| run(&o));
+    let result = options::parse(&["--station"])
+        .map_err(Into::into)
+        .and_then(|o| run(&o));
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {

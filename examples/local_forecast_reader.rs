@@ -14,6 +14,8 @@
 
 #[path = "common/iox_reader.rs"]
 mod iox_reader;
+#[path = "common/options.rs"]
+mod options;
 
 use iceoryx2::port::listener::ListenerWaitError;
 use shipcast_wire::payload::{Forecast, MAX_STEPS};
@@ -21,43 +23,7 @@ use shipcast_wire::Dof;
 use std::process::ExitCode;
 use std::time::Duration;
 
-/// Command-line options (the same as the Python example's).
-struct Options {
-    instance: String,
-    vessel: String,
-    /// Stop after this many forecasts; 0 runs until Ctrl-C.
-    count: usize,
-}
-
-fn parse_options() -> Result<Options, String> {
-    let mut options = Options {
-        instance: String::new(),
-        vessel: "ddg51".into(),
-        count: 0,
-    };
-    let mut args = std::env::args().skip(1);
-    while let Some(flag) = args.next() {
-        let mut value = || args.next().ok_or(format!("{flag} needs a value"));
-        match flag.as_str() {
-            "--instance" => options.instance = value()?,
-            "--vessel" => options.vessel = value()?,
-            "--count" => {
-                let v = value()?;
-                options.count = v
-                    .parse()
-                    .map_err(|_| format!("--count must be a whole number, got '{v}'"))?;
-            }
-            other => {
-                return Err(format!(
-                    "unknown option '{other}' (--instance, --vessel, --count)"
-                ))
-            }
-        }
-    }
-    Ok(options)
-}
-
-fn run(options: &Options) -> Result<(), Box<dyn std::error::Error>> {
+fn run(options: &options::Options) -> Result<(), Box<dyn std::error::Error>> {
     // The predictor notifies the event service after every sample: no polling needed.
     let reader =
         iox_reader::open::<Forecast>(&options.instance, &format!("{}/forecast", options.vessel))?;
@@ -103,7 +69,9 @@ fn run(options: &Options) -> Result<(), Box<dyn std::error::Error>> {
 }
 
 fn main() -> ExitCode {
-    let result = parse_options().map_err(Into::into).and_then(|o| run(&o));
+    let result = options::parse(&[])
+        .map_err(Into::into)
+        .and_then(|o| run(&o));
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {

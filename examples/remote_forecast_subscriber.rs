@@ -13,6 +13,9 @@
 //! `shipcast certs`, which holds the endpoint, TLS and the station's certificate:
 //! `--config DIR/crane.json5`.
 
+#[path = "common/options.rs"]
+mod options;
+
 use shipcast_wire::payload::{limits, Forecast};
 use shipcast_wire::Dof;
 use std::process::ExitCode;
@@ -22,65 +25,24 @@ use zenoh::Wait;
 /// zenoh's own error type (its results are `Box<dyn Error + Send + Sync>`).
 type Error = Box<dyn std::error::Error + Send + Sync>;
 
-/// Command-line options (the same as the Python example's).
-struct Options {
-    connect: String,
-    instance: String,
-    vessel: String,
-    /// A zenoh client configuration (JSON5) that replaces `connect`.
-    config: Option<String>,
-    /// Stop after this many forecasts; 0 runs until the process is stopped.
-    count: usize,
-}
+/// The default endpoint: where `shipcast run` listens.
+const DEFAULT_CONNECT: &str = "tcp/127.0.0.1:17447";
 
-fn parse_options() -> Result<Options, String> {
-    let mut options = Options {
-        connect: "tcp/127.0.0.1:17447".into(),
-        instance: String::new(),
-        vessel: "ddg51".into(),
-        config: None,
-        count: 0,
-    };
-    let mut args = std::env::args().skip(1);
-    while let Some(flag) = args.next() {
-        let mut value = || args.next().ok_or(format!("{flag} needs a value"));
-        match flag.as_str() {
-            "--connect" => options.connect = value()?,
-            "--instance" => options.instance = value()?,
-            "--vessel" => options.vessel = value()?,
-            "--config" => options.config = Some(value()?),
-            "--count" => {
-                let v = value()?;
-                options.count = v
-                    .parse()
-                    .map_err(|_| format!("--count must be a whole number, got '{v}'"))?;
-            }
-            other => {
-                return Err(format!(
-                    "unknown option '{other}' (--connect, --instance, --vessel, --config, --count)"
-                ))
-            }
-        }
-    }
-    Ok(options)
-}
-
-fn zenoh_config(options: &Options) -> Result<zenoh::Config, Error> {
-    if let Some(path) = &options.config {
+fn zenoh_config(options: &options::Options) -> Result<zenoh::Config, Error> {
+    // A zenoh client configuration (JSON5) replaces the endpoint.
+    if let Some(path) = options.get("--config") {
         return zenoh::Config::from_file(path);
     }
+    let connect = options.get("--connect").unwrap_or(DEFAULT_CONNECT);
     let mut config = zenoh::Config::default();
     config.insert_json5("mode", r#""peer""#)?;
-    config.insert_json5(
-        "connect/endpoints",
-        &serde_json::to_string(&[&options.connect])?,
-    )?;
+    config.insert_json5("connect/endpoints", &serde_json::to_string(&[connect])?)?;
     // Explicit endpoints only: no multicast discovery on a ship's network.
     config.insert_json5("scouting/multicast/enabled", "false")?;
     Ok(config)
 }
 
-fn run(options: &Options) -> Result<(), Error> {
+fn run(options: &options::Options) -> Result<(), Error> {
     let mut key = format!("shipcast/{}/forecast", options.vessel);
     if !options.instance.is_empty() {
         key = format!("{}/{key}", options.instance);
@@ -134,7 +96,9 @@ fn run(options: &Options) -> Result<(), Error> {
 }
 
 fn main() -> ExitCode {
-    let result = parse_options().map_err(Into::into).and_then(|o| run(&o));
+    let result = options::parse(&["--connect", "--config"])
+        .map_err(Into::into)
+        .and_then(|o| run(&o));
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
