@@ -11,11 +11,10 @@ use super::{Decider, Tracks};
 use shipcast_wire::payload::{Forecast, MotionSample, NUM_DOF};
 use std::collections::VecDeque;
 
-/// A decision waiting for its horizon to happen.
+/// A decision waiting for its horizon to happen: the forecast's time and its tracks (which
+/// carry its steps and dt).
 struct Waiting {
     time_s: f64,
-    dt_s: f64,
-    steps: usize,
     predicted: Tracks,
 }
 
@@ -53,8 +52,6 @@ impl Outcomes {
             .map(|_| {
                 Box::new(Waiting {
                     time_s: f64::NAN,
-                    dt_s: f64::NAN,
-                    steps: 0,
                     predicted: Tracks::default(),
                 })
             })
@@ -96,8 +93,6 @@ impl Outcomes {
             return;
         };
         w.time_s = forecast.time_s;
-        w.dt_s = forecast.dt_s;
-        w.steps = forecast.valid_steps();
         w.predicted.clone_from(decider.tracks());
         self.waiting.push_back(w);
     }
@@ -108,7 +103,7 @@ impl Outcomes {
             return;
         };
         while let Some(w) = self.waiting.front() {
-            let end = w.time_s + w.steps as f64 * w.dt_s;
+            let end = w.time_s + w.predicted.steps as f64 * w.predicted.dt_s;
             // A forecast whose time is not finite never comes due: drop it now.
             if end.is_finite() && end > newest + 0.25 * self.input_step_s {
                 break;
@@ -129,15 +124,16 @@ impl Outcomes {
 
     /// The recorded motion at the steps of `w` into `self.actual`; false if a step has none.
     fn fill_actual(&mut self, w: &Waiting) -> bool {
-        if !(w.time_s.is_finite() && w.dt_s > 0.0) {
+        let (steps, dt_s) = (w.predicted.steps, w.predicted.dt_s);
+        if !(w.time_s.is_finite() && dt_s > 0.0) {
             return false;
         }
         self.actual.time_s = w.time_s;
-        self.actual.dt_s = w.dt_s;
-        self.actual.steps = w.steps as u32;
+        self.actual.dt_s = dt_s;
+        self.actual.steps = steps as u32;
         let tol = 0.25 * self.input_step_s;
-        for k in 0..w.steps {
-            let t = w.time_s + (k + 1) as f64 * w.dt_s;
+        for k in 0..steps {
+            let t = w.time_s + (k + 1) as f64 * dt_s;
             let i = self.samples.partition_point(|s| s.0 < t - tol);
             match self.samples.get(i) {
                 Some(&(ts, dof)) if (ts - t).abs() <= tol => {
