@@ -6,9 +6,9 @@
 //! the deck's counters on `.../status/deck`.
 //!
 //! The decision also goes to local readers over iceoryx2 on `.../advisory/deck`
-//! (`DecisionSample`). The deck also reads the motion samples: once a forecast's horizon has happened, the
-//! decider verifies it against them, and its window probabilities come from the errors that
-//! really happened, as `shipcast replay`'s do from the record (docs/decisions.md).
+//! (`DecisionSample`). The deck also reads the motion samples: once a forecast's horizon has
+//! happened, the decider verifies it against them, and its window probabilities come from the
+//! errors that really happened, as `shipcast replay`'s do from the record (docs/decisions.md).
 
 use shipcast_pipeline::config::{CommonArgs, PipelineConfig};
 use shipcast_pipeline::decision::outcomes::{OutcomeCounts, Outcomes};
