@@ -78,7 +78,7 @@ impl ErrorEnsemble {
 
     /// Offer the standardised errors of one verified forecast (`u[q][k]`, `steps` steps; a
     /// non-finite u, from a zero sigma or a missing value, counts as no error). One offer in
-    /// `stride` is kept; allocation happens only while the ring fills.
+    /// `stride` is kept. Never allocates: the ring's storage is reserved by `new`.
     pub fn offer(&mut self, u: &[[f64; MAX_STEPS]; NUM_QUANTITIES], steps: usize) {
         let keep = self.offered.is_multiple_of(self.stride as u64);
         self.offered += 1;
