@@ -1,0 +1,107 @@
+#!/usr/bin/env python3
+"""Replay the deck's landing decisions over long records and print their reliability with the
+evidence each bin really holds (docs/decisions.md, "Measured").
+
+Neighbouring calls judge overlapping windows and mostly share their outcome, so a bin's calls
+are not independent trials: replay counts `episodes` (calls at least MOT apart), and an honest
+bin's observed frequency strays from its stated probability by up to 1.96 sqrt(p (1 - p) /
+episodes) by chance (95 %). A bin is flagged `off` when it has at least 50 calls and is more
+than 5 points from its statement (issue 13's bar), and `beyond chance` when it is also outside
+that interval.
+
+Records: the simulated paper sea over 4 hours (seed 1) and, when `python3
+scripts/fetch_wafo.py` has fetched it, the whole Gullfaks C record (4.3 h of measured North Sea
+waves with a 20-minute gap). Each is replayed with the default 25 s horizon (MOT 10 s) and with
+a 40 s horizon (`[predictor] horizon = 80`: MOT 10 s and 30 s). Run from the repository root
+after `cargo build --release`; about 2 minutes on 2 cores. Python standard library only.
+"""
+import argparse
+import json
+import math
+import os
+import subprocess
+import sys
+
+BIN = os.environ.get("SHIPCAST_BIN", os.path.join("target", "release", "shipcast"))
+
+RECORDS = [
+    ("paper sea, 4 h, seed 1",
+     ["--scenario", "paper", "--duration", "14400", "--seed", "1"]),
+    ("Gullfaks C measured waves (North Sea 1989), whole record, 0 kn",
+     ["--elevation", "data/wafo/gfaks89.csv", "--heading-deg", "165", "--speed-kn", "0"]),
+]
+
+HORIZONS = [("25 s horizon", None), ("40 s horizon", 80)]
+
+
+def run(args):
+    out = subprocess.run([BIN] + args, capture_output=True, text=True)
+    if out.returncode != 0:
+        sys.exit(f"decisions_study: shipcast {' '.join(args)} failed: {out.stderr.strip()}")
+    return out.stdout
+
+
+def decisions(path, config):
+    args = ["replay", "--input", path, "--json"]
+    if config:
+        args += ["--config", config]
+    rows = [json.loads(line) for line in run(args).splitlines() if line.strip()]
+    return [r["decisions"] for r in rows if "decisions" in r]
+
+
+def half_width(p, episodes):
+    return 1.96 * math.sqrt(max(p * (1.0 - p), 1e-12) / max(episodes, 1))
+
+
+def table(d):
+    fmt = lambda x: "-" if x is None or x != x else f"{x:.3f}"
+    print(f"\n### MOT {d['mot_s']:.0f} s: {d['calls']} calls, Brier {fmt(d['brier'])} "
+          f"(stating the base rate: {fmt(d['brier_climatology'])}), go calls {d['go_calls']}, "
+          f"false go {fmt(d['false_go_rate'])}\n")
+    if not d["calls"]:
+        print("No calls: the horizon is shorter than the minimum operation time.")
+        return 0, 0
+    print("| stated | calls | episodes | mean stated | observed | 95 % by chance | verdict |")
+    print("|---|---|---|---|---|---|---|")
+    off = beyond = 0
+    for b in d["reliability"]:
+        if not b["count"]:
+            continue
+        miss = abs(b["observed"] - b["stated"])
+        hw = half_width(b["stated"], b["episodes"])
+        verdict = ""
+        if b["count"] >= 50 and miss > 0.05:
+            off += 1
+            verdict = "off"
+            if miss > hw:
+                beyond += 1
+                verdict = "off, beyond chance"
+        print(f"| {b['p_lo']:.1f}-{b['p_hi']:.1f} | {b['count']} | {b['episodes']} | "
+              f"{b['stated']:.3f} | {b['observed']:.3f} | +-{hw:.3f} | {verdict} |")
+    print(f"\n{off} bins with at least 50 calls more than 5 points off, {beyond} of them beyond "
+          "chance.")
+    return off, beyond
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--work", default=os.path.join("target", "decisions-study"))
+    a = ap.parse_args()
+    os.makedirs(a.work, exist_ok=True)
+    config = os.path.join(a.work, "horizon80.toml")
+    with open(config, "w") as f:
+        f.write("[predictor]\nhorizon = 80\n")
+    for i, (name, sim) in enumerate(RECORDS):
+        if "--elevation" in sim and not os.path.exists(sim[sim.index("--elevation") + 1]):
+            print(f"\n## {name}: skipped (run python3 scripts/fetch_wafo.py first)")
+            continue
+        path = os.path.join(a.work, f"record{i + 1}.csv")
+        run(["simulate"] + sim + ["--rate", "8", "--out", path])
+        for label, horizon in HORIZONS:
+            print(f"\n## {name}, {label}")
+            for d in decisions(path, config if horizon else None):
+                table(d)
+
+
+if __name__ == "__main__":
+    main()
