@@ -9,11 +9,12 @@ episodes) by chance (95 %). A bin is flagged `off` when it has at least 50 calls
 than 5 points from its statement (issue 13's bar), and `beyond chance` when it is also outside
 that interval.
 
-Records: the simulated paper sea over 4 hours (seed 1) and, when `python3
-scripts/fetch_wafo.py` has fetched it, the whole Gullfaks C record (4.3 h of measured North Sea
-waves with a 20-minute gap). Each is replayed with the default 25 s horizon (MOT 10 s) and with
-a 40 s horizon (`[predictor] horizon = 80`: MOT 10 s and 30 s). Run from the repository root
-after `cargo build --release`; about 2 minutes on 2 cores. Python standard library only.
+Records: three realisations (seeds 1-3) of the simulated paper sea over 4 hours each, then the
+three pooled, and, when `python3 scripts/fetch_wafo.py` has fetched it, the whole Gullfaks C
+record (4.3 h of measured North Sea waves with a 20-minute gap). Each is replayed with the
+default 25 s horizon (MOT 10 s) and with a 40 s horizon (`[predictor] horizon = 80`: MOT 10 s
+and 30 s). Run from the repository root after `cargo build --release`; about 4 minutes on 2
+cores. Python standard library only.
 """
 import argparse
 import json
@@ -24,9 +25,13 @@ import sys
 
 BIN = os.environ.get("SHIPCAST_BIN", os.path.join("target", "release", "shipcast"))
 
+PAPER_SEEDS = [1, 2, 3]
+
 RECORDS = [
-    ("paper sea, 4 h, seed 1",
-     ["--scenario", "paper", "--duration", "14400", "--seed", "1"]),
+    (f"paper sea, 4 h, seed {seed}",
+     ["--scenario", "paper", "--duration", "14400", "--seed", str(seed)])
+    for seed in PAPER_SEEDS
+] + [
     ("Gullfaks C measured waves (North Sea 1989), whole record, 0 kn",
      ["--elevation", "data/wafo/gfaks89.csv", "--heading-deg", "165", "--speed-kn", "0"]),
 ]
@@ -51,6 +56,30 @@ def decisions(path, config):
 
 def half_width(p, episodes):
     return 1.96 * math.sqrt(max(p * (1.0 - p), 1e-12) / max(episodes, 1))
+
+
+def pooled(reports):
+    """The same station and MOT over several records, as one report: counts and episodes
+    added, the stated and observed frequencies weighted by calls."""
+    first = reports[0]
+    bins = []
+    for i, b in enumerate(first["reliability"]):
+        parts = [r["reliability"][i] for r in reports]
+        count = sum(p["count"] for p in parts)
+        weigh = lambda key: (sum(p[key] * p["count"] for p in parts if p["count"]) / count
+                             if count else float("nan"))
+        bins.append({"p_lo": b["p_lo"], "p_hi": b["p_hi"], "count": count,
+                     "episodes": sum(p["episodes"] for p in parts),
+                     "stated": weigh("stated"), "observed": weigh("observed")})
+    calls = sum(r["calls"] for r in reports)
+    mean = lambda key: (sum(r[key] * r["calls"] for r in reports if r["calls"]) / calls
+                        if calls else None)
+    go = sum(r["go_calls"] for r in reports)
+    false_go = (sum(r["false_go_rate"] * r["go_calls"] for r in reports if r["go_calls"]) / go
+                if go else None)
+    return {"mot_s": first["mot_s"], "calls": calls, "brier": mean("brier"),
+            "brier_climatology": mean("brier_climatology"), "go_calls": go,
+            "false_go_rate": false_go, "reliability": bins}
 
 
 def table(d):
@@ -91,6 +120,7 @@ def main():
     config = os.path.join(a.work, "horizon80.toml")
     with open(config, "w") as f:
         f.write("[predictor]\nhorizon = 80\n")
+    paper = {label: [] for label, _ in HORIZONS}
     for i, (name, sim) in enumerate(RECORDS):
         if "--elevation" in sim and not os.path.exists(sim[sim.index("--elevation") + 1]):
             print(f"\n## {name}: skipped (run python3 scripts/fetch_wafo.py first)")
@@ -99,8 +129,17 @@ def main():
         run(["simulate"] + sim + ["--rate", "8", "--out", path])
         for label, horizon in HORIZONS:
             print(f"\n## {name}, {label}")
-            for d in decisions(path, config if horizon else None):
+            reports = decisions(path, config if horizon else None)
+            for d in reports:
                 table(d)
+            if i < len(PAPER_SEEDS):
+                paper[label].append(reports)
+        if i == len(PAPER_SEEDS) - 1:
+            for label, _ in HORIZONS:
+                print(f"\n## paper sea, seeds {PAPER_SEEDS[0]}-{PAPER_SEEDS[-1]} pooled "
+                      f"({4 * len(PAPER_SEEDS)} h), {label}")
+                for per_mot in zip(*paper[label]):
+                    table(pooled(list(per_mot)))
 
 
 if __name__ == "__main__":
