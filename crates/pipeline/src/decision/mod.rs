@@ -189,6 +189,21 @@ pub fn standardised_errors(
     steps
 }
 
+/// The standardised means z = mean / sigma of a forecast's tracks (NaN where sigma is zero),
+/// over its steps: what the ensemble regresses the errors on ([`ensemble`]).
+pub fn standardised_means(predicted: &Tracks, z: &mut [[f64; MAX_STEPS]; NUM_QUANTITIES]) {
+    for (q, row) in z.iter_mut().enumerate() {
+        for (k, x) in row.iter_mut().enumerate().take(predicted.steps) {
+            let s = predicted.sigma[q][k];
+            *x = if s > 0.0 {
+                predicted.mean[q][k] / s
+            } else {
+                f64::NAN
+            };
+        }
+    }
+}
+
 /// Steps in a window of `mot_s` at step `dt_s` (usize::MAX for a step that is not positive).
 pub fn window_steps(mot_s: f64, dt_s: f64) -> usize {
     if dt_s.is_nan() || dt_s <= 0.0 {
@@ -233,6 +248,7 @@ pub struct Decider {
     usable: Vec<bool>,
     from_ensemble: bool,
     u: Box<[[f64; MAX_STEPS]; NUM_QUANTITIES]>,
+    z: Box<[[f64; MAX_STEPS]; NUM_QUANTITIES]>,
 }
 
 impl Decider {
@@ -257,13 +273,20 @@ impl Decider {
             ensemble,
             from_ensemble: false,
             u: Box::new([[f64::NAN; MAX_STEPS]; NUM_QUANTITIES]),
+            z: Box::new([[f64::NAN; MAX_STEPS]; NUM_QUANTITIES]),
         }
     }
 
-    /// Add the standardised errors of a verified forecast (u = (actual - mean) / sigma per
-    /// quantity and step, as this decider's tracks define them) to the error ensemble.
-    pub fn add_verified(&mut self, u: &[[f64; MAX_STEPS]; NUM_QUANTITIES], steps: usize) {
-        self.ensemble.offer(u, steps);
+    /// Add a verified forecast to the error ensemble: its standardised errors (u = (actual -
+    /// mean) / sigma per quantity and step, as this decider's tracks define them) and its
+    /// standardised means (z = mean / sigma).
+    pub fn add_verified(
+        &mut self,
+        u: &[[f64; MAX_STEPS]; NUM_QUANTITIES],
+        z: &[[f64; MAX_STEPS]; NUM_QUANTITIES],
+        steps: usize,
+    ) {
+        self.ensemble.offer(u, z, steps);
     }
 
     /// Verify a forecast this decider loaded (`predicted`, a copy of [`Self::tracks`] then)
@@ -272,7 +295,8 @@ impl Decider {
     /// ([`outcomes`]); replay hands the same errors over through [`Self::add_verified`].
     pub fn verify(&mut self, predicted: &Tracks, actual: &Tracks) {
         let steps = standardised_errors(predicted, actual, &mut self.u);
-        self.ensemble.offer(&self.u, steps);
+        standardised_means(predicted, &mut self.z);
+        self.ensemble.offer(&self.u, &self.z, steps);
     }
 
     /// The tracks of the recorded values in `actual.mean` (its sigma unused), as this

@@ -152,7 +152,7 @@ impl Outcomes {
 mod tests {
     use super::*;
     use crate::config::DeckConfig;
-    use crate::decision::{ensemble, standardised_errors};
+    use crate::decision::{ensemble, standardised_errors, standardised_means};
     use crate::deck::tests::forecast_with_roll;
     use shipcast_wire::payload::MAX_STEPS;
 
@@ -198,7 +198,8 @@ mod tests {
         let mut live = Decider::new(&config);
         let mut replay = Decider::new(&config);
         let mut outcomes = Outcomes::new(8.0, 25.0, 2.0);
-        type Due = (f64, Box<[[f64; MAX_STEPS]; 4]>, usize);
+        type Paths = Box<[[f64; MAX_STEPS]; 4]>;
+        type Due = (f64, Paths, Paths, usize);
         let mut queue: VecDeque<Due> = VecDeque::new();
         let mut i = 0u64;
         let mut last = None;
@@ -211,8 +212,8 @@ mod tests {
             }
             outcomes.verify_ready(&mut live);
             while queue.front().is_some_and(|q| q.0 <= t0) {
-                if let Some((_, u, steps)) = queue.pop_front() {
-                    replay.add_verified(&u, steps);
+                if let Some((_, u, z, steps)) = queue.pop_front() {
+                    replay.add_verified(&u, &z, steps);
                 }
             }
             let f = forecast_at(t0);
@@ -228,7 +229,9 @@ mod tests {
             replay.fill_tracks(&truth, &mut actual);
             let mut u = Box::new([[f64::NAN; MAX_STEPS]; 4]);
             let steps = standardised_errors(replay.tracks(), &actual, &mut u);
-            queue.push_back((t0 + 25.0, u, steps));
+            let mut z = Box::new([[f64::NAN; MAX_STEPS]; 4]);
+            standardised_means(replay.tracks(), &mut z);
+            queue.push_back((t0 + 25.0, u, z, steps));
             last = Some(d_live);
         }
         assert!(outcomes.counts.verified > 1000, "{:?}", outcomes.counts);

@@ -11,7 +11,10 @@
 //! - the error correlation is estimated causally: a forecast's errors join the estimate only
 //!   once its whole horizon has happened.
 
-use super::{standardised_errors, window_steps, Decider, ErrorCorrelation, Tracks, NUM_QUANTITIES};
+use super::{
+    standardised_errors, standardised_means, window_steps, Decider, ErrorCorrelation, Tracks,
+    NUM_QUANTITIES,
+};
 use crate::config::DeckConfig;
 use serde::Serialize;
 use shipcast_wire::payload::{Forecast, MAX_STEPS};
@@ -113,6 +116,7 @@ struct PerMot {
 struct Pending {
     ready_s: f64,
     u: Box<[[f64; MAX_STEPS]; NUM_QUANTITIES]>,
+    z: Box<[[f64; MAX_STEPS]; NUM_QUANTITIES]>,
     steps: usize,
 }
 
@@ -201,7 +205,7 @@ impl DecisionScorer {
                 for q in 0..NUM_QUANTITIES {
                     self.correlation.add(q, &p.u[q][..p.steps]);
                 }
-                self.decider.add_verified(&p.u, p.steps);
+                self.decider.add_verified(&p.u, &p.z, p.steps);
             }
         }
         if self.per_mot.is_empty() {
@@ -218,12 +222,15 @@ impl DecisionScorer {
         let mut ok = [false; MAX_STEPS];
         let mut u = Box::new([[f64::NAN; MAX_STEPS]; NUM_QUANTITIES]);
         standardised_errors(decider.tracks(), &self.actual, &mut u);
+        let mut z = Box::new([[f64::NAN; MAX_STEPS]; NUM_QUANTITIES]);
+        standardised_means(decider.tracks(), &mut z);
         for (k, held) in ok.iter_mut().enumerate().take(steps) {
             *held = (0..NUM_QUANTITIES).all(|q| self.actual.mean[q][k].abs() <= limits[q]);
         }
         self.pending.push_back(Pending {
             ready_s: t0 + (steps as f64 + 1.0) * dt,
             u,
+            z,
             steps,
         });
         // Interior steps only: the end steps' velocity is a one-sided difference.

@@ -32,7 +32,7 @@ fn by_default_go_waits_for_verified_errors_and_then_comes_from_them() {
     let mut u = [[0.0; MAX_STEPS]; NUM_QUANTITIES];
     u[0] = [3.0; MAX_STEPS];
     for _ in 0..ensemble::MIN_MEMBERS * ensemble::DEFAULT_STRIDE {
-        decider.add_verified(&u, 40);
+        decider.add_verified(&u, &[[0.0; MAX_STEPS]; NUM_QUANTITIES], 40);
     }
     let d = decider.decide(&quiet);
     assert_eq!(d.ensemble_members, ensemble::MIN_MEMBERS);
