@@ -57,6 +57,11 @@ pub struct ErrorEnsemble {
     next: usize,
     stride: usize,
     offered: u64,
+    /// Sums over the members of u z and z^2 per quantity and step, for the errors' regression
+    /// on the mean: kept as members come and go, so a decision does not revisit every member
+    /// for them, and summed afresh each time the ring wraps so that rounding cannot build up.
+    uz: [[f64; MAX_STEPS]; NUM_QUANTITIES],
+    zz: [[f64; MAX_STEPS]; NUM_QUANTITIES],
 }
 
 impl Default for ErrorEnsemble {
@@ -74,6 +79,8 @@ impl ErrorEnsemble {
             next: 0,
             stride: stride.max(1),
             offered: 0,
+            uz: [[0.0; MAX_STEPS]; NUM_QUANTITIES],
+            zz: [[0.0; MAX_STEPS]; NUM_QUANTITIES],
         }
     }
 
@@ -127,32 +134,51 @@ impl ErrorEnsemble {
                 z: [[0.0; MAX_STEPS]; NUM_QUANTITIES],
             };
             member(&mut m);
+            Self::accumulate(&mut self.uz, &mut self.zz, &m, 1.0);
             self.members.push(m);
         } else {
-            member(&mut self.members[self.next]);
-            self.next = (self.next + 1) % self.capacity;
+            let slot = self.next;
+            let old = &self.members[slot];
+            Self::accumulate(&mut self.uz, &mut self.zz, old, -1.0);
+            member(&mut self.members[slot]);
+            self.next = (slot + 1) % self.capacity;
+            if self.next == 0 {
+                self.uz = [[0.0; MAX_STEPS]; NUM_QUANTITIES];
+                self.zz = [[0.0; MAX_STEPS]; NUM_QUANTITIES];
+                for m in &self.members {
+                    Self::accumulate(&mut self.uz, &mut self.zz, m, 1.0);
+                }
+            } else {
+                let new = &self.members[slot];
+                Self::accumulate(&mut self.uz, &mut self.zz, new, 1.0);
+            }
+        }
+    }
+
+    fn accumulate(
+        uz: &mut [[f64; MAX_STEPS]; NUM_QUANTITIES],
+        zz: &mut [[f64; MAX_STEPS]; NUM_QUANTITIES],
+        m: &Member,
+        sign: f64,
+    ) {
+        for q in 0..NUM_QUANTITIES {
+            for k in 0..m.steps {
+                let (u, z) = (f64::from(m.u[q][k]), f64::from(m.z[q][k]));
+                uz[q][k] += sign * u * z;
+                zz[q][k] += sign * z * z;
+            }
         }
     }
 
     /// Per quantity and step, the least-squares slope c of the members' errors on their
-    /// standardised means (u = c z + r) over the members covering `steps`; 0 where no member
-    /// has a mean.
+    /// standardised means (u = c z + r) over the members reaching that step; 0 where no
+    /// member has a mean.
     fn mean_slopes(&self, steps: usize, c: &mut [[f64; MAX_STEPS]; NUM_QUANTITIES]) {
-        let mut uz = [[0.0f64; MAX_STEPS]; NUM_QUANTITIES];
-        let mut zz = [[0.0f64; MAX_STEPS]; NUM_QUANTITIES];
-        for m in self.members.iter().filter(|m| m.steps >= steps) {
-            for q in 0..NUM_QUANTITIES {
-                for k in 0..steps {
-                    let (u, z) = (f64::from(m.u[q][k]), f64::from(m.z[q][k]));
-                    uz[q][k] += u * z;
-                    zz[q][k] += z * z;
-                }
-            }
-        }
-        for q in 0..NUM_QUANTITIES {
-            for k in 0..steps {
-                c[q][k] = if zz[q][k] > 0.0 {
-                    (uz[q][k] / zz[q][k]).clamp(-MAX_MEAN_SLOPE, MAX_MEAN_SLOPE)
+        for ((row, uz), zz) in c.iter_mut().zip(&self.uz).zip(&self.zz) {
+            for ((c, &uz), &zz) in row.iter_mut().zip(uz).zip(zz).take(steps) {
+                // Sums this small are what rounding leaves of members gone (or zero means).
+                *c = if zz > 1e-6 {
+                    (uz / zz).clamp(-MAX_MEAN_SLOPE, MAX_MEAN_SLOPE)
                 } else {
                     0.0
                 };
@@ -340,6 +366,37 @@ mod tests {
                     (naive - exact).abs() > 0.06,
                     "c {c}: the case must discriminate"
                 );
+            }
+        }
+    }
+
+    #[test]
+    fn the_regression_sums_follow_the_members_as_the_ring_turns() {
+        // Paths of varying length into a ring of 7: after every offer the running sums equal
+        // the sums over the members held, wrapped or not.
+        let normal = Normal::new(0.0, 1.0).unwrap();
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(4);
+        let mut ensemble = ErrorEnsemble::new(7, 1);
+        let (mut u, mut z) = (NO_MEAN, NO_MEAN);
+        for i in 0..100 {
+            let steps = 1 + i % 5;
+            for q in 0..NUM_QUANTITIES {
+                for k in 0..steps {
+                    z[q][k] = 3.0 * normal.sample(&mut rng);
+                    u[q][k] = 0.5 * z[q][k] + normal.sample(&mut rng);
+                }
+            }
+            ensemble.offer(&u, &z, steps);
+            for q in 0..NUM_QUANTITIES {
+                for k in 0..5 {
+                    let (mut uz, mut zz) = (0.0, 0.0);
+                    for m in ensemble.members.iter().filter(|m| m.steps > k) {
+                        uz += f64::from(m.u[q][k]) * f64::from(m.z[q][k]);
+                        zz += f64::from(m.z[q][k]).powi(2);
+                    }
+                    assert!((ensemble.uz[q][k] - uz).abs() < 1e-9, "{i} {q} {k}");
+                    assert!((ensemble.zz[q][k] - zz).abs() < 1e-9, "{i} {q} {k}");
+                }
             }
         }
     }
