@@ -15,10 +15,8 @@ mod iox_reader;
 #[path = "common/options.rs"]
 mod options;
 
-use iceoryx2::port::listener::ListenerWaitError;
 use shipcast_wire::payload::DecisionSample;
 use std::process::ExitCode;
-use std::time::Duration;
 
 /// "in 3.5 s" or the text for an absent value (NaN in the payload).
 fn seconds(v: f64, absent: &str) -> String {
@@ -36,15 +34,13 @@ fn run(options: &options::Options) -> Result<(), Box<dyn std::error::Error>> {
         &options.instance,
         &format!("{}/advisory/{station}", options.vessel),
     )?;
-    let (subscriber, listener) = (&reader.subscriber, &reader.listener);
+    let subscriber = &reader.subscriber;
     eprintln!("reading {} (iceoryx2)", reader.name);
 
     let mut received = 0;
     while options.count == 0 || received < options.count {
-        match listener.timed_wait(|_| {}, Duration::from_millis(500)) {
-            Ok(_) => {}
-            Err(ListenerWaitError::InterruptSignal) => break,
-            Err(e) => return Err(e.into()),
+        if !reader.wait()? {
+            break;
         }
         while let Some(sample) = subscriber.receive()? {
             let d: &DecisionSample = &sample;
@@ -81,14 +77,5 @@ fn run(options: &options::Options) -> Result<(), Box<dyn std::error::Error>> {
 }
 
 fn main() -> ExitCode {
-    let result = options::parse(&["--station"])
-        .map_err(Into::into)
-        .and_then(|o| run(&o));
-    match result {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(e) => {
-            eprintln!("error: {e}");
-            ExitCode::FAILURE
-        }
-    }
+    options::main_with(&["--station"], run)
 }

@@ -17,25 +17,21 @@ mod iox_reader;
 #[path = "common/options.rs"]
 mod options;
 
-use iceoryx2::port::listener::ListenerWaitError;
 use shipcast_wire::payload::{Forecast, MAX_STEPS};
 use shipcast_wire::Dof;
 use std::process::ExitCode;
-use std::time::Duration;
 
 fn run(options: &options::Options) -> Result<(), Box<dyn std::error::Error>> {
     // The predictor notifies the event service after every sample: no polling needed.
     let reader =
         iox_reader::open::<Forecast>(&options.instance, &format!("{}/forecast", options.vessel))?;
-    let (subscriber, listener) = (&reader.subscriber, &reader.listener);
+    let subscriber = &reader.subscriber;
     eprintln!("reading {} (iceoryx2)", reader.name);
 
     let mut received = 0;
     while options.count == 0 || received < options.count {
-        match listener.timed_wait(|_| {}, Duration::from_millis(500)) {
-            Ok(_) => {}
-            Err(ListenerWaitError::InterruptSignal) => break,
-            Err(e) => return Err(e.into()),
+        if !reader.wait()? {
+            break;
         }
         while let Some(sample) = subscriber.receive()? {
             let f: &Forecast = &sample;
@@ -69,14 +65,5 @@ fn run(options: &options::Options) -> Result<(), Box<dyn std::error::Error>> {
 }
 
 fn main() -> ExitCode {
-    let result = options::parse(&[])
-        .map_err(Into::into)
-        .and_then(|o| run(&o));
-    match result {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(e) => {
-            eprintln!("error: {e}");
-            ExitCode::FAILURE
-        }
-    }
+    options::main_with(&[], run)
 }

@@ -96,14 +96,5 @@ fn run(options: &options::Options) -> Result<(), Error> {
 }
 
 fn main() -> ExitCode {
-    let result = options::parse(&["--connect", "--config"])
-        .map_err(Into::into)
-        .and_then(|o| run(&o));
-    match result {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(e) => {
-            eprintln!("error: {e}");
-            ExitCode::FAILURE
-        }
-    }
+    options::main_with(&["--connect", "--config"], run)
 }

@@ -2,11 +2,12 @@
 //! instance's file prefix), the pub-sub service with shipcast's limits, and the listener of its
 //! event service, which the publisher notifies after every sample.
 
-use iceoryx2::port::listener::Listener;
+use iceoryx2::port::listener::{Listener, ListenerWaitError};
 use iceoryx2::port::subscriber::Subscriber;
 use iceoryx2::prelude::*;
 use shipcast_wire::payload::limits;
 use std::fmt::Debug;
+use std::time::Duration;
 
 pub struct Reader<T: Debug + ZeroCopySend + 'static> {
     // Kept alive for as long as the ports are used.
@@ -15,6 +16,18 @@ pub struct Reader<T: Debug + ZeroCopySend + 'static> {
     pub listener: Listener<ipc::Service>,
     /// The full service name, instance prefix included.
     pub name: String,
+}
+
+impl<T: Debug + ZeroCopySend + 'static> Reader<T> {
+    /// Wait up to half a second for the publisher's notification; false once the process was
+    /// asked to stop (Ctrl-C).
+    pub fn wait(&self) -> Result<bool, Box<dyn std::error::Error>> {
+        match self.listener.timed_wait(|_| {}, Duration::from_millis(500)) {
+            Ok(_) => Ok(true),
+            Err(ListenerWaitError::InterruptSignal) => Ok(false),
+            Err(e) => Err(e.into()),
+        }
+    }
 }
 
 /// Open `shipcast/<service>` (after `<instance>/` when an instance is given) for reading `T`.

@@ -2,6 +2,8 @@
 //! `--vessel`, `--count`, as the Python examples do) and the flags of each one, every flag
 //! with a value.
 
+use std::process::ExitCode;
+
 pub struct Options {
     pub instance: String,
     pub vessel: String,
@@ -60,4 +62,23 @@ pub fn parse(own: &[&str]) -> Result<Options, String> {
         }
     }
     Ok(options)
+}
+
+/// An example's `main`: parse the command line with the example's own flags `own`, run it,
+/// and turn an error into one line on stderr and a failing exit code.
+pub fn main_with<E: std::fmt::Display>(
+    own: &[&str],
+    run: impl FnOnce(&Options) -> Result<(), E>,
+) -> ExitCode {
+    let result = match parse(own) {
+        Ok(options) => run(&options).map_err(|e| e.to_string()),
+        Err(e) => Err(e),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::FAILURE
+        }
+    }
 }
