@@ -1,6 +1,7 @@
 //! `shipcast predictor`: subscribes to motion over iceoryx2 (event wake-up, or `--busy-poll`),
 //! decimates 8 -> 2 Hz with the evaluation's filter, forecasts all six DOF at every new 2 Hz
-//! value, and publishes the Forecast over iceoryx2 and as JSON over zenoh. A background thread
+//! value, and publishes the Forecast over iceoryx2 and as JSON over zenoh, and the motion
+//! samples it receives as JSON on zenoh `.../motion` (remote verifiers). A background thread
 //! retrains from recent live data and hands over new models without pausing the forecasts.
 
 use crate::checked;
@@ -16,7 +17,7 @@ use shipcast_pipeline::transport::iox::{self, IoxPublisher, IoxSubscriber, Sizin
 use shipcast_pipeline::transport::zenoh::{self as zn, JsonPublisher};
 use shipcast_pipeline::transport::{monotonic_ns, shutdown, Counters, Names};
 use shipcast_wire::payload::{Forecast, MotionSample};
-use shipcast_wire::payload_json::ForecastJsonEncoder;
+use shipcast_wire::payload_json::{ForecastJsonEncoder, MotionJsonEncoder};
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
@@ -150,6 +151,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let forecast_json = JsonPublisher::new(&session, &names.forecast())?;
     let status_json = JsonPublisher::new(&session, &names.status("predictor"))?;
     let verification_json = JsonPublisher::new(&session, &names.verification())?;
+    // The motion it forecasts from, for remote verifiers (the two-ship relative service):
+    // nothing crosses the network unless someone subscribes.
+    let motion_json = JsonPublisher::new(&session, &names.motion())?;
+    let mut motion_encoder = MotionJsonEncoder::new();
     let _alive = zn::liveliness_token(&session, &Names::liveliness(&names.forecast()))?;
     tracing::info!(
         mode = ?mode,
@@ -230,6 +235,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                     received_ns,
                     stages,
                 })?;
+            }
+            // Last of all: the motion goes out as received, finite samples only (the engine
+            // counts and skips the others).
+            if sample.is_finite() {
+                motion_json.put_shared(motion_encoder.encode_shared(&sample)?)?;
             }
             // The models prepare the next forecast on a sample that completes none (three in
             // four at 8 -> 2 Hz), so the preparation never delays a forecast or its consumers.

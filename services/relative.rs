@@ -5,8 +5,11 @@
 //! (`ForecastGate`: live publisher, increasing seq, sound content), combines the newest pair
 //! into the forecast of the crane tip relative to the landing spot with sigma and the lift
 //! go/no-go, prints it and publishes it on zenoh `.../<crane vessel>/advisory/relative` (JSON).
-//! Live, nothing verifies the relative forecast (the motion itself stays on each ship), so its
-//! sigma is the independent one and says so (`sigma_basis`); the study calibrates it.
+//! Live, each ship's predictor also publishes the motion it receives (`.../motion`, checked by
+//! `MotionGate`): once a relative forecast's horizon has passed it is verified against both
+//! and the sigma is calibrated from the verified relative errors, exactly as in the study
+//! (`relative::verify`). Until enough are verified the sigma is the independent one, and
+//! `sigma_basis` says which.
 //!
 //! Study (`--crane-record A.csv --target-record B.csv`): both records replayed through the
 //! engine, the relative forecast scored against the records' true relative motion beside each
@@ -20,8 +23,10 @@ use shipcast_pipeline::engine::startup::initial_models;
 use shipcast_pipeline::limits;
 use shipcast_pipeline::relative::calibrate::SigmaCalibration;
 use shipcast_pipeline::relative::study::{study, StudyReport};
+use shipcast_pipeline::relative::verify::{MotionHistory, RelativeVerifier, MAX_PENDING};
 use shipcast_pipeline::relative::{advisory, decide, Geometry, LiftLimits, RelativeTrack};
 use shipcast_pipeline::transport::forecast_check::{ForecastGate, PublisherWatch};
+use shipcast_pipeline::transport::motion_gate::MotionGate;
 use shipcast_pipeline::transport::zenoh::{self as zn, JsonPublisher, LatestSubscriber};
 use shipcast_pipeline::transport::{shutdown, Names};
 use shipcast_series::motion_csv::MotionData;
@@ -270,6 +275,53 @@ impl Followed {
     }
 }
 
+/// One vessel's observed motion over zenoh (`.../motion`, from its predictor), checked.
+struct FollowedMotion {
+    key: String,
+    subscriber: LatestSubscriber,
+    publishers: PublisherWatch,
+    gate: MotionGate,
+    history: MotionHistory,
+}
+
+impl FollowedMotion {
+    /// Samples received between two polls (every 20 ms) that the subscriber can hold: 8 s at
+    /// 8 Hz, so a poll delayed by a decision loses none.
+    const QUEUE: usize = 64;
+
+    fn new(
+        session: &zenoh::Session,
+        names: &Names,
+        keep_s: f64,
+        rate_hz: f64,
+    ) -> anyhow::Result<Self> {
+        let key = names.motion();
+        Ok(Self {
+            subscriber: LatestSubscriber::keeping(session, &key, Self::QUEUE)?,
+            publishers: PublisherWatch::new(session, &key)?,
+            gate: MotionGate::new(),
+            history: MotionHistory::new(keep_s, (keep_s * rate_hz * 1.5) as usize + 16),
+            key,
+        })
+    }
+
+    fn poll(&mut self) -> anyhow::Result<()> {
+        self.publishers.update(&mut self.gate.live);
+        while let Some(received) = self.subscriber.try_recv_with_source()? {
+            self.publishers.update(&mut self.gate.live);
+            match self.gate.check(&received) {
+                Ok(m) => self.history.push(m.time_s, m.dof),
+                Err(e) => tracing::warn!(
+                    rejected = self.gate.rejected,
+                    "relative: motion sample on {} rejected: {e}",
+                    self.key
+                ),
+            }
+        }
+        Ok(())
+    }
+}
+
 fn run_live(config: &PipelineConfig, limit: Option<Duration>) -> anyhow::Result<()> {
     let r = &config.relative;
     let limit = shutdown::RunLimit::new(limit);
@@ -290,8 +342,17 @@ fn run_live(config: &PipelineConfig, limit: Option<Duration>) -> anyhow::Result<
     let geometry = Geometry::new(config.crane.tip_m, r);
     let lift = LiftLimits::new(r);
     let lattice = Lattice::new(128, MAX_STEPS);
-    // Nothing verifies live: the calibration stays empty and the sigma independent.
-    let calibration = SigmaCalibration::new(r.calibration_halflife, r.calibration_min_verified);
+    // Each ship's observed motion verifies the relative forecasts once their horizon has
+    // passed; until enough are verified the sigma is the independent one (`sigma_basis`).
+    let keep_s = MAX_STEPS as f64 * dt + 10.0;
+    let rate_hz = config.producer.rate_hz;
+    let mut crane_motion = FollowedMotion::new(&session, &crane_names, keep_s, rate_hz)?;
+    let mut target_motion = FollowedMotion::new(&session, &target_names, keep_s, rate_hz)?;
+    let mut verifier = RelativeVerifier::new(
+        SigmaCalibration::new(r.calibration_halflife, r.calibration_min_verified),
+        MAX_PENDING,
+    );
+    let mut warned_no_motion = false;
     let mut track = Box::<RelativeTrack>::default();
     tracing::info!(
         tip_m = ?config.crane.tip_m,
@@ -306,6 +367,19 @@ fn run_live(config: &PipelineConfig, limit: Option<Duration>) -> anyhow::Result<
     let stdout = std::io::stdout();
     while !limit.reached() {
         let fresh = crane.poll()? | target.poll()?;
+        crane_motion.poll()?;
+        target_motion.poll()?;
+        if let (Some(ta), Some(tb)) = (
+            crane_motion.history.newest_s(),
+            target_motion.history.newest_s(),
+        ) {
+            verifier.verify_until(
+                ta.min(tb),
+                &geometry,
+                &crane_motion.history,
+                &target_motion.history,
+            );
+        }
         let (Some(a), Some(b)) = (&crane.latest, &target.latest) else {
             std::thread::sleep(Duration::from_millis(20));
             continue;
@@ -314,10 +388,24 @@ fn run_live(config: &PipelineConfig, limit: Option<Duration>) -> anyhow::Result<
             std::thread::sleep(Duration::from_millis(20));
             continue;
         }
-        if let Err(e) = track.fill(&geometry, a, b, &calibration) {
+        if let Err(e) = track.fill(&geometry, a, b, &verifier.calibration) {
             misaligned += 1;
             tracing::warn!(misaligned, "relative: cannot combine the forecasts: {e}");
             continue;
+        }
+        verifier.push(&track);
+        // Forecasts of two full horizons and still no motion from a vessel: say why the
+        // sigma stays independent, once.
+        if !warned_no_motion && count >= 4 * track.steps() as u64 {
+            for m in [&crane_motion, &target_motion] {
+                if m.history.is_empty() {
+                    warned_no_motion = true;
+                    tracing::warn!(
+                        "relative: no motion received on {} (a predictor older than this one publishes none): the relative sigma stays the independent one",
+                        m.key
+                    );
+                }
+            }
         }
         let decision = decide(&track, &lift, &lattice);
         let adv = advisory(
@@ -338,10 +426,14 @@ fn run_live(config: &PipelineConfig, limit: Option<Duration>) -> anyhow::Result<
     }
     let (ra, rb) = (crane.gate.stream.rejected, target.gate.stream.rejected);
     tracing::info!(
-        "relative: stopped after {count} relative forecasts; rejected {} from {}, {} from {}, {misaligned} pairs not combinable",
+        "relative: stopped after {count} relative forecasts ({} verified, {} unverifiable); rejected {} forecasts and {} motion samples from {}, {} and {} from {}, {misaligned} pairs not combinable",
+        verifier.verified,
+        verifier.unverifiable,
         ra.total(),
+        crane_motion.gate.rejected,
         crane.name,
         rb.total(),
+        target_motion.gate.rejected,
         target.name
     );
     Ok(())

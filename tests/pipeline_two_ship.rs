@@ -16,7 +16,9 @@ use std::time::Duration;
 fn a_two_ship_run_publishes_the_relative_forecast_of_both_vessels() {
     let p = TestPipeline::new(
         "twoship",
-        "[relative]\ntarget_vessel = \"tender\"\ntarget_heading_offset_deg = 20.0\n",
+        // Ten times real time, so that within the run relative forecasts are verified against
+        // both ships' motion (over zenoh) and enough of them calibrate the sigma.
+        "[producer]\nspeed = 10.0\n[relative]\ntarget_vessel = \"tender\"\ntarget_heading_offset_deg = 20.0\ncalibration_min_verified = 20.0\n",
     );
     let logs = tempfile::tempdir().unwrap();
     let config = p.config.to_str().unwrap().to_string();
@@ -46,9 +48,29 @@ fn a_two_ship_run_publishes_the_relative_forecast_of_both_vessels() {
     .unwrap_or_else(|| panic!("no lift advisory; run:\n{}", run.stdout().join("\n")));
     assert_eq!(advisory.crane_vessel, names.vessel());
     assert_eq!(advisory.target_vessel, "tender");
-    // Nothing verifies the relative forecast live: the independent sigma, and said so.
+    // The first relative forecasts have nothing verified behind them: the independent
+    // sigma, and said so.
     assert_eq!(advisory.sigma_basis, SigmaBasis::Independent);
     assert_eq!(advisory.sigma_m, advisory.sigma_independent_m);
+    // Once their horizons have passed and both ships' motion has come in, the sigma is the
+    // verified one: scaled away from the independent one.
+    let calibrated: RelativeAdvisory = poll_until(PATIENCE, Duration::from_millis(50), || {
+        let bytes = lift.latest().ok().flatten()?;
+        let a: RelativeAdvisory = serde_json::from_slice(&bytes).ok()?;
+        (a.sigma_basis == SigmaBasis::Calibrated).then_some(a)
+    })
+    .unwrap_or_else(|| {
+        panic!(
+            "the relative sigma was never calibrated; run:\n{}",
+            run.stdout().join("\n")
+        )
+    });
+    assert_ne!(calibrated.sigma_m, calibrated.sigma_independent_m);
+    assert!(calibrated
+        .sigma_m
+        .iter()
+        .flatten()
+        .all(|s| s.is_finite() && *s > 0.0));
     let steps = advisory.mean_m[2].len();
     assert!(steps > 0 && advisory.mean_m.iter().all(|m| m.len() == steps));
     assert!(advisory
@@ -82,9 +104,19 @@ fn a_two_ship_run_publishes_the_relative_forecast_of_both_vessels() {
     }
     let relative = std::fs::read_to_string(logs.path().join("relative.log")).unwrap();
     assert!(
-        relative.contains("rejected 0 from ddg51, 0 from tender, 0 pairs not combinable"),
+        relative.contains(
+            "rejected 0 forecasts and 0 motion samples from ddg51, 0 and 0 from tender, 0 pairs not combinable"
+        ),
         "{relative}"
     );
+    // At least the 20 forecasts behind the calibrated sigma were verified.
+    let verified: u64 = relative
+        .split("relative forecasts (")
+        .nth(1)
+        .and_then(|rest| rest.split(' ').next())
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("no verified count in:\n{relative}"));
+    assert!(verified >= 20, "{relative}");
 }
 
 #[test]

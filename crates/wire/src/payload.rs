@@ -42,8 +42,9 @@ pub mod limits {
     pub const ZENOH_RING: usize = 4;
 }
 
-/// One motion measurement of the six degrees of freedom (72 bytes).
-#[derive(Debug, Clone, Copy, PartialEq, Default, ZeroCopySend)]
+/// One motion measurement of the six degrees of freedom (72 bytes). Its zenoh JSON form
+/// (`.../motion`, docs/contracts.md section 2.2) has the same field names.
+#[derive(Debug, Clone, Copy, PartialEq, Default, ZeroCopySend, Serialize, Deserialize)]
 #[type_name("shipcast::MotionSample")]
 #[repr(C)]
 pub struct MotionSample {
@@ -61,6 +62,12 @@ impl MotionSample {
     /// True if the time and every DOF value are finite.
     pub fn is_finite(&self) -> bool {
         self.time_s.is_finite() && self.dof.iter().all(|v| v.is_finite())
+    }
+
+    /// Parse the JSON form: exactly the four fields, `dof` six numbers. A non-finite value
+    /// cannot be written in JSON (serde_json writes `null`), so it fails here too.
+    pub fn from_json(bytes: &[u8]) -> Result<Self, serde_json::Error> {
+        serde_json::from_slice(bytes)
     }
 }
 

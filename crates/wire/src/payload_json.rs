@@ -1,6 +1,6 @@
-//! The forecast's zenoh JSON (docs/contracts.md section 2.2), written by serde_json
-//! ([`Forecast::write_json`]'s form) into one reusable buffer that zenoh can take without a
-//! copy ([`ForecastJsonEncoder::encode_shared`] with `JsonPublisher::put_shared`).
+//! The forecast's and the motion sample's zenoh JSON (docs/contracts.md section 2.2), written
+//! by serde_json ([`Forecast::write_json`]'s form) into one reusable buffer that zenoh can take
+//! without a copy ([`ForecastJsonEncoder::encode_shared`] with `JsonPublisher::put_shared`).
 //!
 //! A hand-written encoder (literal field names, `itoa` and `zmij`, a cache of the sigma text)
 //! stood here until issue 12 measured it against serde_json into a reused buffer on the
@@ -9,7 +9,7 @@
 //! hot_path`, the forecast-path table), well under the 10 % of the zenoh path's p50 it had to
 //! save to stay.
 
-use crate::payload::{Forecast, MAX_STEPS, NUM_DOF};
+use crate::payload::{Forecast, MotionSample, MAX_STEPS, NUM_DOF};
 use bytes::{Bytes, BytesMut};
 
 /// Longest text of a `u64` (`u64::MAX` has 20 digits).
@@ -81,6 +81,49 @@ impl ForecastJsonEncoder {
         // pointer reset, no allocation); the first `split` made it shared, once.
         self.out.reserve(MAX_JSON_LEN);
         serde_json::to_writer(AppendTo(&mut self.out), &f.json_view())
+    }
+}
+
+/// Upper bound of the length of an encoded motion sample: field names and punctuation (under
+/// 60 bytes), two `u64` and seven `f64`.
+pub const MAX_MOTION_JSON_LEN: usize = 60 + 2 * MAX_U64_LEN + (1 + NUM_DOF) * (MAX_F64_LEN + 1);
+
+/// Encodes motion samples as JSON into one buffer allocated once, shared with zenoh like
+/// [`ForecastJsonEncoder`]'s.
+///
+/// ```
+/// use shipcast_wire::payload::MotionSample;
+/// use shipcast_wire::payload_json::MotionJsonEncoder;
+///
+/// let m = MotionSample { seq: 3, time_s: 1.5, dof: [0.1, 0.0, -0.25, 0.0, 0.01, 0.0], ..MotionSample::default() };
+/// let mut encoder = MotionJsonEncoder::new();
+/// let text = encoder.encode_shared(&m).unwrap();
+/// assert_eq!(MotionSample::from_json(&text).unwrap(), m);
+/// ```
+pub struct MotionJsonEncoder {
+    out: BytesMut,
+}
+
+impl Default for MotionJsonEncoder {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl MotionJsonEncoder {
+    pub fn new() -> Self {
+        Self {
+            out: BytesMut::with_capacity(MAX_MOTION_JSON_LEN),
+        }
+    }
+
+    /// Encode `m` and return its JSON as a shared handle to the encoder's buffer (see
+    /// [`ForecastJsonEncoder::encode_shared`]).
+    pub fn encode_shared(&mut self, m: &MotionSample) -> Result<Bytes, serde_json::Error> {
+        self.out.clear();
+        self.out.reserve(MAX_MOTION_JSON_LEN);
+        serde_json::to_writer(AppendTo(&mut self.out), m)?;
+        Ok(self.out.split().freeze())
     }
 }
 
@@ -253,6 +296,50 @@ mod tests {
         assert_eq!(&third[..], &reference(&f)[..]);
         drop((second, third));
         assert_eq!(encoder.encode(&g).unwrap(), &reference(&g)[..]);
+    }
+
+    #[test]
+    fn motion_samples_round_trip_and_the_longest_fits_the_buffer() {
+        let mut rng = ChaCha8Rng::seed_from_u64(5);
+        let mut encoder = MotionJsonEncoder::new();
+        let finite = |rng: &mut ChaCha8Rng| loop {
+            let v = any_f64(rng);
+            if v.is_finite() {
+                break v;
+            }
+        };
+        for _ in 0..500 {
+            let m = MotionSample {
+                seq: any_u64(&mut rng),
+                stamp_ns: any_u64(&mut rng),
+                time_s: finite(&mut rng),
+                dof: std::array::from_fn(|_| finite(&mut rng)),
+            };
+            let text = encoder.encode_shared(&m).unwrap();
+            assert_eq!(MotionSample::from_json(&text).unwrap(), m);
+        }
+        let longest64 = f64_with_text_len(-1.234_567_890_123_4e-5, MAX_F64_LEN);
+        let longest = MotionSample {
+            seq: u64::MAX,
+            stamp_ns: u64::MAX,
+            time_s: longest64,
+            dof: [longest64; NUM_DOF],
+        };
+        let text = encoder.encode_shared(&longest).unwrap();
+        assert!(text.len() <= MAX_MOTION_JSON_LEN, "{}", text.len());
+        // A value that JSON cannot carry (written as null), a wrong DOF count, a missing field
+        // and a truncated text are refused.
+        let mut nan = longest;
+        nan.dof[2] = f64::NAN;
+        let text = encoder.encode_shared(&nan).unwrap();
+        assert!(MotionSample::from_json(&text).is_err());
+        for bad in [
+            r#"{"seq":1,"stamp_ns":0,"time_s":0.5,"dof":[0,0,0,0,0]}"#,
+            r#"{"seq":1,"stamp_ns":0,"dof":[0,0,0,0,0,0]}"#,
+            r#"{"seq":1,"stamp_ns":0,"time_s":0.5,"dof":[0,0,0"#,
+        ] {
+            assert!(MotionSample::from_json(bad.as_bytes()).is_err(), "{bad}");
+        }
     }
 
     /// serde_json's text of `v`.

@@ -26,6 +26,7 @@
 
 pub mod calibrate;
 pub mod study;
+pub mod verify;
 
 use crate::config::RelativeConfig;
 use crate::decision::window::{chain_within, Lattice};

@@ -6,14 +6,14 @@
 //! B) at the same leads.
 
 use super::calibrate::SigmaCalibration;
-use super::{point_displacement, Geometry, RelativeTrack, AXES};
+use super::verify::{observed, ObservedMotion, RelativeVerifier, MAX_PENDING};
+use super::{Geometry, RelativeTrack, AXES};
 use crate::config::PipelineConfig;
 use crate::engine::models::ModelSet;
 use crate::engine::replay::{replay, ReplayReport};
 use serde::Serialize;
 use shipcast_series::motion_csv::MotionData;
 use shipcast_wire::Dof;
-use std::collections::VecDeque;
 
 /// Leads the study reports [s].
 pub const STUDY_LEADS_S: [f64; 5] = [5.0, 10.0, 15.0, 20.0, 25.0];
@@ -109,40 +109,15 @@ impl<'a> Truth<'a> {
             step,
         }
     }
+}
 
-    /// The six DOF at record time `t`, if a sample was recorded there.
+impl ObservedMotion for Truth<'_> {
     fn dof_at(&self, t: f64) -> Option<[f64; 6]> {
         let time = &self.data.time;
         let i = time.partition_point(|&x| x < t - 0.25 * self.step);
         (i < time.len() && (time[i] - t).abs() <= 0.25 * self.step)
             .then(|| std::array::from_fn(|d| self.columns[d].map_or(0.0, |c| c[i])))
     }
-}
-
-/// The observed tip and spot displacements at every step of `track`, if all were recorded.
-fn observed(
-    track: &RelativeTrack,
-    geometry: &Geometry,
-    a: &Truth,
-    b: &Truth,
-    tip: &mut Vec<[f64; 3]>,
-    spot: &mut Vec<[f64; 3]>,
-) -> bool {
-    tip.clear();
-    spot.clear();
-    for k in 0..track.steps() {
-        let t = track.alignment.time_s + (k + 1) as f64 * track.dt_s;
-        let (Some(da), Some(db)) = (a.dof_at(t), b.dof_at(t)) else {
-            return false;
-        };
-        tip.push(point_displacement(&geometry.tip, 0.0, da));
-        spot.push(point_displacement(
-            &geometry.spot,
-            geometry.target_heading_offset_rad,
-            db,
-        ));
-    }
-    true
 }
 
 /// Replays `crane` and `target` (records on one clock) with `config` and scores the relative
@@ -160,7 +135,10 @@ pub fn study(
     let (report_b, fb) = replay(target, &config.predictor, models.1, skip_s, true, progress)?;
     let geometry = Geometry::new(config.crane.tip_m, &config.relative);
     let r = &config.relative;
-    let mut calibration = SigmaCalibration::new(r.calibration_halflife, r.calibration_min_verified);
+    let mut verifier = RelativeVerifier::new(
+        SigmaCalibration::new(r.calibration_halflife, r.calibration_min_verified),
+        MAX_PENDING,
+    );
     let (ta, tb) = (Truth::new(crane), Truth::new(target));
     let dt = config.predictor.sample_rate_hz.recip();
     let lead_k: Vec<usize> = STUDY_LEADS_S
@@ -168,7 +146,6 @@ pub fn study(
         .map(|l| ((l / dt).round() as usize).max(1) - 1)
         .collect();
     let mut sums = vec![[Sums::default(); 3]; lead_k.len()];
-    let mut pending: VecDeque<Box<RelativeTrack>> = VecDeque::new();
     let (mut tip, mut spot) = (Vec::new(), Vec::new());
     let (mut pairs, mut scored, mut unpaired) = (0u64, 0u64, 0u64);
     let mut calibrated_from_s = None;
@@ -186,19 +163,9 @@ pub fn study(
             continue;
         };
         // Verify what has fully passed by now: causal.
-        while let Some(old) = pending.front() {
-            let end = old.alignment.time_s + old.steps() as f64 * old.dt_s;
-            if end > a.time_s + 1e-9 {
-                break;
-            }
-            if let Some(old) = pending.pop_front() {
-                if observed(&old, &geometry, &ta, &tb, &mut tip, &mut spot) {
-                    calibration.observe(&old, &tip, &spot);
-                }
-            }
-        }
+        verifier.verify_until(a.time_s, &geometry, &ta, &tb);
         let mut track = Box::<RelativeTrack>::default();
-        if track.fill(&geometry, a, b, &calibration).is_err() {
+        if track.fill(&geometry, a, b, &verifier.calibration).is_err() {
             unpaired += 1;
             continue;
         }
@@ -212,7 +179,7 @@ pub fn study(
             scored += 1;
             score(&track, &tip, &spot, &lead_k, &mut sums);
         }
-        pending.push_back(track);
+        verifier.push(&track);
     }
     let leads = finish(&sums);
     let own = own_scores(&report_a, &report_b, &lead_k);

@@ -15,13 +15,12 @@ use zenoh::{Session, Wait};
 /// Why a forecast was rejected.
 #[derive(Debug, thiserror::Error, PartialEq)]
 pub enum Rejection {
-    #[error("forecast without a publisher id (not from a shipcast publisher)")]
+    // The three source reasons name no payload: motion samples share them (`motion_gate`).
+    #[error("sent without a publisher id (not from a shipcast publisher)")]
     NoPublisherId,
-    #[error("forecast from publisher {got}, which is not the live predictor ({live})")]
+    #[error("sent by publisher {got}, which is not the live predictor ({live})")]
     NotLivePublisher { got: String, live: String },
-    #[error(
-        "forecast while {0} publishers are alive on the key; cannot tell which is the predictor"
-    )]
+    #[error("sent while {0} publishers are alive on the key; cannot tell which is the predictor")]
     SeveralPublishers(usize),
     #[error("forecast seq {seq} does not follow the last accepted {last}")]
     SeqNotIncreasing { seq: u64, last: u64 },

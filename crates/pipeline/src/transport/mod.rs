@@ -5,6 +5,7 @@ pub mod clock;
 pub mod counters;
 pub mod forecast_check;
 pub mod iox;
+pub mod motion_gate;
 pub mod naming;
 pub mod shutdown;
 pub mod zenoh;

@@ -373,9 +373,15 @@ pub struct LatestSubscriber {
 
 impl LatestSubscriber {
     pub fn new(session: &Session, key: &str) -> Result<Self, ZenohError> {
+        Self::keeping(session, key, limits::ZENOH_RING)
+    }
+
+    /// Keeps the newest `capacity` payloads (a stream whose every message counts, such as
+    /// motion samples, needs more than the newest few).
+    pub fn keeping(session: &Session, key: &str, capacity: usize) -> Result<Self, ZenohError> {
         let subscriber = session
             .declare_subscriber(key.to_string())
-            .with(RingChannel::new(limits::ZENOH_RING))
+            .with(RingChannel::new(capacity.max(1)))
             .wait()
             .map_err(err(format!("declare subscriber on '{key}'")))?;
         Ok(Self { subscriber })
