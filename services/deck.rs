@@ -9,13 +9,17 @@
 //! (`DecisionSample`). The deck also reads the motion samples: once a forecast's horizon has
 //! happened, the decider verifies it against them, and its window probabilities come from the
 //! errors that really happened, as `shipcast replay`'s do from the record (docs/decisions.md).
+//! Motion samples count only from the port the deck follows (`IoxFollowedPort`, as for the
+//! forecasts); others are counted (`motion_rejected` in the status) and logged.
 
 use shipcast_pipeline::config::{CommonArgs, PipelineConfig};
 use shipcast_pipeline::decision::outcomes::{OutcomeCounts, Outcomes};
 use shipcast_pipeline::deck::DeckAdvisor;
 use shipcast_pipeline::limits as value_limits;
 use shipcast_pipeline::transport::clock::monotonic_ns;
-use shipcast_pipeline::transport::forecast_check::{IoxForecastGate, RejectionCounts};
+use shipcast_pipeline::transport::forecast_check::{
+    IoxFollowedPort, IoxForecastGate, RejectionCounts,
+};
 use shipcast_pipeline::transport::iox::{self, IoxPublisher, IoxSubscriber, Sizing, WaitMode};
 use shipcast_pipeline::transport::zenoh::{self as zn, JsonPublisher};
 use shipcast_pipeline::transport::{shutdown, Names};
@@ -110,6 +114,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     };
     let mut advisor = DeckAdvisor::new(&config.deck);
     let mut gate = IoxForecastGate::new(1.0 / config.predictor.sample_rate_hz);
+    let mut motion_port = IoxFollowedPort::default();
+    let mut motion_rejected = 0u64;
     let mut connected = Vec::with_capacity(limits::MAX_PUBLISHERS);
     tracing::info!(
         point_m = ?config.deck.point_m,
@@ -124,13 +130,32 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     while !limit.reached() {
         forecasts.wait(Duration::from_millis(100))?;
         // What happened: forecasts whose horizon is now past teach the decider.
-        while let Some(sample) = motion.receive()? {
-            outcomes.push_sample(&sample);
+        // Only from the producer's port: a second publisher on the motion service must not
+        // teach the decider what "happened".
+        while let Some((sample, origin)) = motion.receive_with_origin()? {
+            let admitted = match motion_port.is_followed(origin) {
+                true => Ok(()),
+                false => {
+                    motion.publishers(&mut connected);
+                    motion_port.admit(origin, &connected)
+                }
+            };
+            match admitted {
+                Ok(()) => outcomes.push_sample(&sample),
+                Err(e) => {
+                    motion_rejected += 1;
+                    tracing::warn!(
+                        rejected = motion_rejected,
+                        "deck: motion sample rejected: {e}"
+                    );
+                }
+            }
         }
         outcomes.verify_ready(advisor.decider_mut());
         if let Some((_, status, _)) = &publisher {
             if last_status.elapsed() >= STATUS_EVERY {
-                status.put_serialize(&DeckStatus::new(count, &gate, outcomes.counts))?;
+                let now = DeckStatus::new(count, &gate, outcomes.counts, motion_rejected);
+                status.put_serialize(&now)?;
                 last_status = Instant::now();
             }
         }
@@ -174,11 +199,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         count += 1;
     }
     if let Some((_, status, _)) = &publisher {
-        status.put_serialize(&DeckStatus::new(count, &gate, outcomes.counts))?;
+        let last = DeckStatus::new(count, &gate, outcomes.counts, motion_rejected);
+        status.put_serialize(&last)?;
     }
     let r = gate.stream.rejected;
     tracing::info!(
-        "deck: stopped after {count} advisories, {} rejected ({} source, {} seq, {} payload)",
+        "deck: stopped after {count} advisories, {} rejected ({} source, {} seq, {} payload), {motion_rejected} motion samples rejected",
         r.total(),
         r.source,
         r.seq,
@@ -198,15 +224,23 @@ struct DeckStatus {
     rejected: RejectionCounts,
     /// Forecasts verified against the motion (and those that could not be).
     outcomes: OutcomeCounts,
+    /// Motion samples from a port other than the producer's.
+    motion_rejected: u64,
 }
 
 impl DeckStatus {
-    fn new(advisories: u64, gate: &IoxForecastGate, outcomes: OutcomeCounts) -> Self {
+    fn new(
+        advisories: u64,
+        gate: &IoxForecastGate,
+        outcomes: OutcomeCounts,
+        motion_rejected: u64,
+    ) -> Self {
         Self {
             advisories,
             accepted: gate.stream.accepted,
             rejected: gate.stream.rejected,
             outcomes,
+            motion_rejected,
         }
     }
 }

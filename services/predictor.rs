@@ -13,6 +13,7 @@ use shipcast_pipeline::engine::models::ModelSet;
 use shipcast_pipeline::engine::retrain::Retrainer;
 use shipcast_pipeline::engine::{Engine, EngineCounts};
 use shipcast_pipeline::limits;
+use shipcast_pipeline::transport::forecast_check::IoxFollowedPort;
 use shipcast_pipeline::transport::iox::{self, IoxPublisher, IoxSubscriber, Sizing, WaitMode};
 use shipcast_pipeline::transport::zenoh::{self as zn, JsonPublisher};
 use shipcast_pipeline::transport::{monotonic_ns, shutdown, Counters, Names};
@@ -171,6 +172,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         retrainer,
     )?;
     let mut json = ForecastJsonEncoder::new();
+    let mut producer_port = IoxFollowedPort::default();
+    let mut connected = Vec::with_capacity(shipcast_wire::payload::limits::MAX_PUBLISHERS);
     let stale_after = stale_timeout(&config);
     let mut last_sample: Option<Instant> = None;
     let mut stale = false;
@@ -195,8 +198,26 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         motion.wait(nap)?;
         let mut changed = false;
         let mut idle = true;
-        while let Some(sample) = motion.receive()? {
+        while let Some((sample, origin)) = motion.receive_with_origin()? {
             idle = false;
+            // Only the producer's port: a second publisher on the motion service (a stale
+            // producer, an intruder) must not feed the forecasts.
+            if !producer_port.is_followed(origin) {
+                motion.publishers(&mut connected);
+                if let Err(e) = producer_port.admit(origin, &connected) {
+                    engine.counters.received += 1;
+                    engine.counters.rejected_source += 1;
+                    if engine.counters.rejected_source == 1
+                        || last_log.elapsed() >= Duration::from_secs(10)
+                    {
+                        tracing::warn!(
+                            rejected = engine.counters.rejected_source,
+                            "predictor: motion sample rejected: {e}"
+                        );
+                    }
+                    continue;
+                }
+            }
             let received_ns = stamps.as_ref().map(|_| monotonic_ns());
             last_sample = Some(Instant::now());
             if stale {

@@ -175,7 +175,8 @@ impl View {
                     c["received"],
                     c["lost"],
                     c["rejected_nonfinite"].as_u64().unwrap_or(0)
-                        + c["rejected_order"].as_u64().unwrap_or(0),
+                        + c["rejected_order"].as_u64().unwrap_or(0)
+                        + c["rejected_source"].as_u64().unwrap_or(0),
                     if s["stale"] == true { "STALE" } else { "live" }
                 )
             }

@@ -8,7 +8,7 @@ mod pipeline_support;
 use pipeline_support::{
     fake_forecast_json, wait_crane_lines, Proc, TestPipeline, FAKE_SEQ, PATIENCE,
 };
-use shipcast_wire::payload::Forecast;
+use shipcast_wire::payload::{Forecast, MotionSample};
 use std::time::{Duration, Instant};
 use zenoh::Wait;
 
@@ -190,6 +190,50 @@ fn the_deck_rejects_a_second_iceoryx2_publisher_and_keeps_advising() {
         "{rejected:?}"
     );
     drop(intruder);
+    // The intruder now publishes forged motion on the producer's service: the predictor
+    // (which forecasts from it) and the deck (which verifies against it) follow only the
+    // producer's port, and each counts the 10 it refused.
+    let predictor_status = session
+        .declare_subscriber(names.status("predictor"))
+        .wait()
+        .unwrap();
+    let forger = IoxPublisher::<MotionSample>::new(&node, &names.motion(), Sizing::MOTION).unwrap();
+    let forged = MotionSample {
+        seq: 1 << 40,
+        stamp_ns: 0,
+        time_s: 1.0e6,
+        dof: [5.0; 6],
+    };
+    for _ in 0..10 {
+        assert!(
+            forger.send(&forged).unwrap() >= 2,
+            "the predictor and the deck are subscribed"
+        );
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    let after = wait_deck_status(&status, &deck, |s| count(s, &["motion_rejected"]) >= 10);
+    assert_eq!(count(&after, &["motion_rejected"]), 10, "{after}");
+    let deadline = Instant::now() + PATIENCE;
+    let seen = loop {
+        assert!(
+            Instant::now() < deadline,
+            "the predictor's status never counted the forged motion"
+        );
+        if let Ok(Some(sample)) = predictor_status.recv_timeout(Duration::from_millis(200)) {
+            let s: serde_json::Value =
+                serde_json::from_slice(&sample.payload().to_bytes()).unwrap();
+            if count(&s, &["counters", "rejected_source"]) >= 10 {
+                break s;
+            }
+        }
+    };
+    assert_eq!(count(&seen, &["counters", "rejected_source"]), 10, "{seen}");
+    // The forged record time (1e6 s) never reached the engine.
+    assert!(
+        seen["last_time_s"].as_f64().is_some_and(|t| t < 1.0e5),
+        "{seen}"
+    );
+    drop(forger);
     // The deck verifies its forecasts against the motion once their horizon has happened
     // (25 s of record, 1.25 s at 20x): its decisions learn from what really happened.
     let verified = wait_deck_status(&status, &deck, |s| count(s, &["outcomes", "verified"]) > 20);

@@ -15,6 +15,9 @@ pub struct Counters {
     pub rejected_nonfinite: u64,
     /// Samples older than one already accepted (seq or record time going back).
     pub rejected_order: u64,
+    /// Samples from a publisher port other than the one followed (a second producer).
+    #[serde(default)]
+    pub rejected_source: u64,
     /// Messages published by this process.
     pub published: u64,
     /// Producer runs seen start again at seq 0.
@@ -36,12 +39,13 @@ impl Counters {
     /// One-line summary for logs and the live view.
     pub fn summary(&self) -> String {
         format!(
-            "received {} lost {} rejected {} (non-finite {}, out-of-order {}) published {} restarts {}",
+            "received {} lost {} rejected {} (non-finite {}, out-of-order {}, foreign {}) published {} restarts {}",
             self.received,
             self.lost,
-            self.rejected_nonfinite + self.rejected_order,
+            self.rejected_nonfinite + self.rejected_order + self.rejected_source,
             self.rejected_nonfinite,
             self.rejected_order,
+            self.rejected_source,
             self.published,
             self.restarts
         )
@@ -154,6 +158,7 @@ mod tests {
                 lost: 2,
                 rejected_nonfinite: 1,
                 rejected_order: 3,
+                rejected_source: 0,
                 published: 0,
                 restarts: 1,
             }

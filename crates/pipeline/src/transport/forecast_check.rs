@@ -213,43 +213,27 @@ pub fn check_source<'a>(
     }
 }
 
-/// Accepts forecasts received over iceoryx2 (the deck). The sender is the publisher port that
-/// iceoryx2 itself records in each sample, which a sender cannot choose. The live predictor is
-/// the publisher the gate has been following for as long as it stays connected; when it goes
-/// and exactly one publisher is connected, that one is followed. Samples of any other
-/// publisher are rejected, so a second publisher on the service cannot interrupt the stream.
-#[derive(Debug)]
-pub struct IoxForecastGate {
+/// The iceoryx2 publisher port a consumer follows. The sender is the port that iceoryx2 itself
+/// records in each sample, which a sender cannot choose. The followed port is the one the
+/// consumer has been following for as long as it stays connected; when it goes and exactly
+/// one port is connected, that one is followed. Samples of any other port are refused, so a
+/// second publisher on the service cannot interrupt the stream. The deck follows the
+/// predictor's forecasts and the producer's motion this way.
+#[derive(Debug, Default)]
+pub struct IoxFollowedPort {
     followed: Option<u128>,
-    pub stream: StreamChecks<u128>,
 }
 
-impl IoxForecastGate {
-    pub fn new(expected_dt_s: f64) -> Self {
-        Self {
-            followed: None,
-            stream: StreamChecks::new(expected_dt_s),
-        }
+impl IoxFollowedPort {
+    /// True if `origin` is the port followed now: a sample from it is admitted without asking
+    /// iceoryx2 which ports are connected (the hot path of the predictor's input).
+    #[inline]
+    pub fn is_followed(&self, origin: u128) -> bool {
+        self.followed == Some(origin)
     }
 
-    /// Check `forecast` sent by publisher `origin` while `connected` are the publishers of
-    /// the service.
-    pub fn check(
-        &mut self,
-        origin: u128,
-        connected: &[u128],
-        forecast: &Forecast,
-    ) -> Result<(), Rejection> {
-        let result = self.check_uncounted(origin, connected, forecast);
-        self.stream.count(result)
-    }
-
-    fn check_uncounted(
-        &mut self,
-        origin: u128,
-        connected: &[u128],
-        forecast: &Forecast,
-    ) -> Result<(), Rejection> {
+    /// Is `origin` the followed port, while `connected` are the service's publishers?
+    pub fn admit(&mut self, origin: u128, connected: &[u128]) -> Result<(), Rejection> {
         if self.followed.is_some_and(|f| !connected.contains(&f)) {
             self.followed = None;
         }
@@ -270,7 +254,39 @@ impl IoxForecastGate {
                 live: format!("{followed:032x}"),
             });
         }
-        self.stream.follows(&origin, forecast)
+        Ok(())
+    }
+}
+
+/// Accepts forecasts received over iceoryx2 (the deck) from the followed publisher port
+/// ([`IoxFollowedPort`]), with increasing seq, that pass the content checks.
+#[derive(Debug)]
+pub struct IoxForecastGate {
+    port: IoxFollowedPort,
+    pub stream: StreamChecks<u128>,
+}
+
+impl IoxForecastGate {
+    pub fn new(expected_dt_s: f64) -> Self {
+        Self {
+            port: IoxFollowedPort::default(),
+            stream: StreamChecks::new(expected_dt_s),
+        }
+    }
+
+    /// Check `forecast` sent by publisher `origin` while `connected` are the publishers of
+    /// the service.
+    pub fn check(
+        &mut self,
+        origin: u128,
+        connected: &[u128],
+        forecast: &Forecast,
+    ) -> Result<(), Rejection> {
+        let result = self
+            .port
+            .admit(origin, connected)
+            .and_then(|()| self.stream.follows(&origin, forecast));
+        self.stream.count(result)
     }
 }
 
