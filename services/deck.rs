@@ -17,6 +17,7 @@ use shipcast_pipeline::decision::outcomes::{OutcomeCounts, Outcomes};
 use shipcast_pipeline::deck::DeckAdvisor;
 use shipcast_pipeline::limits as value_limits;
 use shipcast_pipeline::transport::clock::monotonic_ns;
+use shipcast_pipeline::transport::counters::SeqCheck;
 use shipcast_pipeline::transport::forecast_check::{
     IoxFollowedPort, IoxForecastGate, RejectionCounts,
 };
@@ -141,7 +142,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 }
             };
             match admitted {
-                Ok(()) => outcomes.push_sample(&sample),
+                Ok(()) => {
+                    if outcomes.push_sample(&sample) == SeqCheck::NewRun {
+                        tracing::info!(
+                            restarts = outcomes.counts.restarts,
+                            "deck: the producer started a new run: decisions waiting on the old run's clock are dropped as unverifiable"
+                        );
+                    }
+                }
                 Err(e) => {
                     motion_rejected += 1;
                     tracing::warn!(

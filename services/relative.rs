@@ -21,12 +21,13 @@ use shipcast_pipeline::config::{CommonArgs, PipelineConfig};
 use shipcast_pipeline::decision::window::Lattice;
 use shipcast_pipeline::engine::startup::initial_models;
 use shipcast_pipeline::limits;
+use shipcast_pipeline::observed::MotionHistory;
 use shipcast_pipeline::relative::calibrate::SigmaCalibration;
 use shipcast_pipeline::relative::study::{study, StudyReport};
-use shipcast_pipeline::relative::verify::{MotionHistory, RelativeVerifier, MAX_PENDING};
+use shipcast_pipeline::relative::verify::{RelativeVerifier, MAX_PENDING};
 use shipcast_pipeline::relative::{advisory, decide, Geometry, LiftLimits, RelativeTrack};
 use shipcast_pipeline::transport::forecast_check::{ForecastGate, PublisherWatch};
-use shipcast_pipeline::transport::motion_gate::MotionGate;
+use shipcast_pipeline::transport::motion_gate::{Admitted, MotionGate};
 use shipcast_pipeline::transport::zenoh::{self as zn, JsonPublisher, LatestSubscriber};
 use shipcast_pipeline::transport::{shutdown, Names};
 use shipcast_series::motion_csv::MotionData;
@@ -300,17 +301,27 @@ impl FollowedMotion {
             subscriber: LatestSubscriber::keeping(session, &key, Self::QUEUE)?,
             publishers: PublisherWatch::new(session, &key)?,
             gate: MotionGate::new(),
-            history: MotionHistory::new(keep_s, (keep_s * rate_hz * 1.5) as usize + 16),
+            history: MotionHistory::new(rate_hz, keep_s),
             key,
         })
     }
 
-    fn poll(&mut self) -> anyhow::Result<()> {
+    /// Takes what arrived; true if the vessel's record started afresh (a new producer run or
+    /// a new predictor), so forecasts waiting on the old record's clock cannot be verified.
+    fn poll(&mut self) -> anyhow::Result<bool> {
+        let mut restarted = false;
         self.publishers.update(&mut self.gate.live);
         while let Some(received) = self.subscriber.try_recv_with_source()? {
             self.publishers.update(&mut self.gate.live);
-            match self.gate.check(&received) {
-                Ok(m) => self.history.push(m.time_s, m.dof),
+            match self.gate.check(&received, &mut self.history) {
+                Ok(Admitted::Continues) => {}
+                Ok(Admitted::Restarted) => {
+                    restarted = true;
+                    tracing::info!(
+                        "relative: the motion on {} started a new record (producer or predictor restarted)",
+                        self.key
+                    );
+                }
                 Err(e) => tracing::warn!(
                     rejected = self.gate.rejected,
                     "relative: motion sample on {} rejected: {e}",
@@ -318,7 +329,7 @@ impl FollowedMotion {
                 ),
             }
         }
-        Ok(())
+        Ok(restarted)
     }
 }
 
@@ -367,8 +378,10 @@ fn run_live(config: &PipelineConfig, limit: Option<Duration>) -> anyhow::Result<
     let stdout = std::io::stdout();
     while !limit.reached() {
         let fresh = crane.poll()? | target.poll()?;
-        crane_motion.poll()?;
-        target_motion.poll()?;
+        // Both polled every time: `|` does not short-circuit.
+        if crane_motion.poll()? | target_motion.poll()? {
+            verifier.drop_pending();
+        }
         if let (Some(ta), Some(tb)) = (
             crane_motion.history.newest_s(),
             target_motion.history.newest_s(),

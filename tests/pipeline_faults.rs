@@ -109,6 +109,48 @@ fn stopped_producer_is_reported_stale_and_a_new_one_resumes() {
     assert!(after.seq > before.seq);
 }
 
+/// Regression: a producer restarted under a running predictor and deck starts its record at
+/// time 0 again. The deck used to ignore the new run's samples until their time passed the
+/// old run's, verifying none of its decisions meanwhile; it now drops what waited on the old
+/// clock and verifies the new run's decisions as soon as their horizon has happened.
+#[test]
+fn the_deck_verifies_a_new_producer_run_at_once() {
+    let p = TestPipeline::new("deckrun", "[producer]\nspeed = 20.0\nbackfill_s = 0.0\n");
+    let predictor = p.spawn("predictor", &[]);
+    predictor.wait_for("(iceoryx2 and zenoh)");
+    let deck = p.spawn("deck", &[]);
+    let status = p.watch_status();
+    let deck_status = p.watch_status_of("deck");
+    let verified = |s: &serde_json::Value| status_u64(s, &["outcomes", "verified"]);
+
+    let mut producer = p.spawn("producer", &["--wait-subscriber-s", "30"]);
+    // A first run long enough that the second stays behind its record time for a while.
+    let end = status.wait_until("the first run past 240 s", |s| {
+        s["last_time_s"].as_f64().is_some_and(|t| t > 240.0)
+    });
+    let end_s = end["last_time_s"].as_f64().unwrap_or(f64::NAN);
+    let first = deck_status.wait_until("decisions verified in the first run", |s| verified(s) >= 5);
+    assert_eq!(status_u64(&first, &["outcomes", "restarts"]), 0, "{first}");
+    producer.kill9();
+
+    let _second = p.spawn("producer", &["--wait-subscriber-s", "30"]);
+    let restarted = deck_status.wait_until("the deck seeing the new run", |s| {
+        status_u64(s, &["outcomes", "restarts"]) == 1
+    });
+    let again = deck_status.wait_until("decisions of the new run verified", |s| {
+        verified(s) >= verified(&restarted) + 5
+    });
+    // Verified before the new run reached the old one's record time: on the new clock.
+    let now = status.wait_until("a status after that", |_| true);
+    let now_s = now["last_time_s"].as_f64().unwrap_or(f64::INFINITY);
+    assert!(
+        now_s < end_s,
+        "the new run reached {now_s} s, the old one ended after {end_s} s; deck {again}\n{}",
+        deck.stderr().join("\n")
+    );
+    assert_eq!(status_u64(&now, &["counters", "restarts"]), 1, "{now}");
+}
+
 /// NaN and stale (out-of-order) samples are rejected and counted, nothing is lost, and the
 /// pipeline keeps forecasting.
 #[test]

@@ -84,16 +84,22 @@ impl TestPipeline {
     /// Subscribe to the predictor's status JSON (zenoh `.../status/predictor`), the facts the
     /// predictor reports about itself: counters, staleness, model version, engine counts.
     pub fn watch_status(&self) -> StatusWatch {
+        self.watch_status_of("predictor")
+    }
+
+    /// Subscribe to `service`'s status JSON (zenoh `.../status/<service>`).
+    pub fn watch_status_of(&self, service: &'static str) -> StatusWatch {
         let config =
             shipcast_pipeline::config::PipelineConfig::load(Some(&self.config)).expect("config");
         let session = shipcast_pipeline::transport::zenoh::open(&config.zenoh.consumer_side())
             .expect("zenoh session");
         let sub = shipcast_pipeline::transport::zenoh::LatestSubscriber::new(
             &session,
-            &self.names().status("predictor"),
+            &self.names().status(service),
         )
         .expect("status subscriber");
         StatusWatch {
+            service,
             _session: session,
             sub,
             last: Mutex::new(None),
@@ -101,8 +107,9 @@ impl TestPipeline {
     }
 }
 
-/// The predictor's status JSON as it arrives (every 500 ms and on every change).
+/// A service's status JSON as it arrives (the predictor's every 500 ms and on every change).
 pub struct StatusWatch {
+    service: &'static str,
     _session: zenoh::Session,
     sub: shipcast_pipeline::transport::zenoh::LatestSubscriber,
     last: Mutex<Option<serde_json::Value>>,
@@ -124,7 +131,8 @@ impl StatusWatch {
         });
         found.unwrap_or_else(|| {
             panic!(
-                "no predictor status with {what}; last: {:?}",
+                "no {} status with {what}; last: {:?}",
+                self.service,
                 self.last.lock().expect("last")
             )
         })

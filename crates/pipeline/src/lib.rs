@@ -7,6 +7,8 @@
 //! - [`deck`], [`crane`]: ship-point geometry, landing advisory, crane-tip forecast.
 //! - [`relative`]: ship-to-ship relative motion (crane tip against a landing spot), its
 //!   calibrated sigma, the lift go/no-go and the two-ship study.
+//! - [`observed`]: a vessel's observed motion kept by time, which live verification looks
+//!   outcomes up in (the deck, the relative service), and its new-run reset.
 //! - [`limits`]: range checks of numeric command-line values and configuration keys.
 //! - [`child`], [`pacing`]: child processes that are always stopped and reaped, and paced loops.
 //! - [`certs`]: the CA and certificates of a secure setup (`shipcast certs`).
@@ -19,6 +21,7 @@ pub mod decision;
 pub mod deck;
 pub mod engine;
 pub mod limits;
+pub mod observed;
 pub mod pacing;
 pub mod relative;
 pub mod transport;

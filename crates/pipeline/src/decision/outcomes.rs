@@ -8,7 +8,9 @@
 //! them do not allocate.
 
 use super::{Decider, Tracks};
-use shipcast_wire::payload::{Forecast, MotionSample, NUM_DOF};
+use crate::observed::{MotionHistory, ObservedMotion};
+use crate::transport::counters::SeqCheck;
+use shipcast_wire::payload::{Forecast, MotionSample};
 use std::collections::VecDeque;
 
 /// A decision waiting for its horizon to happen: the forecast's time and its tracks (which
@@ -23,17 +25,19 @@ struct Waiting {
 pub struct OutcomeCounts {
     /// Decisions verified against the motion.
     pub verified: u64,
-    /// Dropped: a step had no sample (gap, late start, or too many waiting).
+    /// Dropped: a step had no sample (gap, late start, too many waiting, or the producer
+    /// started a new run before the horizon had happened).
     pub unverifiable: u64,
+    /// Producer runs seen start again (seq 0 after a run).
+    #[serde(default)]
+    pub restarts: u64,
 }
 
 pub struct Outcomes {
-    samples: VecDeque<(f64, [f64; NUM_DOF])>,
-    sample_capacity: usize,
+    samples: MotionHistory,
     waiting: VecDeque<Box<Waiting>>,
     spare: Vec<Box<Waiting>>,
     waiting_capacity: usize,
-    input_step_s: f64,
     actual: Box<Forecast>,
     actual_tracks: Box<Tracks>,
     pub counts: OutcomeCounts,
@@ -46,7 +50,6 @@ impl Outcomes {
         // A margin beyond the horizon: forecasts lag the newest sample (the decimation
         // filter's delay) and arrive a little after it.
         let span = horizon_s.max(0.0) + 10.0;
-        let sample_capacity = ((input_rate_hz.max(1.0) * span).ceil() as usize).clamp(16, 1 << 16);
         let waiting_capacity = ((forecast_rate_hz.max(0.1) * span).ceil() as usize).clamp(4, 1024);
         let spare = (0..=waiting_capacity)
             .map(|_| {
@@ -57,27 +60,26 @@ impl Outcomes {
             })
             .collect();
         Self {
-            samples: VecDeque::with_capacity(sample_capacity),
-            sample_capacity,
+            samples: MotionHistory::new(input_rate_hz, span),
             waiting: VecDeque::with_capacity(waiting_capacity + 1),
             spare,
             waiting_capacity,
-            input_step_s: 1.0 / input_rate_hz.max(1e-6),
             actual: Box::default(),
             actual_tracks: Box::default(),
             counts: OutcomeCounts::default(),
         }
     }
 
-    /// A motion sample (in time order; an older or non-finite one is ignored).
-    pub fn push_sample(&mut self, sample: &MotionSample) {
-        if !sample.is_finite() || self.samples.back().is_some_and(|b| b.0 >= sample.time_s) {
-            return;
+    /// A motion sample, judged as [`MotionHistory::push`] does (an older or non-finite one is
+    /// not kept). A new producer run drops the decisions waiting on the old run's clock.
+    pub fn push_sample(&mut self, sample: &MotionSample) -> SeqCheck {
+        let verdict = self.samples.push(sample);
+        if verdict == SeqCheck::NewRun {
+            self.counts.restarts += 1;
+            self.counts.unverifiable += self.waiting.len() as u64;
+            self.spare.extend(self.waiting.drain(..));
         }
-        if self.samples.len() == self.sample_capacity {
-            self.samples.pop_front();
-        }
-        self.samples.push_back((sample.time_s, sample.dof));
+        verdict
     }
 
     /// The forecast `decider` just decided on (its tracks are copied), to be verified once it
@@ -99,13 +101,13 @@ impl Outcomes {
 
     /// Verify every waiting decision whose horizon the samples now cover.
     pub fn verify_ready(&mut self, decider: &mut Decider) {
-        let Some(newest) = self.samples.back().map(|s| s.0) else {
+        let Some(newest) = self.samples.newest_s() else {
             return;
         };
         while let Some(w) = self.waiting.front() {
             let end = w.time_s + w.predicted.steps as f64 * w.predicted.dt_s;
             // A forecast whose time is not finite never comes due: drop it now.
-            if end.is_finite() && end > newest + 0.25 * self.input_step_s {
+            if end.is_finite() && end > newest + self.samples.tolerance_s() {
                 break;
             }
             let Some(w) = self.waiting.pop_front() else {
@@ -131,17 +133,13 @@ impl Outcomes {
         self.actual.time_s = w.time_s;
         self.actual.dt_s = dt_s;
         self.actual.steps = steps as u32;
-        let tol = 0.25 * self.input_step_s;
         for k in 0..steps {
             let t = w.time_s + (k + 1) as f64 * dt_s;
-            let i = self.samples.partition_point(|s| s.0 < t - tol);
-            match self.samples.get(i) {
-                Some(&(ts, dof)) if (ts - t).abs() <= tol => {
-                    for (d, v) in dof.iter().enumerate() {
-                        self.actual.mean[d][k] = *v as f32;
-                    }
-                }
-                _ => return false,
+            let Some(dof) = self.samples.dof_at(t) else {
+                return false;
+            };
+            for (d, v) in dof.iter().enumerate() {
+                self.actual.mean[d][k] = *v as f32;
             }
         }
         true
@@ -254,6 +252,7 @@ mod tests {
         }
         // Out of order and non-finite samples are ignored.
         outcomes.push_sample(&MotionSample {
+            seq: 5,
             time_s: 1.0,
             ..MotionSample::default()
         });
@@ -266,7 +265,8 @@ mod tests {
             outcomes.counts,
             OutcomeCounts {
                 verified: 0,
-                unverifiable: 1
+                unverifiable: 1,
+                restarts: 0
             }
         );
         assert!(decider.ensemble().is_empty());
@@ -282,5 +282,42 @@ mod tests {
         outcomes.push_sample(&sample(0));
         outcomes.verify_ready(&mut decider);
         assert_eq!(outcomes.counts.unverifiable, 1);
+    }
+
+    /// Regression: the producer restarted under a running deck (seq 0, time 0 again). The
+    /// deck used to ignore the new run's samples until its time passed the old run's, and so
+    /// verified nothing for that long.
+    #[test]
+    fn a_new_producer_run_drops_the_old_decisions_and_verifies_the_new_ones() {
+        let mut decider = Decider::new(&DeckConfig::default());
+        let mut outcomes = Outcomes::new(8.0, 25.0, 2.0);
+        let f = forecast_at(20.0);
+        decider.decide(&f);
+        outcomes.push_decision(&f, &decider);
+        for i in 0..(8 * 30) {
+            outcomes.push_sample(&sample(i));
+        }
+        // The old run's decision at 20 s waits for 45 s; the run ends at 30 s.
+        outcomes.verify_ready(&mut decider);
+        assert_eq!(outcomes.counts, OutcomeCounts::default());
+        assert_eq!(outcomes.push_sample(&sample(0)), SeqCheck::NewRun);
+        assert_eq!(
+            outcomes.counts,
+            OutcomeCounts {
+                verified: 0,
+                unverifiable: 1,
+                restarts: 1
+            }
+        );
+        // On the new run's clock, a decision at 0 s is verified once 25 s have happened.
+        let f = forecast_at(0.0);
+        decider.decide(&f);
+        outcomes.push_decision(&f, &decider);
+        for i in 1..(8 * 26) {
+            outcomes.push_sample(&sample(i));
+        }
+        outcomes.verify_ready(&mut decider);
+        assert_eq!(outcomes.counts.verified, 1, "{:?}", outcomes.counts);
+        assert_eq!(decider.ensemble().len(), 1);
     }
 }

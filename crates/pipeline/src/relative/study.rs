@@ -6,11 +6,12 @@
 //! B) at the same leads.
 
 use super::calibrate::SigmaCalibration;
-use super::verify::{observed, ObservedMotion, RelativeVerifier, MAX_PENDING};
+use super::verify::{observed, RelativeVerifier, MAX_PENDING};
 use super::{Geometry, RelativeTrack, AXES};
 use crate::config::PipelineConfig;
 use crate::engine::models::ModelSet;
 use crate::engine::replay::{replay, ReplayReport};
+use crate::observed::{index_at, ObservedMotion};
 use serde::Serialize;
 use shipcast_series::motion_csv::MotionData;
 use shipcast_wire::Dof;
@@ -114,9 +115,8 @@ impl<'a> Truth<'a> {
 impl ObservedMotion for Truth<'_> {
     fn dof_at(&self, t: f64) -> Option<[f64; 6]> {
         let time = &self.data.time;
-        let i = time.partition_point(|&x| x < t - 0.25 * self.step);
-        (i < time.len() && (time[i] - t).abs() <= 0.25 * self.step)
-            .then(|| std::array::from_fn(|d| self.columns[d].map_or(0.0, |c| c[i])))
+        index_at(|i| time[i], time.len(), t, 0.25 * self.step)
+            .map(|i| std::array::from_fn(|d| self.columns[d].map_or(0.0, |c| c[i])))
     }
 }
 

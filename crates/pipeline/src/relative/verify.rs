@@ -9,91 +9,12 @@
 
 use super::calibrate::SigmaCalibration;
 use super::{point_displacement, Geometry, RelativeTrack};
+use crate::observed::ObservedMotion;
 use std::collections::VecDeque;
 
 /// Relative forecasts that may wait for their outcome: one per forecast value over the
 /// longest horizon, four times over (forecasts arrive at most once per value).
 pub const MAX_PENDING: usize = 4 * shipcast_wire::payload::MAX_STEPS;
-
-/// A ship's observed six DOF by record time.
-pub trait ObservedMotion {
-    /// The six DOF at record time `t`, if a sample was recorded there.
-    fn dof_at(&self, t: f64) -> Option<[f64; 6]>;
-}
-
-/// The recent observed motion of one ship, received sample by sample (live). Holds the last
-/// `keep_s` seconds of record time.
-#[derive(Debug, Clone)]
-pub struct MotionHistory {
-    samples: VecDeque<(f64, [f64; 6])>,
-    capacity: usize,
-    keep_s: f64,
-    /// Smallest spacing seen between two samples: lookups match within a quarter of it.
-    step_s: f64,
-}
-
-impl MotionHistory {
-    /// Keeps `keep_s` seconds; `capacity` samples are allocated up front.
-    pub fn new(keep_s: f64, capacity: usize) -> Self {
-        Self {
-            samples: VecDeque::with_capacity(capacity.max(1)),
-            capacity: capacity.max(1),
-            keep_s,
-            step_s: f64::INFINITY,
-        }
-    }
-
-    /// Appends a sample; one not later than the newest is ignored (the gate refuses those).
-    pub fn push(&mut self, time_s: f64, dof: [f64; 6]) {
-        if let Some(&(last, _)) = self.samples.back() {
-            // Also refuses a NaN time.
-            if time_s.partial_cmp(&last) != Some(std::cmp::Ordering::Greater) {
-                return;
-            }
-            self.step_s = self.step_s.min(time_s - last);
-        }
-        // Keeps the capacity it was given: the oldest go before the ring would grow.
-        if self.samples.len() >= self.capacity {
-            self.samples.pop_front();
-        }
-        self.samples.push_back((time_s, dof));
-        while self
-            .samples
-            .front()
-            .is_some_and(|&(t, _)| t < time_s - self.keep_s)
-        {
-            self.samples.pop_front();
-        }
-    }
-
-    /// Record time of the newest sample.
-    pub fn newest_s(&self) -> Option<f64> {
-        self.samples.back().map(|&(t, _)| t)
-    }
-
-    pub fn len(&self) -> usize {
-        self.samples.len()
-    }
-
-    pub fn is_empty(&self) -> bool {
-        self.samples.is_empty()
-    }
-}
-
-impl ObservedMotion for MotionHistory {
-    fn dof_at(&self, t: f64) -> Option<[f64; 6]> {
-        let tol = if self.step_s.is_finite() {
-            0.25 * self.step_s
-        } else {
-            1e-9
-        };
-        let i = self.samples.partition_point(|&(x, _)| x < t - tol);
-        self.samples
-            .get(i)
-            .filter(|&&(x, _)| (x - t).abs() <= tol)
-            .map(|&(_, dof)| dof)
-    }
-}
 
 /// Relative forecasts waiting for their outcome, and the calibration they feed.
 #[derive(Debug)]
@@ -145,6 +66,13 @@ impl RelativeVerifier {
                 self.spare.push(old);
             }
         }
+    }
+
+    /// Drops every waiting forecast as unverifiable: a ship's motion started a new run (its
+    /// record time restarted), so no outcome on the old run's clock will come.
+    pub fn drop_pending(&mut self) {
+        self.unverifiable += self.pending.len() as u64;
+        self.spare.extend(self.pending.drain(..));
     }
 
     /// Forecasts waiting.
@@ -210,6 +138,17 @@ pub fn observed(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::observed::MotionHistory;
+    use shipcast_wire::payload::MotionSample;
+
+    fn at_rest(seq: u64, time_s: f64) -> MotionSample {
+        MotionSample {
+            seq,
+            stamp_ns: 0,
+            time_s,
+            dof: [0.0; 6],
+        }
+    }
 
     /// A relative forecast of one step at origin `t` whose tip mean on z is `z`, with unit
     /// independent variance.
@@ -227,7 +166,7 @@ mod tests {
     fn forecasts_are_verified_once_both_ships_have_passed_them_and_an_origin_counts_once() {
         let geometry = Geometry::new([0.0; 3], &crate::config::RelativeConfig::default());
         let mut v = RelativeVerifier::new(SigmaCalibration::new(f64::INFINITY, 1.0), 8);
-        let (mut a, mut b) = (MotionHistory::new(60.0, 256), MotionHistory::new(60.0, 256));
+        let (mut a, mut b) = (MotionHistory::new(8.0, 60.0), MotionHistory::new(8.0, 60.0));
         // The same origin twice (the second vessel's forecast came in): the later one stands.
         v.push(&track(1.0, 5.0));
         v.push(&track(1.0, 0.0));
@@ -239,10 +178,10 @@ mod tests {
         // Both ships still at rest when the steps come due (1.5 s and 2.0 s): errors of
         // zero. A's motion has passed 2.0 s, B's only 1.5 s: the second waits.
         for i in 0..=16 {
-            a.push(i as f64 * 0.125, [0.0; 6]);
+            a.push(&at_rest(i, i as f64 * 0.125));
         }
         for i in 0..=12 {
-            b.push(i as f64 * 0.125, [0.0; 6]);
+            b.push(&at_rest(i, i as f64 * 0.125));
         }
         let until = a.newest_s().unwrap().min(b.newest_s().unwrap());
         v.verify_until(until, &geometry, &a, &b);
@@ -250,7 +189,7 @@ mod tests {
         // Had the replaced forecast (tip mean 5) counted, the scale would be above 0.
         assert_eq!(v.calibration.scale(2, 0), Some(0.0));
         // B misses the sample at 2.0 s: that forecast cannot be verified and is dropped.
-        b.push(2.25, [0.0; 6]);
+        b.push(&at_rest(18, 2.25));
         v.verify_until(2.25, &geometry, &a, &b);
         assert_eq!((v.verified, v.unverifiable, v.pending()), (1, 1, 0));
         // Beyond `max_pending` the oldest is dropped.
@@ -258,34 +197,8 @@ mod tests {
             v.push(&track(10.0 + i as f64, 0.0));
         }
         assert_eq!((v.pending(), v.unverifiable), (8, 3));
-    }
-
-    #[test]
-    fn history_finds_samples_by_time_and_forgets_the_old() {
-        let mut h = MotionHistory::new(2.0, 64);
-        assert_eq!(h.dof_at(0.0), None);
-        for i in 0..40 {
-            let t = i as f64 * 0.125;
-            h.push(t, [t, 0.0, 0.0, 0.0, 0.0, 0.0]);
-        }
-        // Within a quarter of the spacing, not beyond.
-        assert_eq!(h.dof_at(4.0).map(|d| d[0]), Some(4.0));
-        assert_eq!(h.dof_at(4.02).map(|d| d[0]), Some(4.0));
-        assert_eq!(h.dof_at(4.06), None);
-        // 4.875 s is the newest; older than 2 s before it is gone.
-        assert_eq!(h.newest_s(), Some(4.875));
-        assert_eq!(h.dof_at(2.875).map(|d| d[0]), Some(2.875));
-        assert_eq!(h.dof_at(2.75), None);
-        // A sample out of order changes nothing.
-        h.push(3.0, [9.0; 6]);
-        assert_eq!(h.dof_at(3.0).map(|d| d[0]), Some(3.0));
-        // The ring never grows past its capacity.
-        let mut small = MotionHistory::new(100.0, 4);
-        for i in 0..10 {
-            small.push(i as f64, [0.0; 6]);
-        }
-        assert_eq!(small.len(), 4);
-        assert_eq!(small.dof_at(5.0), None);
-        assert!(small.dof_at(6.0).is_some());
+        // A ship's producer started again: what waits was issued on the old run's clock.
+        v.drop_pending();
+        assert_eq!((v.pending(), v.unverifiable), (0, 11));
     }
 }
