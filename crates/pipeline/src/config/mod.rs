@@ -1,0 +1,372 @@
+//! The pipeline configuration (`--config FILE.toml`) shared by `shipcast run` and every service.
+//!
+//! Every key has a default, so an empty file (or none) is a working pipeline; an unknown key is
+//! an error that names it. Command-line flags override the file.
+//!
+//! One file per section: [`zenoh`], [`producer`], [`predictor`], [`stations`] (deck, crane,
+//! relative); this one holds the whole file's type, its loading and validation, and the flags
+//! every service shares.
+
+mod predictor;
+mod producer;
+mod stations;
+#[cfg(test)]
+mod tests;
+mod zenoh;
+
+pub use predictor::*;
+pub use producer::*;
+pub use stations::*;
+pub use zenoh::*;
+
+use crate::limits;
+use crate::transport::naming::{NameError, Names, DEFAULT_VESSEL};
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+
+/// zenoh endpoint the predictor listens on by default and the consumers connect to. Loopback
+/// and an uncommon port: a fresh clone runs without touching the network or a local zenohd.
+pub const DEFAULT_ZENOH_ENDPOINT: &str = "tcp/127.0.0.1:17447";
+
+/// How long a secure consumer (a zenoh client) keeps trying to reach the predictor when it
+/// starts: `shipcast run` starts its consumers while the predictor is still starting.
+pub const CLIENT_CONNECT_PATIENCE_MS: u64 = 60_000;
+
+/// Where consumers listen: loopback, port chosen by the system.
+pub const CONSUMER_LISTEN: &str = "tcp/127.0.0.1:0";
+
+/// Highest producer (and forecast) sample rate [Hz]: a motion sensor is sampled at tens of Hz.
+pub const MAX_PRODUCER_RATE_HZ: f64 = 10_000.0;
+
+/// Fastest pacing factor (0 means unpaced).
+pub const MAX_SPEED: f64 = 1e6;
+
+/// Longest forecast window (past values) and candidate order.
+pub const MAX_ORDER: usize = 100_000;
+
+/// Most live values kept for retraining (and held out).
+pub const MAX_RETRAIN_WINDOW: usize = 1_000_000;
+
+/// Most simulated samples per DOF of start-up history (warmup_s x rate_hz): 48 MB for six DOF.
+pub const MAX_WARMUP_SAMPLES: usize = 1_000_000;
+
+/// Highest decimation factor from the producer rate to the forecast rate.
+pub const MAX_DECIMATION: usize = 1_000;
+
+/// Largest lever arm from the centre of gravity [m].
+pub const MAX_LEVER_M: f64 = 1_000.0;
+
+/// Why a configuration could not be loaded.
+///
+/// Causes are in the message and not chained as a `source` (fields named `error`, no
+/// `#[from]`), so error-chain printers (`anyhow`'s `{:#}`) print them once.
+#[derive(Debug, thiserror::Error)]
+pub enum ConfigError {
+    #[error("config {path}: {error}")]
+    Read {
+        path: PathBuf,
+        error: std::io::Error,
+    },
+    #[error("config {path}: {message}")]
+    Parse { path: PathBuf, message: String },
+    #[error("config: {0}")]
+    Invalid(String),
+    #[error("config: {0}")]
+    Name(NameError),
+}
+
+impl From<NameError> for ConfigError {
+    fn from(error: NameError) -> Self {
+        ConfigError::Name(error)
+    }
+}
+
+/// The whole pipeline.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct PipelineConfig {
+    /// Optional prefix of every service name and key, keeping parallel pipelines apart.
+    pub instance: Option<String>,
+    /// Vessel name in service names and keys.
+    pub vessel: String,
+    pub zenoh: ZenohConfig,
+    pub producer: ProducerConfig,
+    pub predictor: PredictorServiceConfig,
+    pub deck: DeckConfig,
+    pub crane: CraneConfig,
+    pub relative: RelativeConfig,
+}
+
+impl Default for PipelineConfig {
+    fn default() -> Self {
+        Self {
+            instance: None,
+            vessel: DEFAULT_VESSEL.to_string(),
+            zenoh: ZenohConfig::default(),
+            producer: ProducerConfig::default(),
+            predictor: PredictorServiceConfig::default(),
+            deck: DeckConfig::default(),
+            crane: CraneConfig::default(),
+            relative: RelativeConfig::default(),
+        }
+    }
+}
+
+impl PipelineConfig {
+    /// Parse TOML text; `origin` names the source in errors.
+    pub fn from_toml(text: &str, origin: &Path) -> Result<Self, ConfigError> {
+        let config: PipelineConfig = toml::from_str(text).map_err(|e| ConfigError::Parse {
+            path: origin.to_path_buf(),
+            // toml's message spans several lines with a source excerpt; keep it on one line.
+            message: e.message().trim().replace('\n', " "),
+        })?;
+        let mut config = config;
+        if let Some(dir) = origin.parent() {
+            config.zenoh.resolve_paths(dir);
+        }
+        config.validate()?;
+        Ok(config)
+    }
+
+    /// Load `path`, or the defaults when none is given.
+    pub fn load(path: Option<&Path>) -> Result<Self, ConfigError> {
+        match path {
+            None => Ok(Self::default()),
+            Some(p) => {
+                let text = std::fs::read_to_string(p).map_err(|error| ConfigError::Read {
+                    path: p.to_path_buf(),
+                    error,
+                })?;
+                Self::from_toml(&text, p)
+            }
+        }
+    }
+
+    /// The service names and keys of this pipeline.
+    pub fn names(&self) -> Result<Names, ConfigError> {
+        Ok(Names::new(self.instance.as_deref(), &self.vessel)?)
+    }
+
+    /// Check values that parse but cannot work.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        self.names()?;
+        self.zenoh.validate()?;
+        self.validate_producer().map_err(ConfigError::Invalid)?;
+        self.validate_predictor().map_err(ConfigError::Invalid)?;
+        self.validate_consumers().map_err(ConfigError::Invalid)?;
+        self.relative
+            .validate(&self.vessel)
+            .map_err(ConfigError::Invalid)?;
+        self.producer
+            .station
+            .validate()
+            .map_err(|e| ConfigError::Invalid(format!("producer.station: {e}")))?;
+        Ok(())
+    }
+
+    fn validate_producer(&self) -> Result<(), String> {
+        let p = &self.producer;
+        limits::rate("producer.rate_hz", p.rate_hz, MAX_PRODUCER_RATE_HZ)?;
+        limits::non_negative(
+            "producer.speed (0 = as fast as possible)",
+            p.speed,
+            MAX_SPEED,
+        )?;
+        if let Some(r) = p.record_s {
+            limits::positive("producer.record_s", r, limits::MAX_SECONDS)?;
+        }
+        limits::non_negative("producer.backfill_s", p.backfill_s, limits::MAX_SECONDS)?;
+        limits::positive("producer.backfill_speed", p.backfill_speed, MAX_SPEED)?;
+        Ok(())
+    }
+
+    fn validate_predictor(&self) -> Result<(), String> {
+        let q = &self.predictor;
+        q.check_method_sections()?;
+        limits::count(
+            "predictor.horizon",
+            q.horizon,
+            1,
+            shipcast_wire::payload::MAX_STEPS,
+        )?;
+        limits::count("predictor.order", q.order, 1, MAX_ORDER)?;
+        limits::rate(
+            "predictor.sample_rate_hz",
+            q.sample_rate_hz,
+            MAX_PRODUCER_RATE_HZ,
+        )?;
+        for (name, v) in [
+            ("predictor.stale_after_s", q.stale_after_s),
+            ("predictor.first_fit_s", q.first_fit_s),
+            ("predictor.verification_window_s", q.verification_window_s),
+        ] {
+            limits::positive(name, v, limits::MAX_SECONDS)?;
+        }
+        limits::positive(
+            "predictor.plausible_rms_factor",
+            q.plausible_rms_factor,
+            1e6,
+        )?;
+        limits::non_negative(
+            "predictor.retrain_every_s (0 = never)",
+            q.retrain_every_s,
+            limits::MAX_SECONDS,
+        )?;
+        if !(q.change_ratio.is_finite() && q.change_ratio > 1.0) {
+            return Err(format!(
+                "predictor.change_ratio must be above 1, got {}",
+                q.change_ratio
+            ));
+        }
+        limits::non_negative("predictor.warmup_s", q.warmup_s, 86_400.0)?;
+        // The start-up history is simulated at the producer's rate and held in memory.
+        let warmup_samples = q.warmup_s * self.producer.rate_hz;
+        if warmup_samples > MAX_WARMUP_SAMPLES as f64 {
+            return Err(format!(
+                "predictor.warmup_s x producer.rate_hz = {warmup_samples:.0} samples of start-up history, at most {MAX_WARMUP_SAMPLES}"
+            ));
+        }
+        for &o in &q.candidate_orders {
+            limits::count("predictor.candidate_orders", o, 1, MAX_ORDER)?;
+        }
+        limits::count(
+            "predictor.retrain_window",
+            q.retrain_window,
+            0,
+            MAX_RETRAIN_WINDOW,
+        )?;
+        limits::count("predictor.holdout", q.holdout, 0, MAX_RETRAIN_WINDOW)?;
+        Ok(())
+    }
+
+    fn validate_consumers(&self) -> Result<(), String> {
+        let d = &self.deck;
+        for (name, v) in [
+            ("deck.roll_limit_deg", d.roll_limit_deg),
+            ("deck.pitch_limit_deg", d.pitch_limit_deg),
+            (
+                "deck.vertical_velocity_limit_mps",
+                d.vertical_velocity_limit_mps,
+            ),
+            (
+                "deck.vertical_displacement_limit_m",
+                d.vertical_displacement_limit_m,
+            ),
+            ("deck.mot_s", d.mot_s),
+        ] {
+            limits::positive(name, v, 1e6)?;
+        }
+        limits::non_negative("deck.min_window_s", d.min_window_s, limits::MAX_SECONDS)?;
+        for (name, point) in [
+            ("deck.point_m", d.point_m),
+            ("crane.tip_m", self.crane.tip_m),
+        ] {
+            if !point
+                .iter()
+                .all(|v| v.is_finite() && v.abs() <= MAX_LEVER_M)
+            {
+                return Err(format!(
+                    "{name} must be three finite numbers within +-{MAX_LEVER_M} m, got {point:?}"
+                ));
+            }
+        }
+        limits::count("crane.print_every", self.crane.print_every, 1, u64::MAX)?;
+        if !(d.go_probability > 0.0 && d.go_probability < 1.0) {
+            return Err(format!(
+                "deck.go_probability must be between 0 and 1, got {}",
+                d.go_probability
+            ));
+        }
+        if let Some(r) = d
+            .error_correlation
+            .iter()
+            .find(|r| !(0.0..1.0).contains(*r))
+        {
+            return Err(format!(
+                "deck.error_correlation values must be in [0, 1), got {r}"
+            ));
+        }
+        Ok(())
+    }
+
+    /// Decimation factor from the producer rate to the predictor rate.
+    pub fn decimation_factor(&self) -> Result<usize, ConfigError> {
+        decimation_factor(self.producer.rate_hz, self.predictor.sample_rate_hz)
+    }
+}
+
+/// Integer ratio of two rates, or an error naming them.
+pub fn decimation_factor(input_hz: f64, output_hz: f64) -> Result<usize, ConfigError> {
+    let ratio = input_hz / output_hz;
+    let factor = ratio.round();
+    if !(factor >= 1.0 && factor <= MAX_DECIMATION as f64 && (ratio - factor).abs() < 1e-9) {
+        return Err(ConfigError::Invalid(format!(
+            "input rate {input_hz} Hz is not an integer multiple (1..={MAX_DECIMATION}) of the forecast rate {output_hz} Hz"
+        )));
+    }
+    Ok(factor as usize)
+}
+
+/// Flags every pipeline subcommand accepts; they override the config file.
+#[derive(clap::Args, Debug, Clone, Default)]
+pub struct CommonArgs {
+    /// Pipeline configuration (TOML); every key has a default.
+    #[arg(long, value_name = "FILE.toml")]
+    pub config: Option<PathBuf>,
+    /// Prefix of every service name and zenoh key (keeps parallel pipelines apart).
+    #[arg(long, value_name = "NAME")]
+    pub instance: Option<String>,
+    /// Vessel name in service names and keys.
+    #[arg(long, value_name = "NAME")]
+    pub vessel: Option<String>,
+    /// zenoh endpoint the predictor listens on (repeatable; replaces the configured ones).
+    #[arg(long, value_name = "ENDPOINT")]
+    pub zenoh_listen: Vec<String>,
+    /// zenoh endpoint to connect to (repeatable; replaces the configured ones).
+    #[arg(long, value_name = "ENDPOINT")]
+    pub zenoh_connect: Vec<String>,
+    /// Pacing of the producer: 1 = real time, 0 = as fast as possible.
+    #[arg(long, value_name = "F")]
+    pub speed: Option<f64>,
+    /// Stop after this many seconds of wall-clock time.
+    #[arg(long, value_name = "S")]
+    pub duration: Option<f64>,
+}
+
+impl CommonArgs {
+    /// The config file (or the defaults) with the flags applied, validated.
+    pub fn load(&self) -> Result<PipelineConfig, ConfigError> {
+        let mut config = PipelineConfig::load(self.config.as_deref())?;
+        if let Some(i) = &self.instance {
+            config.instance = Some(i.clone());
+        }
+        if let Some(v) = &self.vessel {
+            config.vessel = v.clone();
+        }
+        if !self.zenoh_listen.is_empty() {
+            config.zenoh.listen = self.zenoh_listen.clone();
+        }
+        if !self.zenoh_connect.is_empty() {
+            config.zenoh.connect = self.zenoh_connect.clone();
+        }
+        if let Some(s) = self.speed {
+            config.producer.speed = s;
+        }
+        config.validate()?;
+        Ok(config)
+    }
+
+    /// Wall-clock limit, if any.
+    pub fn duration(&self) -> Result<Option<std::time::Duration>, ConfigError> {
+        self.duration
+            .map(|s| limits::seconds("--duration", s).map_err(ConfigError::Invalid))
+            .transpose()
+    }
+}
+
+impl PipelineConfig {
+    /// The configuration as TOML, as `shipcast run` hands it to its children.
+    pub fn to_toml(&self) -> Result<String, ConfigError> {
+        toml::to_string(self).map_err(|e| ConfigError::Invalid(format!("serialise: {e}")))
+    }
+}

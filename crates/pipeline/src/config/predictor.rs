@@ -1,0 +1,210 @@
+//! `[predictor]`: the forecasting service, its method and the engine's settings.
+
+use serde::{Deserialize, Serialize};
+use shipcast_predict::{McaWeighting, Method, PredictorConfig};
+use std::path::PathBuf;
+
+/// The forecasting service.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct PredictorServiceConfig {
+    pub method: Method,
+    /// Past values per forecast (MCA window length n, of which n - horizon are past values).
+    pub order: usize,
+    /// Forecast steps (at most 128).
+    pub horizon: usize,
+    /// Rate the motion is decimated to before forecasting [Hz]; must divide the input rate.
+    pub sample_rate_hz: f64,
+    /// Start from this model file (`shipcast train`) instead of training on simulated history.
+    pub model: Option<PathBuf>,
+    /// Simulated history used for the start-up model [s of record time].
+    pub warmup_s: f64,
+    /// Anti-alias filter of the decimation: "minimum" (default: the same magnitude as the
+    /// evaluation's linear-phase filter with half its delay, so forecasts reach 0.5 s further
+    /// ahead of the newest sample; docs/results/filter_delay.md) or "linear" (the evaluation
+    /// protocol's, delay 1.0 s at 8 -> 2 Hz).
+    pub filter: shipcast_series::FilterPhase,
+    /// Fit the first model on live data once this much live history is held [s of record
+    /// time]; until a model has been verified on this sea, forecasts say "no skill".
+    pub first_fit_s: f64,
+    /// Retrain from live data every this many seconds of record time (0 = never, including
+    /// the first live fit).
+    pub retrain_every_s: f64,
+    /// Live history kept for retraining [values at sample_rate_hz]; the newest `holdout`
+    /// values (at most a third of what is held) score the candidates and are not trained on.
+    pub retrain_window: usize,
+    pub holdout: usize,
+    /// Orders tried at every fit (those up to `order` that the data allow); the best on the
+    /// held-out values wins, per DOF.
+    pub candidate_orders: Vec<usize>,
+    /// Rolling window of record time over which forecasts are verified and recalibrated [s].
+    pub verification_window_s: f64,
+    /// A forecast mean beyond this many times the live RMS of the motion is never delivered.
+    pub plausible_rms_factor: f64,
+    /// Live squared errors this many times what sigma claims (or 1 / this) mean the sea has
+    /// changed: recalibrate and retrain at once.
+    pub change_ratio: f64,
+    /// Report the producer as stale after this much record time without samples [s].
+    pub stale_after_s: f64,
+    /// Spin on the subscriber instead of sleeping until woken (lowest latency, one core busy).
+    pub busy_poll: bool,
+    /// `[predictor.mca]`: settings of the MCA method; only with `method = "mca"`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub mca: Option<McaSettings>,
+    /// `[predictor.ar]`: settings of the AR-LMS method; only with `method = "ar"`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub ar: Option<ArSettings>,
+    /// `[predictor.mlp]`: settings of the MLP method; only with `method = "mlp"`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub mlp: Option<MlpSettings>,
+}
+
+/// `[predictor.mca]`: the MCA method's settings (the `shipcast eval` MCA options).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct McaSettings {
+    /// Eigen-direction weights: "inverse" (all, 1/(lambda + eps): the conditional mean) or
+    /// "paper" (the minor components, unweighted).
+    pub weighting: McaWeighting,
+    /// Shift between consecutive training windows.
+    pub shift: usize,
+    /// Energy fraction of the minor components (paper weighting).
+    pub energy: f64,
+    /// Ridge (inverse weighting: eps relative to the mean eigenvalue; 0 = default).
+    pub ridge: f64,
+    /// Choose the energy threshold (inverse weighting: the ridge) on held-out training data.
+    pub validate_energy: bool,
+}
+
+impl Default for McaSettings {
+    /// The service's MCA: eigenvalue-weighted, validated (not the paper's settings, which
+    /// are worse than predicting zero on a realistic sea; README "Honest accuracy").
+    fn default() -> Self {
+        let paper = PredictorConfig::default();
+        Self {
+            weighting: McaWeighting::Inverse,
+            shift: 2,
+            energy: paper.mca_energy,
+            ridge: paper.mca_ridge,
+            validate_energy: true,
+        }
+    }
+}
+
+/// `[predictor.ar]`: the AR method's settings.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ArSettings {
+    /// LMS step size.
+    pub lms_gain: f64,
+    /// Normalised LMS (step divided by the input power).
+    pub normalized: bool,
+}
+
+impl Default for ArSettings {
+    fn default() -> Self {
+        let paper = PredictorConfig::default();
+        Self {
+            lms_gain: paper.lms_gain,
+            normalized: paper.lms_normalized,
+        }
+    }
+}
+
+/// `[predictor.mlp]`: the MLP method's settings.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct MlpSettings {
+    /// Hidden tanh units.
+    pub hidden: usize,
+    /// Rprop epochs per fit.
+    pub epochs: usize,
+    /// Seed of the initial weights.
+    pub seed: u64,
+}
+
+impl Default for MlpSettings {
+    fn default() -> Self {
+        let paper = PredictorConfig::default();
+        Self {
+            hidden: paper.mlp_hidden,
+            epochs: paper.mlp_epochs,
+            seed: paper.seed,
+        }
+    }
+}
+
+impl Default for PredictorServiceConfig {
+    fn default() -> Self {
+        Self {
+            // Chosen out of sample (train on one stretch or realisation, score on another, at
+            // every origin; README "Honest accuracy"): the Wiener predictor with its order
+            // validated per DOF is the most robust on measured seas, where the
+            // eigenvalue-weighted MCA learns one realisation's wave components and fails on
+            // band-limited records.
+            method: Method::Wiener,
+            order: 200,
+            horizon: 50,
+            sample_rate_hz: 2.0,
+            model: None,
+            warmup_s: 3000.0,
+            filter: shipcast_series::FilterPhase::Minimum,
+            first_fit_s: 240.0,
+            retrain_every_s: 300.0,
+            retrain_window: 6000,
+            holdout: 1000,
+            candidate_orders: vec![25, 50, 100, 200],
+            verification_window_s: 1200.0,
+            plausible_rms_factor: 5.0,
+            change_ratio: 3.0,
+            stale_after_s: 2.0,
+            busy_poll: false,
+            mca: None,
+            ar: None,
+            mlp: None,
+        }
+    }
+}
+
+impl PredictorServiceConfig {
+    /// The predictor settings: this section's order and horizon, and the chosen method's
+    /// section (its defaults when left out).
+    pub fn predictor_config(&self) -> PredictorConfig {
+        let mca = self.mca.clone().unwrap_or_default();
+        let ar = self.ar.clone().unwrap_or_default();
+        let mlp = self.mlp.clone().unwrap_or_default();
+        PredictorConfig {
+            order: self.order,
+            horizon: self.horizon,
+            mca_shift: mca.shift,
+            mca_energy: mca.energy,
+            mca_ridge: mca.ridge,
+            mca_validate_energy: mca.validate_energy,
+            mca_weighting: mca.weighting,
+            lms_gain: ar.lms_gain,
+            lms_normalized: ar.normalized,
+            mlp_hidden: mlp.hidden,
+            mlp_epochs: mlp.epochs,
+            seed: mlp.seed,
+        }
+    }
+
+    /// A method section is refused unless it is the chosen method's: a key that does nothing
+    /// is an error, not a silent no-op.
+    pub(super) fn check_method_sections(&self) -> Result<(), String> {
+        for (section, present, method) in [
+            ("mca", self.mca.is_some(), Method::Mca),
+            ("ar", self.ar.is_some(), Method::Ar),
+            ("mlp", self.mlp.is_some(), Method::Mlp),
+        ] {
+            if present && self.method != method {
+                return Err(format!(
+                    "[predictor.{section}] applies to method = \"{}\" only, but method is \"{}\"",
+                    method.name(),
+                    self.method.name()
+                ));
+            }
+        }
+        Ok(())
+    }
+}

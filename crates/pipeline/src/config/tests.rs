@@ -1,0 +1,187 @@
+//! Tests of the configuration: defaults, unknown keys, ranges and error messages.
+
+use super::*;
+use shipcast_predict::{McaWeighting, PredictorConfig};
+
+/// Every cause in `{:#}` of `error` (what the binary prints) appears exactly once.
+fn assert_causes_print_once(error: anyhow::Error, causes: &[String]) {
+    let chain = format!("{error:#}");
+    for cause in causes {
+        assert_eq!(
+            chain.matches(cause.as_str()).count(),
+            1,
+            "'{cause}' in: {chain}"
+        );
+    }
+}
+
+#[test]
+fn error_causes_print_once_in_error_chains() {
+    let missing = Path::new("/nonexistent/shipcast-config.toml");
+    let io = std::fs::read_to_string(missing).unwrap_err().to_string();
+    let err = PipelineConfig::load(Some(missing)).unwrap_err();
+    assert_causes_print_once(err.into(), &[io, missing.display().to_string()]);
+
+    let name = crate::transport::Names::new(Some("bad name"), "v").unwrap_err();
+    let err = ConfigError::from(name.clone());
+    assert_causes_print_once(err.into(), &[name.to_string()]);
+
+    let json = serde_json::from_slice::<serde_json::Value>(b"{").unwrap_err();
+    let err = shipcast_wire::payload::Forecast::from_json(b"{").unwrap_err();
+    assert_causes_print_once(err.into(), &[json.to_string()]);
+}
+
+#[test]
+fn empty_file_gives_the_defaults() {
+    let c = PipelineConfig::from_toml("", Path::new("x.toml")).unwrap();
+    assert_eq!(c, PipelineConfig::default());
+    assert_eq!(c.names().unwrap().forecast(), "shipcast/ddg51/forecast");
+    assert_eq!(c.decimation_factor().unwrap(), 4);
+}
+
+#[test]
+fn keys_override_defaults() {
+    let text = r#"
+        instance = "t7"
+        vessel = "s175"
+        [producer]
+        speed = 100.0
+        [predictor]
+        method = "mca"
+        order = 100
+        busy_poll = true
+        [predictor.mca]
+        energy = 0.02
+        [zenoh]
+        listen = ["tcp/127.0.0.1:7000"]
+    "#;
+    let c = PipelineConfig::from_toml(text, Path::new("x.toml")).unwrap();
+    assert_eq!(c.names().unwrap().motion(), "t7/shipcast/s175/motion");
+    assert_eq!(c.producer.speed, 100.0);
+    let pc = c.predictor.predictor_config();
+    assert_eq!((pc.order, pc.horizon, pc.mca_energy), (100, 50, 0.02));
+    assert!(c.predictor.busy_poll);
+    assert_eq!(c.zenoh.consumer_side().connect, vec!["tcp/127.0.0.1:7000"]);
+    assert_eq!(c.zenoh.consumer_side().listen, vec![CONSUMER_LISTEN]);
+}
+
+#[test]
+fn unknown_key_is_an_error_naming_it() {
+    let err = PipelineConfig::from_toml("[deck]\nroll_limt_deg = 3", Path::new("p.toml"))
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("roll_limt_deg"), "{err}");
+    assert!(err.starts_with("config p.toml"), "{err}");
+    assert!(!err.contains('\n'), "{err}");
+    let err = PipelineConfig::from_toml("colour = 1", Path::new("p.toml"))
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("colour"), "{err}");
+}
+
+#[test]
+fn toml_round_trip_and_flags_override_the_file() {
+    let mut c = PipelineConfig {
+        instance: Some("abc".into()),
+        ..PipelineConfig::default()
+    };
+    c.producer.input = Some("/tmp/x.csv".into());
+    c.predictor.model = Some("/tmp/m.json".into());
+    let text = c.to_toml().unwrap();
+    assert_eq!(PipelineConfig::from_toml(&text, Path::new("t")).unwrap(), c);
+
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("p.toml");
+    std::fs::write(&path, "vessel = \"s175\"\n[producer]\nspeed = 5.0\n").unwrap();
+    let args = CommonArgs {
+        config: Some(path),
+        instance: Some("i1".into()),
+        zenoh_listen: vec!["tcp/127.0.0.1:9".into()],
+        speed: Some(100.0),
+        ..CommonArgs::default()
+    };
+    let c = args.load().unwrap();
+    assert_eq!(c.vessel, "s175");
+    assert_eq!(c.instance.as_deref(), Some("i1"));
+    assert_eq!(c.producer.speed, 100.0);
+    assert_eq!(c.zenoh.listen, vec!["tcp/127.0.0.1:9"]);
+    let bad = CommonArgs {
+        duration: Some(-1.0),
+        ..CommonArgs::default()
+    };
+    assert!(bad
+        .duration()
+        .unwrap_err()
+        .to_string()
+        .contains("--duration"));
+}
+
+#[test]
+fn method_sections_apply_to_their_method_only() {
+    // The default method (Wiener) has no settings of its own: an MCA section is refused.
+    for (text, needle) in [
+        (
+            "[predictor.mca]\nshift = 3",
+            "[predictor.mca] applies to method = \"mca\"",
+        ),
+        (
+            "[predictor]\nmethod = \"mca\"\n[predictor.ar]\nlms_gain = 0.1",
+            "[predictor.ar]",
+        ),
+        (
+            "[predictor]\nmethod = \"ar\"\n[predictor.mlp]\nhidden = 3",
+            "[predictor.mlp]",
+        ),
+    ] {
+        let err = PipelineConfig::from_toml(text, Path::new("p.toml"))
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains(needle), "{text}: {err}");
+    }
+    // The old catch-all table, where order and horizon were silently overridden, is gone.
+    let err = PipelineConfig::from_toml("[predictor.tuning]\norder = 5", Path::new("p.toml"))
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("tuning"), "{err}");
+    // An unknown key inside a method section is named.
+    let err = PipelineConfig::from_toml(
+        "[predictor]\nmethod = \"mca\"\n[predictor.mca]\nshfit = 3",
+        Path::new("p.toml"),
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(err.contains("shfit"), "{err}");
+    // Each method's section reaches its predictor settings; left out, the defaults do.
+    let c = PipelineConfig::from_toml(
+        "[predictor]\nmethod = \"ar\"\n[predictor.ar]\nlms_gain = 0.25\nnormalized = true",
+        Path::new("p.toml"),
+    )
+    .unwrap();
+    let pc = c.predictor.predictor_config();
+    assert_eq!((pc.lms_gain, pc.lms_normalized), (0.25, true));
+    let pc = PipelineConfig::default().predictor.predictor_config();
+    assert_eq!(
+        (pc.mca_weighting, pc.mca_shift, pc.mca_validate_energy),
+        (McaWeighting::Inverse, 2, true)
+    );
+    assert_eq!(pc.lms_gain, PredictorConfig::default().lms_gain);
+    // Round trip through the TOML `shipcast run` hands its children.
+    let text = c.to_toml().unwrap();
+    assert_eq!(PipelineConfig::from_toml(&text, Path::new("t")).unwrap(), c);
+}
+
+#[test]
+fn impossible_values_are_refused() {
+    for (text, needle) in [
+        ("[predictor]\nhorizon = 200", "horizon"),
+        ("[producer]\nspeed = -1.0", "speed"),
+        ("vessel = \"a/b\"", "vessel"),
+        ("[predictor]\nsample_rate_hz = 3.0", "multiple"),
+    ] {
+        let r = PipelineConfig::from_toml(text, Path::new("p.toml"))
+            .and_then(|c| c.decimation_factor().map(|_| c));
+        let err = r.unwrap_err().to_string();
+        assert!(err.contains(needle), "{text}: {err}");
+    }
+    assert!(PipelineConfig::load(Some(Path::new("/nonexistent/x.toml"))).is_err());
+}

@@ -1,0 +1,142 @@
+//! `[zenoh]`: endpoints, mode and security of the zenoh sessions.
+
+use super::{ConfigError, CLIENT_CONNECT_PATIENCE_MS, CONSUMER_LISTEN, DEFAULT_ZENOH_ENDPOINT};
+use crate::transport::zenoh::{Mode, ZenohSettings};
+use crate::transport::zenoh_security::{is_inline_pem, AccessRules, TlsSettings, UserPassword};
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+
+/// zenoh endpoints and security: the predictor listens, consumers connect.
+///
+/// Plain TCP on loopback is the default, for development and tests. With `tls` set (see
+/// `shipcast certs` and docs/security.md) every link is mutual TLS, consumers are zenoh
+/// clients of the predictor (or of a router), and the predictor enforces `access`.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ZenohConfig {
+    /// Endpoints the publishing side (predictor) listens on.
+    pub listen: Vec<String>,
+    /// Extra endpoints every process connects to (a router or remote peer).
+    pub connect: Vec<String>,
+    /// UDP multicast scouting (off by default: explicit endpoints only).
+    pub multicast_scouting: bool,
+    /// TLS identity of this configuration's processes (paths relative to the config file, or
+    /// inline PEM).
+    pub tls: Option<TlsSettings>,
+    /// zenoh user/password authentication.
+    pub auth: Option<UserPassword>,
+    /// Access rules the predictor enforces on its links (by certificate common name).
+    pub access: Option<AccessRules>,
+}
+
+impl Default for ZenohConfig {
+    fn default() -> Self {
+        Self {
+            listen: vec![DEFAULT_ZENOH_ENDPOINT.to_string()],
+            connect: Vec::new(),
+            multicast_scouting: false,
+            tls: None,
+            auth: None,
+            access: None,
+        }
+    }
+}
+
+impl ZenohConfig {
+    /// Settings of the process that publishes (listens on `listen`, enforces `access`).
+    pub fn publisher_side(&self) -> ZenohSettings {
+        ZenohSettings {
+            mode: Mode::Peer,
+            listen: self.listen.clone(),
+            connect: self.connect.clone(),
+            multicast_scouting: self.multicast_scouting,
+            tls: self.tls.clone(),
+            auth: self.auth.clone(),
+            access: self.access.clone(),
+            downsample_egress: None,
+            client_connect_patience_ms: None,
+        }
+    }
+
+    /// Settings of a consumer: connects to the publisher's listen endpoints and the extra ones.
+    ///
+    /// Plain: a peer listening on an ephemeral loopback port. Peers route only their own
+    /// traffic, so two consumers (the deck publishing its advisory, `shipcast run` showing it)
+    /// must be able to connect to each other directly; gossip through the predictor tells them
+    /// where. Secure (`tls` set): a client that reaches everything through the node it
+    /// connects to, so nothing goes around that node's access rules.
+    pub fn consumer_side(&self) -> ZenohSettings {
+        let mut connect = self.listen.clone();
+        connect.extend(self.connect.iter().cloned());
+        let secure = self.tls.is_some();
+        ZenohSettings {
+            mode: if secure { Mode::Client } else { Mode::Peer },
+            listen: if secure {
+                Vec::new()
+            } else {
+                vec![CONSUMER_LISTEN.to_string()]
+            },
+            connect,
+            multicast_scouting: self.multicast_scouting && !secure,
+            tls: self.tls.clone(),
+            auth: self.auth.clone().map(|a| UserPassword {
+                users_file: None,
+                ..a
+            }),
+            access: None,
+            downsample_egress: None,
+            client_connect_patience_ms: secure.then_some(CLIENT_CONNECT_PATIENCE_MS),
+        }
+    }
+
+    /// Make the relative paths of certificates, keys and the users file relative to `base`
+    /// (the config file's directory), so the file works from any working directory and in
+    /// `shipcast run`'s children.
+    pub fn resolve_paths(&mut self, base: &Path) {
+        let resolve = |v: &mut String| {
+            if !is_inline_pem(v) && Path::new(v.as_str()).is_relative() {
+                *v = base.join(v.as_str()).to_string_lossy().into_owned();
+            }
+        };
+        if let Some(t) = &mut self.tls {
+            resolve(&mut t.root_ca);
+            resolve(&mut t.certificate);
+            resolve(&mut t.private_key);
+        }
+        if let Some(f) = self.auth.as_mut().and_then(|a| a.users_file.as_mut()) {
+            resolve(f);
+        }
+    }
+
+    /// Check the security settings that parse but cannot work.
+    pub(super) fn validate(&self) -> Result<(), ConfigError> {
+        let bad = |m: &str| Err(ConfigError::Invalid(format!("zenoh.{m}")));
+        let tls_endpoint = self
+            .listen
+            .iter()
+            .chain(&self.connect)
+            .any(|e| e.starts_with("tls/"));
+        if tls_endpoint && self.tls.is_none() {
+            return bad("tls (root_ca, certificate, private_key) is required for tls/ endpoints");
+        }
+        if self.tls.is_some() && self.multicast_scouting {
+            return bad("multicast_scouting must be off with tls: consumers reach the data only through the node that enforces the access rules");
+        }
+        if let Some(a) = &self.access {
+            if a.key_exprs.is_empty() || (a.publishers.is_empty() && a.vessels.is_empty()) {
+                return bad(
+                    "access needs key_exprs and publishers or vessels (everything else is denied)",
+                );
+            }
+            if self.tls.is_none() {
+                return bad("access names certificate common names, so it needs tls");
+            }
+        }
+        if let Some(a) = &self.auth {
+            if a.user.is_some() != a.password.is_some() {
+                return bad("auth needs both user and password");
+            }
+        }
+        Ok(())
+    }
+}
