@@ -18,19 +18,10 @@ pub trait ObservedMotion {
     fn dof_at(&self, t: f64) -> Option<[f64; NUM_DOF]>;
 }
 
-/// The index in `times` (ascending) of the time within `tol` of `t`, if there is one.
-pub fn index_at(times: impl Fn(usize) -> f64, len: usize, t: f64, tol: f64) -> Option<usize> {
-    // First index whose time is not below t - tol (binary search).
-    let (mut lo, mut hi) = (0, len);
-    while lo < hi {
-        let mid = lo + (hi - lo) / 2;
-        if times(mid) < t - tol {
-            lo = mid + 1;
-        } else {
-            hi = mid;
-        }
-    }
-    (lo < len && (times(lo) - t).abs() <= tol).then_some(lo)
+/// Whether a sample recorded at `s` stands for record time `t`, i.e. lies within `tol` of it.
+/// Callers find the candidate with `partition_point` (the first sample not before `t - tol`).
+pub fn matches(s: f64, t: f64, tol: f64) -> bool {
+    (s - t).abs() <= tol
 }
 
 /// The recent observed motion of one ship, received sample by sample. Holds the last
@@ -119,8 +110,12 @@ impl MotionHistory {
 
 impl ObservedMotion for MotionHistory {
     fn dof_at(&self, t: f64) -> Option<[f64; NUM_DOF]> {
-        index_at(|i| self.samples[i].0, self.samples.len(), t, self.tol_s)
-            .map(|i| self.samples[i].1)
+        let tol = self.tol_s;
+        let i = self.samples.partition_point(|&(s, _)| s < t - tol);
+        self.samples
+            .get(i)
+            .filter(|&&(s, _)| matches(s, t, tol))
+            .map(|&(_, dof)| dof)
     }
 }
 
@@ -194,16 +189,21 @@ mod tests {
     }
 
     #[test]
-    fn index_at_is_the_nearest_within_the_tolerance() {
-        let times = [0.0, 1.0, 2.0, 3.0];
-        let at = |t| index_at(|i| times[i], times.len(), t, 0.25);
+    fn lookups_match_only_within_the_tolerance() {
+        // Samples at 0, 1, 2, 3 s (input rate 1 Hz, so the tolerance is 0.25 s).
+        let mut h = MotionHistory::new(1.0, 10.0);
+        for i in 0..4 {
+            assert!(h.push(&sample(i, i as f64, i as f64)).is_accepted());
+        }
+        let at = |t| h.dof_at(t).map(|d| d[0]);
         assert_eq!(at(-0.3), None);
-        assert_eq!(at(-0.2), Some(0));
-        assert_eq!(at(1.1), Some(1));
+        assert_eq!(at(-0.2), Some(0.0));
+        assert_eq!(at(1.1), Some(1.0));
         assert_eq!(at(1.5), None);
-        assert_eq!(at(3.25), Some(3));
+        assert_eq!(at(3.25), Some(3.0));
         assert_eq!(at(3.3), None);
-        assert_eq!(index_at(|_| 0.0, 0, 0.0, 1.0), None);
         assert_eq!(at(f64::NAN), None);
+        assert_eq!(MotionHistory::new(1.0, 10.0).dof_at(0.0), None);
+        assert!(matches(1.0, 1.25, 0.25) && !matches(1.0, 1.26, 0.25));
     }
 }

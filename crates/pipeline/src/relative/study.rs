@@ -11,7 +11,7 @@ use super::{Geometry, RelativeTrack, AXES};
 use crate::config::PipelineConfig;
 use crate::engine::models::ModelSet;
 use crate::engine::replay::{replay, ReplayReport};
-use crate::observed::{index_at, ObservedMotion};
+use crate::observed::{matches, ObservedMotion};
 use serde::Serialize;
 use shipcast_series::motion_csv::MotionData;
 use shipcast_wire::Dof;
@@ -115,8 +115,11 @@ impl<'a> Truth<'a> {
 impl ObservedMotion for Truth<'_> {
     fn dof_at(&self, t: f64) -> Option<[f64; 6]> {
         let time = &self.data.time;
-        index_at(|i| time[i], time.len(), t, 0.25 * self.step)
-            .map(|i| std::array::from_fn(|d| self.columns[d].map_or(0.0, |c| c[i])))
+        let tol = 0.25 * self.step;
+        let i = time.partition_point(|&s| s < t - tol);
+        time.get(i)
+            .filter(|&&s| matches(s, t, tol))
+            .map(|_| std::array::from_fn(|d| self.columns[d].map_or(0.0, |c| c[i])))
     }
 }
 
