@@ -6,7 +6,7 @@
 //! accidents and naive injection; access control stops a sender that imitates the publisher.
 
 use crate::observed::MotionHistory;
-use crate::transport::counters::SeqCheck;
+use crate::transport::counters::{SeqCheck, SeqTracker};
 use crate::transport::forecast_check::{check_source, LivePublishers, Rejection};
 use crate::transport::zenoh::Received;
 use shipcast_wire::payload::MotionSample;
@@ -73,9 +73,18 @@ impl MotionGate {
             .map_err(|e| MotionRejection::Json(e.to_string()))?;
         // Every value is finite here: JSON has no NaN or infinity, and serde_json refuses a
         // number beyond f64's range (1e999) as malformed.
+        let not_forward = || MotionRejection::NotForward {
+            seq: sample.seq,
+            time_s: sample.time_s,
+        };
         let mut admitted = Admitted::Continues;
         if self.last_publisher.as_ref() != Some(publisher) {
-            // A restarted predictor is a new publisher: its stream may start anywhere.
+            // A restarted predictor is a new publisher: its stream may start anywhere. The
+            // sample is judged as the first of a fresh record before the kept one is given up
+            // for it, so a sample that the new record would refuse leaves the history alone.
+            if !SeqTracker::new().check(&sample).is_accepted() {
+                return Err(not_forward());
+            }
             if self.last_publisher.is_some() {
                 admitted = Admitted::Restarted;
             }
@@ -85,10 +94,7 @@ impl MotionGate {
         match history.push(&sample) {
             SeqCheck::Accepted { .. } => Ok(admitted),
             SeqCheck::NewRun => Ok(Admitted::Restarted),
-            SeqCheck::NonFinite | SeqCheck::OutOfOrder => Err(MotionRejection::NotForward {
-                seq: sample.seq,
-                time_s: sample.time_s,
-            }),
+            SeqCheck::NonFinite | SeqCheck::OutOfOrder => Err(not_forward()),
         }
     }
 }
