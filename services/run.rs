@@ -69,9 +69,28 @@ fn display_address(asked: Option<&str>) -> anyhow::Result<std::net::SocketAddr> 
 /// Grace period between SIGTERM and SIGKILL when stopping children.
 const STOP_GRACE: Duration = Duration::from_secs(5);
 
+/// Where a child stands in the data flow, which decides when it is stopped.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+enum Stage {
+    /// Reads forecasts (deck, crane, relative, display): stopped first.
+    Consumer,
+    Predictor,
+    Producer,
+}
+
+impl Stage {
+    fn of(command: &str) -> Self {
+        match command {
+            "producer" => Self::Producer,
+            "predictor" => Self::Predictor,
+            _ => Self::Consumer,
+        }
+    }
+}
+
 /// The children, stopped (SIGTERM, then SIGKILL) and reaped when dropped, whatever happened.
 struct Children {
-    list: Vec<ChildProcess>,
+    list: Vec<(Stage, ChildProcess)>,
 }
 
 impl Children {
@@ -116,23 +135,34 @@ impl Children {
         let child = ChildProcess::spawn(name, &mut cmd)
             .with_context(|| format!("starting the {name} process"))?
             .with_stop_grace(STOP_GRACE);
-        self.list.push(child);
+        self.list.push((Stage::of(command), child));
         Ok(())
     }
 
     /// The first child that has exited, with its status.
     fn exited(&mut self) -> Option<(String, std::process::ExitStatus)> {
-        self.list.iter_mut().find_map(|c| {
+        self.list.iter_mut().find_map(|(_, c)| {
             let status = c.try_exit().ok().flatten()?;
             Some((c.name().to_string(), status))
         })
     }
 
-    /// SIGTERM every child still running (producer first, so the others see the end of the
-    /// data), wait for them up to the grace period, SIGKILL the rest, and reap all. A child
-    /// that has exited already is not signalled: its pid may be another process's by now.
+    /// Stop every child still running, stage by stage against the data flow: the consumers,
+    /// then the predictors, then the producers; each stage gets SIGTERM, the grace period,
+    /// then SIGKILL, and all are reaped. A consumer stopped while its predictor is alive never
+    /// receives a last forecast after the predictor's liveliness token is gone (stopped all at
+    /// once, the crane used to count and log such a forecast as rejected at a plain stop). A
+    /// child that has exited already is not signalled: its pid may be another process's by now.
     fn stop(&mut self) {
-        stop_all(self.list.iter_mut().rev(), STOP_GRACE);
+        for stage in [Stage::Consumer, Stage::Predictor, Stage::Producer] {
+            stop_all(
+                self.list
+                    .iter_mut()
+                    .filter(|(s, _)| *s == stage)
+                    .map(|(_, c)| c),
+                STOP_GRACE,
+            );
+        }
         self.list.clear();
     }
 }

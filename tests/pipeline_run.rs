@@ -44,6 +44,11 @@ fn run_shows_forecasts_and_advisory_and_stops_after_duration() {
     }
     let crane = std::fs::read_to_string(dir.path().join("crane.log")).unwrap();
     assert!(crane.contains("crane t="), "{crane}");
+    // Regression: the services were all stopped at once, and the crane could receive the
+    // predictor's last forecast after its liveliness token was gone, then log and count it as
+    // rejected at a plain stop. Consumers now stop before the predictor.
+    assert!(crane.contains(", 0 rejected"), "{crane}");
+    assert!(!crane.contains("not the live predictor"), "{crane}");
 }
 
 #[test]
