@@ -72,8 +72,9 @@ pub fn vertical_track(
 pub struct Window {
     pub start_s: f64,
     pub end_s: f64,
-    /// Probability that every limit holds at every step of the window (the least likely step),
-    /// assuming Gaussian forecast errors with the forecast's sigma.
+    /// Probability that every limit holds at the window's least likely step, assuming Gaussian
+    /// forecast errors with the forecast's sigma: an upper bound of the probability that the
+    /// whole window holds, which the advisory's `decision` states.
     pub confidence: f64,
 }
 
@@ -96,14 +97,17 @@ pub struct Advisory {
 impl Advisory {
     /// One line for the console.
     pub fn summary(&self) -> String {
+        // A window's confidence is its least likely step's probability: an upper bound of the
+        // probability that the whole window holds (the decision's figure), so it is shown as
+        // one, never beside the decision as if it were the same thing.
         let windows = if self.windows.is_empty() {
-            "no landing window".to_string()
+            "none".to_string()
         } else {
             self.windows
                 .iter()
                 .map(|w| {
                     format!(
-                        "{:.1}-{:.1}s ({:.0}%)",
+                        "{:.1}-{:.1}s (at most {:.0}%)",
                         w.start_s,
                         w.end_s,
                         100.0 * w.confidence
@@ -113,7 +117,7 @@ impl Advisory {
                 .join(", ")
         };
         format!(
-            "deck t={:.1}s v{}: {}; max roll {:.1} deg pitch {:.1} deg vz {:.2} m/s; windows: {windows}",
+            "deck t={:.1}s v{}: {}; max roll {:.1} deg pitch {:.1} deg vz {:.2} m/s; mean within limits: {windows}",
             self.time_s,
             self.model_version,
             self.decision.summary(),
@@ -329,7 +333,12 @@ pub(crate) mod tests {
         assert_eq!((w.start_s, w.end_s), (2.5, 7.0));
         assert_eq!(w.confidence, 1.0);
         assert!((a.max_roll_deg - 5.0).abs() < 1e-4);
-        assert!(a.summary().contains("2.5-7.0s (100%)"), "{}", a.summary());
+        assert!(
+            a.summary()
+                .contains("mean within limits: 2.5-7.0s (at most 100%)"),
+            "{}",
+            a.summary()
+        );
         // Uncertain forecasts lower the confidence; a short window is not reported.
         let f = forecast_with_roll(20, |k| if (4..14).contains(&k) { 1.0 } else { 5.0 }, 0.02);
         let c = advisor.advise(&f).windows[0].confidence;

@@ -85,8 +85,8 @@ impl Decision {
 
     pub fn summary(&self) -> String {
         let next = match (self.next_window_s, self.next_window_probability) {
-            (Some(s), Some(p)) => format!("next window in {s:.1}s ({:.0}%)", 100.0 * p),
-            _ => "no window in the horizon".into(),
+            (Some(s), Some(p)) => format!("next go window in {s:.1}s ({:.0}%)", 100.0 * p),
+            _ => "no go window in the horizon".into(),
         };
         let exceed = self
             .next_exceedance_s
