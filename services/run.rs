@@ -70,7 +70,7 @@ fn display_address(asked: Option<&str>) -> anyhow::Result<std::net::SocketAddr> 
 const STOP_GRACE: Duration = Duration::from_secs(5);
 
 /// Where a child stands in the data flow, which decides when it is stopped.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Stage {
     /// Reads forecasts (deck, crane, relative, display): stopped first.
     Consumer,
