@@ -7,7 +7,10 @@ are not independent trials: replay counts `episodes` (calls at least MOT apart),
 bin's observed frequency strays from its stated probability by up to 1.96 sqrt(p (1 - p) /
 episodes) by chance (95 %). A bin is flagged `off` when it has at least 50 calls and is more
 than 5 points from its statement (issue 13's bar), and `beyond chance` when it is also outside
-that interval.
+that interval. Under each table: the chance that an honest forecaster making the same statements
+over the same episodes passes that bar on the record, and how much longer a record would let it
+pass with probability 0.9 (binomial over episodes taken as independent; they are not quite, so
+both figures flatter the bar).
 
 Records: three realisations (seeds 1-3) of the simulated paper sea over 4 hours each, then the
 three pooled, and, when `python3 scripts/fetch_wafo.py` has fetched it, the whole Gullfaks C
@@ -56,6 +59,31 @@ def decisions(path, config):
 
 def half_width(p, episodes):
     return 1.96 * math.sqrt(max(p * (1.0 - p), 1e-12) / max(episodes, 1))
+
+
+def within_chance(p, episodes, tol=0.05):
+    """P(|k / episodes - p| <= tol) for k ~ Binomial(episodes, p): how often an honest bin of
+    that many independent episodes lands within `tol` of its statement."""
+    p = min(max(p, 1e-12), 1.0 - 1e-12)
+    total = 0.0
+    for k in range(episodes + 1):
+        if abs(k / episodes - p) <= tol + 1e-12:
+            total += math.exp(math.lgamma(episodes + 1) - math.lgamma(k + 1)
+                              - math.lgamma(episodes - k + 1)
+                              + k * math.log(p) + (episodes - k) * math.log(1.0 - p))
+    return min(total, 1.0)
+
+
+def honest_pass_chance(bins, scale=1.0):
+    """The chance that an honest forecaster, stating these bins' probabilities on a record
+    `scale` times as long (as many times the episodes), has every bin of at least 50 calls
+    within 5 points: issue 13's bar. Episodes are taken as independent, which they are not
+    quite (wave groups span several), so the true chance is lower still."""
+    chance = 1.0
+    for b in bins:
+        if b["count"] * scale >= 50 and b["episodes"]:
+            chance *= within_chance(b["stated"], max(1, round(b["episodes"] * scale)))
+    return chance
 
 
 def pooled(reports):
@@ -109,6 +137,13 @@ def table(d):
               f"{b['stated']:.3f} | {b['observed']:.3f} | +-{hw:.3f} | {verdict} |")
     print(f"\n{off} bins with at least 50 calls more than 5 points off, {beyond} of them beyond "
           "chance.")
+    chance = honest_pass_chance(d["reliability"])
+    longer = next((f for f in range(1, 201) if honest_pass_chance(d["reliability"], f) >= 0.9),
+                  None)
+    print(f"An honest forecaster with these statements and episodes would have every such bin "
+          f"within 5 points with probability {chance:.2f}; "
+          + (f"{longer} times this record would give it 0.9." if longer
+             else "not even 200 times this record would give it 0.9."))
     return off, beyond
 
 
