@@ -65,11 +65,15 @@ def within_chance(p, episodes, tol=0.05):
     """P(|k / episodes - p| <= tol) for k ~ Binomial(episodes, p): how often an honest bin of
     that many independent episodes lands within `tol` of its statement."""
     p = min(max(p, 1e-12), 1.0 - 1e-12)
+    log_n = math.lgamma(episodes + 1)
     total = 0.0
-    for k in range(episodes + 1):
+    # Only the k near p * episodes can qualify (one more each side for rounding); the test
+    # below decides which do.
+    first = max(0, math.floor((p - tol) * episodes) - 1)
+    last = min(episodes, math.ceil((p + tol) * episodes) + 1)
+    for k in range(first, last + 1):
         if abs(k / episodes - p) <= tol + 1e-12:
-            total += math.exp(math.lgamma(episodes + 1) - math.lgamma(k + 1)
-                              - math.lgamma(episodes - k + 1)
+            total += math.exp(log_n - math.lgamma(k + 1) - math.lgamma(episodes - k + 1)
                               + k * math.log(p) + (episodes - k) * math.log(1.0 - p))
     return min(total, 1.0)
 
