@@ -84,6 +84,9 @@ pub struct Ingest {
     /// Longest run of missing/rejected samples bridged by holding the last value; a longer
     /// gap breaks the record and the history starts again.
     max_fill: u64,
+    /// Non-finite samples bridged in a row: held to `max_fill` like a gap, so a sensor that
+    /// only sends NaN never feeds the predictors a frozen motion.
+    held_run: u64,
 }
 
 impl Ingest {
@@ -106,6 +109,7 @@ impl Ingest {
             generation: 0,
             delay_s,
             max_fill,
+            held_run: 0,
         })
     }
 
@@ -170,6 +174,14 @@ impl Ingest {
                 // Keep the fixed-rate grid: bridge the bad sample with the last good values,
                 // and count its slot as filled so the next good sample is no gap in time.
                 self.last_time = self.last_time.map(|t| t + 1.0 / self.input_rate_hz);
+                self.held_run += 1;
+                if self.held_run > self.max_fill && self.last_good.is_some() {
+                    tracing::warn!(
+                        samples = self.held_run,
+                        "predictor: non-finite samples too long to bridge: history restarts"
+                    );
+                    self.restart();
+                }
                 if let Some(held) = self.last_good {
                     produced = self.push_values(&held);
                 }
@@ -196,6 +208,7 @@ impl Ingest {
             SeqCheck::Accepted { .. } => {}
         }
         produced |= self.push_values(&sample.dof);
+        self.held_run = 0;
         self.last_good = Some(sample.dof);
         self.last_time = Some(sample.time_s);
         produced.then(|| self.new_value(sample))
@@ -313,5 +326,35 @@ mod tests {
         ingest.push(&late, &mut c);
         assert_eq!(ingest.len(), 0);
         assert_eq!(c.lost, 21);
+    }
+
+    #[test]
+    fn a_run_of_non_finite_samples_longer_than_max_fill_restarts_the_history() {
+        // Regression: every NaN sample used to be bridged with the last good values, so a
+        // sensor sending only NaN fed the predictors a frozen motion for as long as it lasted.
+        let run = |nan_run: usize| {
+            let mut input = samples(300);
+            for s in &mut input[100..100 + nan_run] {
+                s.dof[4] = f64::NAN;
+            }
+            let mut ingest =
+                Ingest::new(4, 8.0, 1000, 8, shipcast_series::FilterPhase::Linear).unwrap();
+            let mut c = Counters::default();
+            let mut len_after_run = 0;
+            for (i, s) in input.iter().enumerate() {
+                ingest.push(s, &mut c);
+                if i == 99 + nan_run {
+                    len_after_run = ingest.len();
+                }
+            }
+            assert_eq!(c.rejected_nonfinite, nan_run as u64);
+            (ingest.generation(), len_after_run, ingest.len())
+        };
+        // max_fill (8) in a row are bridged: one record, the grid kept.
+        assert_eq!(run(8), (0, (108 - 17) / 4 + 1, (300 - 17) / 4 + 1));
+        // One more restarts the history once, and the NaN samples after that add nothing.
+        let (generation, len_after_run, _) = run(40);
+        assert_eq!(generation, 1);
+        assert_eq!(len_after_run, 0);
     }
 }
