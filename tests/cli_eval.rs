@@ -406,3 +406,24 @@ fn replay_refuses_a_corrupted_model_file_in_one_line() {
         "MCA model.prediction is 6 x 33; horizon 6 and order 40 need 6 x 34",
     );
 }
+
+/// A model file of another horizon than the configuration's was accepted, and then every
+/// live retrain (at the configured horizon) was thrown away as "another horizon".
+#[test]
+fn replay_refuses_a_model_of_another_horizon_than_the_configured_one() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = sea_csv(dir.path(), "sea.csv", 2.0, 500);
+    let model = dir.path().join("model.json");
+    train_order_40_horizon_6(&input, &model, "wiener");
+    let output = shipcast(&[
+        "replay",
+        "--input",
+        input.to_str().unwrap(),
+        "--model",
+        model.to_str().unwrap(),
+    ]);
+    assert_one_line_error(
+        &output,
+        "model horizon 6 differs from predictor.horizon 50: set predictor.horizon = 6",
+    );
+}

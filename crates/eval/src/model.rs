@@ -256,9 +256,44 @@ impl ModelFile {
                     m.dof
                 ));
             }
+            check_forecasts(m)?;
         }
         Ok(())
     }
+}
+
+/// Largest order and horizon a model file may declare: far beyond any useful model, and small
+/// enough that the trial forecast below cannot exhaust memory.
+const MAX_MODEL_SIZE: usize = 1_000_000;
+
+/// A model that loads must forecast: order and horizon of at least 1 (a hand-edited 0 would
+/// make a baseline or AR predictor index out of bounds), fitted (an empty MLP or Wiener
+/// predictor would fail only at the service's first forecast), and finite on a quiet sea.
+fn check_forecasts(m: &DofModel) -> Result<(), String> {
+    let (order, horizon) = (m.predictor.order(), m.predictor.horizon());
+    if !(1..=MAX_MODEL_SIZE).contains(&order) || !(1..=MAX_MODEL_SIZE).contains(&horizon) {
+        return Err(format!(
+            "{}: order {order} and horizon {horizon} must be in 1..={MAX_MODEL_SIZE}",
+            m.dof
+        ));
+    }
+    let mut trial = m.predictor.clone();
+    let mut out = vec![0.0; horizon];
+    trial.forecast(&vec![0.0; order], &mut out).map_err(|e| {
+        format!(
+            "{}: the {} model cannot forecast: {e}",
+            m.dof,
+            m.predictor.method()
+        )
+    })?;
+    if out.iter().any(|v| !v.is_finite()) {
+        return Err(format!(
+            "{}: the {} model forecasts a non-finite value",
+            m.dof,
+            m.predictor.method()
+        ));
+    }
+    Ok(())
 }
 
 #[cfg(test)]
@@ -436,6 +471,40 @@ mod tests {
             err.contains("out of range") || err.contains("not finite"),
             "{err}"
         );
+    }
+
+    #[test]
+    fn hand_edited_shapes_and_unfitted_models_are_refused_at_load() {
+        // Regressions: order 0 in a persistence or AR model, and an MLP with no parameters,
+        // used to load and then panic (index out of bounds, zero chunk size) or fail at the
+        // service's first forecast.
+        let data = record(500);
+        let path = Path::new("m.json");
+        let load = |v: &serde_json::Value| match ModelFile::from_json(&v.to_string(), path) {
+            Ok(_) => String::from("loaded"),
+            Err(e) => e.to_string(),
+        };
+        for method in [Method::Persistence, Method::Ar] {
+            let model = train_models(&data, &[Dof::Heave], &options(method)).unwrap();
+            let mut v = serde_json::to_value(&model).unwrap();
+            assert_eq!(load(&v), "loaded", "{method}");
+            v["config"]["order"] = 0.into();
+            v["dofs"][0]["predictor"]["order"] = 0.into();
+            if method == Method::Ar {
+                v["dofs"][0]["predictor"]["weights"] = serde_json::json!([]);
+            }
+            let e = load(&v);
+            assert!(
+                e.contains("heave: order 0 and horizon 6 must be in 1..="),
+                "{e}"
+            );
+        }
+        let model = train_models(&data, &[Dof::Heave], &options(Method::Mlp)).unwrap();
+        let mut v = serde_json::to_value(&model).unwrap();
+        assert_eq!(load(&v), "loaded");
+        v["dofs"][0]["predictor"]["params"] = serde_json::json!([]);
+        let e = load(&v);
+        assert!(e.contains("heave: the mlp model cannot forecast"), "{e}");
     }
 
     #[test]

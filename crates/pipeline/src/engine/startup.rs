@@ -19,6 +19,18 @@ pub fn initial_models(config: &PipelineConfig) -> anyhow::Result<Option<ModelSet
         if set.horizon() > MAX_STEPS {
             anyhow::bail!("model horizon {} exceeds {MAX_STEPS}", set.horizon());
         }
+        // Every live fit has the configured horizon, and a swap keeps the horizon the
+        // forecasts have: a file with another one would have every retrain thrown away.
+        if set.horizon() != q.horizon {
+            anyhow::bail!(
+                "{}: model horizon {} differs from predictor.horizon {}: set predictor.horizon = {} or train the model with --horizon {}",
+                path.display(),
+                set.horizon(),
+                q.horizon,
+                set.horizon(),
+                q.horizon
+            );
+        }
         return Ok(Some(set));
     }
     if q.warmup_s <= 0.0 {
