@@ -72,9 +72,20 @@ struct CsvSource {
 }
 
 impl CsvSource {
-    fn open(path: &std::path::Path) -> anyhow::Result<Self> {
+    /// The record at `path`, which must be sampled at `rate_hz`: the predictor takes the
+    /// producer's configured rate for the rate of what it receives, so a record at another
+    /// rate would be decimated wrongly and its forecasts' steps would not be `dt_s` apart.
+    fn open(path: &std::path::Path, rate_hz: f64) -> anyhow::Result<Self> {
         let data =
             MotionData::read_path(path).with_context(|| format!("reading {}", path.display()))?;
+        let rate = shipcast_series::median_rate(&data.time)
+            .with_context(|| format!("{}: sample rate", path.display()))?;
+        if ((rate - rate_hz) / rate_hz).abs() > 0.01 {
+            anyhow::bail!(
+                "{} is sampled at {rate:.4} Hz but producer.rate_hz is {rate_hz} Hz: set producer.rate_hz to the record's rate (a multiple of the predictor's sample_rate_hz)",
+                path.display()
+            );
+        }
         let columns = Dof::ALL.map(|d| data.columns.iter().position(|c| c.name == d.csv_column()));
         let missing: Vec<&str> = Dof::ALL
             .iter()
@@ -220,6 +231,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         faults,
     } = Config::try_from(args)?;
     let limit = shutdown::RunLimit::new(limit);
+    let p = config.producer.clone();
+    // A record that cannot be sent is refused before anything waits for a subscriber.
+    let csv = p
+        .input
+        .as_ref()
+        .map(|path| CsvSource::open(path, p.rate_hz).map(|source| (path, source)))
+        .transpose()?;
     let names = config.names()?;
     let node = iox::node(&names, "producer")?;
     let publisher = IoxPublisher::<MotionSample>::new(&node, &names.motion(), Sizing::MOTION)?;
@@ -231,10 +249,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         return Ok(());
     }
 
-    let p = config.producer.clone();
-    match &p.input {
-        Some(path) => {
-            let mut source = CsvSource::open(path)?;
+    match csv {
+        Some((path, mut source)) => {
             tracing::info!(input = %path.display(), rows = source.data.len(), "producer: replaying CSV on {}", names.motion());
             publish_all(&mut source, &publisher, &p, limit, faults)
         }

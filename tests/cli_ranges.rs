@@ -315,3 +315,31 @@ fn a_method_section_for_another_method_is_refused() {
         "predictor:",
     );
 }
+
+/// A record at another rate than `producer.rate_hz` was sent as if it had that rate: the
+/// predictor decimated a 2 Hz record as 8 Hz (inventing three held values per sample, counted
+/// nowhere) and a 16 Hz one gave forecasts whose steps were not `dt_s` apart.
+#[test]
+fn a_csv_at_another_rate_than_the_producers_is_refused() {
+    let instance = unique_instance("rng-csvrate");
+    let dir = tempfile::tempdir().unwrap();
+    let csv = dir.path().join("two_hz.csv");
+    let mut text = String::from("time_s,heave_m\n");
+    for i in 0..40 {
+        text.push_str(&format!("{},{}\n", i as f64 * 0.5, (i as f64 * 0.3).sin()));
+    }
+    std::fs::write(&csv, text).unwrap();
+    refuses(
+        &[
+            "producer",
+            "--instance",
+            &instance,
+            "--input",
+            csv.to_str().unwrap(),
+            "--duration",
+            "1",
+        ],
+        "is sampled at 2.0000 Hz but producer.rate_hz is 8 Hz",
+        "producer: replaying",
+    );
+}

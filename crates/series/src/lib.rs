@@ -16,4 +16,4 @@ pub mod resample;
 
 pub use decimator::{decimate, decimate_with, Decimator};
 pub use fir::FilterPhase;
-pub use resample::{decimation_factor, resample_motion, sample_rate, ResampleError};
+pub use resample::{decimation_factor, median_rate, resample_motion, sample_rate, ResampleError};

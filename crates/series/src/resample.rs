@@ -26,6 +26,8 @@ pub enum ResampleError {
         step: f64,
         median: f64,
     },
+    #[error("the record's time does not increase (typical step {0} s)")]
+    NotIncreasing(f64),
     #[error("target sample rate {0} Hz must be positive and finite")]
     BadTarget(f64),
     #[error("input rate {input} Hz is not an integer multiple of the target rate {target} Hz")]
@@ -61,6 +63,21 @@ pub fn sample_rate(time: &[f64]) -> Result<f64, ResampleError> {
     }
     let mean = (time[time.len() - 1] - time[0]) / (time.len() - 1) as f64;
     Ok(1.0 / mean)
+}
+
+/// Sample rate [Hz] of a record that may hold gaps: one over the median step, which gaps and
+/// a few jittered stamps do not move.
+pub fn median_rate(time: &[f64]) -> Result<f64, ResampleError> {
+    if time.len() < 2 {
+        return Err(ResampleError::TooFewForRate(time.len()));
+    }
+    let mut steps: Vec<f64> = time.windows(2).map(|p| p[1] - p[0]).collect();
+    steps.sort_by(f64::total_cmp);
+    let median = steps[steps.len() / 2];
+    if !(median > 0.0 && median.is_finite()) {
+        return Err(ResampleError::NotIncreasing(median));
+    }
+    Ok(1.0 / median)
 }
 
 /// Integer factor taking `input` Hz to `target` Hz (1 when they are equal), or an error naming
@@ -138,6 +155,20 @@ mod tests {
                 },
             ],
         }
+    }
+
+    #[test]
+    fn median_rate_ignores_gaps_and_refuses_time_that_does_not_increase() {
+        // 8 Hz with a 10 s hole and one stamp jittered by 1 ms: the median step is 0.125 s.
+        let mut time: Vec<f64> = (0..100).map(|i| i as f64 * 0.125).collect();
+        time.extend((100..200).map(|i| 10.0 + i as f64 * 0.125));
+        time[50] += 0.001;
+        assert_eq!(median_rate(&time), Ok(8.0));
+        assert_eq!(median_rate(&[1.0]), Err(ResampleError::TooFewForRate(1)));
+        assert_eq!(
+            median_rate(&[3.0, 2.0, 1.0]),
+            Err(ResampleError::NotIncreasing(-1.0))
+        );
     }
 
     #[test]

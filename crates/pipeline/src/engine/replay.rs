@@ -73,23 +73,6 @@ struct StepSums {
     in2: f64,
 }
 
-/// Sample rate of a record that may hold gaps: one over the median step.
-fn median_rate(time: &[f64]) -> anyhow::Result<f64> {
-    if time.len() < 2 {
-        anyhow::bail!(
-            "the record holds {} samples; at least 2 are needed",
-            time.len()
-        );
-    }
-    let mut steps: Vec<f64> = time.windows(2).map(|p| p[1] - p[0]).collect();
-    steps.sort_by(f64::total_cmp);
-    let median = steps[steps.len() / 2];
-    if median.is_nan() || median <= 0.0 {
-        anyhow::bail!("the record's time does not increase");
-    }
-    Ok(1.0 / median)
-}
-
 /// Index of the sample at time `t`, if one was recorded there (within a quarter step).
 fn sample_at(time: &[f64], t: f64, step: f64) -> Option<usize> {
     let i = time.partition_point(|&x| x < t - 0.25 * step);
@@ -123,7 +106,7 @@ pub fn replay_scored(
 ) -> anyhow::Result<(ReplayReport, Vec<Forecast>)> {
     let mut scorer = deck.map(|d| DecisionScorer::new("deck", d, &DECISION_MOTS_S));
     let mut actual = Box::<Forecast>::default();
-    let rate = median_rate(&data.time)?;
+    let rate = shipcast_series::median_rate(&data.time)?;
     let rate = (rate * 1e6).round() / 1e6;
     let mut engine = Engine::new(
         config.clone(),
@@ -139,10 +122,8 @@ pub fn replay_scored(
     let mut sums = vec![[StepSums::default(); MAX_STEPS]; NUM_DOF];
     let mut max_abs = [0.0f64; NUM_DOF];
     let trace_k = ((TRACE_LEAD_S / dt).round() as usize).max(1) - 1;
-    let minutes = (data.time.last().copied().unwrap_or(0.0) / 60.0)
-        .ceil()
-        .max(0.0) as usize
-        + 1;
+    let t0 = data.time.first().copied().unwrap_or(0.0);
+    let minutes = trace_minutes(t0, data.time.last().copied().unwrap_or(t0), data.time.len());
     let mut trace = vec![vec![(0.0f64, 0.0f64, 0u64); minutes]; NUM_DOF];
     let mut scored = 0u64;
     let mut kept = Vec::new();
@@ -207,8 +188,9 @@ pub fn replay_scored(
                 acc.in1 += f64::from(u8::from(e.abs() <= s));
                 acc.in2 += f64::from(u8::from(e.abs() <= 2.0 * s));
                 max_abs[d] = max_abs[d].max(e.abs());
-                if k == trace_k {
-                    let minute = ((f.time_s / 60.0).floor().max(0.0) as usize).min(minutes - 1);
+                if k == trace_k && minutes > 0 {
+                    let minute =
+                        (((f.time_s - t0) / 60.0).floor().max(0.0) as usize).min(minutes - 1);
                     let t = &mut trace[d][minute];
                     t.0 += e * e;
                     t.1 += x * x;
@@ -263,6 +245,24 @@ pub fn replay_scored(
         },
         kept,
     ))
+}
+
+/// Minutes the per-minute trace spans, from the record's first sample. A record has many
+/// samples a minute, so a span of more minutes than rows is time stamps far apart (epoch
+/// seconds with a hole, a corrupt value): the trace is left empty rather than sized by them.
+fn trace_minutes(first_s: f64, last_s: f64, rows: usize) -> usize {
+    let span = ((last_s - first_s) / 60.0).ceil();
+    if !(span >= 0.0 && span < rows as f64) {
+        if rows > 0 {
+            tracing::warn!(
+                span_min = span,
+                rows,
+                "replay: the record spans more minutes than it has rows: no per-minute trace"
+            );
+        }
+        return 0;
+    }
+    span as usize + 1
 }
 
 /// Per minute, the root of the mean of one of the trace's sums (NaN where nothing was scored).

@@ -262,3 +262,28 @@ fn after_a_change_of_sea_the_10s_error_is_back_near_its_new_level_within_a_bound
         );
     }
 }
+
+#[test]
+fn epoch_time_stamps_leave_the_results_and_the_trace_as_from_zero() {
+    // Regression: the per-minute trace was sized by the last time stamp itself, so a record
+    // stamped in epoch seconds (1.7e9) needed gigabytes and one at 1e13 aborted. It now counts
+    // minutes from the record's first sample; stamps 1.7e9 s later (a multiple of 60 s, so the
+    // minutes fall alike) must give the very same report.
+    let config = PredictorServiceConfig {
+        retrain_every_s: 0.0,
+        ..PredictorServiceConfig::default()
+    };
+    let data = record(ar2(2 * 600, 4, |_| 1.0), 2.0);
+    let mut late = data.clone();
+    let offset = 60.0 * 28_333_333.0;
+    late.time.iter_mut().for_each(|t| *t += offset);
+    let (a, _) = replay(&data, &config, None, 60.0, false, &|_| {}).unwrap();
+    let (b, _) = replay(&late, &config, None, 60.0 + offset, false, &|_| {}).unwrap();
+    let (a, b) = (&a.dofs[0], &b.dofs[0]);
+    assert_eq!(a.rms_10s_by_minute.len(), 11);
+    assert_eq!(b.rms_10s_by_minute.len(), 11);
+    assert_eq!(a.scored, b.scored);
+    for (x, y) in a.nrmse.iter().zip(&b.nrmse) {
+        assert!((x - y).abs() < 1e-9, "{x} {y}");
+    }
+}
