@@ -58,13 +58,7 @@ pub struct PredictorArgs {
 /// Largest value of the count options (`--order`, `--horizon`, `--shift`, `--stride`).
 const MAX_COUNT: usize = shipcast_pipeline::config::MAX_ORDER;
 
-/// Most hidden units and Rprop epochs of the MLP.
-const MAX_HIDDEN: usize = 10_000;
-const MAX_EPOCHS: usize = 1_000_000;
-
-/// Largest LMS step size and relative ridge accepted (far beyond any stable value).
-const MAX_GAIN: f64 = 100.0;
-const MAX_RIDGE: f64 = 1e6;
+use limits::{MAX_EPOCHS, MAX_GAIN, MAX_HIDDEN, MAX_RIDGE};
 
 impl PredictorArgs {
     /// The predictor configuration, every option range-checked. Feasibility for a method

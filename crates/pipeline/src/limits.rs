@@ -16,6 +16,14 @@ pub const MAX_RATE_HZ: f64 = 100_000.0;
 /// Lowest sample, send or forecast rate any command accepts [Hz]: one sample in 100 s.
 pub const MIN_RATE_HZ: f64 = 0.01;
 
+/// Most hidden units and Rprop epochs of the MLP (`eval` and `[predictor.mlp]`).
+pub const MAX_HIDDEN: usize = 10_000;
+pub const MAX_EPOCHS: usize = 1_000_000;
+
+/// Largest LMS step size and relative ridge accepted (far beyond any stable value).
+pub const MAX_GAIN: f64 = 100.0;
+pub const MAX_RIDGE: f64 = 1e6;
+
 /// Highest core id that `sched_setaffinity`'s fixed-size set can hold, plus one.
 pub const MAX_CORES: usize = libc::CPU_SETSIZE as usize;
 

@@ -112,13 +112,28 @@ impl Default for PipelineConfig {
     }
 }
 
+/// toml's own message spans several lines with a source excerpt; ours is one line that names
+/// the line and shows it, so a wrong type or a duplicate key can be found without the excerpt.
+fn parse_message(text: &str, e: &toml::de::Error) -> String {
+    let message = e.message().trim().replace('\n', " ");
+    let Some(start) = e.span().map(|span| span.start.min(text.len())) else {
+        return message;
+    };
+    let Some(before) = text.get(..start) else {
+        return message;
+    };
+    let line = before.matches('\n').count() + 1;
+    let source = text.lines().nth(line - 1).unwrap_or("").trim();
+    let source: String = source.chars().take(80).collect();
+    format!("line {line} (`{source}`): {message}")
+}
+
 impl PipelineConfig {
     /// Parse TOML text; `origin` names the source in errors.
     pub fn from_toml(text: &str, origin: &Path) -> Result<Self, ConfigError> {
         let config: PipelineConfig = toml::from_str(text).map_err(|e| ConfigError::Parse {
             path: origin.to_path_buf(),
-            // toml's message spans several lines with a source excerpt; keep it on one line.
-            message: e.message().trim().replace('\n', " "),
+            message: parse_message(text, &e),
         })?;
         let mut config = config;
         if let Some(dir) = origin.parent() {

@@ -205,6 +205,26 @@ impl PredictorServiceConfig {
                 ));
             }
         }
+        self.check_method_settings()
+    }
+
+    /// The method sections' values, in the ranges `shipcast eval` accepts for the same
+    /// options: unchecked, a huge `epochs` hung start-up training and an `energy` above 1
+    /// made every retrain fail.
+    fn check_method_settings(&self) -> Result<(), String> {
+        use crate::limits::{self, MAX_EPOCHS, MAX_GAIN, MAX_HIDDEN, MAX_RIDGE};
+        if let Some(m) = &self.mca {
+            limits::count("predictor.mca.shift", m.shift, 1, super::MAX_ORDER)?;
+            limits::positive("predictor.mca.energy", m.energy, 1.0)?;
+            limits::non_negative("predictor.mca.ridge", m.ridge, MAX_RIDGE)?;
+        }
+        if let Some(a) = &self.ar {
+            limits::positive("predictor.ar.lms_gain", a.lms_gain, MAX_GAIN)?;
+        }
+        if let Some(m) = &self.mlp {
+            limits::count("predictor.mlp.hidden", m.hidden, 1, MAX_HIDDEN)?;
+            limits::count("predictor.mlp.epochs", m.epochs, 1, MAX_EPOCHS)?;
+        }
         Ok(())
     }
 }

@@ -80,6 +80,25 @@ fn unknown_key_is_an_error_naming_it() {
 }
 
 #[test]
+fn a_wrong_type_or_a_duplicate_key_names_its_line() {
+    // Regression: toml's message without its excerpt said "invalid type: string \"abc\",
+    // expected usize" and nothing of where.
+    let text = "vessel = \"a\"\n\n[predictor]\norder = \"abc\"\n";
+    let err = PipelineConfig::from_toml(text, Path::new("p.toml"))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.starts_with("config p.toml: line 4 (`order = \"abc\"`): invalid type"),
+        "{err}"
+    );
+    assert!(!err.contains('\n'), "{err}");
+    let err = PipelineConfig::from_toml("[deck]\nmot_s = 1\nmot_s = 2\n", Path::new("p.toml"))
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("line 3 (`mot_s = 2`)"), "{err}");
+}
+
+#[test]
 fn toml_round_trip_and_flags_override_the_file() {
     let mut c = PipelineConfig {
         instance: Some("abc".into()),
@@ -184,4 +203,39 @@ fn impossible_values_are_refused() {
         assert!(err.contains(needle), "{text}: {err}");
     }
     assert!(PipelineConfig::load(Some(Path::new("/nonexistent/x.toml"))).is_err());
+}
+
+#[test]
+fn method_settings_out_of_range_are_refused() {
+    // Regression: these were never range-checked; a huge `epochs` hung start-up training and
+    // `energy = 2` made every retrain fail with only a warning.
+    for (text, needle) in [
+        (
+            "[predictor]\nmethod = \"mlp\"\n[predictor.mlp]\nepochs = 1000000000000\n",
+            "predictor.mlp.epochs",
+        ),
+        (
+            "[predictor]\nmethod = \"mlp\"\n[predictor.mlp]\nhidden = 0\n",
+            "predictor.mlp.hidden",
+        ),
+        (
+            "[predictor]\nmethod = \"mca\"\n[predictor.mca]\nenergy = 2.0\n",
+            "predictor.mca.energy",
+        ),
+        (
+            "[predictor]\nmethod = \"mca\"\n[predictor.mca]\nshift = 0\n",
+            "predictor.mca.shift",
+        ),
+        (
+            "[predictor]\nmethod = \"ar\"\n[predictor.ar]\nlms_gain = -1.0\n",
+            "predictor.ar.lms_gain",
+        ),
+    ] {
+        let err = PipelineConfig::from_toml(text, Path::new("p.toml"))
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains(needle), "{text}: {err}");
+    }
+    let ok = "[predictor]\nmethod = \"mlp\"\n[predictor.mlp]\nepochs = 50\nhidden = 8\n";
+    assert!(PipelineConfig::from_toml(ok, Path::new("p.toml")).is_ok());
 }
