@@ -174,13 +174,23 @@ pub struct Snapshot {
     pub limits: Limits,
     pub stale_after_s: f64,
     pub vessels: Vec<VesselView>,
+    /// Messages dropped because they named a vessel or station beyond the board's bounds.
+    pub beyond_bounds: u64,
 }
+
+/// Most vessels, and stations per vessel, the board holds. Names come from zenoh keys, which
+/// any peer allowed to publish can make up: without a bound each made-up name would be kept
+/// for good and sent to every page.
+pub const MAX_VESSELS: usize = 64;
+pub const MAX_STATIONS: usize = 16;
 
 /// Why a forecast was not put on the board.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum Refused {
     #[error("forecast seq {got} does not follow {last} from a live publisher")]
     Seq { last: u64, got: u64 },
+    #[error("the board holds {MAX_VESSELS} vessels already")]
+    BeyondBounds,
 }
 
 #[derive(Debug, Default)]
@@ -198,6 +208,7 @@ pub struct Board {
     vessels: Mutex<BTreeMap<String, Vessel>>,
     limits: Limits,
     stale_after: Duration,
+    beyond_bounds: std::sync::atomic::AtomicU64,
 }
 
 impl Board {
@@ -206,14 +217,33 @@ impl Board {
             vessels: Mutex::new(BTreeMap::new()),
             limits,
             stale_after,
+            beyond_bounds: Default::default(),
         }
     }
 
-    fn with_vessel<R>(&self, vessel: &str, f: impl FnOnce(&mut Vessel) -> R) -> R {
+    /// Run `f` on the vessel's entry, made if new; None (and counted) when the board holds
+    /// `MAX_VESSELS` others already.
+    fn with_vessel<R>(&self, vessel: &str, f: impl FnOnce(&mut Vessel) -> R) -> Option<R> {
         // A panic elsewhere never leaves the map half-written (every update is one assignment),
         // so a poisoned lock is still safe to use.
         let mut map = self.vessels.lock().unwrap_or_else(|p| p.into_inner());
-        f(map.entry(vessel.to_string()).or_default())
+        if !map.contains_key(vessel) && map.len() >= MAX_VESSELS {
+            self.count_beyond_bounds();
+            return None;
+        }
+        Some(f(map.entry(vessel.to_string()).or_default()))
+    }
+
+    fn count_beyond_bounds(&self) {
+        let n = self
+            .beyond_bounds
+            .fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        if n.is_power_of_two() || n == 0 {
+            tracing::warn!(
+                dropped = n + 1,
+                "display: messages naming more than {MAX_VESSELS} vessels or {MAX_STATIONS} stations per vessel are dropped"
+            );
+        }
     }
 
     fn is_stale(&self, at: Option<Instant>, now: Instant) -> bool {
@@ -238,6 +268,7 @@ impl Board {
             v.forecast_at = Some(now);
             Ok(())
         })
+        .unwrap_or(Err(Refused::BeyondBounds))
     }
 
     /// Count a message refused before it reached the board (bad JSON, failed checks).
@@ -246,9 +277,16 @@ impl Board {
     }
 
     pub fn advisory(&self, vessel: &str, station: &str, advisory: AdvisoryView) {
-        self.with_vessel(vessel, |v| {
+        let kept = self.with_vessel(vessel, |v| {
+            if !v.advisories.contains_key(station) && v.advisories.len() >= MAX_STATIONS {
+                return false;
+            }
             v.advisories.insert(station.to_string(), advisory);
+            true
         });
+        if kept == Some(false) {
+            self.count_beyond_bounds();
+        }
     }
 
     /// Take the live skill from a verification message; false (and counted) if it is malformed.
@@ -292,6 +330,9 @@ impl Board {
             limits: self.limits,
             stale_after_s: self.stale_after.as_secs_f64(),
             vessels,
+            beyond_bounds: self
+                .beyond_bounds
+                .load(std::sync::atomic::Ordering::Relaxed),
         }
     }
 
@@ -378,6 +419,40 @@ mod tests {
             1.0,
             "the forgery is not shown"
         );
+    }
+
+    #[test]
+    fn made_up_vessel_and_station_names_are_bounded_and_counted() {
+        // Regression: every vessel name a key carried (forged ones included, even in a
+        // malformed message) was kept for good and sent to every page.
+        let b = board();
+        let t0 = Instant::now();
+        for i in 0..MAX_VESSELS {
+            b.forecast(&format!("v{i}"), &forecast(1, 1.0, 0.0), t0)
+                .unwrap();
+        }
+        assert_eq!(
+            b.forecast("one-too-many", &forecast(1, 1.0, 0.0), t0),
+            Err(Refused::BeyondBounds)
+        );
+        b.reject("another");
+        // A vessel already held is still served.
+        b.forecast("v0", &forecast(2, 2.0, 0.0), t0).unwrap();
+        let s = b.snapshot(t0);
+        assert_eq!(s.vessels.len(), MAX_VESSELS);
+        assert_eq!(s.beyond_bounds, 2);
+        let mut advisor = shipcast_pipeline::deck::DeckAdvisor::new(
+            &shipcast_pipeline::config::DeckConfig::default(),
+        );
+        let json = serde_json::to_vec(&advisor.advise(&calm_forecast(50))).unwrap();
+        for i in 0..=MAX_STATIONS {
+            let a: AdvisoryView = serde_json::from_slice(&json).unwrap();
+            b.advisory("v1", &format!("s{i}"), a);
+        }
+        let s = b.snapshot(t0);
+        let v1 = s.vessels.iter().find(|v| v.vessel == "v1").unwrap();
+        assert_eq!(v1.advisories.len(), MAX_STATIONS);
+        assert_eq!(s.beyond_bounds, 3);
     }
 
     /// A calm forecast of `steps` steps: every motion small, sigma small.
