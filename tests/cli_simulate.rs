@@ -300,7 +300,14 @@ fn bad_elevation_files_exit_with_one_clear_line() {
     let all_nan = write("d.csv", "time_s,wave_m\n0,NaN\n0.5,nan\n1.0,NaN\n");
     let short = write("e.csv", "time_s,wave_m\n0,1\n0.5,2\n1.0,1\n1.5,0\n");
     let infinite = write("f.csv", "time_s,wave_m\n0,1\n0.5,inf\n");
-    let cases: [(&[&str], &str); 8] = [
+    // Samples 1e6 s apart: 1.6e7 s of record, more rows at 8 Hz than any file may hold (it
+    // used to be written until the disk was full).
+    let far: String = (0..16).map(|i| format!("{}e6,{}\n", i, i % 3)).collect();
+    let far = write("g.csv", &format!("time_s,wave_m\n{far}"));
+    let missing = dir.path().join("missing.csv");
+    let missing = missing.to_str().unwrap();
+    let cannot_read = format!("cannot read {missing}");
+    let cases: [(&[&str], &str); 9] = [
         (
             &["--elevation", &not_number],
             "line 3, column 'wave_m': 'x' is not a number",
@@ -319,9 +326,10 @@ fn bad_elevation_files_exit_with_one_clear_line() {
             &["--elevation", &infinite],
             "line 3, column 'wave_m': non-finite value 'inf'",
         ),
+        (&["--elevation", missing], &cannot_read),
         (
-            &["--elevation", "/nonexistent.csv"],
-            "cannot read /nonexistent.csv",
+            &["--elevation", &far, "--edge-s", "0", "--rate", "8"],
+            "rows at --rate 8 Hz, at most 100000000",
         ),
         (&["--elevation", &short, "--hs", "2"], "cannot be used with"),
     ];

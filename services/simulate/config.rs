@@ -45,7 +45,7 @@ pub enum Record {
 }
 
 /// Most rows one record may have (about 10 GB of CSV).
-const MAX_ROWS: u64 = 100_000_000;
+pub(super) const MAX_ROWS: u64 = 100_000_000;
 
 impl TryFrom<Args> for Config {
     type Error = anyhow::Error;

@@ -43,6 +43,20 @@ pub(super) fn run_measured(config: &Config, path: &Path, edge_s: f64) -> anyhow:
             input_rate
         );
     }
+    // Checked before writing: a record whose samples lie far apart in time (a corrupt or
+    // mis-scaled time column) would otherwise fill the disk at --rate.
+    let rows: f64 = segments
+        .iter()
+        .map(|s| s.values.len() as f64 * s.dt_s * rate_hz)
+        .sum();
+    if rows > super::config::MAX_ROWS as f64 {
+        anyhow::bail!(
+            "{}: its segments span {:.3e} s, {rows:.0} rows at --rate {rate_hz} Hz, at most {}",
+            path.display(),
+            rows / rate_hz,
+            super::config::MAX_ROWS
+        );
+    }
     let mut out = RecordOut::create(&config.out)?;
     let mut previous_end: Option<f64> = None;
     let (mut written, mut skipped) = (0usize, 0usize);
