@@ -183,6 +183,8 @@ pub struct Proc {
     child: ChildProcess,
     stdout: Arc<Mutex<Vec<String>>>,
     stderr: Arc<Mutex<Vec<String>>>,
+    /// The threads reading stdout and stderr; each ends when its pipe closes.
+    readers: Vec<std::thread::JoinHandle<()>>,
 }
 
 fn strip_ansi(line: &str) -> String {
@@ -202,12 +204,15 @@ fn strip_ansi(line: &str) -> String {
     out
 }
 
-fn collect(stream: impl std::io::Read + Send + 'static, into: Arc<Mutex<Vec<String>>>) {
+fn collect(
+    stream: impl std::io::Read + Send + 'static,
+    into: Arc<Mutex<Vec<String>>>,
+) -> std::thread::JoinHandle<()> {
     std::thread::spawn(move || {
         for line in BufReader::new(stream).lines().map_while(Result::ok) {
             into.lock().expect("lines").push(strip_ansi(&line));
         }
-    });
+    })
 }
 
 impl Proc {
@@ -222,13 +227,16 @@ impl Proc {
         let stdout = Arc::new(Mutex::new(Vec::new()));
         let stderr = Arc::new(Mutex::new(Vec::new()));
         let pipes = child.child_mut();
-        collect(pipes.stdout.take().expect("stdout"), stdout.clone());
-        collect(pipes.stderr.take().expect("stderr"), stderr.clone());
+        let readers = vec![
+            collect(pipes.stdout.take().expect("stdout"), stdout.clone()),
+            collect(pipes.stderr.take().expect("stderr"), stderr.clone()),
+        ];
         Self {
             name: name.to_string(),
             child,
             stdout,
             stderr,
+            readers,
         }
     }
 
@@ -274,8 +282,16 @@ impl Proc {
                 self.stderr().join("\n")
             );
         };
-        // Let the reader threads drain the pipes.
-        std::thread::sleep(Duration::from_millis(100));
+        // Every line is read once both pipes are closed. A grandchild that inherited them
+        // would hold them open, so the wait is bounded; the readers are joined once closed.
+        poll_until(Duration::from_secs(10), POLL, || {
+            self.readers.iter().all(|r| r.is_finished()).then_some(())
+        });
+        for reader in std::mem::take(&mut self.readers) {
+            if reader.is_finished() {
+                let _ = reader.join();
+            }
+        }
         status
     }
 
