@@ -81,7 +81,7 @@ fn http_get(port: u16, path: &str) -> Option<String> {
 
 /// A headless Chromium with one page, driven over its DevTools protocol; killed on drop.
 struct Browser {
-    child: Child,
+    _child: BrowserProcess,
     socket: WebSocket<MaybeTlsStream<TcpStream>>,
     next_id: u64,
     _profile: tempfile::TempDir,
@@ -90,7 +90,10 @@ struct Browser {
 impl Browser {
     fn open(url: &str) -> Self {
         let profile = tempfile::tempdir().expect("profile dir");
-        let mut child = Command::new(chromium())
+        let mut command = Command::new(chromium());
+        // Its own process group, so the guard can stop chromium's helper processes too.
+        std::os::unix::process::CommandExt::process_group(&mut command, 0);
+        let child = command
             .args([
                 "--headless",
                 "--no-sandbox",
@@ -106,13 +109,10 @@ impl Browser {
             .stderr(Stdio::null())
             .spawn()
             .expect("start chromium");
-        let port = match Self::devtools_port(profile.path()) {
-            Some(port) => port,
-            None => {
-                let _ = child.kill();
-                let _ = child.wait();
-                panic!("chromium did not open its DevTools port within {PATIENCE:?}");
-            }
+        // Guarded from here on: any panic below still stops the whole group.
+        let child = BrowserProcess(child);
+        let Some(port) = Self::devtools_port(profile.path()) else {
+            panic!("chromium did not open its DevTools port within {PATIENCE:?}");
         };
         let deadline = Instant::now() + PATIENCE;
         let page_url = loop {
@@ -136,7 +136,7 @@ impl Browser {
         };
         let (socket, _) = tungstenite::connect(page_url.as_str()).expect("DevTools WebSocket");
         Browser {
-            child,
+            _child: child,
             socket,
             next_id: 1,
             _profile: profile,
@@ -220,10 +220,21 @@ impl Browser {
     }
 }
 
-impl Drop for Browser {
+/// Chromium and its helper processes (one process group), killed and reaped when dropped,
+/// also when the test fails.
+struct BrowserProcess(Child);
+
+impl Drop for BrowserProcess {
     fn drop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
+        if let Ok(None) = self.0.try_wait() {
+            // SAFETY: kill(2) with a plain signal number on the group our own child leads
+            // (process_group(0) made its pid the group id); the child is not reaped yet (just
+            // checked), so the id cannot have passed to an unrelated group.
+            unsafe {
+                libc::kill(-(self.0.id() as libc::pid_t), libc::SIGKILL);
+            }
+        }
+        let _ = self.0.wait();
     }
 }
 
@@ -266,7 +277,7 @@ fn the_page_shows_live_forecasts_and_marks_a_vanished_vessel_stale() {
     let _deck = p.spawn("deck", &[]);
     let port = free_port();
     let listen = format!("127.0.0.1:{port}");
-    let display = p.spawn("display", &["--listen", &listen, "--stale-after-s", "2"]);
+    let display = p.spawn("display", &["--listen", &listen, "--stale-after-s", "4"]);
     display.wait_for("display: http://");
 
     // A client that opens the event stream and never reads: it must hold nothing up.
@@ -278,9 +289,13 @@ fn the_page_shows_live_forecasts_and_marks_a_vanished_vessel_stale() {
     let later = browser.wait_for("a newer forecast", FIRST_SEQ, |v| {
         seq_of(v).filter(|&s| s > first)
     });
-    assert!(later > first);
-    let status = browser.eval("document.querySelector('.vessel .status').textContent");
-    assert_eq!(status, "live");
+    // Polled, not read once: a forecast late by more than the stale limit on a loaded machine
+    // shows "STALE" for a moment, which is right.
+    browser.wait_for(
+        "the vessel as live",
+        "document.querySelector('.vessel .status').textContent",
+        |v| v.as_str().filter(|t| *t == "live").map(str::to_string),
+    );
     // The three charts carry a drawn mean line each, and the deck's advisory is shown.
     let lines = browser.eval("document.querySelectorAll('.vessel svg polyline').length");
     assert_eq!(lines, 3, "mean lines drawn");
@@ -309,7 +324,7 @@ fn the_page_shows_live_forecasts_and_marks_a_vanished_vessel_stale() {
 
     // The predictor goes away: the vessel turns stale and its forecast is withdrawn.
     predictor.terminate();
-    let stale = browser.wait_for(
+    browser.wait_for(
         "the vessel as stale",
         "document.querySelector('.vessel .status').textContent",
         |v| {
@@ -318,7 +333,6 @@ fn the_page_shows_live_forecasts_and_marks_a_vanished_vessel_stale() {
                 .map(str::to_string)
         },
     );
-    assert!(stale.starts_with("STALE"), "{stale}");
     assert_eq!(
         browser.eval(FIRST_SEQ),
         "",
