@@ -337,18 +337,19 @@ pub fn run_ok(args: &[&str]) -> String {
     stdout
 }
 
-/// Receive forecasts on `sub` until `n` arrived or [`PATIENCE`] ran out; the caller asserts on
-/// what came.
+/// Receive forecasts on `sub` until `n` arrived, or none came for [`PATIENCE`] (a hang guard
+/// that a long, slowly paced record never trips); the caller asserts on what came.
 pub fn collect_forecasts(
     sub: &shipcast_pipeline::transport::iox::IoxSubscriber<shipcast_wire::payload::Forecast>,
     n: usize,
 ) -> Vec<shipcast_wire::payload::Forecast> {
     let mut got = Vec::with_capacity(n);
-    let deadline = Instant::now() + PATIENCE;
+    let mut deadline = Instant::now() + PATIENCE;
     while got.len() < n && Instant::now() < deadline {
         sub.wait(Duration::from_millis(50)).unwrap();
         while let Some(f) = sub.receive().unwrap() {
             got.push(f);
+            deadline = Instant::now() + PATIENCE;
         }
     }
     got
