@@ -133,7 +133,10 @@ fn the_deck_verifies_a_new_producer_run_at_once() {
     assert_eq!(status_u64(&first, &["outcomes", "restarts"]), 0, "{first}");
     producer.kill9();
 
-    let _second = p.spawn("producer", &["--wait-subscriber-s", "30"]);
+    // The second run at 5x: it needs about 80 s of record (16 s of wall time) to have five
+    // decisions verified, and reaches the first run's 240 s only after 48 s, so a loaded
+    // machine cannot make it overtake the old clock first (at 20x the margin was 4 s).
+    let _second = p.spawn("producer", &["--wait-subscriber-s", "30", "--speed", "5"]);
     let restarted = deck_status.wait_until("the deck seeing the new run", |s| {
         status_u64(s, &["outcomes", "restarts"]) == 1
     });
@@ -198,7 +201,7 @@ fn nan_and_out_of_order_samples_are_rejected_counted_and_survived() {
 /// only the newest samples (its oldest were overwritten), contiguous.
 #[test]
 fn a_consumer_that_never_reads_never_blocks_the_producer() {
-    let p = TestPipeline::new("slow", "[producer]\nspeed = 200.0\nbackfill_s = 0.0\n");
+    let p = TestPipeline::new("slow", "[producer]\nspeed = 50.0\nbackfill_s = 0.0\n");
     let names = p.names();
     let node = iox::node(&names, "test-readers").unwrap();
     let idle =

@@ -17,6 +17,9 @@ fn plain_client(endpoint: &str) -> zenoh::Session {
     let mut config = zenoh::Config::default();
     config.insert_json5("mode", "\"client\"").unwrap();
     config
+        .insert_json5("scouting/multicast/enabled", "false")
+        .unwrap();
+    config
         .insert_json5("connect/endpoints", &format!("[\"{endpoint}\"]"))
         .unwrap();
     zenoh::open(config)
@@ -26,7 +29,7 @@ fn plain_client(endpoint: &str) -> zenoh::Session {
 
 #[test]
 fn with_security_off_the_crane_rejects_a_second_publisher() {
-    let p = TestPipeline::new("inject", "[producer]\nspeed = 20.0\nbackfill_s = 0.0\n");
+    let p = TestPipeline::new("inject", "[producer]\nspeed = 5.0\nbackfill_s = 0.0\n");
     let predictor = p.spawn("predictor", &[]);
     predictor.wait_for("(iceoryx2 and zenoh)");
     let crane = p.spawn("crane", &[]);
@@ -115,7 +118,7 @@ fn wait_deck_status(
 #[test]
 fn the_deck_rejects_a_second_iceoryx2_publisher_and_keeps_advising() {
     use shipcast_pipeline::transport::iox::{self, IoxPublisher, Sizing};
-    let p = TestPipeline::new("deckinject", "[producer]\nspeed = 20.0\nbackfill_s = 0.0\n");
+    let p = TestPipeline::new("deckinject", "[producer]\nspeed = 5.0\nbackfill_s = 0.0\n");
     let predictor = p.spawn("predictor", &[]);
     predictor.wait_for("(iceoryx2 and zenoh)");
     let deck = p.spawn("deck", &[]);
@@ -245,7 +248,7 @@ fn the_deck_rejects_a_second_iceoryx2_publisher_and_keeps_advising() {
 
 #[test]
 fn the_live_view_of_run_rejects_a_second_publisher() {
-    let p = TestPipeline::new("runinject", "[producer]\nspeed = 20.0\nbackfill_s = 0.0\n");
+    let p = TestPipeline::new("runinject", "[producer]\nspeed = 5.0\nbackfill_s = 0.0\n");
     let logs = p.path("logs");
     let run = p.spawn(
         "run",

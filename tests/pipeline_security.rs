@@ -139,6 +139,9 @@ fn only_the_pipeline_publishes_and_strangers_are_refused() {
     // No credentials at all: plain TCP to the TLS port.
     let mut plain = zenoh::Config::default();
     plain.insert_json5("mode", "\"client\"").unwrap();
+    plain
+        .insert_json5("scouting/multicast/enabled", "false")
+        .unwrap();
     let tcp = s.endpoint.replacen("tls/", "tcp/", 1);
     plain
         .insert_json5("connect/endpoints", &format!("[\"{tcp}\"]"))
@@ -151,6 +154,7 @@ fn only_the_pipeline_publishes_and_strangers_are_refused() {
     let mut anonymous = zenoh::Config::default();
     for (k, v) in [
         ("mode", "\"client\"".to_string()),
+        ("scouting/multicast/enabled", "false".to_string()),
         ("connect/endpoints", format!("[\"{}\"]", s.endpoint)),
         (
             "transport/link/tls/root_ca_certificate",
@@ -175,6 +179,7 @@ fn only_the_pipeline_publishes_and_strangers_are_refused() {
     let mut foreign = zenoh::Config::default();
     for (k, v) in [
         ("mode", "\"client\"".to_string()),
+        ("scouting/multicast/enabled", "false".to_string()),
         ("connect/endpoints", format!("[\"{}\"]", s.endpoint)),
         ("transport/link/tls/enable_mtls", "true".into()),
         (
