@@ -58,6 +58,10 @@ const MIN_VALUES_TO_PUBLISH: u64 = 60;
 const CHANGE_MEMORY: f64 = 240.0;
 const CHANGE_REFRACTORY: u64 = 240;
 
+/// Record time between refits after a change of sea, until the new sea fills three held-out
+/// parts [s] (`schedule_retrain`).
+const CHANGE_REFIT_EVERY_S: f64 = 60.0;
+
 /// Counts of what the engine did, for status, logs and replay.
 #[derive(Debug, Clone, Copy, Default, Serialize)]
 pub struct EngineCounts {
@@ -422,22 +426,24 @@ impl Engine {
         let every = (q.retrain_every_s * rate).round() as u64;
         // After a change of sea (until the values since then fill three held-out parts, from
         // when on the held-out part is the configured one again), every retrain judges on the
-        // new sea only (`models::fit_recent`), and refits come each time those values have
-        // doubled (or after `every`, whichever is first): each fit then has twice the data of
-        // the last, and the total cost stays within twice that of the final fit.
+        // new sea only (`models::fit_recent`), and refits come every CHANGE_REFIT_EVERY_S of
+        // record time once `first` new values are held: while the new sea's data are few,
+        // each minute of them improves the fit markedly. (Refitting each time they had
+        // doubled left the sea-state change's surge, heave and pitch 23 minutes from their new
+        // level on six seeds, against 14-21 now; docs/results/replay_study.md.) In the service
+        // a refit still running when the next is due makes that one wait.
         let end = q.retrain_window.min(3 * q.holdout) as u64;
+        let change_every = ((CHANGE_REFIT_EVERY_S * rate).round() as u64).max(1);
         let since_change = self.changed_at.map(|at| self.values - at);
         if since_change.is_some_and(|n| n >= end) {
             self.changed_at = None;
         }
         let since_change = since_change.filter(|&n| n < end);
-        let changed_at = self.changed_at.unwrap_or(0);
         let reason = match (self.retrain_due, self.last_fit_at, since_change) {
             (Some(r), _, _) => Some(r),
             (None, None, _) if len >= first.max(1) => Some("first fit on live data"),
-            (None, Some(at), Some(n)) => (n >= first.max(1)
-                && (n >= 2 * at.saturating_sub(changed_at) || self.values >= at + every.max(1)))
-            .then_some("refit on the changed sea"),
+            (None, Some(at), Some(n)) => (n >= first.max(1) && self.values >= at + change_every)
+                .then_some("refit on the changed sea"),
             (None, Some(at), None) if every > 0 && self.values >= at + every => Some("scheduled"),
             _ => None,
         };
