@@ -188,7 +188,9 @@ impl Ingest {
                 return produced.then(|| self.new_value(sample));
             }
             SeqCheck::NewRun => {
-                tracing::info!("predictor: new producer run (seq 0): history restarts");
+                tracing::info!(
+                    "predictor: new producer run (seq 0, or a resynchronised stream): history restarts"
+                );
                 self.restart();
             }
             SeqCheck::Accepted { lost } if lost.max(self.missing_by_time(sample.time_s)) > 0 => {

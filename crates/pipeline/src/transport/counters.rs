@@ -73,10 +73,19 @@ impl SeqCheck {
     }
 }
 
+/// Out-of-order samples, each following the one before it, after which the stream counts as
+/// restarted (2 s at 8 Hz): the accepted sample they fall behind was a glitch.
+pub const RESYNC_AFTER: u32 = 16;
+
 /// Judges each sample against the last accepted one of the current producer run.
 #[derive(Debug, Clone, Default)]
 pub struct SeqTracker {
     last: Option<(u64, f64)>,
+    /// The newest rejected-as-out-of-order sample and how many in a row, each after the one
+    /// before, have been rejected. One sample whose seq or time jumped far ahead (a corrupt
+    /// or forged value) would otherwise put every later genuine sample "out of order" until
+    /// the producer restarts at seq 0.
+    behind: Option<(u64, f64, u32)>,
 }
 
 impl SeqTracker {
@@ -101,7 +110,7 @@ impl SeqTracker {
             Some((last_seq, _)) if sample.seq == 0 && last_seq > 0 => SeqCheck::NewRun,
             Some((last_seq, last_time)) => {
                 if sample.seq <= last_seq || sample.time_s <= last_time {
-                    SeqCheck::OutOfOrder
+                    self.out_of_order(sample)
                 } else {
                     SeqCheck::Accepted {
                         lost: sample.seq - last_seq - 1,
@@ -111,8 +120,29 @@ impl SeqTracker {
         };
         if verdict.is_accepted() {
             self.last = Some((sample.seq, sample.time_s));
+            self.behind = None;
         }
         verdict
+    }
+
+    /// A sample behind the last accepted one: rejected, unless it completes a run of
+    /// `RESYNC_AFTER` that follow each other, which restarts the stream from it.
+    fn out_of_order(&mut self, sample: &MotionSample) -> SeqCheck {
+        let run = match self.behind {
+            Some((seq, time, n)) if sample.seq > seq && sample.time_s > time => n + 1,
+            _ => 1,
+        };
+        self.behind = Some((sample.seq, sample.time_s, run));
+        if run >= RESYNC_AFTER {
+            tracing::warn!(
+                seq = sample.seq,
+                time_s = sample.time_s,
+                "{RESYNC_AFTER} samples in order among themselves fell behind the last accepted one: the stream restarts from them"
+            );
+            SeqCheck::NewRun
+        } else {
+            SeqCheck::OutOfOrder
+        }
     }
 }
 
@@ -164,5 +194,37 @@ mod tests {
             }
         );
         assert!(c.summary().contains("lost 2"));
+    }
+
+    #[test]
+    fn a_sample_far_ahead_is_followed_by_a_restart_not_by_rejecting_the_stream() {
+        // Regression: one sample with a seq and time far ahead was accepted, and every genuine
+        // sample after it was rejected as out of order until the producer restarted at seq 0.
+        let mut t = SeqTracker::new();
+        for i in 0..10 {
+            assert!(t.check(&s(i, i as f64 * 0.125)).is_accepted());
+        }
+        assert!(t.check(&s(1 << 40, 1e9)).is_accepted());
+        for i in 10..10 + u64::from(RESYNC_AFTER) - 1 {
+            assert_eq!(
+                t.check(&s(i, i as f64 * 0.125)),
+                SeqCheck::OutOfOrder,
+                "{i}"
+            );
+        }
+        let i = 10 + u64::from(RESYNC_AFTER) - 1;
+        assert_eq!(t.check(&s(i, i as f64 * 0.125)), SeqCheck::NewRun);
+        assert_eq!(
+            t.check(&s(i + 1, (i + 1) as f64 * 0.125)),
+            SeqCheck::Accepted { lost: 0 }
+        );
+        // Late or repeated samples do not add up to a restart: they do not follow each other.
+        for _ in 0..3 * RESYNC_AFTER {
+            assert_eq!(t.check(&s(i, i as f64 * 0.125)), SeqCheck::OutOfOrder);
+            assert_eq!(
+                t.check(&s(i - 5, (i - 5) as f64 * 0.125)),
+                SeqCheck::OutOfOrder
+            );
+        }
     }
 }
