@@ -79,7 +79,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     } = Config::try_from(args)?;
     let limit = shutdown::RunLimit::new(limit);
     let names = config.names()?;
-    let session = zn::open(&config.zenoh.consumer_side())?;
+    let Some(session) = zn::open_until(&config.zenoh.consumer_side(), &limit)? else {
+        tracing::info!("crane: stopped before the zenoh session opened");
+        return Ok(());
+    };
     let forecasts = LatestSubscriber::new(&session, &names.forecast())?;
     let alive = LivelinessWatch::new(&session, &Names::liveliness(&names.forecast()))?;
     let publishers = PublisherWatch::new(&session, &names.forecast())?;

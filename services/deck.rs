@@ -105,7 +105,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     );
     let session;
     let publisher = if publish {
-        session = zn::open(&config.zenoh.consumer_side())?;
+        let Some(opened) = zn::open_until(&config.zenoh.consumer_side(), &limit)? else {
+            tracing::info!("deck: stopped before the zenoh session opened");
+            return Ok(());
+        };
+        session = opened;
         let key = names.advisory("deck");
         let token = zn::liveliness_token(&session, &Names::liveliness(&key))?;
         let status = JsonPublisher::new(&session, &names.status("deck"))?;

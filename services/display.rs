@@ -80,7 +80,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         },
         stale_after,
     ));
-    let session = zn::open(&config.zenoh.consumer_side())?;
+    let Some(session) = zn::open_until(&config.zenoh.consumer_side(), &limit)? else {
+        tracing::info!("display: stopped before the zenoh session opened");
+        return Ok(());
+    };
     let _feed = feed::start(
         &session,
         &prefix,

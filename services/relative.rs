@@ -339,7 +339,10 @@ fn run_live(config: &PipelineConfig, limit: Option<Duration>) -> anyhow::Result<
     let instance = config.instance.as_deref();
     let crane_names = Names::new(instance, r.crane_vessel(&config.vessel))?;
     let target_names = Names::new(instance, &r.target_vessel)?;
-    let session = zn::open(&config.zenoh.consumer_side())?;
+    let Some(session) = zn::open_until(&config.zenoh.consumer_side(), &limit)? else {
+        tracing::info!("relative: stopped before the zenoh session opened");
+        return Ok(());
+    };
     let dt = 1.0 / config.predictor.sample_rate_hz;
     let mut crane = Followed::new(&session, &crane_names, dt)?;
     let mut target = Followed::new(&session, &target_names, dt)?;

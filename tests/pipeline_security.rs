@@ -312,3 +312,27 @@ fn run_uses_the_generated_config_as_it_is() {
         assert!(line.contains("not the live predictor (none)"), "{line}");
     }
 }
+
+/// Regression: a secure consumer (a zenoh client) whose predictor never answers kept trying
+/// for its whole connect patience (60 s), past `--duration` and a stop request. Now it stops
+/// when its limit comes, cleanly and saying why. Nothing listens on the setup's endpoint here.
+#[test]
+fn a_secure_consumer_that_cannot_connect_still_stops_at_its_limit() {
+    let s = SecureSetup::new("sec-noconnect");
+    for (service, config) in [("crane", "crane.toml"), ("display", "shipcast.toml")] {
+        let mut args = vec!["--duration", "2"];
+        if service == "display" {
+            args.extend(["--listen", "127.0.0.1:0"]);
+        }
+        let mut proc = s.spawn(service, config, &args);
+        let status = proc.wait_exit();
+        let stderr = proc.stderr().join("\n");
+        assert!(status.success(), "{service}: {stderr}");
+        assert!(
+            stderr.contains(&format!(
+                "{service}: stopped before the zenoh session opened"
+            )),
+            "{service}: {stderr}"
+        );
+    }
+}

@@ -260,6 +260,34 @@ pub fn open(settings: &ZenohSettings) -> Result<Session, ZenohError> {
     )))
 }
 
+/// [`open`], given up (`Ok(None)`) when `limit` is reached first: a client keeps trying to
+/// reach its router or predictor for up to `client_connect_patience_ms`, and a stop request
+/// or the `--duration` limit must not wait for that.
+pub fn open_until(
+    settings: &ZenohSettings,
+    limit: &crate::transport::shutdown::RunLimit,
+) -> Result<Option<Session>, ZenohError> {
+    let (done, opened) = std::sync::mpsc::channel();
+    let settings = settings.clone();
+    // The thread owns nothing of ours: given up on, it ends with the open (or the process).
+    std::thread::Builder::new()
+        .name("zenoh-open".into())
+        .spawn(move || {
+            let _ = done.send(open(&settings));
+        })
+        .map_err(ZenohError::on("start a thread to open the zenoh session"))?;
+    loop {
+        match opened.recv_timeout(Duration::from_millis(50)) {
+            Ok(result) => return result.map(Some),
+            Err(std::sync::mpsc::RecvTimeoutError::Timeout) if limit.reached() => return Ok(None),
+            Err(std::sync::mpsc::RecvTimeoutError::Timeout) => {}
+            Err(e @ std::sync::mpsc::RecvTimeoutError::Disconnected) => {
+                return Err(ZenohError::on("open the zenoh session")(e))
+            }
+        }
+    }
+}
+
 /// Publishes JSON payloads (encoding `application/json`) on one key.
 ///
 /// Publishers are express: each put is written to the link from the calling thread instead of
