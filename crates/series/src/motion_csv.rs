@@ -289,6 +289,25 @@ fn check_header(names: &[String]) -> Result<usize, MotionCsvError> {
         })
 }
 
+/// A field as an error shows it: on one line, and cut short. A stray quote makes the CSV
+/// reader take the rest of the file, newlines included, as one field; the message must stay
+/// one readable line.
+fn shown_field(text: &str) -> String {
+    const MAX_CHARS: usize = 40;
+    let count = text.chars().count();
+    let head: String = text
+        .chars()
+        .take(MAX_CHARS)
+        .collect::<String>()
+        .escape_debug()
+        .to_string();
+    if count <= MAX_CHARS {
+        head
+    } else {
+        format!("{head}... ({count} characters: an unclosed quote?)")
+    }
+}
+
 fn parse_value(text: &str, line: u64, column: &str) -> Result<f64, MotionCsvError> {
     if text.is_empty() {
         return Err(MotionCsvError::Missing {
@@ -299,13 +318,13 @@ fn parse_value(text: &str, line: u64, column: &str) -> Result<f64, MotionCsvErro
     let value: f64 = text.parse().map_err(|_| MotionCsvError::NotANumber {
         line,
         column: column.to_string(),
-        text: text.to_string(),
+        text: shown_field(text),
     })?;
     if !value.is_finite() {
         return Err(MotionCsvError::NonFinite {
             line,
             column: column.to_string(),
-            text: text.to_string(),
+            text: shown_field(text),
         });
     }
     Ok(value)
@@ -492,6 +511,24 @@ mod tests {
             assert!(!message.contains('\n'), "multi-line error: {message}");
         }
         assert!(read_str(&format!("{header}0,1,2\n")).is_ok());
+        // Regression: a stray quote made the rest of the file one field, and the whole of it
+        // (newlines included) the error message.
+        let mut quoted = format!("{header}0,1,2\n1,2,\"3\n");
+        for i in 2..1200 {
+            quoted.push_str(&format!("{i},1,2\n"));
+        }
+        let message = err(&quoted);
+        assert!(!message.contains('\n'), "multi-line error: {message}");
+        assert!(
+            message.len() < 200,
+            "{} characters: {message}",
+            message.len()
+        );
+        assert!(
+            message.contains("line 3, column 'pitch_rad': '3\\n2,1,2\\n3,1,2"),
+            "{message}"
+        );
+        assert!(message.contains("an unclosed quote?"), "{message}");
     }
 
     #[test]
