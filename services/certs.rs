@@ -119,7 +119,11 @@ impl TryFrom<Args> for Config {
         if args.router.is_some() {
             taken.push(ROUTER_NAME.to_string());
         }
-        for s in &args.station {
+        for (i, s) in args.station.iter().enumerate() {
+            // The second would overwrite the first's files, and the report count both.
+            if args.station[..i].contains(s) {
+                anyhow::bail!("--station '{s}' is given twice");
+            }
             let plain = |c: char| c.is_ascii_alphanumeric() || c == '-' || c == '_' || c == '.';
             if s.is_empty() || s.len() > 64 || !s.chars().all(plain) {
                 anyhow::bail!("--station '{s}': 1 to 64 letters, digits, '-', '_' or '.'");

@@ -138,6 +138,20 @@ fn run_study(
     json: bool,
 ) -> anyhow::Result<()> {
     let (crane, target) = (read_record(a)?, read_record(b)?);
+    let span = |d: &MotionData| {
+        (
+            d.time.first().copied().unwrap_or(0.0),
+            d.time.last().copied().unwrap_or(0.0),
+        )
+    };
+    let ((a0, a1), (b0, b1)) = (span(&crane), span(&target));
+    if a1.min(b1) <= a0.max(b0) {
+        anyhow::bail!(
+            "the records do not overlap in time: {} spans {a0:.1}..{a1:.1} s, {} {b0:.1}..{b1:.1} s",
+            a.display(),
+            b.display()
+        );
+    }
     let end_s = crane.time.last().copied().unwrap_or(0.0);
     if skip_s >= end_s {
         anyhow::bail!(
@@ -156,6 +170,13 @@ fn run_study(
     );
     let (report, _, _) = study(&crane, &target, config, models, skip_s, &|n| bar.inc(n))?;
     bar.finish_and_clear();
+    if report.scored == 0 {
+        // A table of zeros would read as a perfect score.
+        anyhow::bail!(
+            "no forecast pair could be scored: the records overlap for {:.1} s after --skip-s, and a pair needs both ships' forecasts and its whole horizon inside both",
+            a1.min(b1) - a0.max(b0).max(skip_s)
+        );
+    }
     let mut out = std::io::stdout().lock();
     if json {
         serde_json::to_writer(&mut out, &report)?;

@@ -81,6 +81,23 @@ fn huge_durations_are_refused_not_a_panic() {
         "wrote",
     );
     assert!(!out.join("ca.pem").exists());
+    // A station given twice overwrote its own files and was counted twice.
+    refuses(
+        &[
+            "certs",
+            "--out",
+            out.to_str().unwrap(),
+            "--listen",
+            "tls/127.0.0.1:7447",
+            "--station",
+            "crane",
+            "--station",
+            "crane",
+        ],
+        "--station 'crane' is given twice",
+        "wrote",
+    );
+    assert!(!out.join("ca.pem").exists());
 }
 
 /// A core past the CPU set made CPU_SET panic in the forked child; now a parse error.
@@ -341,5 +358,36 @@ fn a_csv_at_another_rate_than_the_producers_is_refused() {
         ],
         "is sampled at 2.0000 Hz but producer.rate_hz is 8 Hz",
         "producer: replaying",
+    );
+}
+
+/// Two records that never overlap in time printed "0 forecast pairs" and a table of zeros
+/// that read as a perfect score, with exit status 0.
+#[test]
+fn a_relative_study_of_records_that_do_not_overlap_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let write = |name: &str, t0: f64| {
+        let path = dir.path().join(name);
+        let mut text = String::from("time_s,heave_m\n");
+        for i in 0..800 {
+            let t = t0 + i as f64 * 0.125;
+            text.push_str(&format!("{t},{}\n", (t * 0.6).sin()));
+        }
+        std::fs::write(&path, text).unwrap();
+        path.to_str().unwrap().to_string()
+    };
+    let (a, b) = (write("a.csv", 0.0), write("b.csv", 5000.0));
+    refuses(
+        &[
+            "relative",
+            "--crane-record",
+            &a,
+            "--target-record",
+            &b,
+            "--skip-s",
+            "0",
+        ],
+        "the records do not overlap in time",
+        "forecast pairs",
     );
 }
