@@ -193,8 +193,13 @@ impl Ingest {
                 );
                 self.restart();
             }
-            SeqCheck::Accepted { lost } if lost.max(self.missing_by_time(sample.time_s)) > 0 => {
-                let lost = lost.max(self.missing_by_time(sample.time_s));
+            SeqCheck::Accepted { lost: by_seq }
+                if by_seq.max(self.missing_by_time(sample.time_s)) > 0 =>
+            {
+                let lost = by_seq.max(self.missing_by_time(sample.time_s));
+                // A hole in time that seq does not show (a record with a gap, sent with
+                // consecutive seq) is lost data too: counted, not only bridged.
+                counters.lost += lost - by_seq;
                 match self.last_good {
                     Some(held) if lost <= self.max_fill => {
                         for _ in 0..lost {
@@ -328,6 +333,26 @@ mod tests {
         ingest.push(&late, &mut c);
         assert_eq!(ingest.len(), 0);
         assert_eq!(c.lost, 21);
+    }
+
+    #[test]
+    fn a_hole_in_time_with_consecutive_seq_is_counted_as_lost() {
+        // Regression: a record with a hole, sent with consecutive seq, was bridged by time
+        // but counted nowhere.
+        let mut input = samples(200);
+        for (i, s) in input.iter_mut().enumerate().skip(100) {
+            s.seq = i as u64 - 3;
+        }
+        input.drain(97..100);
+        let mut ingest =
+            Ingest::new(4, 8.0, 1000, 8, shipcast_series::FilterPhase::Linear).unwrap();
+        let mut c = Counters::default();
+        for s in &input {
+            ingest.push(s, &mut c);
+        }
+        assert_eq!(c.lost, 3);
+        // Bridged: the grid is kept.
+        assert_eq!(ingest.len(), (200 - 17) / 4 + 1);
     }
 
     #[test]

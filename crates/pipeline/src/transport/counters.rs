@@ -9,7 +9,8 @@ use shipcast_wire::payload::MotionSample;
 pub struct Counters {
     /// Samples taken off the transport (accepted or not).
     pub received: u64,
-    /// Samples missing according to gaps in `seq`.
+    /// Samples missing according to gaps in `seq` (in the predictor also gaps in record time
+    /// that `seq` does not show: a recorded file with a hole, sent with consecutive seq).
     pub lost: u64,
     /// Samples with a NaN or infinite value.
     pub rejected_nonfinite: u64,
