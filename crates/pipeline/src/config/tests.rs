@@ -239,3 +239,31 @@ fn method_settings_out_of_range_are_refused() {
     let ok = "[predictor]\nmethod = \"mlp\"\n[predictor.mlp]\nepochs = 50\nhidden = 8\n";
     assert!(PipelineConfig::from_toml(ok, Path::new("p.toml")).is_ok());
 }
+
+#[test]
+fn an_endpoint_without_protocol_or_port_is_refused_naming_key_and_flag() {
+    // Regression: `--zenoh-listen garbage` failed only when zenoh opened, with zenoh's own
+    // JSON5 error naming its `connect/endpoints` key.
+    for (endpoints, ok) in [
+        ("[\"garbage\"]", false),
+        ("[\"tcp/127.0.0.1\"]", false),
+        ("[\"tcp/127.0.0.1:99999\"]", false),
+        ("[\"/127.0.0.1:7447\"]", false),
+        ("[\"tcp/127.0.0.1:7447\"]", true),
+        ("[\"tcp/[::1]:7447\", \"udp/10.0.0.5:7447\"]", true),
+    ] {
+        let text = format!("[zenoh]\nconnect = {endpoints}\n");
+        let result = PipelineConfig::from_toml(&text, Path::new("p.toml"));
+        match (result, ok) {
+            (Ok(_), true) => {}
+            (Err(e), false) => {
+                let e = e.to_string();
+                assert!(
+                    e.contains("zenoh.connect (or --zenoh-connect) endpoint"),
+                    "{e}"
+                );
+            }
+            (r, _) => panic!("{endpoints}: {:?}", r.map(|_| ())),
+        }
+    }
+}

@@ -108,9 +108,19 @@ impl ZenohConfig {
         }
     }
 
-    /// Check the security settings that parse but cannot work.
+    /// Check the endpoints' shape and the security settings that parse but cannot work.
     pub(super) fn validate(&self) -> Result<(), ConfigError> {
         let bad = |m: &str| Err(ConfigError::Invalid(format!("zenoh.{m}")));
+        for (key, flag, endpoints) in [
+            ("listen", "--zenoh-listen", &self.listen),
+            ("connect", "--zenoh-connect", &self.connect),
+        ] {
+            if let Some(e) = endpoints.iter().find(|e| !endpoint_shape_ok(e)) {
+                return bad(&format!(
+                    "{key} (or {flag}) endpoint '{e}' is not PROTOCOL/HOST:PORT, e.g. tcp/127.0.0.1:7447 or tls/10.0.0.5:7447"
+                ));
+            }
+        }
         let tls_endpoint = self
             .listen
             .iter()
@@ -138,5 +148,23 @@ impl ZenohConfig {
             }
         }
         Ok(())
+    }
+}
+
+/// Whether an endpoint has zenoh's `protocol/address` shape with a port for the IP protocols
+/// (zenoh itself checks the rest when it opens, but its error names its own JSON key, not
+/// ours). Endpoint options after `?` or `#` are left to zenoh.
+fn endpoint_shape_ok(endpoint: &str) -> bool {
+    let core = endpoint.split(['?', '#']).next().unwrap_or("");
+    let Some((protocol, address)) = core.split_once('/') else {
+        return false;
+    };
+    match protocol {
+        "tcp" | "udp" | "tls" | "quic" | "ws" => address
+            .rsplit_once(':')
+            .is_some_and(|(host, port)| !host.is_empty() && port.parse::<u16>().is_ok()),
+        "" => false,
+        // Other transports (unixsock-stream, serial, ...) have addresses of their own.
+        _ => !address.is_empty(),
     }
 }
