@@ -131,15 +131,15 @@ fn bad_input_exits_with_one_clear_line() {
         "speed_mps,heading_deg,omega_rad_s,dof,amplitude,phase_rad\n0,180,x,heave,1,0\n",
     )
     .unwrap();
+    let missing = dir.path().join("missing.csv");
+    let missing = missing.to_str().unwrap();
+    let cannot_open = format!("cannot open {missing}");
     let cases: [(&[&str], &str); 6] = [
         (&["--scenario", "ss9"], "unknown scenario 'ss9'"),
         (&["--hs", "-1"], "significant wave height must be positive"),
         (&["--spreading", "cos3"], "unknown spreading 'cos3'"),
         (&["--rate", "0"], "--rate must be a number in"),
-        (
-            &["--rao-table", "/nonexistent.csv"],
-            "cannot open /nonexistent.csv",
-        ),
+        (&["--rao-table", missing], &cannot_open),
         (
             &["--rao-table", bad_table.to_str().unwrap()],
             "column omega_rad_s: 'x' is not a number",

@@ -71,8 +71,13 @@ fn bad_rao_table_files_are_rejected_with_the_reason() {
         },
         ..SimConfig::default()
     };
-    let e = error_of(table("/nonexistent/rao.csv".into()));
-    assert!(e.contains("cannot open /nonexistent/rao.csv"), "{e}");
+    let dir = tempfile::tempdir().unwrap();
+    let missing = dir.path().join("missing-rao.csv");
+    let e = error_of(table(missing.clone()));
+    assert!(
+        e.contains(&format!("cannot open {}", missing.display())),
+        "{e}"
+    );
 
     let mut f = tempfile::NamedTempFile::new().unwrap();
     writeln!(
@@ -110,7 +115,8 @@ fn printed(e: shipcast_sim::SimError) -> String {
 
 #[test]
 fn an_unreadable_rao_table_names_the_file_and_prints_the_os_error_once() {
-    let path = std::path::PathBuf::from("/nonexistent/shipcast-rao.csv");
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("missing-rao.csv");
     let io = std::fs::File::open(&path).unwrap_err().to_string();
     let cfg = SimConfig {
         rao: RaoSpec::Table {

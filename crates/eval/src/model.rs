@@ -538,10 +538,12 @@ mod tests {
         v["config"]["horizon"] = 7.into();
         assert!(load(&v).contains("does not match"));
         assert!(ModelFile::from_json("{", path).is_err());
-        assert!(ModelFile::load("/nonexistent/m.json")
+        let dir = tempfile::tempdir().unwrap();
+        let missing = dir.path().join("missing.json");
+        assert!(ModelFile::load(&missing)
             .unwrap_err()
             .to_string()
-            .contains("/nonexistent/m.json"));
+            .contains(missing.to_str().unwrap()));
 
         assert!(train_models(&data, &[Dof::Pitch], &options(Method::Zero))
             .unwrap_err()

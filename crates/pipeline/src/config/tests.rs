@@ -17,7 +17,8 @@ fn assert_causes_print_once(error: anyhow::Error, causes: &[String]) {
 
 #[test]
 fn error_causes_print_once_in_error_chains() {
-    let missing = Path::new("/nonexistent/shipcast-config.toml");
+    let dir = tempfile::tempdir().unwrap();
+    let missing = &dir.path().join("missing.toml");
     let io = std::fs::read_to_string(missing).unwrap_err().to_string();
     let err = PipelineConfig::load(Some(missing)).unwrap_err();
     assert_causes_print_once(err.into(), &[io, missing.display().to_string()]);
@@ -202,7 +203,8 @@ fn impossible_values_are_refused() {
         let err = r.unwrap_err().to_string();
         assert!(err.contains(needle), "{text}: {err}");
     }
-    assert!(PipelineConfig::load(Some(Path::new("/nonexistent/x.toml"))).is_err());
+    let dir = tempfile::tempdir().unwrap();
+    assert!(PipelineConfig::load(Some(&dir.path().join("missing.toml"))).is_err());
 }
 
 #[test]
