@@ -152,10 +152,9 @@ fn run_study(
             b.display()
         );
     }
-    let end_s = crane.time.last().copied().unwrap_or(0.0);
-    if skip_s >= end_s {
+    if skip_s >= a1 {
         anyhow::bail!(
-            "--skip-s {skip_s} s skips the whole record (it ends at {end_s:.1} s in {})",
+            "--skip-s {skip_s} s skips the whole record (it ends at {a1:.1} s in {})",
             a.display()
         );
     }

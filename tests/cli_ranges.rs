@@ -67,37 +67,26 @@ fn huge_durations_are_refused_not_a_panic() {
     );
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("certs");
-    refuses(
-        &[
+    // A huge --days, and a station given twice (it overwrote its own files and was counted
+    // twice): refused before anything is written.
+    for (extra, needle) in [
+        (&["--days", "4000000000"][..], "--days"),
+        (
+            &["--station", "crane", "--station", "crane"][..],
+            "--station 'crane' is given twice",
+        ),
+    ] {
+        let mut args = vec![
             "certs",
             "--out",
             out.to_str().unwrap(),
             "--listen",
             "tls/127.0.0.1:7447",
-            "--days",
-            "4000000000",
-        ],
-        "--days",
-        "wrote",
-    );
-    assert!(!out.join("ca.pem").exists());
-    // A station given twice overwrote its own files and was counted twice.
-    refuses(
-        &[
-            "certs",
-            "--out",
-            out.to_str().unwrap(),
-            "--listen",
-            "tls/127.0.0.1:7447",
-            "--station",
-            "crane",
-            "--station",
-            "crane",
-        ],
-        "--station 'crane' is given twice",
-        "wrote",
-    );
-    assert!(!out.join("ca.pem").exists());
+        ];
+        args.extend_from_slice(extra);
+        refuses(&args, needle, "wrote");
+        assert!(!out.join("ca.pem").exists());
+    }
 }
 
 /// A core past the CPU set made CPU_SET panic in the forked child; now a parse error.

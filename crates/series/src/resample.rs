@@ -49,9 +49,7 @@ pub fn sample_rate(time: &[f64]) -> Result<f64, ResampleError> {
         return Err(ResampleError::TooFewForRate(time.len()));
     }
     let steps: Vec<f64> = time.windows(2).map(|p| p[1] - p[0]).collect();
-    let mut sorted = steps.clone();
-    sorted.sort_by(f64::total_cmp);
-    let median = sorted[sorted.len() / 2];
+    let median = median_of(steps.clone());
     for (index, &step) in steps.iter().enumerate() {
         if step.is_nan() || step <= 0.0 || ((step - median) / median).abs() > STEP_TOLERANCE {
             return Err(ResampleError::Irregular {
@@ -65,15 +63,19 @@ pub fn sample_rate(time: &[f64]) -> Result<f64, ResampleError> {
     Ok(1.0 / mean)
 }
 
+/// The upper median of `values` (at least one).
+fn median_of(mut values: Vec<f64>) -> f64 {
+    values.sort_by(f64::total_cmp);
+    values[values.len() / 2]
+}
+
 /// Sample rate [Hz] of a record that may hold gaps: one over the median step, which gaps and
 /// a few jittered stamps do not move.
 pub fn median_rate(time: &[f64]) -> Result<f64, ResampleError> {
     if time.len() < 2 {
         return Err(ResampleError::TooFewForRate(time.len()));
     }
-    let mut steps: Vec<f64> = time.windows(2).map(|p| p[1] - p[0]).collect();
-    steps.sort_by(f64::total_cmp);
-    let median = steps[steps.len() / 2];
+    let median = median_of(time.windows(2).map(|p| p[1] - p[0]).collect());
     if !(median > 0.0 && median.is_finite()) {
         return Err(ResampleError::NotIncreasing(median));
     }

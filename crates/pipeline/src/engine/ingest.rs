@@ -167,6 +167,7 @@ impl Ingest {
     pub fn push(&mut self, sample: &MotionSample, counters: &mut Counters) -> Option<NewValue> {
         let verdict = self.tracker.check(sample);
         counters.count(verdict);
+        let by_time = self.missing_by_time(sample.time_s);
         let mut produced = false;
         match verdict {
             SeqCheck::OutOfOrder => return None,
@@ -193,10 +194,8 @@ impl Ingest {
                 );
                 self.restart();
             }
-            SeqCheck::Accepted { lost: by_seq }
-                if by_seq.max(self.missing_by_time(sample.time_s)) > 0 =>
-            {
-                let lost = by_seq.max(self.missing_by_time(sample.time_s));
+            SeqCheck::Accepted { lost: by_seq } if by_seq.max(by_time) > 0 => {
+                let lost = by_seq.max(by_time);
                 // A hole in time that seq does not show (a record with a gap, sent with
                 // consecutive seq) is lost data too: counted, not only bridged.
                 counters.lost += lost - by_seq;
