@@ -403,17 +403,26 @@ mod tests {
 
     const LISTEN: &str = "tls/127.0.0.1:7447";
 
+    /// An output folder that does not exist yet, inside a temp dir the test owns.
+    fn fresh_out() -> (tempfile::TempDir, String) {
+        let dir = tempfile::tempdir().unwrap();
+        let out = dir.path().join("certs").to_string_lossy().into_owned();
+        (dir, out)
+    }
+
     fn refused(argv: &[&str]) -> String {
-        let mut full = vec!["--out", "/nonexistent/shipcast-certs", "--listen", LISTEN];
+        let (_dir, out) = fresh_out();
+        let mut full = vec!["--out", &out, "--listen", LISTEN];
         full.extend_from_slice(argv);
         crate::refused::<Args, Config>(&full)
     }
 
     #[test]
     fn a_fleet_setup_is_checked_before_anything_is_written() {
+        let (dir, out) = fresh_out();
         let c = crate::validated::<Args, Config>(&[
             "--out",
-            "/nonexistent/shipcast-certs",
+            &out,
             "--listen",
             LISTEN,
             "--router",
@@ -433,6 +442,8 @@ mod tests {
             Some(("tls/shore.example:7447".into(), "shore.example".into()))
         );
         assert_eq!(c.stations, ["crane"]);
+        // Validation wrote nothing.
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
         assert_eq!(
             refused(&["--vessel", "a", "--vessel", "b"]),
             "several --vessel make a fleet: give its --router endpoint too"

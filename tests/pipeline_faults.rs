@@ -6,7 +6,7 @@ mod pipeline_support;
 use pipeline_support::{status_u64, TestPipeline, PATIENCE};
 use shipcast_pipeline::pacing::poll_until;
 use shipcast_pipeline::transport::iox::{self, IoxSubscriber, Sizing, WaitMode};
-use shipcast_pipeline::transport::{Counters, SeqTracker};
+use shipcast_pipeline::transport::{monotonic_ns, Counters, SeqTracker};
 use shipcast_wire::payload::{limits, Forecast, MotionSample};
 use std::time::{Duration, Instant};
 
@@ -46,7 +46,8 @@ fn killed_predictor_restarts_and_consumers_resume() {
     crane.wait_for("predictor gone");
     let before = deck.stdout().len();
     let crane_before = crane.stdout().len();
-    let crane_log = crane.stderr().len();
+    let crane_mark = crane.mark();
+    let restarted_ns = monotonic_ns();
     let second = p.spawn("predictor", &[]);
     second.wait_for("(iceoryx2 and zenoh)");
     // The new predictor refills its history, then the deck advises again.
@@ -64,7 +65,7 @@ fn killed_predictor_restarts_and_consumers_resume() {
         second.stderr().join("\n")
     );
     // The zenoh consumer reconnects to the new predictor by itself.
-    crane.wait_for_after("predictor alive", crane_log);
+    crane.wait_for_after("predictor alive", crane_mark);
     let resumed = poll_until(PATIENCE, POLL, || {
         (crane.stdout().len() > crane_before + 2).then_some(())
     });
@@ -74,7 +75,11 @@ fn killed_predictor_restarts_and_consumers_resume() {
     let sub =
         IoxSubscriber::<Forecast>::new(&node, &names.forecast(), Sizing::FORECAST, WaitMode::Event)
             .unwrap();
-    wait_forecast(&sub, "from the restarted predictor", |f| f.seq > 0);
+    // Published after the restart (CLOCK_MONOTONIC is shared by all processes): only the
+    // second predictor can have sent it.
+    wait_forecast(&sub, "from the restarted predictor", |f| {
+        f.issued_stamp_ns > restarted_ns
+    });
 }
 
 /// The producer dies: the predictor reports the motion stale; a new producer (seq from 0)

@@ -215,6 +215,13 @@ fn collect(
     })
 }
 
+/// Line counts of a process's two output streams at one moment ([`Proc::mark`]).
+#[derive(Debug, Clone, Copy, Default)]
+pub struct OutputMark {
+    stderr: usize,
+    stdout: usize,
+}
+
 impl Proc {
     pub fn spawn(name: &str, args: &[&str]) -> Self {
         let mut cmd = Command::new(BIN);
@@ -251,18 +258,24 @@ impl Proc {
     /// Wait until a line of stderr (logs) or stdout contains `needle`; panics with the output
     /// after PATIENCE.
     pub fn wait_for(&self, needle: &str) -> String {
-        self.wait_for_after(needle, 0)
+        self.wait_for_after(needle, OutputMark::default())
     }
 
-    /// Like `wait_for`, but only stderr lines from index `from` on count.
-    pub fn wait_for_after(&self, needle: &str, from: usize) -> String {
+    /// How many lines each stream holds now: lines from here on are "after" it.
+    pub fn mark(&self) -> OutputMark {
+        OutputMark {
+            stderr: self.stderr.lock().expect("lines").len(),
+            stdout: self.stdout.lock().expect("lines").len(),
+        }
+    }
+
+    /// Like `wait_for`, but only lines written after `mark` count, on either stream.
+    pub fn wait_for_after(&self, needle: &str, mark: OutputMark) -> String {
         let found = poll_until(PATIENCE, POLL, || {
-            let in_stderr = self
-                .stderr()
-                .into_iter()
-                .skip(from)
-                .find(|l| l.contains(needle));
-            in_stderr.or_else(|| self.stdout().into_iter().find(|l| l.contains(needle)))
+            let after = |lines: Vec<String>, from: usize| {
+                lines.into_iter().skip(from).find(|l| l.contains(needle))
+            };
+            after(self.stderr(), mark.stderr).or_else(|| after(self.stdout(), mark.stdout))
         });
         found.unwrap_or_else(|| {
             panic!(
