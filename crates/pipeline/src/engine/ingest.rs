@@ -87,6 +87,9 @@ pub struct Ingest {
     /// Non-finite samples bridged in a row: held to `max_fill` like a gap, so a sensor that
     /// only sends NaN never feeds the predictors a frozen motion.
     held_run: u64,
+    /// What the newest accepted sample's time gap added to `lost` beyond its seq gap; taken
+    /// back if that sample turns out to be a glitch the stream resynchronises away from.
+    last_lost_by_time: u64,
 }
 
 impl Ingest {
@@ -110,6 +113,7 @@ impl Ingest {
             delay_s,
             max_fill,
             held_run: 0,
+            last_lost_by_time: 0,
         })
     }
 
@@ -189,6 +193,13 @@ impl Ingest {
                 return produced.then(|| self.new_value(sample));
             }
             SeqCheck::NewRun => {
+                if let Some(by_seq) = self.tracker.take_abandoned() {
+                    // The sample this stream fell behind was a glitch: what it claimed lost
+                    // (by seq and by time) was not.
+                    counters.lost = counters
+                        .lost
+                        .saturating_sub(by_seq.saturating_add(self.last_lost_by_time));
+                }
                 tracing::info!(
                     "predictor: new producer run (seq 0, or a resynchronised stream): history restarts"
                 );
@@ -198,7 +209,8 @@ impl Ingest {
                 let lost = by_seq.max(by_time);
                 // A hole in time that seq does not show (a record with a gap, sent with
                 // consecutive seq) is lost data too: counted, not only bridged.
-                counters.lost += lost - by_seq;
+                counters.lost = counters.lost.saturating_add(lost - by_seq);
+                self.last_lost_by_time = lost - by_seq;
                 match self.last_good {
                     Some(held) if lost <= self.max_fill => {
                         for _ in 0..lost {
@@ -212,6 +224,9 @@ impl Ingest {
                 }
             }
             SeqCheck::Accepted { .. } => {}
+        }
+        if !matches!(verdict, SeqCheck::Accepted { lost } if lost.max(by_time) > 0) {
+            self.last_lost_by_time = 0;
         }
         produced |= self.push_values(&sample.dof);
         self.held_run = 0;
@@ -352,6 +367,35 @@ mod tests {
         assert_eq!(c.lost, 3);
         // Bridged: the grid is kept.
         assert_eq!(ingest.len(), (200 - 17) / 4 + 1);
+    }
+
+    #[test]
+    fn a_forged_sample_far_ahead_leaves_no_lost_samples_behind() {
+        // Regression: one sample with seq and time far ahead counted its gap (2^40 samples,
+        // and nearly 2^64 by time, which overflowed the count) as lost; the stream then
+        // resynchronised away from it, so none of those samples was ever missing.
+        let mut input = samples(200);
+        input.insert(
+            100,
+            MotionSample {
+                seq: 1 << 40,
+                time_s: 1e300,
+                ..MotionSample::default()
+            },
+        );
+        input.remove(150); // one genuinely lost sample, after the resynchronisation
+        let mut ingest =
+            Ingest::new(4, 8.0, 1000, 8, shipcast_series::FilterPhase::Linear).unwrap();
+        let mut c = Counters::default();
+        for s in &input {
+            ingest.push(s, &mut c);
+        }
+        assert_eq!(c.lost, 1);
+        assert_eq!(c.restarts, 1);
+        assert_eq!(
+            c.rejected_order,
+            u64::from(crate::transport::counters::RESYNC_AFTER) - 1
+        );
     }
 
     #[test]

@@ -30,7 +30,7 @@ impl Counters {
     pub fn count(&mut self, check: SeqCheck) {
         self.received += 1;
         match check {
-            SeqCheck::Accepted { lost } => self.lost += lost,
+            SeqCheck::Accepted { lost } => self.lost = self.lost.saturating_add(lost),
             SeqCheck::NewRun => self.restarts += 1,
             SeqCheck::NonFinite => self.rejected_nonfinite += 1,
             SeqCheck::OutOfOrder => self.rejected_order += 1,
@@ -87,6 +87,11 @@ pub struct SeqTracker {
     /// or forged value) would otherwise put every later genuine sample "out of order" until
     /// the producer restarts at seq 0.
     behind: Option<(u64, f64, u32)>,
+    /// Samples the newest accepted one claimed lost (its seq gap).
+    claimed_lost: u64,
+    /// Set by a resynchronisation: what the abandoned sample had claimed lost. Those samples
+    /// were not lost, the abandoned sample's seq was wrong: the counts take them back.
+    abandoned: Option<u64>,
 }
 
 impl SeqTracker {
@@ -122,8 +127,19 @@ impl SeqTracker {
         if verdict.is_accepted() {
             self.last = Some((sample.seq, sample.time_s));
             self.behind = None;
+            self.claimed_lost = match verdict {
+                SeqCheck::Accepted { lost } => lost,
+                _ => 0,
+            };
         }
         verdict
+    }
+
+    /// After a [`SeqCheck::NewRun`]: `Some(n)` if it was a resynchronisation, whose abandoned
+    /// sample had claimed `n` samples lost (to be taken back from the counts); `None` for a
+    /// genuine new producer run. Reading it clears it.
+    pub fn take_abandoned(&mut self) -> Option<u64> {
+        self.abandoned.take()
     }
 
     /// A sample behind the last accepted one: rejected, unless it completes a run of
@@ -135,6 +151,7 @@ impl SeqTracker {
         };
         self.behind = Some((sample.seq, sample.time_s, run));
         if run >= RESYNC_AFTER {
+            self.abandoned = Some(self.claimed_lost);
             tracing::warn!(
                 seq = sample.seq,
                 time_s = sample.time_s,
@@ -206,6 +223,7 @@ mod tests {
             assert!(t.check(&s(i, i as f64 * 0.125)).is_accepted());
         }
         assert!(t.check(&s(1 << 40, 1e9)).is_accepted());
+        assert_eq!(t.take_abandoned(), None);
         for i in 10..10 + u64::from(RESYNC_AFTER) - 1 {
             assert_eq!(
                 t.check(&s(i, i as f64 * 0.125)),
@@ -215,6 +233,9 @@ mod tests {
         }
         let i = 10 + u64::from(RESYNC_AFTER) - 1;
         assert_eq!(t.check(&s(i, i as f64 * 0.125)), SeqCheck::NewRun);
+        // The far sample's seq gap was never lost data: it is handed back once.
+        assert_eq!(t.take_abandoned(), Some((1 << 40) - 10));
+        assert_eq!(t.take_abandoned(), None);
         assert_eq!(
             t.check(&s(i + 1, (i + 1) as f64 * 0.125)),
             SeqCheck::Accepted { lost: 0 }
