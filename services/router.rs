@@ -109,7 +109,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     while !limit.reached() {
         std::thread::sleep(Duration::from_millis(100));
     }
-    tracing::info!("router: stopped, {} forecast keys seen", router.keys_seen());
+    tracing::info!(
+        "router: stopped, {} forecast keys kept, {} samples on further keys not kept",
+        router.keys_seen(),
+        router.keys_refused()
+    );
     Ok(())
 }
 

@@ -4,6 +4,7 @@
 
 use crate::transport::zenoh::{zenoh_config, Mode, ZenohError, ZenohSettings};
 use std::collections::BTreeMap;
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 use zenoh::bytes::{Encoding, ZBytes};
 use zenoh::key_expr::KeyExpr;
@@ -17,12 +18,19 @@ const ROUTER_DATA_QUEUE_BATCHES: usize = 16;
 /// Default key expression of every vessel's forecast.
 pub const FLEET_FORECASTS: &str = "shipcast/*/forecast";
 
+/// Keys whose latest forecast the router keeps (a fleet of vessels, with room to spare): any
+/// peer that may put on the forecast keys can make up vessel names, and without a bound each
+/// would be kept for good.
+pub const MAX_LATEST_KEYS: usize = 4096;
+
 type Latest = Arc<Mutex<BTreeMap<String, (ZBytes, Encoding)>>>;
 
 /// A running router; it stops when dropped.
 pub struct FleetRouter {
     pub session: Session,
     latest: Latest,
+    /// Samples on a new key that arrived with the map full (forwarded, but not kept).
+    refused: Arc<AtomicU64>,
     _subscriber: Subscriber<()>,
     _queryable: Queryable<()>,
 }
@@ -31,6 +39,15 @@ impl FleetRouter {
     /// Open a router with `settings` (its mode is forced to router) that keeps and serves the
     /// latest sample of every key matching `forecasts`.
     pub fn start(settings: &ZenohSettings, forecasts: &str) -> Result<Self, ZenohError> {
+        Self::start_keeping(settings, forecasts, MAX_LATEST_KEYS)
+    }
+
+    /// [`FleetRouter::start`], keeping the latest sample of at most `max_keys` keys.
+    pub fn start_keeping(
+        settings: &ZenohSettings,
+        forecasts: &str,
+        max_keys: usize,
+    ) -> Result<Self, ZenohError> {
         let settings = ZenohSettings {
             mode: Mode::Router,
             ..settings.clone()
@@ -54,15 +71,28 @@ impl FleetRouter {
             .wait()
             .map_err(err(format!("router: open on {:?}", settings.listen)))?;
         let latest: Latest = Arc::default();
+        let refused = Arc::new(AtomicU64::new(0));
         let store = latest.clone();
+        let refusals = refused.clone();
         let subscriber = session
             .declare_subscriber(forecasts.to_string())
             .callback(move |sample| {
-                if let Ok(mut map) = store.lock() {
-                    map.insert(
-                        sample.key_expr().as_str().to_string(),
-                        (sample.payload().clone(), sample.encoding().clone()),
-                    );
+                let Ok(mut map) = store.lock() else { return };
+                let key = sample.key_expr().as_str();
+                let value = (sample.payload().clone(), sample.encoding().clone());
+                if let Some(slot) = map.get_mut(key) {
+                    *slot = value;
+                } else if map.len() < max_keys {
+                    map.insert(key.to_string(), value);
+                } else {
+                    let n = refusals.fetch_add(1, Ordering::Relaxed) + 1;
+                    if n == 1 || n.is_multiple_of(1000) {
+                        tracing::warn!(
+                            key,
+                            refused = n,
+                            "router: {max_keys} forecast keys kept already: a new key's latest sample is not kept (still forwarded)"
+                        );
+                    }
                 }
             })
             .wait()
@@ -92,6 +122,7 @@ impl FleetRouter {
         Ok(Self {
             session,
             latest,
+            refused,
             _subscriber: subscriber,
             _queryable: queryable,
         })
@@ -100,5 +131,59 @@ impl FleetRouter {
     /// How many keys have a latest sample.
     pub fn keys_seen(&self) -> usize {
         self.latest.lock().map(|m| m.len()).unwrap_or(0)
+    }
+
+    /// Samples on a new key not kept because `max_keys` keys were kept already.
+    pub fn keys_refused(&self) -> u64 {
+        self.refused.load(Ordering::Relaxed)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::pacing::poll_until;
+    use crate::transport::zenoh::{self as zn, free_loopback_endpoint};
+    use std::time::Duration;
+
+    #[test]
+    fn the_router_keeps_at_most_max_keys_latest_forecasts() {
+        let endpoint = free_loopback_endpoint().unwrap();
+        let prefix = format!("router-cap-{}", std::process::id());
+        let forecasts = format!("{prefix}/shipcast/*/forecast");
+        let router =
+            FleetRouter::start_keeping(&ZenohSettings::listen_on(&endpoint), &forecasts, 2)
+                .unwrap();
+        let client = zn::open(&ZenohSettings {
+            mode: Mode::Client,
+            ..ZenohSettings::connect_to(&endpoint)
+        })
+        .unwrap();
+        let key = |v: &str| format!("{prefix}/shipcast/{v}/forecast");
+        // Puts are asynchronous: send until the router has seen what it should.
+        let settled = poll_until(Duration::from_secs(20), Duration::from_millis(50), || {
+            for v in ["a", "b", "c"] {
+                client.put(key(v), v).wait().ok()?;
+            }
+            (router.keys_seen() == 2 && router.keys_refused() > 0).then_some(())
+        });
+        assert!(
+            settled.is_some(),
+            "{} {}",
+            router.keys_seen(),
+            router.keys_refused()
+        );
+        // Two vessels' latest forecasts are served, the third's is not kept.
+        let replies = client.get(forecasts.clone()).wait().unwrap();
+        let mut served = Vec::new();
+        while let Ok(Some(reply)) = replies.recv_timeout(Duration::from_secs(5)) {
+            if let Ok(sample) = reply.result() {
+                served.push(sample.key_expr().as_str().to_string());
+            }
+        }
+        served.sort();
+        served.dedup();
+        assert_eq!(served.len(), 2, "{served:?}");
+        assert_eq!(router.keys_seen(), 2);
     }
 }
