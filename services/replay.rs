@@ -165,10 +165,16 @@ fn table(r: &ReplayReport) -> String {
             d.implausible
         ));
     }
+    let horizon_s = r.dofs.first().map_or(0.0, |d| d.rms.len() as f64 * r.dt_s);
     for d in &r.decisions {
         if d.calls == 0 {
+            let why = if d.mot_s > horizon_s + 1e-9 {
+                "the horizon is shorter than the MOT"
+            } else {
+                "no window of it ended inside the scored part of the record"
+            };
             s.push_str(&format!(
-                "{} MOT {:.0}s: no call (the horizon is shorter than the MOT)\n",
+                "{} MOT {:.0}s: no call ({why})\n",
                 d.station, d.mot_s
             ));
             continue;

@@ -427,3 +427,33 @@ fn replay_refuses_a_model_of_another_horizon_than_the_configured_one() {
         "model horizon 6 differs from predictor.horizon 50: set predictor.horizon = 6",
     );
 }
+
+/// Regression: a record too short for any window of MOT to be verified was reported as "the
+/// horizon is shorter than the MOT", which was true only of the 30 s MOT.
+#[test]
+fn replay_of_a_record_too_short_to_score_a_window_says_why_there_is_no_call() {
+    let dir = tempfile::tempdir().unwrap();
+    let csv = dir.path().join("short.csv");
+    let csv = csv.to_str().unwrap();
+    assert!(shipcast(&["simulate", "--duration", "45", "--out", csv])
+        .status
+        .success());
+    let output = shipcast(&["replay", "--input", csv, "--skip-s", "0"]);
+    assert!(output.status.success());
+    let out = String::from_utf8_lossy(&output.stdout);
+    let no_call = |mot: &str| {
+        out.lines()
+            .find(|l| l.starts_with(&format!("deck MOT {mot}s:")))
+            .unwrap_or_else(|| panic!("no line for MOT {mot} s:\n{out}"))
+            .to_string()
+    };
+    // The default horizon is 25 s: MOT 10 s fits it, 30 s does not.
+    assert_eq!(
+        no_call("10"),
+        "deck MOT 10s: no call (no window of it ended inside the scored part of the record)"
+    );
+    assert_eq!(
+        no_call("30"),
+        "deck MOT 30s: no call (the horizon is shorter than the MOT)"
+    );
+}

@@ -65,6 +65,7 @@ pub struct DecisionReport {
     pub station: String,
     pub mot_s: f64,
     pub go_probability: f64,
+    /// Steps in a window of MOT (0 when no forecast was seen).
     pub window_steps: usize,
     /// Forecasts whose horizon held a window of MOT.
     pub calls: u64,
@@ -312,7 +313,8 @@ impl DecisionScorer {
         self.per_mot
             .into_iter()
             .map(|m| {
-                let n = window_steps(m.mot_s, dt) as i64;
+                // No forecast seen (dt unknown): no window, and nothing below uses n.
+                let n = i64::try_from(window_steps(m.mot_s, dt)).unwrap_or(0);
                 // Periods a forecast could have announced LEAD_S ahead within its horizon.
                 let periods: Vec<(i64, i64)> = runs
                     .iter()

@@ -128,6 +128,8 @@ pub fn replay_scored(
     let mut scored = 0u64;
     let mut kept = Vec::new();
     let mut unreported = 0u64;
+    // Record index of each step of the forecast being scored (reused: one per forecast).
+    let mut idx: Vec<usize> = Vec::with_capacity(MAX_STEPS);
     for (i, &t) in data.time.iter().enumerate() {
         let sample = MotionSample {
             seq: i as u64,
@@ -150,12 +152,17 @@ pub fn replay_scored(
             continue;
         }
         let steps = f.steps as usize;
-        let Some(idx): Option<Vec<usize>> = (1..=steps)
-            .map(|k| sample_at(&data.time, f.time_s + k as f64 * dt, step_in))
-            .collect()
-        else {
+        // The record's sample at every step, or skip the forecast (a step outside the record).
+        idx.clear();
+        for k in 1..=steps {
+            match sample_at(&data.time, f.time_s + k as f64 * dt, step_in) {
+                Some(j) => idx.push(j),
+                None => break,
+            }
+        }
+        if idx.len() < steps {
             continue;
-        };
+        }
         // The newest sample the forecast used is persistence's forecast.
         let last = sample_at(&data.time, f.time_s + delay, step_in).unwrap_or(i);
         scored += 1;
