@@ -140,10 +140,10 @@ impl Children {
     }
 
     /// The first child that has exited, with its status.
-    fn exited(&mut self) -> Option<(String, std::process::ExitStatus)> {
-        self.list.iter_mut().find_map(|(_, c)| {
+    fn exited(&mut self) -> Option<(Stage, String, std::process::ExitStatus)> {
+        self.list.iter_mut().find_map(|(stage, c)| {
             let status = c.try_exit().ok().flatten()?;
-            Some((c.name().to_string(), status))
+            Some((*stage, c.name().to_string(), status))
         })
     }
 
@@ -480,10 +480,17 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 "duration reached"
             });
         }
-        if let Some((name, status)) = children.exited() {
+        if let Some((stage, name, status)) = children.exited() {
+            // A producer replaying a file (`producer.input`) or given `producer.record_s`
+            // ends by itself when its record does: the run is complete, not failed.
+            if stage == Stage::Producer && status.success() {
+                break Ok("the record ended (the producer finished)");
+            }
+            let log = logs.join(format!("{name}.log"));
+            let reason = last_error_line(&log).map_or(String::new(), |e| format!(": {e}"));
             break Err(anyhow::anyhow!(
-                "{name} exited early ({status}); see {}",
-                logs.join(format!("{name}.log")).display()
+                "{name} exited early ({status}){reason}; see {}",
+                log.display()
             ));
         }
         forecast_publishers.update(&mut gate.live);
@@ -553,6 +560,18 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         logs.display()
     );
     Ok(())
+}
+
+/// The last `error: ...` line a child wrote to its log (its own one-line reason for stopping).
+fn last_error_line(log: &Path) -> Option<String> {
+    let text = std::fs::read_to_string(log).ok()?;
+    let line = text.lines().rev().find(|l| l.starts_with("error: "))?;
+    Some(
+        line.trim_start_matches("error: ")
+            .chars()
+            .take(300)
+            .collect(),
+    )
 }
 
 /// The newest JSON document of one key whose publisher is the key's one live publisher; others

@@ -70,3 +70,35 @@ fn unknown_config_key_is_a_one_line_error_naming_it() {
         "{stderr}"
     );
 }
+
+/// Regression: a producer that ends with its record (`producer.record_s`, or a replayed
+/// `producer.input` file) made `shipcast run` fail with "producer exited early (exit status: 0)".
+#[test]
+fn run_ends_cleanly_when_the_producer_finishes_its_record() {
+    let p = TestPipeline::new("run-end", "");
+    let dir = tempfile::tempdir().unwrap();
+    let config = dir.path().join("short.toml");
+    std::fs::write(
+        &config,
+        "[producer]\nrecord_s = 20.0\nspeed = 20.0\nbackfill_s = 0.0\n",
+    )
+    .unwrap();
+    let stdout = run_ok(&[
+        "run",
+        "--config",
+        config.to_str().unwrap(),
+        "--instance",
+        &p.instance,
+        "--zenoh-listen",
+        &p.endpoint,
+        "--duration",
+        "300",
+        "--log-dir",
+        dir.path().to_str().unwrap(),
+        "--no-display",
+    ]);
+    assert!(
+        stdout.contains("the record ended (the producer finished); all services stopped"),
+        "{stdout}"
+    );
+}
