@@ -269,3 +269,23 @@ fn an_endpoint_without_protocol_or_port_is_refused_naming_key_and_flag() {
         }
     }
 }
+
+#[test]
+fn relative_security_paths_become_absolute_once_and_survive_a_rewrite() {
+    // Regression: `shipcast run --config fleet/ddg51.toml` kept `fleet/ca.pem`, wrote it into
+    // the children's configuration in the log directory, and each child looked for
+    // `<log dir>/fleet/ca.pem`.
+    let text = "[zenoh]\nlisten = [\"tls/127.0.0.1:7447\"]\n\
+                tls = { root_ca = \"ca.pem\", certificate = \"keys/node.pem\", private_key = \"/etc/k.pem\" }\n";
+    let c = PipelineConfig::from_toml(text, Path::new("fleet/ddg51.toml")).unwrap();
+    let tls = c.zenoh.tls.clone().unwrap();
+    let cwd = std::env::current_dir().unwrap();
+    assert_eq!(Path::new(&tls.root_ca), cwd.join("fleet/ca.pem"));
+    assert_eq!(Path::new(&tls.certificate), cwd.join("fleet/keys/node.pem"));
+    // An absolute path is left as it is.
+    assert_eq!(tls.private_key, "/etc/k.pem");
+    // Written out and read back from elsewhere (as run's children do): the same paths.
+    let again =
+        PipelineConfig::from_toml(&c.to_toml().unwrap(), Path::new("logs/pipeline.toml")).unwrap();
+    assert_eq!(again.zenoh.tls, c.zenoh.tls);
+}

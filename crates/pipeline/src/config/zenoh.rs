@@ -90,12 +90,18 @@ impl ZenohConfig {
     }
 
     /// Make the relative paths of certificates, keys and the users file relative to `base`
-    /// (the config file's directory), so the file works from any working directory and in
-    /// `shipcast run`'s children.
+    /// (the config file's directory), and absolute, so the file works from any working
+    /// directory and in `shipcast run`'s children. (A path left relative, as `fleet/ca.pem`
+    /// from `--config fleet/ddg51.toml`, was written into the children's configuration in the
+    /// log directory and resolved again there.)
     pub fn resolve_paths(&mut self, base: &Path) {
         let resolve = |v: &mut String| {
             if !is_inline_pem(v) && Path::new(v.as_str()).is_relative() {
-                *v = base.join(v.as_str()).to_string_lossy().into_owned();
+                let joined = base.join(v.as_str());
+                // absolute() fails only for an empty path or without a working directory:
+                // then the joined path is the best there is.
+                let path = std::path::absolute(&joined).unwrap_or(joined);
+                *v = path.to_string_lossy().into_owned();
             }
         };
         if let Some(t) = &mut self.tls {
