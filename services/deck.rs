@@ -216,11 +216,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     let r = gate.stream.rejected;
     tracing::info!(
-        "deck: stopped after {count} advisories, {} rejected ({} source, {} seq, {} payload), {motion_rejected} motion samples rejected",
+        "deck: stopped after {count} advisories, {} rejected ({} source, {} seq, {} payload), {motion_rejected} motion samples from another port and {} non-finite or out of order rejected",
         r.total(),
         r.source,
         r.seq,
-        r.payload
+        r.payload,
+        outcomes.counts.rejected_samples
     );
     Ok(())
 }

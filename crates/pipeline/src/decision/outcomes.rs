@@ -31,6 +31,9 @@ pub struct OutcomeCounts {
     /// Producer runs seen start again (seq 0 after a run).
     #[serde(default)]
     pub restarts: u64,
+    /// Motion samples not kept: a non-finite value, or seq or time not moving forward.
+    #[serde(default)]
+    pub rejected_samples: u64,
 }
 
 pub struct Outcomes {
@@ -74,6 +77,9 @@ impl Outcomes {
     /// not kept). A new producer run drops the decisions waiting on the old run's clock.
     pub fn push_sample(&mut self, sample: &MotionSample) -> SeqCheck {
         let verdict = self.samples.push(sample);
+        if !verdict.is_accepted() {
+            self.counts.rejected_samples += 1;
+        }
         if verdict == SeqCheck::NewRun {
             self.counts.restarts += 1;
             self.counts.unverifiable += self.waiting.len() as u64;
@@ -250,7 +256,7 @@ mod tests {
         for i in (0..(8 * 30)).filter(|i| !(80..90).contains(i)) {
             outcomes.push_sample(&sample(i)); // 10 s .. 11.125 s missing
         }
-        // Out of order and non-finite samples are ignored.
+        // Out of order and non-finite samples are not kept, and counted.
         outcomes.push_sample(&MotionSample {
             seq: 5,
             time_s: 1.0,
@@ -266,7 +272,8 @@ mod tests {
             OutcomeCounts {
                 verified: 0,
                 unverifiable: 1,
-                restarts: 0
+                restarts: 0,
+                rejected_samples: 2,
             }
         );
         assert!(decider.ensemble().is_empty());
@@ -306,7 +313,8 @@ mod tests {
             OutcomeCounts {
                 verified: 0,
                 unverifiable: 1,
-                restarts: 1
+                restarts: 1,
+                rejected_samples: 0,
             }
         );
         // On the new run's clock, a decision at 0 s is verified once 25 s have happened.
