@@ -3,7 +3,7 @@
 //! Only forecasts from the live predictor, with increasing seq and sound content, are used
 //! (`ForecastGate`); every rejection is counted and logged on one line.
 
-use shipcast_pipeline::config::{CommonArgs, PipelineConfig};
+use shipcast_pipeline::config::{CommonArgs, PipelineConfig, MAX_LEVER_M};
 use shipcast_pipeline::crane::{summary, tip_track};
 use shipcast_pipeline::deck::ShipPoint;
 use shipcast_pipeline::transport::forecast_check::{ForecastGate, PublisherWatch};
@@ -35,9 +35,15 @@ pub struct Args {
 /// The tip position `--tip` gives: exactly three finite numbers.
 fn tip_from(values: &[f64]) -> anyhow::Result<[f64; 3]> {
     match values {
-        [x, y, z] if values.iter().all(|v| v.is_finite()) => Ok([*x, *y, *z]),
+        [x, y, z]
+            if values
+                .iter()
+                .all(|v| v.is_finite() && v.abs() <= MAX_LEVER_M) =>
+        {
+            Ok([*x, *y, *z])
+        }
         _ => anyhow::bail!(
-            "--tip must be three finite numbers X,Y,Z, got {}",
+            "--tip must be three finite numbers X,Y,Z within +-{MAX_LEVER_M} m, got {}",
             values
                 .iter()
                 .map(f64::to_string)
@@ -161,7 +167,7 @@ mod tests {
         );
         assert_eq!(
             crate::refused::<Args, Config>(&["--tip", "1,2"]),
-            "--tip must be three finite numbers X,Y,Z, got 1,2"
+            "--tip must be three finite numbers X,Y,Z within +-1000 m, got 1,2"
         );
     }
 
@@ -171,12 +177,14 @@ mod tests {
             ("1,2", "1,2"),
             ("1,2,3,4", "1,2,3,4"),
             ("1,NaN,3", "1,NaN,3"),
+            // Regression: the configuration file refuses a tip this far out; the flag did not.
+            ("1000000,0,0", "1000000,0,0"),
         ] {
             let a = crate::parse_args::<Args>(&["--tip", argv]);
             let e = format!("{:#}", tip_from(&a.tip.unwrap()).unwrap_err());
             assert_eq!(
                 e,
-                format!("--tip must be three finite numbers X,Y,Z, got {shown}")
+                format!("--tip must be three finite numbers X,Y,Z within +-1000 m, got {shown}")
             );
         }
     }
