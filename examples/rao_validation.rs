@@ -3,7 +3,8 @@
 //! prints the table of docs/results/rao_validation.md (response std ratios and the worst
 //! frequency-by-frequency ratio).
 //!
-//! Run from the repository root: `cargo run --release --example rao_validation`.
+//! Run from the repository root: `cargo run --release --example rao_validation`
+//! (`-- --out FILE.svg` writes the figure elsewhere).
 
 use shipcast_sim::rao_plot::{plot_rao_panels, RaoPanel};
 use shipcast_sim::rao_reference::{std_ratio_on_same_waves, validation_sea, ReferenceRaos};
@@ -13,6 +14,12 @@ use std::path::Path;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let out = match args.as_slice() {
+        [] => root.join("docs/results/rao_validation.svg"),
+        [flag, path] if flag == "--out" => Path::new(path).to_path_buf(),
+        _ => return Err(format!("usage: rao_validation [--out FILE.svg], got {args:?}").into()),
+    };
     let bem = ReferenceRaos::load(&root.join("tests/fixtures/dtmb5415-bem/motion_rao.csv"))?;
     let hull = Hull::dtmb5415();
     let rao = ClosedFormRao::new(hull);
@@ -106,7 +113,6 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         rms += &format!(" {dof} {v:.3} {unit};");
     }
     println!("{rms}");
-    let out = root.join("docs/results/rao_validation.svg");
     plot_rao_panels(&panels, &out)?;
     println!("\nwrote {}", out.display());
     Ok(())

@@ -5,6 +5,7 @@
 //! `iceoryx2` at the pinned versions, it installs them from PyPI into a virtual environment under
 //! target/ on its first run (python_env), and fails with one line naming what to install only when
 //! that cannot work. The Rust examples are the binaries `cargo test` builds next to this test.
+//! examples/rao_validation.rs, which reads a fixture rather than a pipeline, is run too.
 
 mod pipeline_support;
 mod python_env;
@@ -292,6 +293,49 @@ fn the_rust_decision_reader_reads_the_deck_over_iceoryx2() {
         }
         assert!(!go || members > 0, "a go without verified errors: {line}");
     }
+}
+
+/// examples/rao_validation.rs compares the closed-form RAOs with the boundary-element fixture:
+/// it exits 0, prints a std ratio for each sea and DOF, and writes its figure where asked (the
+/// test never touches docs/results). A wrong argument is refused in one line.
+#[test]
+fn the_rao_validation_example_prints_its_table_and_writes_its_figure() {
+    let dir = tempfile::tempdir().unwrap();
+    let svg = dir.path().join("rao.svg");
+    let out = ExampleProc::rust(
+        dir.path(),
+        "rao_validation",
+        &["--out", svg.to_str().unwrap()],
+    )
+    .finish();
+    assert!(out.status.success(), "{}\n{}", out.stdout, out.stderr);
+    // One row per peak period: "| 9.7 s | 0.93 | 1.02 | 0.88 |".
+    let rows: Vec<&str> = out
+        .stdout
+        .lines()
+        .filter(|l| l.starts_with("| ") && l.contains(" s |"))
+        .collect();
+    assert_eq!(rows.len(), 3, "{}", out.stdout);
+    for row in rows {
+        let ratios: Vec<f64> = row
+            .split('|')
+            .skip(2)
+            .filter_map(|c| c.trim().parse().ok())
+            .collect();
+        // Heave, pitch and roll: a positive, finite ratio of response stds each.
+        assert_eq!(ratios.len(), 3, "{row}");
+        assert!(ratios.iter().all(|r| r.is_finite() && *r > 0.0), "{row}");
+    }
+    let figure = std::fs::read_to_string(&svg).expect("the figure was written");
+    assert!(figure.contains("<svg") && figure.contains("closed form (shipcast)"));
+    let bad = ExampleProc::rust(dir.path(), "rao_validation", &["--outt", "x"]).finish();
+    assert!(!bad.status.success());
+    assert!(
+        bad.stderr
+            .contains("usage: rao_validation [--out FILE.svg]"),
+        "{}",
+        bad.stderr
+    );
 }
 
 /// The transport an example reads from.
