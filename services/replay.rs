@@ -133,8 +133,8 @@ const TABLE_LEADS: [f64; 4] = [5.0, 10.0, 15.0, 20.0];
 
 fn table(r: &ReplayReport) -> String {
     let mut s = format!(
-        "replay: {} forecasts, {} retrains, {} swaps ({} kept the running model), {} sea changes; input {} Hz\n",
-        r.counts.forecasts, r.counts.retrains, r.counts.swaps, r.counts.kept_running, r.counts.changes, r.input_rate_hz
+        "replay: {} forecasts, {} retrains ({} failed), {} swaps ({} kept the running model), {} sea changes; input {} Hz\n",
+        r.counts.forecasts, r.counts.retrains, r.counts.retrain_failures, r.counts.swaps, r.counts.kept_running, r.counts.changes, r.input_rate_hz
     );
     s.push_str("dof     lead  rms      nrmse  persist  sigma    cov1   cov2\n");
     for d in &r.dofs {

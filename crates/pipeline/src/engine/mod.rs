@@ -69,6 +69,8 @@ pub struct EngineCounts {
     /// DOF forecasts replaced by the fallback because they were implausible.
     pub implausible: [u64; NUM_DOF],
     pub retrains: u64,
+    /// Retrains that failed (the running models stayed in service).
+    pub retrain_failures: u64,
     pub swaps: u64,
     /// Retrained models kept out because the running one scored better.
     pub kept_running: u64,
@@ -367,8 +369,18 @@ impl Engine {
     /// Pick up a finished retrain; it replaces the running models only where it scored better
     /// on the newest data.
     fn take_models(&mut self) {
-        let Some(outcome) = self.retrainer.take() else {
-            return;
+        let outcome = match self.retrainer.take() {
+            None => return,
+            Some(Ok(outcome)) => outcome,
+            Some(Err(e)) => {
+                // The running models stay; the next scheduled retrain tries again.
+                self.counts.retrain_failures += 1;
+                tracing::warn!(
+                    failures = self.counts.retrain_failures,
+                    "predictor: retraining failed: {e}"
+                );
+                return;
+            }
         };
         self.counts.retrains += 1;
         let new = outcome.set;

@@ -54,14 +54,15 @@ pub enum Retrainer {
     /// On a thread of its own (the service).
     Background {
         jobs: SyncSender<Job>,
-        done: Receiver<Outcome>,
+        /// A fit, or why it failed (the engine counts and logs failures).
+        done: Receiver<Result<Outcome, String>>,
         /// Set while the thread fits.
         busy: Arc<AtomicBool>,
     },
     /// In the caller's step, finished before the step returns (replay).
     Inline {
         config: Box<PredictorServiceConfig>,
-        done: Option<Outcome>,
+        done: Option<Result<Outcome, String>>,
     },
 }
 
@@ -78,18 +79,16 @@ impl Retrainer {
                 for job in job_rx {
                     busy_in_thread.store(true, Ordering::Release);
                     let values = job.series.first().map_or(0, Vec::len);
-                    match run_job(job, &config) {
-                        Ok(outcome) => {
-                            tracing::debug!(
-                                values,
-                                seconds = outcome.seconds,
-                                "predictor: retrain done"
-                            );
-                            if done_tx.send(outcome).is_err() {
-                                return;
-                            }
-                        }
-                        Err(e) => tracing::warn!("predictor: retraining failed: {e:#}"),
+                    let result = run_job(job, &config).map_err(|e| format!("{e:#}"));
+                    if let Ok(outcome) = &result {
+                        tracing::debug!(
+                            values,
+                            seconds = outcome.seconds,
+                            "predictor: retrain done"
+                        );
+                    }
+                    if done_tx.send(result).is_err() {
+                        return;
                     }
                     busy_in_thread.store(false, Ordering::Release);
                 }
@@ -129,20 +128,58 @@ impl Retrainer {
                 }
             },
             Self::Inline { config, done } => {
-                match run_job(job, config) {
-                    Ok(o) => *done = Some(o),
-                    Err(e) => tracing::warn!("predictor: retraining failed: {e:#}"),
-                }
+                *done = Some(run_job(job, config).map_err(|e| format!("{e:#}")));
                 true
             }
         }
     }
 
-    /// A finished retrain, if any.
-    pub fn take(&mut self) -> Option<Outcome> {
+    /// A finished retrain (or why it failed), if any.
+    pub fn take(&mut self) -> Option<Result<Outcome, String>> {
         match self {
             Self::Background { done, .. } => done.try_recv().ok(),
             Self::Inline { done, .. } => done.take(),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A job too short to fit any order, on either kind of retrainer.
+    fn failing_job() -> Job {
+        Job {
+            series: vec![vec![0.0; 10]; NUM_DOF],
+            version: 2,
+            running: None,
+            recent: None,
+            reason: "test",
+        }
+    }
+
+    #[test]
+    fn a_failed_fit_comes_back_as_its_reason_on_both_retrainers() {
+        // Regression: a failure was only logged by the retrainer, so nothing counted it.
+        let config = PredictorServiceConfig::default();
+        let mut inline = Retrainer::inline(config.clone());
+        assert!(inline.request(failing_job()));
+        let e = inline.take().expect("a result").err().expect("a failure");
+        assert!(e.contains("too few to fit"), "{e}");
+        assert!(inline.take().is_none());
+
+        let mut background = Retrainer::background(config).unwrap();
+        let (patience, poll) = (
+            std::time::Duration::from_secs(30),
+            std::time::Duration::from_millis(10),
+        );
+        // The job is handed over only once the thread waits for one (a rendezvous).
+        let sent = crate::pacing::poll_until(patience, poll, || {
+            background.request(failing_job()).then_some(())
+        });
+        assert!(sent.is_some(), "the retraining thread never took a job");
+        let result = crate::pacing::poll_until(patience, poll, || background.take());
+        let e = result.expect("a result").err().expect("a failure");
+        assert!(e.contains("too few to fit"), "{e}");
     }
 }
