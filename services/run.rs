@@ -259,7 +259,7 @@ impl View {
         }
         let (f, other) = self.rejected;
         lines.push(format!(
-            "checks     rejected forecasts {} ({} source, {} seq, {} payload), status/verification {other}",
+            "checks     rejected forecasts {} ({} source, {} seq, {} payload), status/verification/advisories {other}",
             f.total(),
             f.source,
             f.seq,
@@ -457,7 +457,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let forecasts = LatestSubscriber::new(&session, &names.forecast())?;
     let forecast_publishers = PublisherWatch::new(&session, &names.forecast())?;
     let mut gate = ForecastGate::new(1.0 / config.predictor.sample_rate_hz);
-    let advisories = LatestSubscriber::new(&session, &names.advisory("deck"))?;
+    let mut advisories = CheckedJson::new(&session, &names.advisory("deck"))?;
     let mut status = CheckedJson::new(&session, &names.status("predictor"))?;
     let mut verification = CheckedJson::new(&session, &names.verification())?;
     let mut lift = target
@@ -505,8 +505,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 ),
             }
         }
-        if let Some(b) = advisories.latest()? {
-            view.advisory = serde_json::from_slice(&b).ok();
+        if let Some(a) = advisories.latest_as::<Advisory>()? {
+            view.advisory = Some(a);
         }
         if let Some(v) = status.latest()? {
             view.status = Some(v);
@@ -514,17 +514,20 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         if let Some(v) = verification.latest()? {
             view.verification = Some(v);
         }
-        if let Some(v) = lift
+        if let Some(l) = lift
             .as_mut()
-            .map(CheckedJson::latest)
+            .map(CheckedJson::latest_as)
             .transpose()?
             .flatten()
         {
-            view.lift = Some(serde_json::from_value(v).ok());
+            view.lift = Some(Some(l));
         }
         view.rejected = (
             gate.stream.rejected,
-            status.rejected + verification.rejected + lift.as_ref().map_or(0, |l| l.rejected),
+            status.rejected
+                + verification.rejected
+                + advisories.rejected
+                + lift.as_ref().map_or(0, |l| l.rejected),
         );
         if last_draw.elapsed() >= Duration::from_secs(1) {
             let page = display
@@ -596,6 +599,12 @@ impl CheckedJson {
     }
 
     fn latest(&mut self) -> Result<Option<serde_json::Value>, ZenohError> {
+        self.latest_as()
+    }
+
+    /// The newest document that comes from the live publisher and decodes as `T`; every other
+    /// one is rejected, counted and logged.
+    fn latest_as<T: serde::de::DeserializeOwned>(&mut self) -> Result<Option<T>, ZenohError> {
         let mut newest = None;
         while let Some(received) = self.subscriber.try_recv_with_source()? {
             self.watch.update(&mut self.live);
