@@ -173,6 +173,8 @@ impl Ingest {
         counters.count(verdict);
         let by_time = self.missing_by_time(sample.time_s);
         let mut produced = false;
+        // What this sample's time gap adds to `lost` beyond its seq gap.
+        let mut lost_by_time_only = 0;
         match verdict {
             SeqCheck::OutOfOrder => return None,
             SeqCheck::NonFinite => {
@@ -209,8 +211,8 @@ impl Ingest {
                 let lost = by_seq.max(by_time);
                 // A hole in time that seq does not show (a record with a gap, sent with
                 // consecutive seq) is lost data too: counted, not only bridged.
-                counters.lost = counters.lost.saturating_add(lost - by_seq);
-                self.last_lost_by_time = lost - by_seq;
+                lost_by_time_only = lost - by_seq;
+                counters.lost = counters.lost.saturating_add(lost_by_time_only);
                 match self.last_good {
                     Some(held) if lost <= self.max_fill => {
                         for _ in 0..lost {
@@ -225,9 +227,7 @@ impl Ingest {
             }
             SeqCheck::Accepted { .. } => {}
         }
-        if !matches!(verdict, SeqCheck::Accepted { lost } if lost.max(by_time) > 0) {
-            self.last_lost_by_time = 0;
-        }
+        self.last_lost_by_time = lost_by_time_only;
         produced |= self.push_values(&sample.dof);
         self.held_run = 0;
         self.last_good = Some(sample.dof);
