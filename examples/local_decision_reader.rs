@@ -57,7 +57,7 @@ fn run(options: &options::Options) -> Result<(), Box<dyn std::error::Error>> {
             received += 1;
             let verdict = if d.go == 1 { "GO" } else { "NO-GO" };
             let now = if p.is_nan() {
-                "MOT beyond the horizon".to_string()
+                "no probability (no verified errors yet, or MOT beyond the horizon)".to_string()
             } else {
                 format!("p {p:.3} over {:.0} s", d.mot_s)
             };

@@ -71,7 +71,7 @@ pub struct DecisionView {
     pub go_probability: f64,
     pub go: bool,
     /// Probability that every limit holds over the window of MOT from now; None when the
-    /// horizon is shorter than MOT.
+    /// horizon is shorter than MOT or (`awaiting_verified_errors`) before verified errors.
     pub probability_now: Option<f64>,
     /// Start of the first window that reaches `go_probability` (the lift decision has none).
     #[serde(default)]
@@ -84,6 +84,9 @@ pub struct DecisionView {
     /// Gaussian model and may not say go (the lift decision does not send it).
     #[serde(default)]
     pub ensemble_members: Option<usize>,
+    /// The deck states no probability yet: no verified errors back one.
+    #[serde(default)]
+    pub awaiting_verified_errors: bool,
 }
 
 /// A station's advisory, as published on `.../advisory/<station>`; parsing it into this type
@@ -478,12 +481,13 @@ mod tests {
         // The real advisor's JSON, not a copy of its shape: a drift between the two fails here.
         use shipcast_pipeline::config::DeckConfig;
         use shipcast_pipeline::deck::DeckAdvisor;
-        // A fresh deck has verified no forecast yet: the model's probability, no go.
+        // A fresh deck has verified no forecast yet: no probability, no go.
         let mut fresh = DeckAdvisor::new(&DeckConfig::default());
         let json = serde_json::to_vec(&fresh.advise(&calm_forecast(50))).unwrap();
         let a: AdvisoryView = serde_json::from_slice(&json).unwrap();
         assert!(!a.decision.go && a.decision.ensemble_members == Some(0));
-        assert!(a.decision.probability_now.unwrap() > 0.99);
+        assert_eq!(a.decision.probability_now, None);
+        assert!(a.decision.awaiting_verified_errors);
         let mut advisor = DeckAdvisor::new(&DeckConfig {
             go_needs_verified_errors: false,
             ..DeckConfig::default()
@@ -542,6 +546,7 @@ mod tests {
                     next_window_probability: Some(0.97),
                     next_exceedance_s: None,
                     ensemble_members: Some(300),
+                    awaiting_verified_errors: false,
                 },
             },
         );

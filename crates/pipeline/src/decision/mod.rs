@@ -14,6 +14,7 @@
 pub mod correlation;
 pub mod ensemble;
 pub mod outcomes;
+pub mod recalibrate;
 pub mod score;
 pub mod window;
 
@@ -21,6 +22,7 @@ use crate::config::DeckConfig;
 use crate::deck::ShipPoint;
 pub use correlation::ErrorCorrelation;
 pub use ensemble::ErrorEnsemble;
+use recalibrate::StatementRecord;
 use serde::{Deserialize, Serialize};
 use shipcast_wire::payload::{DecisionSample, Forecast, MAX_STEPS};
 use shipcast_wire::Dof;
@@ -50,7 +52,9 @@ pub struct Decision {
     /// `go_probability`.
     pub go: bool,
     /// Probability that every limit holds over the window of MOT from the first step; None
-    /// when the forecast horizon is shorter than MOT (nothing can be decided).
+    /// when the forecast horizon is shorter than MOT (nothing can be decided), or before
+    /// verified forecast errors back a probability (`ensemble_members` 0, with
+    /// `deck.go_needs_verified_errors`).
     pub probability_now: Option<f64>,
     /// Start of the first window of MOT whose probability reaches `go_probability`.
     pub next_window_s: Option<f64>,
@@ -62,6 +66,10 @@ pub struct Decision {
     /// Verified error paths the probabilities come from (0: the Gaussian model).
     #[serde(default)]
     pub ensemble_members: usize,
+    /// No probability is stated yet because no verified errors back one
+    /// (`deck.go_needs_verified_errors`).
+    #[serde(default)]
+    pub awaiting_verified_errors: bool,
 }
 
 impl Decision {
@@ -93,11 +101,11 @@ impl Decision {
             .map_or("no exceedance predicted".into(), |s| {
                 format!("exceedance in {s:.1}s")
             });
-        let now = self
-            .probability_now
-            .map_or("MOT beyond the horizon".into(), |p| {
-                format!("{:.0}%", 100.0 * p)
-            });
+        let now = match self.probability_now {
+            Some(p) => format!("{:.0}%", 100.0 * p),
+            None if self.awaiting_verified_errors => "no probability before verified errors".into(),
+            None => "MOT beyond the horizon".into(),
+        };
         format!(
             "{} (MOT {:.0}s, {now}), {next}, {exceed}",
             if self.go { "GO" } else { "NO-GO" },
@@ -249,7 +257,16 @@ pub struct Decider {
     from_ensemble: bool,
     u: Box<[[f64; MAX_STEPS]; NUM_QUANTITIES]>,
     z: Box<[[f64; MAX_STEPS]; NUM_QUANTITIES]>,
+    /// Verified statements per window length (steps), which correct the ensemble's new ones
+    /// ([`recalibrate`]).
+    records: Vec<(usize, StatementRecord)>,
+    /// The last decision's window length and uncorrected probability now, if it came from
+    /// the ensemble (what its outcome is recorded against).
+    raw_now: Option<(usize, f64)>,
 }
+
+/// Window lengths whose statements are recorded (a deck decides for one MOT; replay scores two).
+const MAX_RECORDS: usize = 8;
 
 impl Decider {
     pub fn new(config: &DeckConfig) -> Self {
@@ -274,6 +291,8 @@ impl Decider {
             from_ensemble: false,
             u: Box::new([[f64::NAN; MAX_STEPS]; NUM_QUANTITIES]),
             z: Box::new([[f64::NAN; MAX_STEPS]; NUM_QUANTITIES]),
+            records: Vec::with_capacity(MAX_RECORDS),
+            raw_now: None,
         }
     }
 
@@ -377,8 +396,59 @@ impl Decider {
     }
 
     /// Probability that every limit holds over steps [start, start + len) of the loaded
-    /// forecast.
+    /// forecast: the ensemble's share corrected by the verified statements of that window
+    /// length ([`recalibrate`]), or the Gaussian model's probability.
     pub fn window_probability(&mut self, start: usize, len: usize) -> f64 {
+        let raw = self.raw_window_probability(start, len);
+        self.corrected(len, raw)
+    }
+
+    /// `raw`, a probability of a window of `len` steps of the loaded forecast, corrected by
+    /// the verified statements of that length (when it comes from the ensemble).
+    pub fn corrected(&self, len: usize, raw: f64) -> f64 {
+        match self.record(len) {
+            Some(r) if self.from_ensemble => r.correct(raw),
+            _ => raw,
+        }
+    }
+
+    /// Whether the loaded forecast's probabilities come from verified error paths.
+    pub fn uses_ensemble(&self) -> bool {
+        self.from_ensemble
+    }
+
+    fn record(&self, len: usize) -> Option<&StatementRecord> {
+        self.records.iter().find(|(n, _)| *n == len).map(|(_, r)| r)
+    }
+
+    /// A verified call: the window of `len` steps from the first was stated (uncorrected) to
+    /// hold with `p_raw`, and did (`held`) or did not.
+    pub fn add_outcome(&mut self, len: usize, p_raw: f64, held: bool) {
+        if let Some((_, r)) = self.records.iter_mut().find(|(n, _)| *n == len) {
+            r.add(p_raw, held);
+        } else if self.records.len() < MAX_RECORDS {
+            let mut r = StatementRecord::default();
+            r.add(p_raw, held);
+            self.records.push((len, r));
+        }
+    }
+
+    /// The last decision's window length and uncorrected probability now, when it came from
+    /// verified errors (the statement its outcome is recorded against).
+    pub fn raw_now(&self) -> Option<(usize, f64)> {
+        self.raw_now
+    }
+
+    /// Whether every limit held at the first `len` steps of `actual` (tracks of what
+    /// happened, as [`Decider::fill_tracks`] makes them).
+    pub fn window_held(&self, actual: &Tracks, len: usize) -> bool {
+        len <= actual.steps
+            && (0..len)
+                .all(|k| (0..NUM_QUANTITIES).all(|q| actual.mean[q][k].abs() <= self.limits[q]))
+    }
+
+    /// [`Decider::window_probability`] before the correction by verified statements.
+    pub fn raw_window_probability(&mut self, start: usize, len: usize) -> f64 {
         let t = &self.tracks;
         let end = (start + len).min(t.steps);
         if start >= end {
@@ -448,15 +518,25 @@ impl Decider {
             } else {
                 0
             },
+            awaiting_verified_errors: false,
         };
+        self.raw_now = None;
+        // Before verified errors back it (unless the configuration lets the Gaussian model
+        // decide) no probability is stated: the model's, with the no-skill sigma of the first
+        // minutes, was off by up to 68 points on replayed records (docs/decisions.md).
         if n > steps {
             return decision;
         }
-        let now = self.window_probability(0, n);
-        decision.probability_now = Some(now);
         if !self.may_go() {
+            decision.awaiting_verified_errors = true;
             return decision;
         }
+        let raw = self.raw_window_probability(0, n);
+        if self.from_ensemble {
+            self.raw_now = Some((n, raw));
+        }
+        let now = self.corrected(n, raw);
+        decision.probability_now = Some(now);
         decision.go = now >= self.go_probability;
         if let Some((s, p)) = self.next_window(n, self.go_probability) {
             decision.next_window_s = Some(time(s));

@@ -18,6 +18,8 @@ use std::collections::VecDeque;
 struct Waiting {
     time_s: f64,
     predicted: Tracks,
+    /// The decision's window length and uncorrected probability now, if from the ensemble.
+    raw_now: Option<(usize, f64)>,
 }
 
 /// What became of the decisions handed to [`Outcomes`].
@@ -59,6 +61,7 @@ impl Outcomes {
                 Box::new(Waiting {
                     time_s: f64::NAN,
                     predicted: Tracks::default(),
+                    raw_now: None,
                 })
             })
             .collect();
@@ -102,6 +105,7 @@ impl Outcomes {
         };
         w.time_s = forecast.time_s;
         w.predicted.clone_from(decider.tracks());
+        w.raw_now = decider.raw_now();
         self.waiting.push_back(w);
     }
 
@@ -122,6 +126,10 @@ impl Outcomes {
             if self.fill_actual(&w) {
                 decider.fill_tracks(&self.actual, &mut self.actual_tracks);
                 decider.verify(&w.predicted, &self.actual_tracks);
+                if let Some((n, p)) = w.raw_now {
+                    let held = decider.window_held(&self.actual_tracks, n);
+                    decider.add_outcome(n, p, held);
+                }
                 self.counts.verified += 1;
             } else {
                 self.counts.unverifiable += 1;

@@ -119,6 +119,9 @@ struct Pending {
     u: Box<[[f64; MAX_STEPS]; NUM_QUANTITIES]>,
     z: Box<[[f64; MAX_STEPS]; NUM_QUANTITIES]>,
     steps: usize,
+    /// Per MOT called: window steps, the uncorrected statement, whether the window held
+    /// (recorded once the horizon has happened, as the live deck records it).
+    calls: Vec<(usize, f64, bool)>,
 }
 
 /// Scores the deck decisions of a replay, for several MOTs.
@@ -207,6 +210,9 @@ impl DecisionScorer {
                     self.correlation.add(q, &p.u[q][..p.steps]);
                 }
                 self.decider.add_verified(&p.u, &p.z, p.steps);
+                for &(n, p_raw, held) in &p.calls {
+                    self.decider.add_outcome(n, p_raw, held);
+                }
             }
         }
         if self.per_mot.is_empty() {
@@ -228,12 +234,7 @@ impl DecisionScorer {
         for (k, held) in ok.iter_mut().enumerate().take(steps) {
             *held = (0..NUM_QUANTITIES).all(|q| self.actual.mean[q][k].abs() <= limits[q]);
         }
-        self.pending.push_back(Pending {
-            ready_s: t0 + (steps as f64 + 1.0) * dt,
-            u,
-            z,
-            steps,
-        });
+
         // Interior steps only: the end steps' velocity is a one-sided difference.
         for (k, &held) in ok.iter().enumerate().take(steps.saturating_sub(1)).skip(1) {
             let g = ((t0 + (k + 1) as f64 * dt) / dt).round() as i64;
@@ -245,16 +246,23 @@ impl DecisionScorer {
         }
         self.last_s = t0;
         self.horizon_s = steps as f64 * dt;
+        let mut calls = Vec::with_capacity(self.per_mot.len());
         // A go (now or announced) only where the live decider could say one.
         let may_go = decider.may_go();
         for m in &mut self.per_mot {
             let n = window_steps(m.mot_s, dt);
-            if n > steps {
+            // No call where the live decider states no probability: a horizon shorter than
+            // the MOT, or no verified errors behind it yet (`go_needs_verified_errors`).
+            if n > steps || !may_go {
                 continue;
             }
             let holds = |s: usize| ok[s..s + n].iter().all(|&h| h);
-            let p = decider.window_probability(0, n);
+            let raw = decider.raw_window_probability(0, n);
+            let p = decider.corrected(n, raw);
             let held = holds(0);
+            if decider.uses_ensemble() {
+                calls.push((n, raw, held));
+            }
             m.calls += 1;
             m.held += u64::from(held);
             m.brier += (p - f64::from(u8::from(held))).powi(2);
@@ -289,6 +297,13 @@ impl DecisionScorer {
                 }
             }
         }
+        self.pending.push_back(Pending {
+            ready_s: t0 + (steps as f64 + 1.0) * dt,
+            u,
+            z,
+            steps,
+            calls,
+        });
     }
 
     pub fn finish(self) -> Vec<DecisionReport> {
@@ -479,10 +494,20 @@ mod tests {
         }
         // Per 40 s cycle, the calls issued from 0.5 s before a quiet period to 9.5 s into it
         // hold (top bin: one episode, 10 s long) and those from 10 s to 39 s do not (bottom
-        // bin: episodes from 10, 20.5 and 31 s). Issues run from 0 to 999.5 s: 25 cycles, and
-        // the last call opens a 26th top episode.
+        // bin: episodes from 10, 20.5 and 31 s). Calls are made (a probability is stated) from
+        // `ensemble_ready_s` on, which falls in a cycle's not-holding part: that call opens
+        // one bottom episode; whole cycles follow up to 1000 s, and the last call, at 999.5 s,
+        // opens one more top episode.
+        let ready = ensemble_ready_s();
+        let into_cycle = ready % 40.0;
+        assert!((10.0..39.5).contains(&into_cycle), "{ready}");
+        let cycles = ((1000.0 - (ready - into_cycle + 40.0)) / 40.0) as u64;
         let (bottom, top) = (&r.reliability[0], &r.reliability[BINS - 1]);
-        assert_eq!((bottom.episodes, top.episodes), (75, 26), "{r:?}");
+        assert_eq!(
+            (bottom.episodes, top.episodes),
+            (3 * cycles + 1, cycles + 1),
+            "{r:?}"
+        );
     }
 
     #[test]
@@ -612,7 +637,21 @@ mod replay_tests {
             panic!("{:?}", report.decisions);
         };
         assert_eq!((mot10.mot_s, mot30.mot_s), (10.0, 30.0));
-        assert!(mot10.calls > 1000, "{mot10:?}");
+        // Calls begin once verified errors back a probability: the MIN_MEMBERS-th kept member
+        // of the forecasts scored from 200 s on (one in DEFAULT_STRIDE, 0.5 s apart) is
+        // verified when its 25 s horizon has happened. They run, 2 a second, to the last
+        // forecast whose horizon lies in the 1000 s record (975 s).
+        let ready = 200.0
+            + ((crate::decision::ensemble::MIN_MEMBERS - 1)
+                * crate::decision::ensemble::DEFAULT_STRIDE) as f64
+                * 0.5
+            + 25.5;
+        let expected = 2.0 * (975.0 - ready);
+        assert!(
+            (mot10.calls as f64 - expected).abs() <= 10.0,
+            "{} calls, {expected} expected",
+            mot10.calls
+        );
         // The default 25 s horizon holds no 30 s window.
         assert_eq!(mot30.calls, 0);
         let counted: u64 = mot10.reliability.iter().map(|b| b.count).sum();
