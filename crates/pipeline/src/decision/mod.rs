@@ -442,9 +442,12 @@ impl Decider {
     /// Whether every limit held at the first `len` steps of `actual` (tracks of what
     /// happened, as [`Decider::fill_tracks`] makes them).
     pub fn window_held(&self, actual: &Tracks, len: usize) -> bool {
-        len <= actual.steps
-            && (0..len)
-                .all(|k| (0..NUM_QUANTITIES).all(|q| actual.mean[q][k].abs() <= self.limits[q]))
+        len <= actual.steps && (0..len).all(|k| self.step_held(actual, k))
+    }
+
+    /// Whether every limit held at step `k` of `actual` (tracks of what happened).
+    pub fn step_held(&self, actual: &Tracks, k: usize) -> bool {
+        (0..NUM_QUANTITIES).all(|q| actual.mean[q][k].abs() <= self.limits[q])
     }
 
     /// [`Decider::window_probability`] before the correction by verified statements.

@@ -222,7 +222,6 @@ impl DecisionScorer {
         decider.set_error_correlation(self.correlation.rho());
         decider.set_error_matrices(&self.correlation, forecast.valid_steps());
         decider.load(forecast);
-        let limits = *decider.limits();
         decider.fill_tracks(actual, &mut self.actual);
         let steps = decider.tracks().steps.min(self.actual.steps);
         // Whether every limit held at each step, and the standardised errors.
@@ -232,7 +231,7 @@ impl DecisionScorer {
         let mut z = Box::new([[f64::NAN; MAX_STEPS]; NUM_QUANTITIES]);
         standardised_means(decider.tracks(), &mut z);
         for (k, held) in ok.iter_mut().enumerate().take(steps) {
-            *held = (0..NUM_QUANTITIES).all(|q| self.actual.mean[q][k].abs() <= limits[q]);
+            *held = decider.step_held(&self.actual, k);
         }
 
         // Interior steps only: the end steps' velocity is a one-sided difference.
