@@ -21,6 +21,7 @@ pub mod models;
 pub mod replay;
 pub mod retrain;
 pub mod rolling;
+pub mod shape;
 pub mod startup;
 pub mod verify;
 
@@ -32,6 +33,7 @@ use ingest::{Ingest, NewValue};
 use models::ModelSet;
 use retrain::{Job, Retrainer};
 use serde::Serialize;
+use shape::SigmaShape;
 use shipcast_predict::Predictor;
 use shipcast_wire::payload::{Forecast, MotionSample, MAX_STEPS, NUM_DOF};
 use shipcast_wire::Dof;
@@ -85,6 +87,8 @@ pub struct Engine {
     retrainer: Retrainer,
     log: ForecastLog,
     calib: Calibrator,
+    /// Scale on the calibrator's RMS sigma that matches the errors' +-1 and +-2 sigma coverage.
+    shape: SigmaShape,
     verifier: Verifier,
     change: ChangeDetector,
     /// Exponentially weighted mean square of each DOF (the motion's RMS about zero), over
@@ -133,6 +137,7 @@ impl Engine {
             retrainer,
             log: ForecastLog::default(),
             calib: Calibrator::new(window.max(1), PRIOR_VALUES),
+            shape: SigmaShape::new(window.max(1)),
             verifier: Verifier::new(window.max(1)),
             change: ChangeDetector::new(CHANGE_MEMORY, config.change_ratio, CHANGE_REFRACTORY),
             mean_square: [0.0; NUM_DOF],
@@ -302,6 +307,11 @@ impl Engine {
             for d in 0..NUM_DOF {
                 self.verifier
                     .observe(d, k, f.mean[d][k], f.sigma[d][k], f.last[d], x[d]);
+                // Every delivered forecast shows the errors' shape, whichever model made it.
+                let s = f.sigma_calibrated[d][k];
+                if s > 0.0 {
+                    self.shape.observe(d, k, (x[d] - f.mean[d][k]).abs() / s);
+                }
                 if f.version == version {
                     let clipped = x[d].clamp(-cap[d], cap[d]);
                     self.calib
@@ -319,6 +329,7 @@ impl Engine {
         }
         self.verifier.tick();
         self.calib.tick();
+        self.shape.tick();
         for (d, z) in z2.iter().enumerate() {
             let mean = (n[d] > 0).then(|| z / n[d] as f64);
             if let Some(c) = self.change.observe(d, mean) {
@@ -333,6 +344,7 @@ impl Engine {
                     }
                 );
                 self.calib.discount(d, KEPT_AFTER_CHANGE);
+                self.shape.discount(d, KEPT_AFTER_CHANGE);
                 self.retrain_due.get_or_insert("sea changed");
                 self.change_seen_at[d] = Some(self.values);
                 self.note_change_of_sea();
@@ -530,7 +542,7 @@ impl Engine {
                 entry.raw[d][k] = if raw.is_finite() { raw } else { 0.0 };
                 entry.mean[d][k] = mean;
                 entry.sigma_calibrated[d][k] = sigma;
-                entry.sigma[d][k] = sigma * inflate;
+                entry.sigma[d][k] = sigma * self.shape.factor(d, k) * inflate;
                 plausible &= mean.is_finite() && mean.abs() <= bound;
             }
             if !plausible {

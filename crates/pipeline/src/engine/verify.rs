@@ -30,7 +30,8 @@ pub struct Issued {
     /// What was delivered.
     pub mean: [[f64; MAX_STEPS]; NUM_DOF],
     pub sigma: [[f64; MAX_STEPS]; NUM_DOF],
-    /// sigma before the change detector's inflation (what the detector measures against).
+    /// The RMS sigma the calibrator measured, before the shape factor and the change
+    /// detector's inflation: what the detector and the shape factor measure against.
     pub sigma_calibrated: [[f64; MAX_STEPS]; NUM_DOF],
 }
 
