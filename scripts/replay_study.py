@@ -40,8 +40,11 @@ def run(args):
     return out.stdout
 
 
+CONFIG = []
+
+
 def replay(path, skip_s):
-    text = run(["replay", "--input", path, "--skip-s", str(skip_s), "--json"])
+    text = run(["replay", "--input", path, "--skip-s", str(skip_s), "--json"] + CONFIG)
     rows = [json.loads(line) for line in text.splitlines() if line.strip()]
     # The per-DOF lines only: replay's `{"decisions": ...}` lines (one per station and MOT)
     # follow them and are the decisions study's business (docs/decisions.md).
@@ -105,7 +108,11 @@ def main():
                     help="instead: recovery on the change records averaged over SEEDS seeds")
     ap.add_argument("--duration", type=float, default=5400.0,
                     help="record length for --ensemble [s] (default 5400)")
+    ap.add_argument("--config", metavar="F.toml",
+                    help="pipeline configuration for every replay (default: the built-in one)")
     a = ap.parse_args()
+    if a.config:
+        CONFIG.extend(["--config", a.config])
     os.makedirs(a.work, exist_ok=True)
     if a.ensemble > 0:
         ensemble(a.work, a.ensemble, int(a.duration))

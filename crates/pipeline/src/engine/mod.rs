@@ -411,7 +411,7 @@ impl Engine {
             tracing::warn!("predictor: retrained model has another horizon: ignored");
             return;
         }
-        let new_total: f64 = new.score.iter().sum();
+        let new_total: f64 = outcome.new_score.iter().sum();
         let old_total: f64 = outcome.running_score.iter().sum();
         // NaN for the running model means it could not be scored on this data: take the new.
         let better = old_total.is_nan() || old_total > new_total;
@@ -497,6 +497,7 @@ impl Engine {
             running: self.models.clone(),
             recent,
             reason,
+            end: self.values,
         };
         if self.retrainer.request(job) {
             self.next_version += 1;

@@ -29,10 +29,13 @@ pub struct ModelSet {
     pub predictors: Vec<AnyPredictor>,
     /// Held-out (m, x) sums per DOF and step; empty for a model never scored on this sea.
     pub held_out: Vec<Vec<PairSums>>,
-    /// Mean normalised recalibrated held-out error per DOF (NaN if unscored), for the logs and
-    /// for deciding whether a new model replaces the running one.
+    /// Mean normalised recalibrated held-out error per DOF (NaN if unscored), for the logs.
     pub score: [f64; NUM_DOF],
     pub version: u32,
+    /// The engine's count of values at the end of the live data this set was fitted on (its
+    /// held-out part included); None for a set never fitted on live data (the start-up model,
+    /// a model file). A later retrain compares it with a new fit only on newer values.
+    pub trained_through: Option<u64>,
 }
 
 impl ModelSet {
@@ -65,8 +68,21 @@ pub fn held_out_pairs(
     series: &[f64],
     split: usize,
 ) -> Result<(Vec<PairSums>, f64), EvalError> {
+    held_out_scores(p, series, split, split).map(|(sums, score, _)| (sums, score))
+}
+
+/// [`held_out_pairs`], and in the same pass the score over the origins from `compare_from`
+/// (>= `split`) on only: where a new fit is compared with the running models (an online
+/// method learns from the values as it goes, so a second pass would score it in sample).
+fn held_out_scores(
+    p: &mut AnyPredictor,
+    series: &[f64],
+    split: usize,
+    compare_from: usize,
+) -> Result<(Vec<PairSums>, f64, f64), EvalError> {
     let (order, horizon) = (p.order(), p.horizon());
     let mut sums = vec![PairSums::default(); horizon];
+    let mut compared = vec![PairSums::default(); horizon];
     let mut out = vec![0.0; horizon];
     let mut feed = OnlineFeed::new(p, split);
     let first = split.max(order);
@@ -75,11 +91,34 @@ pub fn held_out_pairs(
         p.forecast(&series[origin - order..origin], &mut out)?;
         for (k, (m, x)) in out.iter().zip(&series[origin..]).enumerate() {
             sums[k].add(*m, *x);
+            if origin >= compare_from {
+                compared[k].add(*m, *x);
+            }
         }
     }
+    let (score, compared) = (score_of(&sums), score_of(&compared));
+    Ok((sums, score, compared))
+}
+
+/// Mean over steps of the recalibrated error relative to predicting zero (NaN if empty).
+fn score_of(sums: &[PairSums]) -> f64 {
     let var = sums.first().map_or(f64::NAN, |s| s.mse(0.0));
-    let score = sums.iter().map(|s| s.mse(s.beta()) / var).sum::<f64>() / horizon as f64;
-    Ok((sums, score))
+    sums.iter().map(|s| s.mse(s.beta()) / var).sum::<f64>() / sums.len() as f64
+}
+
+/// Where a new fit and the running models are compared: the held-out values the running
+/// models were not fitted on. The running set was fitted (held-out part included) on values up
+/// to `fresh` before the newest; scoring it on those it has seen would favour it over a new
+/// fit scored out of sample, and it was: after a change of sea, refits every minute were kept
+/// out by a running model scored mostly in sample (docs/forecasting.md, step 3).
+pub fn comparison_split(
+    config: &PredictorServiceConfig,
+    len: usize,
+    recent: Option<usize>,
+    fresh: Option<usize>,
+) -> usize {
+    let split = len - holdout_within(config, len, recent);
+    fresh.map_or(split, |f| split.max(len.saturating_sub(f)))
 }
 
 /// Orders worth trying on `len` values with `holdout` of them held out.
@@ -134,7 +173,7 @@ pub fn fit(
     config: &PredictorServiceConfig,
     version: u32,
 ) -> anyhow::Result<ModelSet> {
-    fit_recent(series, config, version, None)
+    fit_recent(series, config, version, None, None).map(|(set, _)| set)
 }
 
 /// [`fit`] after a change of sea, when only the newest `recent` values (if any) are from the
@@ -142,15 +181,21 @@ pub fn fit(
 /// all the older values and on the recent ones before the held-out part only; the best of all
 /// on the held-out (new-sea) values wins. Which window serves the new sea better is thus
 /// decided on the new sea, not assumed.
+///
+/// Also returns each chosen fit's score over the values from [`comparison_split`] on (`fresh`:
+/// the newest values the running models were not fitted on), measured before the refit on the
+/// held-out part, so that it compares with the running models' on the same unseen values.
 pub fn fit_recent(
     series: &[Vec<f64>],
     config: &PredictorServiceConfig,
     version: u32,
     recent: Option<usize>,
-) -> anyhow::Result<ModelSet> {
+    fresh: Option<usize>,
+) -> anyhow::Result<(ModelSet, [f64; NUM_DOF])> {
     let len = series.iter().map(Vec::len).min().unwrap_or(0);
     let holdout = holdout_within(config, len, recent);
     let split = len - holdout;
+    let compare_from = comparison_split(config, len, recent, fresh);
     // (first training value, orders) per training window, the whole window first.
     let mut windows = Vec::with_capacity(2);
     windows.push((0, feasible_orders(config, len, holdout)));
@@ -169,10 +214,11 @@ pub fn fit_recent(
     let mut predictors = Vec::with_capacity(NUM_DOF);
     let mut held_out = Vec::with_capacity(NUM_DOF);
     let mut score = [f64::NAN; NUM_DOF];
+    let mut compared = [f64::NAN; NUM_DOF];
     for (d, x) in series.iter().enumerate().take(NUM_DOF) {
         let x = &x[..len];
         let name = Dof::ALL[d].name();
-        let mut best: Option<(AnyPredictor, Vec<PairSums>, f64)> = None;
+        let mut best: Option<(AnyPredictor, Vec<PairSums>, f64, f64, usize)> = None;
         for (start, order) in windows
             .iter()
             .flat_map(|(start, orders)| orders.iter().map(move |&o| (*start, o)))
@@ -187,7 +233,7 @@ pub fn fit_recent(
                 tracing::debug!(dof = name, order, "candidate not fitted: {e}");
                 continue;
             }
-            let (sums, s) = match held_out_pairs(&mut p, x, split) {
+            let (sums, s, c) = match held_out_scores(&mut p, x, split, compare_from) {
                 Ok(r) => r,
                 Err(e) => {
                     tracing::debug!(dof = name, order, "candidate failed on held-out data: {e}");
@@ -196,12 +242,14 @@ pub fn fit_recent(
             };
             tracing::debug!(dof = name, order, start, score = s, "candidate scored");
             if s.is_finite() && best.as_ref().is_none_or(|b| s < b.2) {
-                best = Some((p, sums, s));
+                best = Some((p, sums, s, c, start));
             }
         }
+        let best =
+            best.map(|(p, sums, s, c, start)| (refit_on_all(p, &x[start..], config), sums, s, c));
         // A DOF no candidate can fit (a constant column: a record without that motion) gets
         // the zero forecast: it has no skill to offer, and the other DOF still get models.
-        let (p, sums, s) = match best {
+        let (p, sums, s, c) = match best {
             Some(b) => b,
             None => {
                 tracing::debug!(
@@ -215,20 +263,51 @@ pub fn fit_recent(
                 };
                 let mut p = AnyPredictor::new(Method::Zero, &pc)?;
                 p.fit(&x[..split])?;
-                let (sums, s) = held_out_pairs(&mut p, x, split)?;
-                (p, sums, s)
+                let (sums, s, c) = held_out_scores(&mut p, x, split, compare_from)?;
+                (p, sums, s, c)
             }
         };
         predictors.push(p);
         held_out.push(sums);
         score[d] = s;
+        compared[d] = c;
     }
-    Ok(ModelSet {
+    let set = ModelSet {
         predictors,
         held_out,
         score,
         version,
-    })
+        trained_through: None,
+    };
+    Ok((set, compared))
+}
+
+/// The chosen candidate refitted on its training window with the held-out part included.
+///
+/// The held-out values chose the method's order and window; once chosen, they are worth more
+/// as training data than left out: they are the newest, and right after a change of sea they
+/// are a third of all the new sea's values, where every minute of data still improves a fit
+/// markedly. The held-out sums kept as the calibrator's prior were measured on the fit
+/// without them, so the prior is that of a slightly weaker model (sigma a little wide, not
+/// narrow) until live verification takes over. If the refit fails, the chosen fit stays.
+fn refit_on_all(chosen: AnyPredictor, x: &[f64], config: &PredictorServiceConfig) -> AnyPredictor {
+    let pc = shipcast_predict::PredictorConfig {
+        order: chosen.order(),
+        ..config.predictor_config()
+    };
+    let Ok(mut p) = AnyPredictor::new(config.method, &pc) else {
+        return chosen;
+    };
+    match p.fit(x) {
+        Ok(()) => p,
+        Err(e) => {
+            tracing::debug!(
+                order = chosen.order(),
+                "refit on the held-out part failed: {e}"
+            );
+            chosen
+        }
+    }
 }
 
 /// The running model's score on the same held-out data as a new fit, to decide whether the new
@@ -238,9 +317,10 @@ pub fn score_on(
     series: &[Vec<f64>],
     config: &PredictorServiceConfig,
     recent: Option<usize>,
+    fresh: Option<usize>,
 ) -> [f64; NUM_DOF] {
     let len = series.iter().map(Vec::len).min().unwrap_or(0);
-    let split = len - holdout_within(config, len, recent);
+    let split = comparison_split(config, len, recent, fresh);
     let mut out = [f64::NAN; NUM_DOF];
     for (d, p) in models.predictors.iter_mut().enumerate() {
         // Scoring a fitted model needs only origins, not `order` more values. After a change
@@ -298,6 +378,7 @@ pub fn load(path: &Path, sample_rate_hz: f64) -> anyhow::Result<ModelSet> {
         held_out: Vec::new(),
         score: [f64::NAN; NUM_DOF],
         version: 1,
+        trained_through: None,
     })
 }
 
@@ -346,6 +427,91 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// A noisy two-tone series (deterministic: a fixed linear congruential generator).
+    fn noisy_tones(len: usize, seed: u64) -> Vec<f64> {
+        let mut state = seed;
+        (0..len)
+            .map(|i| {
+                state = state
+                    .wrapping_mul(6364136223846793005)
+                    .wrapping_add(1442695040888963407);
+                let noise = (state >> 11) as f64 / (1u64 << 53) as f64 - 0.5;
+                let t = i as f64;
+                (t * 0.31).sin() + 0.5 * (t * 0.17 + 1.0).sin() + 0.3 * noise
+            })
+            .collect()
+    }
+
+    fn forecast_of(p: &mut AnyPredictor, past: &[f64]) -> Vec<f64> {
+        let mut out = vec![0.0; p.horizon()];
+        p.forecast(&past[past.len() - p.order()..], &mut out)
+            .unwrap();
+        out
+    }
+
+    #[test]
+    fn the_chosen_model_is_refitted_with_the_held_out_values() {
+        // Chosen on the held-out part, delivered as fitted on all of it: its forecasts are
+        // those of a direct fit on the whole window, not of the fit the choice was made with.
+        let series: Vec<Vec<f64>> = (0..NUM_DOF).map(|d| noisy_tones(1200, d as u64)).collect();
+        let c = config(Method::Wiener, 12, 8, 300);
+        let mut set = fit(&series, &c, 1).unwrap();
+        let pc = shipcast_predict::PredictorConfig {
+            order: 12,
+            ..c.predictor_config()
+        };
+        for (d, x) in series.iter().enumerate() {
+            let mut on_all = AnyPredictor::new(Method::Wiener, &pc).unwrap();
+            on_all.fit(x).unwrap();
+            let mut on_train = AnyPredictor::new(Method::Wiener, &pc).unwrap();
+            on_train.fit(&x[..900]).unwrap();
+            let got = forecast_of(&mut set.predictors[d], x);
+            let all = forecast_of(&mut on_all, x);
+            let train = forecast_of(&mut on_train, x);
+            let gap = |a: &[f64], b: &[f64]| {
+                a.iter()
+                    .zip(b)
+                    .map(|(u, v)| (u - v).abs())
+                    .fold(0.0, f64::max)
+            };
+            assert!(gap(&got, &all) < 1e-12, "{d}: {}", gap(&got, &all));
+            assert!(gap(&got, &train) > 1e-6, "{d}: the refit changed nothing");
+        }
+    }
+
+    #[test]
+    fn comparison_is_on_values_the_running_model_has_not_seen() {
+        let c = config(Method::Wiener, 12, 8, 300);
+        // Held-out part min(300, 1200 / 3) = 300: split 900.
+        assert_eq!(comparison_split(&c, 1200, None, None), 900);
+        // Fitted through 100 values ago: only those 100 are unseen.
+        assert_eq!(comparison_split(&c, 1200, None, Some(100)), 1100);
+        // Fitted before the whole held-out part: all of it is unseen.
+        assert_eq!(comparison_split(&c, 1200, None, Some(500)), 900);
+        assert_eq!(comparison_split(&c, 1200, None, Some(usize::MAX)), 900);
+        // After a change the held-out part is a third of the new sea's values.
+        assert_eq!(comparison_split(&c, 1200, Some(600), Some(100)), 1100);
+        assert_eq!(comparison_split(&c, 1200, Some(600), None), 1000);
+    }
+
+    #[test]
+    fn the_compared_score_is_the_score_over_the_later_origins() {
+        let x = noisy_tones(1200, 7);
+        let pc = shipcast_predict::PredictorConfig {
+            order: 12,
+            ..config(Method::Wiener, 12, 8, 300).predictor_config()
+        };
+        let mut p = AnyPredictor::new(Method::Wiener, &pc).unwrap();
+        p.fit(&x[..900]).unwrap();
+        let (sums, all, later) = held_out_scores(&mut p, &x, 900, 1050).unwrap();
+        let (sums_again, all_again) = held_out_pairs(&mut p, &x, 900).unwrap();
+        let (_, later_alone) = held_out_pairs(&mut p, &x, 1050).unwrap();
+        assert_eq!(all, all_again);
+        assert_eq!(sums[0].count(), sums_again[0].count());
+        assert!((later - later_alone).abs() < 1e-12, "{later} {later_alone}");
+        assert!((later - all).abs() > 1e-6, "the two spans should differ");
     }
 
     #[test]

@@ -22,12 +22,16 @@ pub struct Job {
     pub recent: Option<usize>,
     /// Why it was asked for (logs).
     pub reason: &'static str,
+    /// The engine's count of values when the job was made: `series` ends there.
+    pub end: u64,
 }
 
 /// A finished retrain.
 pub struct Outcome {
     pub set: ModelSet,
-    /// The running models' scores on the new fit's held-out data (NaN: not scored).
+    /// The new fit's and the running models' scores on the same held-out values, those the
+    /// running models were not fitted on (`models::comparison_split`; NaN: not scored).
+    pub new_score: [f64; NUM_DOF],
     pub running_score: [f64; NUM_DOF],
     pub reason: &'static str,
     pub seconds: f64,
@@ -36,13 +40,23 @@ pub struct Outcome {
 /// Fit and score, on whichever thread calls it.
 pub fn run_job(job: Job, config: &PredictorServiceConfig) -> anyhow::Result<Outcome> {
     let t = Instant::now();
-    let set = models::fit_recent(&job.series, config, job.version, job.recent)?;
+    // Values newer than the running models' training data (all of them for a set never fitted
+    // on live data).
+    let fresh = job
+        .running
+        .as_ref()
+        .and_then(|r| r.trained_through)
+        .map(|t| usize::try_from(job.end.saturating_sub(t)).unwrap_or(usize::MAX));
+    let (mut set, new_score) =
+        models::fit_recent(&job.series, config, job.version, job.recent, fresh)?;
+    set.trained_through = Some(job.end);
     let running_score = match job.running {
-        Some(mut running) => models::score_on(&mut running, &job.series, config, job.recent),
+        Some(mut running) => models::score_on(&mut running, &job.series, config, job.recent, fresh),
         None => [f64::NAN; NUM_DOF],
     };
     Ok(Outcome {
         set,
+        new_score,
         running_score,
         reason: job.reason,
         seconds: t.elapsed().as_secs_f64(),
@@ -62,7 +76,8 @@ pub enum Retrainer {
     /// In the caller's step, finished before the step returns (replay).
     Inline {
         config: Box<PredictorServiceConfig>,
-        done: Option<Result<Outcome, String>>,
+        /// Boxed: an outcome is large beside the background variant.
+        done: Option<Box<Result<Outcome, String>>>,
     },
 }
 
@@ -128,7 +143,7 @@ impl Retrainer {
                 }
             },
             Self::Inline { config, done } => {
-                *done = Some(run_job(job, config).map_err(|e| format!("{e:#}")));
+                *done = Some(Box::new(run_job(job, config).map_err(|e| format!("{e:#}"))));
                 true
             }
         }
@@ -138,7 +153,7 @@ impl Retrainer {
     pub fn take(&mut self) -> Option<Result<Outcome, String>> {
         match self {
             Self::Background { done, .. } => done.try_recv().ok(),
-            Self::Inline { done, .. } => done.take(),
+            Self::Inline { done, .. } => done.take().map(|d| *d),
         }
     }
 }
@@ -146,6 +161,7 @@ impl Retrainer {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use shipcast_predict::{AnyPredictor, Predictor};
 
     /// A job too short to fit any order, on either kind of retrainer.
     fn failing_job() -> Job {
@@ -155,6 +171,71 @@ mod tests {
             running: None,
             recent: None,
             reason: "test",
+            end: 10,
+        }
+    }
+
+    #[test]
+    fn the_running_model_is_compared_only_on_values_it_was_not_fitted_on() {
+        // Regression: the running model, refitted on its own held-out part, was scored on the
+        // next retrain's held-out values, most of which it had been fitted on, against a new
+        // fit scored out of sample; after a change of sea that kept newer fits out.
+        let series: Vec<Vec<f64>> = (0..NUM_DOF)
+            .map(|d| {
+                (0..1200)
+                    .map(|i| {
+                        let t = i as f64;
+                        (t * 0.31).sin()
+                            + 0.5 * (t * (0.17 + 0.01 * d as f64)).sin()
+                            + 0.2 * (t * 1.3).sin() * (t * 0.011).cos()
+                    })
+                    .collect()
+            })
+            .collect();
+        let config = PredictorServiceConfig {
+            order: 12,
+            horizon: 8,
+            holdout: 300,
+            candidate_orders: vec![12],
+            ..PredictorServiceConfig::default()
+        };
+        // The running set was fitted on the first 1000 values, 200 before the job's end.
+        let mut running = models::fit(
+            &series
+                .iter()
+                .map(|x| x[..1000].to_vec())
+                .collect::<Vec<_>>(),
+            &config,
+            1,
+        )
+        .unwrap();
+        running.trained_through = Some(4000);
+        let job = Job {
+            series: series.clone(),
+            version: 2,
+            running: Some(running.clone()),
+            recent: None,
+            reason: "test",
+            end: 4200,
+        };
+        let outcome = run_job(job, &config).unwrap();
+        assert_eq!(outcome.set.trained_through, Some(4200));
+        let pc = shipcast_predict::PredictorConfig {
+            order: 12,
+            ..config.predictor_config()
+        };
+        for (d, x) in series.iter().enumerate() {
+            // Both on the newest 200 values: the running model as it is, the new one as
+            // chosen (fitted on the 900 values before the held-out part, not refitted).
+            let (_, running_expected) =
+                models::held_out_pairs(&mut running.predictors[d], x, 1000).unwrap();
+            let mut chosen = AnyPredictor::new(config.method, &pc).unwrap();
+            chosen.fit(&x[..900]).unwrap();
+            let (_, new_expected) = models::held_out_pairs(&mut chosen, x, 1000).unwrap();
+            assert!((outcome.running_score[d] - running_expected).abs() < 1e-12);
+            assert!((outcome.new_score[d] - new_expected).abs() < 1e-12);
+            // The new set's own score is over its whole held-out part (from 900).
+            assert!((outcome.set.score[d] - new_expected).abs() > 1e-9);
         }
     }
 
