@@ -191,12 +191,26 @@ fn method_sections_apply_to_their_method_only() {
 }
 
 #[test]
+fn a_first_fit_within_the_history_is_accepted() {
+    // 2500 s at 2 Hz is exactly the 5000 values held; no retraining makes the wait moot.
+    let ok = "[predictor]\nfirst_fit_s = 2500.0\nretrain_window = 5000";
+    assert!(PipelineConfig::from_toml(ok, Path::new("p.toml")).is_ok());
+    let never = "[predictor]\nfirst_fit_s = 3000.0\nretrain_window = 5000\nretrain_every_s = 0.0";
+    assert!(PipelineConfig::from_toml(never, Path::new("p.toml")).is_ok());
+}
+
+#[test]
 fn impossible_values_are_refused() {
     for (text, needle) in [
         ("[predictor]\nhorizon = 200", "horizon"),
         ("[producer]\nspeed = -1.0", "speed"),
         ("vessel = \"a/b\"", "vessel"),
         ("[predictor]\nsample_rate_hz = 3.0", "multiple"),
+        // Regression: a first fit later than the history holds never came, and nothing said so.
+        (
+            "[predictor]\nfirst_fit_s = 3000.0\nretrain_window = 5000",
+            "first fit would never come",
+        ),
     ] {
         let r = PipelineConfig::from_toml(text, Path::new("p.toml"))
             .and_then(|c| c.decimation_factor().map(|_| c));
