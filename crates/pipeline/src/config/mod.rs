@@ -251,11 +251,10 @@ impl PipelineConfig {
             MAX_RETRAIN_WINDOW,
         )?;
         limits::count("predictor.holdout", q.holdout, 0, MAX_RETRAIN_WINDOW)?;
-        // The first fit waits for `first_fit_s` of history, and the history holds the retrain
-        // window (or one forecast's input): a longer wait would never end, silently.
+        // The first fit waits for `first_fit_s` of history, and the history holds
+        // `history_values`: a longer wait would never end, silently.
         let first_fit_values = (q.first_fit_s * q.sample_rate_hz).round();
-        let held = q.retrain_window.max(q.order + q.horizon);
-        if q.retrain_every_s > 0.0 && first_fit_values > held as f64 {
+        if q.retrain_every_s > 0.0 && first_fit_values > q.history_values() as f64 {
             return Err(format!(
                 "predictor.first_fit_s = {} s is {first_fit_values:.0} values at {} Hz, more than the history holds (predictor.retrain_window = {}): the first fit would never come; lower first_fit_s or raise retrain_window",
                 q.first_fit_s, q.sample_rate_hz, q.retrain_window

@@ -167,6 +167,12 @@ impl Default for PredictorServiceConfig {
 }
 
 impl PredictorServiceConfig {
+    /// Values of history the engine keeps per DOF: the retrain window, or at least one
+    /// forecast's input (a model of a larger order, from a file, raises it further).
+    pub fn history_values(&self) -> usize {
+        self.retrain_window.max(self.order + self.horizon)
+    }
+
     /// The predictor settings: this section's order and horizon, and the chosen method's
     /// section (its defaults when left out).
     pub fn predictor_config(&self) -> PredictorConfig {

@@ -126,10 +126,7 @@ impl Engine {
     ) -> anyhow::Result<Self> {
         let factor = crate::config::decimation_factor(input_rate_hz, config.sample_rate_hz)?;
         let order = models.as_ref().map_or(0, ModelSet::order);
-        let capacity = config
-            .retrain_window
-            .max(order + config.horizon)
-            .max(config.order + config.horizon);
+        let capacity = config.history_values().max(order + config.horizon);
         let ingest = Ingest::new(factor, input_rate_hz, capacity, MAX_FILL, config.filter)?;
         let window = (config.verification_window_s * config.sample_rate_hz).round() as usize;
         let mut engine = Self {
@@ -400,6 +397,7 @@ impl Engine {
             tracing::info!(
                 version = new.version,
                 models = %new.describe(),
+                held_out_score = new.mean_score(),
                 seconds = outcome.seconds,
                 "predictor: first model fitted on live data in use"
             );
@@ -419,6 +417,7 @@ impl Engine {
             reason = outcome.reason,
             new_score = new_total / NUM_DOF as f64,
             running_score = old_total / NUM_DOF as f64,
+            held_out_score = new.mean_score(),
             seconds = outcome.seconds,
             "predictor: retrained on live history ({}); {}",
             new.describe(),

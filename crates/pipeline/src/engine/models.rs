@@ -29,7 +29,9 @@ pub struct ModelSet {
     pub predictors: Vec<AnyPredictor>,
     /// Held-out (m, x) sums per DOF and step; empty for a model never scored on this sea.
     pub held_out: Vec<Vec<PairSums>>,
-    /// Mean normalised recalibrated held-out error per DOF (NaN if unscored), for the logs.
+    /// Mean normalised recalibrated error per DOF over the whole held-out part its fit was chosen
+    /// on (NaN if unscored), for the logs. Whether it replaces the running set is decided on
+    /// the unseen part only (`retrain::Outcome`).
     pub score: [f64; NUM_DOF],
     pub version: u32,
     /// The engine's count of values at the end of the live data this set was fitted on (its
@@ -46,6 +48,11 @@ impl ModelSet {
 
     pub fn horizon(&self) -> usize {
         self.predictors[0].horizon()
+    }
+
+    /// `score` averaged over the DOF, for the logs.
+    pub fn mean_score(&self) -> f64 {
+        self.score.iter().sum::<f64>() / NUM_DOF as f64
     }
 
     /// "wiener-100" per DOF, for logs.
