@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Compare the engine's delivered heave error 5 s ahead with the offline methods on the same
+"""Compare the engine's delivered error 5 s ahead, per DOF, with the offline methods on the same
 record, scored both ways: by the evaluation protocol (`shipcast eval`, stride 1: linear-phase
 filter, scored against the filtered series) and by the engine's own scoring (`shipcast replay`:
 the engine's filter, scored against the record). In the second, an "offline" method is the
@@ -29,8 +29,11 @@ def run(args):
     return [json.loads(l) for l in out.stdout.splitlines() if l.strip().startswith("{")]
 
 
-def heave(rows):
-    return next(r for r in rows if r.get("dof") == "heave")
+DOFS = ["surge", "sway", "heave", "roll", "pitch", "yaw"]
+
+
+def by_dof(rows):
+    return {r["dof"]: r for r in rows if "rms" in r}
 
 
 def main():
@@ -54,25 +57,44 @@ def main():
         t0 = float(next(f).split(",", 1)[0])
     score_from = t0 + TRAIN_S
     print(f"record: {part} (first gap-free part), scored from {score_from:.0f} s; "
-          f"heave RMS error at step {STEP} (5 s)\n")
-    print("| forecast | protocol scoring (eval) | engine scoring (replay) |")
-    print("|---|---|---|")
+          f"RMS error at step {STEP} (5 s), per DOF\n")
+    header = "| forecast | " + " | ".join(DOFS) + " |"
+    rule = "|---|" + "---|" * len(DOFS)
+    protocol, engine = [], []
+    best = {d: float("inf") for d in DOFS}
     for o in ORDERS:
-        ev = heave(run(["eval", "--input", part, "--dof", "heave", "--method", "wiener",
-                        "--order", str(o), "--json"]))
+        name = f"Wiener-{o} fitted once on the first {TRAIN_S:.0f} s"
+        ev = {d: dof_row(run(["eval", "--input", part, "--dof", d, "--method", "wiener",
+                                 "--order", str(o), "--json"]), d) for d in DOFS}
+        protocol.append(f"| {name} | " + " | ".join(f"{ev[d]['rms'][STEP - 1]:.4g}"
+                                                   for d in DOFS) + " |")
         cfg = os.path.join(a.work, f"wiener{o}_once.toml")
         with open(cfg, "w") as f:
             f.write(f"[predictor]\nmethod = \"wiener\"\norder = {o}\ncandidate_orders = [{o}]\n"
                     f"first_fit_s = {TRAIN_S}\nretrain_every_s = 1.0e6\nretrain_window = 5000\n"
                     "holdout = 1000\nchange_ratio = 1000.0\n")
-        rp = heave(run(["replay", "--input", part, "--config", cfg, "--skip-s",
-                        str(score_from), "--json"]))
-        print(f"| Wiener-{o} fitted once on the first {TRAIN_S:.0f} s | "
-              f"{ev['rms'][STEP - 1]:.4f} | {rp['rms'][STEP - 1]:.4f} |")
-    eng = heave(run(["replay", "--input", part, "--skip-s", str(score_from), "--json"]))
-    print(f"| the engine as delivered (default configuration) | - | {eng['rms'][STEP - 1]:.4f} |")
+        rp = by_dof(run(["replay", "--input", part, "--config", cfg, "--skip-s",
+                         str(score_from), "--json"]))
+        for d in DOFS:
+            best[d] = min(best[d], rp[d]["rms"][STEP - 1])
+        engine.append(f"| {name} | " + " | ".join(f"{rp[d]['rms'][STEP - 1]:.4g}"
+                                                 for d in DOFS) + " |")
+    eng = by_dof(run(["replay", "--input", part, "--skip-s", str(score_from), "--json"]))
+    engine.append("| the engine as delivered (default configuration) | " + " | ".join(
+        f"{eng[d]['rms'][STEP - 1]:.4g}" for d in DOFS) + " |")
+    engine.append("| engine / best single fit | " + " | ".join(
+        f"{eng[d]['rms'][STEP - 1] / best[d]:.3f}" for d in DOFS) + " |")
+    print("Protocol scoring (shipcast eval, stride 1):\n")
+    print("\n".join([header, rule] + protocol))
+    print("\nEngine scoring (shipcast replay):\n")
+    print("\n".join([header, rule] + engine))
     print(f"\nThe engine's step {STEP - 1}, the same real lead (4.0 s after the newest sample) as "
-          f"eval's step {STEP}: {eng['rms'][STEP - 2]:.4f}")
+          f"eval's step {STEP}: " + " / ".join(f"{eng[d]['rms'][STEP - 2]:.4g}" for d in DOFS))
+
+
+def dof_row(rows, dof):
+    """eval's JSON object for `dof`."""
+    return next(r for r in rows if r.get("dof") == dof)
 
 
 if __name__ == "__main__":

@@ -151,7 +151,7 @@ impl Default for PredictorServiceConfig {
             filter: shipcast_series::FilterPhase::Minimum,
             first_fit_s: 240.0,
             retrain_every_s: 300.0,
-            retrain_window: 6000,
+            retrain_window: 20000,
             holdout: 1000,
             candidate_orders: vec![25, 50, 100, 200],
             verification_window_s: 1200.0,

@@ -287,3 +287,70 @@ fn epoch_time_stamps_leave_the_results_and_the_trace_as_from_zero() {
         assert!((x - y).abs() < 1e-9, "{x} {y}");
     }
 }
+
+#[test]
+fn after_a_change_of_sea_retrains_try_the_new_sea_alone_until_the_window_has_left_the_old_one() {
+    // Regression test: with a window of hours, retrains once the first minutes after a change
+    // were over fitted only on the whole window, old sea included. The new sea's own values
+    // must stay a candidate for as long as the window reaches back before the change, and no
+    // longer. A window of 6000 values (50 min) keeps the record short.
+    let rate = 2.0;
+    let config = PredictorServiceConfig {
+        retrain_window: 6000,
+        ..PredictorServiceConfig::default()
+    };
+    let change = (1800.0 * rate) as usize;
+    let n = change + config.retrain_window + 600;
+    let columns: Vec<Vec<f64>> = (0..6)
+        .map(|d| ar2_switching(n, 60 + d, change, (16.0, 0.95), (32.0, 0.985, 3.0)))
+        .collect();
+    let mut engine = Engine::new(
+        config.clone(),
+        rate,
+        None,
+        Retrainer::inline(config.clone()),
+    )
+    .unwrap();
+    let phase_end = change + (4 * 60 * 2) + 3 * config.holdout;
+    let (mut detected, mut seen_after_phase, mut cleared_at) = (None, false, None);
+    for i in 0..n {
+        let mut sample = MotionSample {
+            seq: i as u64,
+            time_s: i as f64 / rate,
+            ..MotionSample::default()
+        };
+        for (d, c) in columns.iter().enumerate() {
+            sample.dof[d] = c[i];
+        }
+        engine.push(&sample).unwrap();
+        match (detected, engine.sea_since) {
+            (None, Some(at)) => detected = Some(at),
+            (Some(_), Some(at)) => {
+                assert_eq!(Some(at), detected, "the change's start moved");
+                if i > phase_end {
+                    assert!(engine.changed_at.is_none(), "still in the first minutes");
+                    seen_after_phase = true;
+                }
+            }
+            (Some(_), None) if cleared_at.is_none() => cleared_at = Some(i),
+            _ => {}
+        }
+    }
+    let at = detected.expect("no change of sea detected") as usize;
+    // The detector needs up to 2 minutes (a_sudden_variance_change_is_detected...).
+    assert!(
+        (change..change + 240).contains(&at),
+        "detected at value {at}, change at {change}"
+    );
+    assert!(
+        seen_after_phase,
+        "the new sea was no longer a candidate after the first minutes"
+    );
+    // Cleared as soon as the window holds the new sea only (`at` is a count of values, the
+    // loop's index one less).
+    let cleared = cleared_at.expect("the old sea never left the window");
+    assert!(
+        cleared + 1 == at + config.retrain_window,
+        "cleared at value {cleared}, change detected at {at}"
+    );
+}
