@@ -33,7 +33,8 @@ DOFS = ["surge", "sway", "heave", "roll", "pitch", "yaw"]
 
 
 def by_dof(rows):
-    return {r["dof"]: r for r in rows if "rms" in r}
+    # A DOF replay could not score has null errors: it cannot be compared, so it is left out.
+    return {r["dof"]: r for r in rows if "rms" in r and r["rms"][STEP - 1] is not None}
 
 
 def main():
@@ -76,20 +77,28 @@ def main():
         rp = by_dof(run(["replay", "--input", part, "--config", cfg, "--skip-s",
                          str(score_from), "--json"]))
         for d in DOFS:
-            best[d] = min(best[d], rp[d]["rms"][STEP - 1])
-        engine.append(f"| {name} | " + " | ".join(f"{rp[d]['rms'][STEP - 1]:.4g}"
-                                                 for d in DOFS) + " |")
+            if d in rp:
+                best[d] = min(best[d], rp[d]["rms"][STEP - 1])
+        engine.append(f"| {name} | " + " | ".join(cell(rp, d, STEP) for d in DOFS) + " |")
     eng = by_dof(run(["replay", "--input", part, "--skip-s", str(score_from), "--json"]))
     engine.append("| the engine as delivered (default configuration) | " + " | ".join(
-        f"{eng[d]['rms'][STEP - 1]:.4g}" for d in DOFS) + " |")
+        cell(eng, d, STEP) for d in DOFS) + " |")
     engine.append("| engine / best single fit | " + " | ".join(
-        f"{eng[d]['rms'][STEP - 1] / best[d]:.3f}" for d in DOFS) + " |")
+        f"{eng[d]['rms'][STEP - 1] / best[d]:.3f}" if d in eng and best[d] < float("inf")
+        else "-" for d in DOFS) + " |")
     print("Protocol scoring (shipcast eval, stride 1):\n")
     print("\n".join([header, rule] + protocol))
     print("\nEngine scoring (shipcast replay):\n")
     print("\n".join([header, rule] + engine))
     print(f"\nThe engine's step {STEP - 1}, the same real lead (4.0 s after the newest sample) as "
-          f"eval's step {STEP}: " + " / ".join(f"{eng[d]['rms'][STEP - 2]:.4g}" for d in DOFS))
+          f"eval's step {STEP}: " + " / ".join(cell(eng, d, STEP - 1) for d in DOFS))
+
+
+def cell(rows, dof, step):
+    """The RMS error of `dof` at `step` (1-based) for a table cell, "-" where there is none."""
+    r = rows.get(dof)
+    v = r["rms"][step - 1] if r else None
+    return "-" if v is None else f"{v:.4g}"
 
 
 def dof_row(rows, dof):

@@ -446,6 +446,16 @@ impl Engine {
     /// Ask for a retrain when one is due: the first after `first_fit_s` of live data, then
     /// every `retrain_every_s`, or at once when the sea changed (the one place that copies
     /// history).
+    /// Values of the sea since the latest change of sea that a retrain on the newest `take`
+    /// values fits on alone beside the whole window (`models::fit_recent`); None when the
+    /// window holds no older sea, or the new values are too few to fit and score on alone.
+    fn new_sea_values(&self, take: usize) -> Option<usize> {
+        let q = &self.config;
+        self.sea_since
+            .map(|at| usize::try_from(self.values - at).unwrap_or(usize::MAX))
+            .filter(|&n| n < take && models::any_feasible_order(q, n, models::holdout_for(q, n)))
+    }
+
     fn schedule_retrain(&mut self) {
         let q = &self.config;
         if q.retrain_every_s <= 0.0 {
@@ -490,14 +500,11 @@ impl Engine {
         // The new sea's values, for as long as the window also holds older ones (after the
         // first minutes as well: the default window spans almost three hours, and fits on the
         // whole window alone carried the old sea along; on 3-hour course-change records the
-        // pitch and yaw NRMSE at 20 s went from 0.987-0.998 to 0.956-0.988 with this,
+        // pitch and yaw NRMSE at 20 s went from 0.967-0.998 to 0.956-0.988 with this,
         // docs/results/replay_study.md). Too few new values to fit and score anything on them
         // alone (the retrain at the detection itself): judged on the whole window, as without
         // a change.
-        let recent = self
-            .sea_since
-            .map(|at| usize::try_from(self.values - at).unwrap_or(usize::MAX))
-            .filter(|&n| n < take && models::any_feasible_order(q, n, models::holdout_for(q, n)));
+        let recent = self.new_sea_values(take);
         // Checked before copying the history: while a fit is still running, or the data allow
         // no order yet, a due retrain waits without copying anything on every value.
         if !self.retrainer.is_ready()

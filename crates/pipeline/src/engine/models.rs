@@ -333,7 +333,11 @@ pub fn score_on(
         // Scoring a fitted model needs only origins, not `order` more values. After a change
         // the held-out part is short, and an unscored running model would be replaced by any
         // new fit; outside that the rule stays as it was (relaxing it everywhere changed the
-        // start-up retrains and took the paper sea's max NRMSE to 1.0011).
+        // start-up retrains and took the paper sea's max NRMSE to 1.0011). `recent` stays set
+        // while the window reaches back before the change (hours), but after the first
+        // minutes the held-out part is the configured one and a scheduled retrain has
+        // `retrain_every_s` of fresh values, more than `order` + `horizon` by default, so
+        // there the relaxed rule scores exactly what the old one did.
         let needed = if recent.is_some() {
             MIN_HOLDOUT_ORIGINS
         } else {

@@ -329,6 +329,13 @@ fn after_a_change_of_sea_retrains_try_the_new_sea_alone_until_the_window_has_lef
                 assert_eq!(Some(at), detected, "the change's start moved");
                 if i > phase_end {
                     assert!(engine.changed_at.is_none(), "still in the first minutes");
+                    // What a retrain now fits on alone: every value since the change.
+                    let since = (engine.values - at) as usize;
+                    assert_eq!(
+                        engine.new_sea_values(config.retrain_window),
+                        Some(since),
+                        "value {i}"
+                    );
                     seen_after_phase = true;
                 }
             }
