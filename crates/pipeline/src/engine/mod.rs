@@ -443,9 +443,6 @@ impl Engine {
         }
     }
 
-    /// Ask for a retrain when one is due: the first after `first_fit_s` of live data, then
-    /// every `retrain_every_s`, or at once when the sea changed (the one place that copies
-    /// history).
     /// Values of the sea since the latest change of sea that a retrain on the newest `take`
     /// values fits on alone beside the whole window (`models::fit_recent`); None when the
     /// window holds no older sea, or the new values are too few to fit and score on alone.
@@ -456,6 +453,9 @@ impl Engine {
             .filter(|&n| n < take && models::any_feasible_order(q, n, models::holdout_for(q, n)))
     }
 
+    /// Ask for a retrain when one is due: the first after `first_fit_s` of live data, then
+    /// every `retrain_every_s`, or at once when the sea changed (the one place that copies
+    /// history).
     fn schedule_retrain(&mut self) {
         let q = &self.config;
         if q.retrain_every_s <= 0.0 {

@@ -230,12 +230,7 @@ pub fn fit_recent(
             .iter()
             .flat_map(|(start, orders)| orders.iter().map(move |&o| (*start, o)))
         {
-            let pc = shipcast_predict::PredictorConfig {
-                order,
-                ..config.predictor_config()
-            };
-            let mut p = AnyPredictor::new(config.method, &pc)
-                .with_context(|| format!("building the {} predictor", config.method))?;
+            let mut p = predictor_of(config, config.method, order)?;
             if let Err(e) = p.fit(&x[start..split]) {
                 tracing::debug!(dof = name, order, "candidate not fitted: {e}");
                 continue;
@@ -264,11 +259,7 @@ pub fn fit_recent(
                     "no {} candidate fitted: zero forecast",
                     config.method
                 );
-                let pc = shipcast_predict::PredictorConfig {
-                    order: 1,
-                    ..config.predictor_config()
-                };
-                let mut p = AnyPredictor::new(Method::Zero, &pc)?;
+                let mut p = predictor_of(config, Method::Zero, 1)?;
                 p.fit(&x[..split])?;
                 let (sums, s, c) = held_out_scores(&mut p, x, split, compare_from)?;
                 (p, sums, s, c)
@@ -289,6 +280,19 @@ pub fn fit_recent(
     Ok((set, compared))
 }
 
+/// An unfitted predictor of `method` and `order` with the configuration's other settings.
+fn predictor_of(
+    config: &PredictorServiceConfig,
+    method: Method,
+    order: usize,
+) -> anyhow::Result<AnyPredictor> {
+    let pc = shipcast_predict::PredictorConfig {
+        order,
+        ..config.predictor_config()
+    };
+    AnyPredictor::new(method, &pc).with_context(|| format!("building the {method} predictor"))
+}
+
 /// The chosen candidate refitted on its training window with the held-out part included.
 ///
 /// The held-out values chose the method's order and window; once chosen, they are worth more
@@ -298,11 +302,7 @@ pub fn fit_recent(
 /// without them, so the prior is that of a slightly weaker model (sigma a little wide, not
 /// narrow) until live verification takes over. If the refit fails, the chosen fit stays.
 fn refit_on_all(chosen: AnyPredictor, x: &[f64], config: &PredictorServiceConfig) -> AnyPredictor {
-    let pc = shipcast_predict::PredictorConfig {
-        order: chosen.order(),
-        ..config.predictor_config()
-    };
-    let Ok(mut p) = AnyPredictor::new(config.method, &pc) else {
+    let Ok(mut p) = predictor_of(config, config.method, chosen.order()) else {
         return chosen;
     };
     match p.fit(x) {
@@ -469,14 +469,10 @@ mod tests {
         let series: Vec<Vec<f64>> = (0..NUM_DOF).map(|d| noisy_tones(1200, d as u64)).collect();
         let c = config(Method::Wiener, 12, 8, 300);
         let mut set = fit(&series, &c, 1).unwrap();
-        let pc = shipcast_predict::PredictorConfig {
-            order: 12,
-            ..c.predictor_config()
-        };
         for (d, x) in series.iter().enumerate() {
-            let mut on_all = AnyPredictor::new(Method::Wiener, &pc).unwrap();
+            let mut on_all = predictor_of(&c, Method::Wiener, 12).unwrap();
             on_all.fit(x).unwrap();
-            let mut on_train = AnyPredictor::new(Method::Wiener, &pc).unwrap();
+            let mut on_train = predictor_of(&c, Method::Wiener, 12).unwrap();
             on_train.fit(&x[..900]).unwrap();
             let got = forecast_of(&mut set.predictors[d], x);
             let all = forecast_of(&mut on_all, x);
@@ -510,11 +506,7 @@ mod tests {
     #[test]
     fn the_compared_score_is_the_score_over_the_later_origins() {
         let x = noisy_tones(1200, 7);
-        let pc = shipcast_predict::PredictorConfig {
-            order: 12,
-            ..config(Method::Wiener, 12, 8, 300).predictor_config()
-        };
-        let mut p = AnyPredictor::new(Method::Wiener, &pc).unwrap();
+        let mut p = predictor_of(&config(Method::Wiener, 12, 8, 300), Method::Wiener, 12).unwrap();
         p.fit(&x[..900]).unwrap();
         let (sums, all, later) = held_out_scores(&mut p, &x, 900, 1050).unwrap();
         let (sums_again, all_again) = held_out_pairs(&mut p, &x, 900).unwrap();
