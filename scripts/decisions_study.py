@@ -16,13 +16,21 @@ Records: three realisations (seeds 1-3) of the simulated paper sea over 4 hours 
 three pooled, and, when `python3 scripts/fetch_wafo.py` has fetched it, the whole Gullfaks C
 record (4.3 h of measured North Sea waves with a 20-minute gap). Each is replayed with the
 default 25 s horizon (MOT 10 s) and with a 40 s horizon (`[predictor] horizon = 80`: MOT 10 s
-and 30 s). Run from the repository root after `cargo build --release`; about 4 minutes on 2
-cores. Python standard library only.
+and 30 s).
+
+Then a deck that has run before (`[deck] statements_file`): the verified statements that seed
+1's replay leaves behind are where the replays of seeds 2-6 and of Gullfaks C start from (each
+from its own copy of seed 1's file), per horizon, with seeds 2-6 pooled. Seeds 4-6 are not
+replayed elsewhere: they are the out-of-sample check of keeping statements across runs.
+
+Run from the repository root after `cargo build --release`; 8-14 minutes on 2 cores. Python
+standard library only.
 """
 import argparse
 import json
 import math
 import os
+import shutil
 import subprocess
 import sys
 
@@ -41,12 +49,67 @@ RECORDS = [
 
 HORIZONS = [("25 s horizon", None), ("40 s horizon", 80)]
 
+CARRY_SEEDS = [2, 3, 4, 5, 6]
+
 
 def run(args):
     out = subprocess.run([BIN] + args, capture_output=True, text=True)
     if out.returncode != 0:
         sys.exit(f"decisions_study: shipcast {' '.join(args)} failed: {out.stderr.strip()}")
     return out.stdout
+
+
+def write_config(path, horizon, statements=None):
+    with open(path, "w") as f:
+        if horizon:
+            f.write(f"[predictor]\nhorizon = {horizon}\n")
+        if statements:
+            # TOML basic string: the path as JSON writes it is a valid one.
+            f.write(f"[deck]\nstatements_file = {json.dumps(statements)}\n")
+    return path
+
+
+def paper_record(work, seed):
+    """The 4-hour paper-sea record of `seed`: the main tables' for seeds 1-3, made here for
+    the others."""
+    if seed in PAPER_SEEDS:
+        return os.path.join(work, f"record{PAPER_SEEDS.index(seed) + 1}.csv")
+    path = os.path.join(work, f"paper_seed{seed}.csv")
+    run(["simulate", "--scenario", "paper", "--duration", "14400", "--seed", str(seed),
+         "--rate", "8", "--out", path])
+    return path
+
+
+def carried(work):
+    """Replays that start from the statements seed 1's replay left behind."""
+    gfaks = RECORDS[-1][1]
+    gfaks_path = os.path.join(work, f"record{len(RECORDS)}.csv")
+    targets = [(f"paper sea, 4 h, seed {seed}", paper_record(work, seed))
+               for seed in CARRY_SEEDS]
+    if os.path.exists(gfaks[gfaks.index("--elevation") + 1]) and os.path.exists(gfaks_path):
+        targets.append((RECORDS[-1][0], gfaks_path))
+    for label, horizon in HORIZONS:
+        tag = horizon or "default"
+        first = os.path.join(work, f"statements_seed1_{tag}.json")
+        if os.path.exists(first):
+            os.remove(first)
+        decisions(paper_record(work, 1), write_config(
+            os.path.join(work, f"carry_seed1_{tag}.toml"), horizon, first))
+        paper = []
+        for i, (name, path) in enumerate(targets):
+            own = os.path.join(work, f"statements_from_seed1_{tag}_{i}.json")
+            shutil.copyfile(first, own)
+            config = write_config(os.path.join(work, f"carry_{tag}_{i}.toml"), horizon, own)
+            print(f"\n## {name}, {label}, starting from seed 1's statements")
+            reports = decisions(path, config)
+            for d in reports:
+                table(d)
+            if name.startswith("paper"):
+                paper.append(reports)
+        print(f"\n## paper sea, seeds {CARRY_SEEDS[0]}-{CARRY_SEEDS[-1]} pooled "
+              f"({4 * len(CARRY_SEEDS)} h), {label}, each starting from seed 1's statements")
+        for per_mot in zip(*paper):
+            table(pooled(list(per_mot)))
 
 
 def decisions(path, config):
@@ -156,9 +219,7 @@ def main():
     ap.add_argument("--work", default=os.path.join("target", "decisions-study"))
     a = ap.parse_args()
     os.makedirs(a.work, exist_ok=True)
-    config = os.path.join(a.work, "horizon80.toml")
-    with open(config, "w") as f:
-        f.write("[predictor]\nhorizon = 80\n")
+    config = write_config(os.path.join(a.work, "horizon80.toml"), 80)
     paper = {label: [] for label, _ in HORIZONS}
     for i, (name, sim) in enumerate(RECORDS):
         if "--elevation" in sim and not os.path.exists(sim[sim.index("--elevation") + 1]):
@@ -179,6 +240,9 @@ def main():
                       f"({4 * len(PAPER_SEEDS)} h), {label}")
                 for per_mot in zip(*paper[label]):
                     table(pooled(list(per_mot)))
+    print("\n# A deck that has run before: each replay starts from the verified statements "
+          "of seed 1's")
+    carried(a.work)
 
 
 if __name__ == "__main__":

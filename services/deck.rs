@@ -14,6 +14,7 @@
 
 use shipcast_pipeline::config::{CommonArgs, PipelineConfig};
 use shipcast_pipeline::decision::outcomes::{OutcomeCounts, Outcomes};
+use shipcast_pipeline::decision::statements_file::StatementsKeeper;
 use shipcast_pipeline::deck::DeckAdvisor;
 use shipcast_pipeline::limits as value_limits;
 use shipcast_pipeline::transport::clock::monotonic_ns;
@@ -118,6 +119,17 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         None
     };
     let mut advisor = DeckAdvisor::new(&config.deck);
+    let mut statements = config.deck.statements_file.as_deref().and_then(|path| {
+        let dt_s = 1.0 / config.predictor.sample_rate_hz;
+        match StatementsKeeper::open(path, dt_s, advisor.decider_mut()) {
+            Ok(keeper) => Some(keeper),
+            Err(e) => {
+                tracing::error!("deck: {e:#}; running without it, and it is left as it is");
+                None
+            }
+        }
+    });
+    let mut last_save = Instant::now();
     let mut gate = IoxForecastGate::new(1.0 / config.predictor.sample_rate_hz);
     let mut motion_port = IoxFollowedPort::default();
     let mut motion_rejected = 0u64;
@@ -164,6 +176,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             }
         }
         outcomes.verify_ready(advisor.decider_mut());
+        if last_save.elapsed() >= SAVE_STATEMENTS_EVERY {
+            save_statements(statements.as_mut(), &advisor);
+            last_save = Instant::now();
+        }
         if let Some((_, status, _)) = &publisher {
             if last_status.elapsed() >= STATUS_EVERY {
                 let now = DeckStatus::new(count, &gate, outcomes.counts, motion_rejected);
@@ -210,6 +226,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }
         count += 1;
     }
+    save_statements(statements.as_mut(), &advisor);
     if let Some((_, status, _)) = &publisher {
         let last = DeckStatus::new(count, &gate, outcomes.counts, motion_rejected);
         status.put_serialize(&last)?;
@@ -228,6 +245,23 @@ pub fn run(args: Args) -> anyhow::Result<()> {
 
 /// How often the deck publishes its counters.
 const STATUS_EVERY: Duration = Duration::from_secs(1);
+
+/// How often the deck writes its verified statements (`[deck] statements_file`): a crash
+/// loses at most this much of them.
+const SAVE_STATEMENTS_EVERY: Duration = Duration::from_secs(60);
+
+/// Write the verified statements if a file keeps them; a failed write is logged and tried
+/// again at the next save (the advisory goes on either way).
+fn save_statements(keeper: Option<&mut StatementsKeeper>, advisor: &DeckAdvisor) {
+    let Some(keeper) = keeper else {
+        return;
+    };
+    match keeper.save(advisor.decider()) {
+        Ok(true) => tracing::debug!("deck: statements written to {}", keeper.path().display()),
+        Ok(false) => {}
+        Err(e) => tracing::warn!("deck: {e:#}"),
+    }
+}
 
 /// What the deck reports about itself on zenoh `.../status/deck`.
 #[derive(serde::Serialize)]

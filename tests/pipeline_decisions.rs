@@ -95,3 +95,41 @@ fn the_deck_publishes_its_decision_over_iceoryx2_and_verifies_its_forecasts_live
         );
     }
 }
+
+/// `[deck] statements_file`: the deck writes the statements it has verified when it stops,
+/// and a deck started again reads them (docs/decisions.md).
+#[test]
+fn the_deck_keeps_its_verified_statements_across_runs() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("statements.json");
+    // A TOML basic string: the path as JSON writes it.
+    let extra = format!(
+        "[producer]\nspeed = 20.0\nbackfill_s = 0.0\n[deck]\nstatements_file = {}\n",
+        serde_json::to_string(&file).unwrap()
+    );
+    let p = TestPipeline::new("statements", &extra);
+    let predictor = p.spawn("predictor", &[]);
+    predictor.wait_for("(iceoryx2 and zenoh)");
+    let status = p.watch_status_of("deck");
+    let mut deck = p.spawn("deck", &[]);
+    let _producer = p.spawn("producer", &["--wait-subscriber-s", "30"]);
+    // Statements are made once 150 error paths (600 verified forecasts) exist, and verified
+    // a horizon later.
+    status.wait_until("900 verified forecasts", |s| {
+        s["outcomes"]["verified"].as_u64().unwrap_or(0) >= 900
+    });
+    assert!(deck.terminate().success(), "{}", deck.stderr().join("\n"));
+    let kept = shipcast_pipeline::decision::statements_file::load(&file)
+        .unwrap()
+        .expect("the deck wrote its statements when it stopped");
+    let calls: f64 = kept
+        .records(0.5)
+        .unwrap()
+        .iter()
+        .map(|(_, r)| r.calls())
+        .sum();
+    assert!(calls >= 1.0, "{kept:?}");
+    let again = p.spawn("deck", &[]);
+    let line = again.wait_for("verified statements in");
+    assert!(line.contains(&format!("starting from {calls} ")), "{line}");
+}

@@ -33,6 +33,10 @@ pub struct DeckConfig {
     pub go_needs_verified_errors: bool,
     /// Publish the advisory on zenoh `.../advisory/deck`.
     pub publish: bool,
+    /// Keep the verified statements, which correct new ones, in this file across runs: read
+    /// at start (a missing file is a first run), written every minute and at the end
+    /// (docs/decisions.md). None: every run starts from nothing.
+    pub statements_file: Option<std::path::PathBuf>,
 }
 
 impl Default for DeckConfig {
@@ -50,6 +54,7 @@ impl Default for DeckConfig {
             error_correlation: [0.95, 0.95, 0.95, 0.8],
             go_needs_verified_errors: true,
             publish: true,
+            statements_file: None,
         }
     }
 }

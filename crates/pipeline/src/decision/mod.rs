@@ -16,6 +16,7 @@ pub mod ensemble;
 pub mod outcomes;
 pub mod recalibrate;
 pub mod score;
+pub mod statements_file;
 pub mod window;
 
 use crate::config::DeckConfig;
@@ -431,6 +432,23 @@ impl Decider {
             r.add(p_raw, held);
             self.records.push((len, r));
         }
+    }
+
+    /// The verified statements per window length (steps), as a statements file keeps them.
+    pub fn statement_records(&self) -> impl Iterator<Item = (usize, &StatementRecord)> {
+        self.records.iter().map(|(n, r)| (*n, r))
+    }
+
+    /// Verified statements recorded so far, over every window length.
+    pub fn statement_calls(&self) -> f64 {
+        self.records.iter().map(|(_, r)| r.calls()).sum()
+    }
+
+    /// Start from the verified statements of an earlier run (a statements file's, checked),
+    /// in place of those recorded so far.
+    pub fn adopt_statements(&mut self, records: Vec<(usize, StatementRecord)>) {
+        self.records.clear();
+        self.records.extend(records.into_iter().take(MAX_RECORDS));
     }
 
     /// The last decision's window length and uncorrected probability now, when it came from

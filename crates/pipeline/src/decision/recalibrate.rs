@@ -60,6 +60,47 @@ impl StatementRecord {
         self.bins.iter().map(|b| b[0]).sum()
     }
 
+    /// The non-empty bins as `[bin, calls, sum of the stated p, calls that held]` (the form
+    /// of a statements file, [`super::statements_file`]).
+    pub fn bins(&self) -> impl Iterator<Item = [f64; 4]> + '_ {
+        self.bins
+            .iter()
+            .enumerate()
+            .filter(|(_, b)| b[0] > 0.0)
+            .map(|(i, b)| [i as f64, b[0], b[1], b[2]])
+    }
+
+    /// A record from bins as [`StatementRecord::bins`] gives them. Every bin is checked: an
+    /// index in 0..RESOLUTION given once, a whole positive number of calls, no more held than
+    /// calls, and a mean statement within the bin's range.
+    pub fn from_bins(bins: &[[f64; 4]]) -> Result<Self, String> {
+        let mut r = Self::default();
+        for &[index, calls, stated, held] in bins {
+            let whole = |v: f64| v.is_finite() && v >= 0.0 && v.fract() == 0.0;
+            if !whole(index) || index >= RESOLUTION as f64 {
+                return Err(format!("bin index {index} is not one of 0..{RESOLUTION}"));
+            }
+            let b = &mut r.bins[index as usize];
+            if b[0] > 0.0 {
+                return Err(format!("bin {index} is given twice"));
+            }
+            if !whole(calls) || calls == 0.0 || !whole(held) || held > calls {
+                return Err(format!(
+                    "bin {index}: {held} held of {calls} calls is not a count of calls"
+                ));
+            }
+            let (lo, hi) = (index / RESOLUTION as f64, (index + 1.0) / RESOLUTION as f64);
+            let mean = stated / calls;
+            if !(mean >= lo - 1e-9 && mean <= hi + 1e-9) {
+                return Err(format!(
+                    "bin {index}: mean statement {mean} is outside the bin ({lo}..{hi})"
+                ));
+            }
+            *b = [calls, stated, held];
+        }
+        Ok(r)
+    }
+
     /// `p` corrected by the earlier calls stated near it (see the module doc).
     pub fn correct(&self, p: f64) -> f64 {
         if !(0.0..=1.0).contains(&p) {
@@ -128,6 +169,40 @@ mod tests {
             } else {
                 assert!((c - 0.75).abs() < 0.02, "{c}");
             }
+        }
+    }
+
+    #[test]
+    fn bins_round_trip_and_a_hand_edited_bin_is_refused() {
+        let mut rng = ChaCha8Rng::seed_from_u64(13);
+        let mut r = StatementRecord::default();
+        for _ in 0..5_000 {
+            let p: f64 = rng.random();
+            r.add(p, rng.random::<f64>() < p);
+        }
+        let bins: Vec<_> = r.bins().collect();
+        let back = StatementRecord::from_bins(&bins).unwrap();
+        for p in [0.05, 0.3, 0.77, 0.95] {
+            assert_eq!(back.correct(p), r.correct(p));
+        }
+        assert_eq!(back.calls(), 5_000.0);
+        let edited = |i: usize, v: [f64; 4]| {
+            let mut b = bins.clone();
+            b[i] = v;
+            StatementRecord::from_bins(&b)
+        };
+        let [i, n, s, h] = bins[3];
+        for bad in [
+            [1000.0, n, s, h],
+            [-1.0, n, s, h],
+            [i, 0.0, 0.0, 0.0],
+            [i, n, s, n + 1.0],
+            [i, n + 0.5, s, h],
+            [i, n, s + n, h],
+            [i, n, f64::NAN, h],
+            bins[4],
+        ] {
+            assert!(edited(3, bad).is_err(), "{bad:?} accepted");
         }
     }
 

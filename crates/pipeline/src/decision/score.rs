@@ -195,6 +195,16 @@ impl DecisionScorer {
         }
     }
 
+    /// The decider every MOT's calls come from (its verified statements are what a deck's
+    /// statements file keeps).
+    pub fn decider(&self) -> &Decider {
+        &self.decider
+    }
+
+    pub fn decider_mut(&mut self) -> &mut Decider {
+        &mut self.decider
+    }
+
     /// Score one forecast; `actual` holds the record's values at the forecast's steps in its
     /// `mean` (same steps and dt).
     pub fn observe(&mut self, forecast: &Forecast, actual: &Forecast) {
@@ -618,6 +628,71 @@ mod replay_tests {
                 3.0 * spread
             );
         }
+    }
+
+    #[test]
+    fn a_replay_starts_from_the_statements_an_earlier_run_left_and_adds_its_own() {
+        use crate::decision::statements_file::load;
+        let dir = tempfile::tempdir().unwrap();
+        let deck = |file: &str| DeckConfig {
+            point_m: [0.0; 3],
+            vertical_displacement_limit_m: 1.0,
+            vertical_velocity_limit_mps: 10.0,
+            statements_file: Some(dir.path().join(file)),
+            ..DeckConfig::default()
+        };
+        let config = PredictorServiceConfig::default();
+        let calls_in = |file: &str| -> f64 {
+            let f = load(&dir.path().join(file)).unwrap().unwrap();
+            let records = f.records(0.5).unwrap();
+            records.iter().map(|(_, r)| r.calls()).sum()
+        };
+        let replay = |seed: u64, file: &str| {
+            replay_scored(
+                &ar2_heave(2 * 1000, seed),
+                &config,
+                None,
+                200.0,
+                false,
+                Some(&deck(file)),
+                &|_| {},
+            )
+            .unwrap()
+            .0
+        };
+        // A first run leaves its verified statements; a run of another record alone, its own.
+        let first = replay(5, "kept.json");
+        let alone = replay(6, "alone.json");
+        let (n1, n2) = (calls_in("kept.json"), calls_in("alone.json"));
+        assert!(n1 > 500.0 && n2 > 500.0, "{n1} {n2}");
+        // The second record after the first: it starts from the first's statements (so its
+        // statements are corrected from its first call, and differ) and adds exactly its own.
+        let after = replay(6, "kept.json");
+        assert_eq!(calls_in("kept.json"), n1 + n2);
+        assert_eq!(after.decisions[0].calls, alone.decisions[0].calls);
+        assert_ne!(after.decisions[0].brier, alone.decisions[0].brier);
+        assert_ne!(first.decisions[0].brier, after.decisions[0].brier);
+        // A file edited by hand stops the replay with an error naming it, and is left as it is.
+        let edited = dir.path().join("kept.json");
+        let text = std::fs::read_to_string(&edited).unwrap().replacen(
+            "\"window_steps\":20",
+            "\"window_steps\":0",
+            1,
+        );
+        std::fs::write(&edited, &text).unwrap();
+        let e = replay_scored(
+            &ar2_heave(2 * 1000, 7),
+            &config,
+            None,
+            200.0,
+            false,
+            Some(&deck("kept.json")),
+            &|_| {},
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("kept.json") && e.contains("0 steps"), "{e}");
+        assert_eq!(std::fs::read_to_string(&edited).unwrap(), text);
     }
 
     #[test]

@@ -11,6 +11,7 @@ use super::retrain::Retrainer;
 use super::{Engine, EngineCounts};
 use crate::config::{DeckConfig, PredictorServiceConfig};
 use crate::decision::score::{DecisionReport, DecisionScorer};
+use crate::decision::statements_file::StatementsKeeper;
 use crate::engine::models::ModelSet;
 use serde::Serialize;
 use shipcast_series::motion_csv::MotionData;
@@ -105,6 +106,16 @@ pub fn replay_scored(
     progress: &dyn Fn(u64),
 ) -> anyhow::Result<(ReplayReport, Vec<Forecast>)> {
     let mut scorer = deck.map(|d| DecisionScorer::new("deck", d, &DECISION_MOTS_S));
+    // A deck that keeps its statements across runs starts from them here too, and leaves
+    // this run's behind (docs/decisions.md).
+    let mut keeper = match (deck.and_then(|d| d.statements_file.as_deref()), &mut scorer) {
+        (Some(path), Some(scorer)) => Some(StatementsKeeper::open(
+            path,
+            1.0 / config.sample_rate_hz,
+            scorer.decider_mut(),
+        )?),
+        _ => None,
+    };
     let mut actual = Box::<Forecast>::default();
     let rate = shipcast_series::median_rate(&data.time)?;
     let rate = (rate * 1e6).round() / 1e6;
@@ -242,6 +253,9 @@ pub fn replay_scored(
             }
         })
         .collect();
+    if let (Some(keeper), Some(scorer)) = (keeper.as_mut(), &scorer) {
+        keeper.save(scorer.decider())?;
+    }
     Ok((
         ReplayReport {
             input_rate_hz: rate,

@@ -1,0 +1,234 @@
+//! The deck's verified statements kept across runs (`[deck] statements_file`).
+//!
+//! Why: statements are corrected by what happened to earlier ones like them
+//! ([`super::recalibrate`]), and a deck that starts from nothing has no such evidence for
+//! hours. Replayed, the first calm spells of every 4-hour paper-sea record over-stated their
+//! 30 s windows (0.22 stated, 0.01-0.09 held) before any earlier call near 0.22 had been
+//! verified; a deck that started with the statements of an earlier 4-hour run of another
+//! realisation of the same sea had none of those bins off (docs/decisions.md). So the deck
+//! reads the file at start and writes it as it runs, as a ship's deck would keep it from one
+//! sortie to the next.
+//!
+//! Format (JSON): `{"format": "shipcast-deck-statements/1", "dt_s": 0.5, "records":
+//! [{"window_steps": 20, "bins": [[bin, calls, sum of stated p, held], ...]}, ...]}`, one
+//! record per window length (in forecast steps of `dt_s`), bins of
+//! [`super::recalibrate::RESOLUTION`] over [0, 1]. Written to a temporary file beside it and
+//! renamed, so a crash never leaves half a file.
+
+use super::recalibrate::StatementRecord;
+use super::Decider;
+use serde::{Deserialize, Serialize};
+use shipcast_wire::payload::MAX_STEPS;
+use std::path::{Path, PathBuf};
+
+pub const FORMAT: &str = "shipcast-deck-statements/1";
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StatementsFile {
+    pub format: String,
+    /// Forecast step the window lengths are counted in [s].
+    pub dt_s: f64,
+    pub records: Vec<WindowRecord>,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct WindowRecord {
+    pub window_steps: usize,
+    pub bins: Vec<[f64; 4]>,
+}
+
+impl StatementsFile {
+    /// The records of a decider, for forecasts of step `dt_s`.
+    pub fn of<'a>(dt_s: f64, records: impl Iterator<Item = (usize, &'a StatementRecord)>) -> Self {
+        Self {
+            format: FORMAT.to_string(),
+            dt_s,
+            records: records
+                .map(|(window_steps, r)| WindowRecord {
+                    window_steps,
+                    bins: r.bins().collect(),
+                })
+                .collect(),
+        }
+    }
+
+    /// The checked records for forecasts of step `dt_s`: an error if the file was written for
+    /// another step (its window lengths would mean other windows) or a record is malformed.
+    pub fn records(&self, dt_s: f64) -> Result<Vec<(usize, StatementRecord)>, String> {
+        if self.format != FORMAT {
+            return Err(format!("format '{}' is not '{FORMAT}'", self.format));
+        }
+        // Written so that a non-finite dt_s in the file fails too.
+        let same_step = (self.dt_s - dt_s).abs() <= 1e-9 * dt_s.abs();
+        if !same_step {
+            return Err(format!(
+                "written for forecast steps of {} s, these are {dt_s} s",
+                self.dt_s
+            ));
+        }
+        let mut out: Vec<(usize, StatementRecord)> = Vec::with_capacity(self.records.len());
+        for w in &self.records {
+            if w.window_steps == 0 || w.window_steps > MAX_STEPS {
+                return Err(format!(
+                    "window of {} steps is not one of 1..={MAX_STEPS}",
+                    w.window_steps
+                ));
+            }
+            if out.iter().any(|(n, _)| *n == w.window_steps) {
+                return Err(format!("window of {} steps is given twice", w.window_steps));
+            }
+            let r = StatementRecord::from_bins(&w.bins)
+                .map_err(|e| format!("window of {} steps: {e}", w.window_steps))?;
+            out.push((w.window_steps, r));
+        }
+        Ok(out)
+    }
+}
+
+/// Read a statements file; `Ok(None)` if there is none yet (a deck's first run).
+pub fn load(path: &Path) -> anyhow::Result<Option<StatementsFile>> {
+    let text = match std::fs::read_to_string(path) {
+        Ok(t) => t,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
+        Err(e) => anyhow::bail!("statements file {}: {e}", path.display()),
+    };
+    serde_json::from_str(&text)
+        .map(Some)
+        .map_err(|e| anyhow::anyhow!("statements file {}: {e}", path.display()))
+}
+
+/// Write a statements file atomically (a temporary file beside it, then renamed over it).
+pub fn save(path: &Path, file: &StatementsFile) -> anyhow::Result<()> {
+    let mut tmp = path.as_os_str().to_owned();
+    tmp.push(".tmp");
+    let tmp = std::path::PathBuf::from(tmp);
+    let text = serde_json::to_string(file)?;
+    std::fs::write(&tmp, text)
+        .map_err(|e| anyhow::anyhow!("statements file {}: {e}", tmp.display()))?;
+    std::fs::rename(&tmp, path)
+        .map_err(|e| anyhow::anyhow!("statements file {}: {e}", path.display()))
+}
+
+/// A deck's statements file: read into its decider at start, written as statements are
+/// verified.
+#[derive(Debug)]
+pub struct StatementsKeeper {
+    path: PathBuf,
+    dt_s: f64,
+    /// Verified statements when last read or written (nothing new: nothing to write).
+    written_calls: f64,
+}
+
+impl StatementsKeeper {
+    /// Start `decider` from the statements in `path` (none if there is no file yet) for
+    /// forecasts of step `dt_s`. An error says why an existing file cannot be used; the
+    /// caller then runs without a keeper, so that file is never overwritten (it may be the
+    /// only copy of a long run's statements).
+    pub fn open(path: &Path, dt_s: f64, decider: &mut Decider) -> anyhow::Result<Self> {
+        let mut keeper = Self {
+            path: path.to_path_buf(),
+            dt_s,
+            written_calls: 0.0,
+        };
+        if let Some(file) = load(path)? {
+            let records = file
+                .records(dt_s)
+                .map_err(|e| anyhow::anyhow!("statements file {}: {e}", path.display()))?;
+            decider.adopt_statements(records);
+            keeper.written_calls = decider.statement_calls();
+            tracing::info!(
+                "deck: starting from {} verified statements in {}",
+                keeper.written_calls,
+                path.display()
+            );
+        }
+        Ok(keeper)
+    }
+
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    /// Write the decider's statements if any were verified since the last write; true if
+    /// written.
+    pub fn save(&mut self, decider: &Decider) -> anyhow::Result<bool> {
+        let calls = decider.statement_calls();
+        if calls == self.written_calls {
+            return Ok(false);
+        }
+        save(
+            &self.path,
+            &StatementsFile::of(self.dt_s, decider.statement_records()),
+        )?;
+        self.written_calls = calls;
+        Ok(true)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn record(calls: &[(f64, bool)]) -> StatementRecord {
+        let mut r = StatementRecord::default();
+        for &(p, held) in calls {
+            r.add(p, held);
+        }
+        r
+    }
+
+    #[test]
+    fn a_saved_file_loads_the_same_records_and_a_missing_one_is_none() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("statements.json");
+        assert!(load(&path).unwrap().is_none());
+        let a = record(&[(0.2, false), (0.21, true), (0.8, true)]);
+        let b = record(&[(0.05, false)]);
+        let file = StatementsFile::of(0.5, [(20, &a), (60, &b)].into_iter());
+        save(&path, &file).unwrap();
+        let back = load(&path).unwrap().unwrap();
+        assert_eq!(back, file);
+        let records = back.records(0.5).unwrap();
+        assert_eq!(records.len(), 2);
+        assert_eq!(records[0].0, 20);
+        for p in [0.2, 0.8] {
+            assert_eq!(records[0].1.correct(p), a.correct(p));
+        }
+        assert_eq!(records[1].1.calls(), 1.0);
+        assert!(!dir.path().join("statements.json.tmp").exists());
+    }
+
+    #[test]
+    fn files_for_other_steps_or_edited_by_hand_are_refused_with_a_reason() {
+        let a = record(&[(0.3, true)]);
+        let good = StatementsFile::of(0.5, [(20, &a)].into_iter());
+        let err = |f: &StatementsFile| f.records(0.5).unwrap_err();
+        assert!(good.records(0.25).unwrap_err().contains("0.5 s"));
+        let mut f = good.clone();
+        f.format = "other/1".into();
+        assert!(err(&f).contains("format"));
+        let mut f = good.clone();
+        f.records[0].window_steps = MAX_STEPS + 1;
+        assert!(err(&f).contains("steps"));
+        let mut f = good.clone();
+        f.records.push(f.records[0].clone());
+        assert!(err(&f).contains("twice"));
+        let mut f = good.clone();
+        f.records[0].bins[0][3] = 2.0;
+        assert!(err(&f).contains("window of 20 steps"));
+        // Not JSON of this shape: a clear error naming the file, never a panic.
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("s.json");
+        for text in [
+            "{",
+            "{\"format\": 1}",
+            "{\"format\":\"x\",\"dt_s\":0.5,\"records\":[],\"extra\":0}",
+        ] {
+            std::fs::write(&path, text).unwrap();
+            let e = load(&path).unwrap_err().to_string();
+            assert!(e.contains("s.json"), "{e}");
+        }
+    }
+}
