@@ -119,8 +119,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         None
     };
     let mut advisor = DeckAdvisor::new(&config.deck);
+    let dt_s = 1.0 / config.predictor.sample_rate_hz;
     let mut statements = config.deck.statements_file.as_deref().and_then(|path| {
-        let dt_s = 1.0 / config.predictor.sample_rate_hz;
         match StatementsKeeper::open(path, dt_s, advisor.decider_mut()) {
             Ok(keeper) => Some(keeper),
             Err(e) => {
@@ -130,7 +130,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }
     });
     let mut last_save = Instant::now();
-    let mut gate = IoxForecastGate::new(1.0 / config.predictor.sample_rate_hz);
+    let mut gate = IoxForecastGate::new(dt_s);
     let mut motion_port = IoxFollowedPort::default();
     let mut motion_rejected = 0u64;
     let mut connected = Vec::with_capacity(limits::MAX_PUBLISHERS);

@@ -105,15 +105,12 @@ pub fn replay_scored(
     deck: Option<&DeckConfig>,
     progress: &dyn Fn(u64),
 ) -> anyhow::Result<(ReplayReport, Vec<Forecast>)> {
+    let dt = 1.0 / config.sample_rate_hz;
     let mut scorer = deck.map(|d| DecisionScorer::new("deck", d, &DECISION_MOTS_S));
     // A deck that keeps its statements across runs starts from them here too, and leaves
     // this run's behind (docs/decisions.md).
     let mut keeper = match (deck.and_then(|d| d.statements_file.as_deref()), &mut scorer) {
-        (Some(path), Some(scorer)) => Some(StatementsKeeper::open(
-            path,
-            1.0 / config.sample_rate_hz,
-            scorer.decider_mut(),
-        )?),
+        (Some(path), Some(scorer)) => Some(StatementsKeeper::open(path, dt, scorer.decider_mut())?),
         _ => None,
     };
     let mut actual = Box::<Forecast>::default();
@@ -128,7 +125,6 @@ pub fn replay_scored(
     let present: Vec<Dof> = data.dofs();
     let columns: Vec<Option<&[f64]>> = Dof::ALL.iter().map(|&d| data.dof(d).ok()).collect();
     let step_in = 1.0 / rate;
-    let dt = 1.0 / config.sample_rate_hz;
     let delay = engine.delay_s();
     let mut sums = vec![[StepSums::default(); MAX_STEPS]; NUM_DOF];
     let mut max_abs = [0.0f64; NUM_DOF];
