@@ -144,89 +144,95 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let mut waiting_reported = false;
     let mut count = 0u64;
     let stdout = std::io::stdout();
-    while !limit.reached() {
-        forecasts.wait(Duration::from_millis(100))?;
-        // What happened: forecasts whose horizon is now past teach the decider.
-        // Only from the producer's port: a second publisher on the motion service must not
-        // teach the decider what "happened".
-        while let Some((sample, origin)) = motion.receive_with_origin()? {
-            let admitted = match motion_port.is_followed(origin) {
-                true => Ok(()),
-                false => {
-                    motion.publishers(&mut connected);
-                    motion_port.admit(origin, &connected)
-                }
-            };
-            match admitted {
-                Ok(()) => {
-                    if outcomes.push_sample(&sample) == SeqCheck::NewRun {
-                        tracing::info!(
-                            restarts = outcomes.counts.restarts,
-                            "deck: the producer started a new run: decisions waiting on the old run's clock are dropped as unverifiable"
+    // The loop runs inside a closure so that however it ends (an error from a port or the
+    // zenoh session included) the statements verified so far are written before the error
+    // is returned: they may be hours of calls.
+    let advised = with_statements_saved(&mut statements, &mut advisor, |advisor, statements| {
+        while !limit.reached() {
+            forecasts.wait(Duration::from_millis(100))?;
+            // What happened: forecasts whose horizon is now past teach the decider.
+            // Only from the producer's port: a second publisher on the motion service must not
+            // teach the decider what "happened".
+            while let Some((sample, origin)) = motion.receive_with_origin()? {
+                let admitted = match motion_port.is_followed(origin) {
+                    true => Ok(()),
+                    false => {
+                        motion.publishers(&mut connected);
+                        motion_port.admit(origin, &connected)
+                    }
+                };
+                match admitted {
+                    Ok(()) => {
+                        if outcomes.push_sample(&sample) == SeqCheck::NewRun {
+                            tracing::info!(
+                                restarts = outcomes.counts.restarts,
+                                "deck: the producer started a new run: decisions waiting on the old run's clock are dropped as unverifiable"
+                            );
+                        }
+                    }
+                    Err(e) => {
+                        motion_rejected += 1;
+                        tracing::warn!(
+                            rejected = motion_rejected,
+                            "deck: motion sample rejected: {e}"
                         );
                     }
                 }
-                Err(e) => {
-                    motion_rejected += 1;
-                    tracing::warn!(
-                        rejected = motion_rejected,
-                        "deck: motion sample rejected: {e}"
-                    );
+            }
+            outcomes.verify_ready(advisor.decider_mut());
+            if last_save.elapsed() >= SAVE_STATEMENTS_EVERY {
+                save_statements(statements.as_mut(), advisor);
+                last_save = Instant::now();
+            }
+            if let Some((_, status, _)) = &publisher {
+                if last_status.elapsed() >= STATUS_EVERY {
+                    let now = DeckStatus::new(count, &gate, outcomes.counts, motion_rejected);
+                    status.put_serialize(&now)?;
+                    last_status = Instant::now();
                 }
             }
-        }
-        outcomes.verify_ready(advisor.decider_mut());
-        if last_save.elapsed() >= SAVE_STATEMENTS_EVERY {
-            save_statements(statements.as_mut(), &advisor);
-            last_save = Instant::now();
-        }
-        if let Some((_, status, _)) = &publisher {
-            if last_status.elapsed() >= STATUS_EVERY {
-                let now = DeckStatus::new(count, &gate, outcomes.counts, motion_rejected);
-                status.put_serialize(&now)?;
-                last_status = Instant::now();
+            // Every sample is checked, not only the newest: a foreign one must not hide the
+            // predictor's. Only the newest accepted forecast matters to the landing officer.
+            let mut newest = None;
+            while let Some((forecast, origin)) = forecasts.receive_with_origin()? {
+                forecasts.publishers(&mut connected);
+                match gate.check(origin, &connected, &forecast) {
+                    Ok(()) => newest = Some(forecast),
+                    Err(e) => tracing::warn!(
+                        rejected = gate.stream.rejected.total(),
+                        "deck: rejected: {e}"
+                    ),
+                }
             }
-        }
-        // Every sample is checked, not only the newest: a foreign one must not hide the
-        // predictor's. Only the newest accepted forecast matters to the landing officer.
-        let mut newest = None;
-        while let Some((forecast, origin)) = forecasts.receive_with_origin()? {
-            forecasts.publishers(&mut connected);
-            match gate.check(origin, &connected, &forecast) {
-                Ok(()) => newest = Some(forecast),
-                Err(e) => tracing::warn!(
-                    rejected = gate.stream.rejected.total(),
-                    "deck: rejected: {e}"
-                ),
+            let Some(forecast) = newest else {
+                if !waiting_reported && last_forecast.elapsed() >= Duration::from_secs(5) {
+                    tracing::info!("deck: no forecast for 5 s");
+                    waiting_reported = true;
+                }
+                continue;
+            };
+            last_forecast = Instant::now();
+            waiting_reported = false;
+            let advisory = advisor.advise(&forecast);
+            outcomes.push_decision(&forecast, advisor.decider());
+            local.send(
+                &advisory
+                    .decision
+                    .sample(forecast.seq, forecast.time_s, monotonic_ns()),
+            )?;
+            if let Some((p, _, _)) = &publisher {
+                p.put_serialize(&advisory)?;
             }
-        }
-        let Some(forecast) = newest else {
-            if !waiting_reported && last_forecast.elapsed() >= Duration::from_secs(5) {
-                tracing::info!("deck: no forecast for 5 s");
-                waiting_reported = true;
+            if count.is_multiple_of(print_every) {
+                let mut out = stdout.lock();
+                // A closed stdout (e.g. piped into `head`) must not stop the advisory service.
+                let _ = writeln!(out, "{}", advisory.summary());
             }
-            continue;
-        };
-        last_forecast = Instant::now();
-        waiting_reported = false;
-        let advisory = advisor.advise(&forecast);
-        outcomes.push_decision(&forecast, advisor.decider());
-        local.send(
-            &advisory
-                .decision
-                .sample(forecast.seq, forecast.time_s, monotonic_ns()),
-        )?;
-        if let Some((p, _, _)) = &publisher {
-            p.put_serialize(&advisory)?;
+            count += 1;
         }
-        if count.is_multiple_of(print_every) {
-            let mut out = stdout.lock();
-            // A closed stdout (e.g. piped into `head`) must not stop the advisory service.
-            let _ = writeln!(out, "{}", advisory.summary());
-        }
-        count += 1;
-    }
-    save_statements(statements.as_mut(), &advisor);
+        Ok(())
+    });
+    advised?;
     if let Some((_, status, _)) = &publisher {
         let last = DeckStatus::new(count, &gate, outcomes.counts, motion_rejected);
         status.put_serialize(&last)?;
@@ -249,6 +255,17 @@ const STATUS_EVERY: Duration = Duration::from_secs(1);
 /// How often the deck writes its verified statements (`[deck] statements_file`): a crash
 /// loses at most this much of them.
 const SAVE_STATEMENTS_EVERY: Duration = Duration::from_secs(60);
+
+/// Run `body` (the advisory loop), then write the verified statements whatever it returned.
+fn with_statements_saved<T>(
+    keeper: &mut Option<StatementsKeeper>,
+    advisor: &mut DeckAdvisor,
+    body: impl FnOnce(&mut DeckAdvisor, &mut Option<StatementsKeeper>) -> anyhow::Result<T>,
+) -> anyhow::Result<T> {
+    let result = body(advisor, keeper);
+    save_statements(keeper.as_mut(), advisor);
+    result
+}
 
 /// Write the verified statements if a file keeps them; a failed write is logged and tried
 /// again at the next save (the advisory goes on either way).
@@ -307,5 +324,26 @@ mod tests {
                 .publish
         );
         assert!(crate::refused::<Args, Config>(&["--print-every", "0"]).contains("--print-every"));
+    }
+
+    /// Regression: an error inside the advisory loop returned before the final write, and
+    /// up to a minute of verified statements was lost.
+    #[test]
+    fn statements_verified_before_an_error_are_written_and_the_error_returned() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("statements.json");
+        let config = shipcast_pipeline::config::DeckConfig::default();
+        let mut advisor = DeckAdvisor::new(&config);
+        let mut keeper = Some(StatementsKeeper::open(&path, 0.5, advisor.decider_mut()).unwrap());
+        let result: anyhow::Result<()> =
+            with_statements_saved(&mut keeper, &mut advisor, |advisor, _| {
+                advisor.decider_mut().add_outcome(20, 0.3, true);
+                advisor.decider_mut().add_outcome(20, 0.31, false);
+                anyhow::bail!("the forecast port failed")
+            });
+        assert!(result.unwrap_err().to_string().contains("forecast port"));
+        let mut fresh = DeckAdvisor::new(&config);
+        StatementsKeeper::open(&path, 0.5, fresh.decider_mut()).unwrap();
+        assert_eq!(fresh.decider().statement_calls(), 2.0);
     }
 }

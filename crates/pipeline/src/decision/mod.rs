@@ -267,7 +267,7 @@ pub struct Decider {
 }
 
 /// Window lengths whose statements are recorded (a deck decides for one MOT; replay scores two).
-const MAX_RECORDS: usize = 8;
+pub const MAX_RECORDS: usize = 8;
 
 impl Decider {
     pub fn new(config: &DeckConfig) -> Self {
@@ -445,7 +445,9 @@ impl Decider {
     }
 
     /// Start from the verified statements of an earlier run (a statements file's, checked),
-    /// in place of those recorded so far.
+    /// in place of those recorded so far. At most [`MAX_RECORDS`] window lengths are kept
+    /// ([`statements_file::StatementsFile::records`] refuses a file with more, so none is
+    /// dropped here from a checked file).
     pub fn adopt_statements(&mut self, records: Vec<(usize, StatementRecord)>) {
         self.records.clear();
         self.records.extend(records.into_iter().take(MAX_RECORDS));

@@ -23,6 +23,10 @@ pub const HALF_WIDTH: f64 = 0.05;
 pub const SHRINK_CALLS: f64 = 200.0;
 /// A statement is never raised above the larger of itself and this.
 pub const RAISE_CAP: f64 = 0.8;
+/// Most calls a bin of a statements file may hold. A deck decides a few times a second, so
+/// this is thousands of years of calls; a larger count can only be an edit, and one near
+/// f64's range would overflow the correction's sums to NaN.
+pub const MAX_BIN_CALLS: f64 = 1e12;
 
 /// Verified statements of one window length.
 #[derive(Debug, Clone)]
@@ -72,7 +76,7 @@ impl StatementRecord {
 
     /// A record from bins as [`StatementRecord::bins`] gives them. Every bin is checked: an
     /// index in 0..RESOLUTION given once, a whole positive number of calls, no more held than
-    /// calls, and a mean statement within the bin's range.
+    /// calls (at most [`MAX_BIN_CALLS`]), and a mean statement within the bin's range.
     pub fn from_bins(bins: &[[f64; 4]]) -> Result<Self, String> {
         let mut r = Self::default();
         for &[index, calls, stated, held] in bins {
@@ -84,7 +88,12 @@ impl StatementRecord {
             if b[0] > 0.0 {
                 return Err(format!("bin {index} is given twice"));
             }
-            if !whole(calls) || calls == 0.0 || !whole(held) || held > calls {
+            if !whole(calls)
+                || calls == 0.0
+                || calls > MAX_BIN_CALLS
+                || !whole(held)
+                || held > calls
+            {
                 return Err(format!(
                     "bin {index}: {held} held of {calls} calls is not a count of calls"
                 ));
@@ -200,6 +209,8 @@ mod tests {
             [i, n + 0.5, s, h],
             [i, n, s + n, h],
             [i, n, f64::NAN, h],
+            [i, 1e308, 1e308 * (i + 0.5) / 1000.0, 0.0],
+            [i, 2e12, 2e12 * (i + 0.5) / 1000.0, 0.0],
             bins[4],
         ] {
             assert!(edited(3, bad).is_err(), "{bad:?} accepted");

@@ -16,7 +16,7 @@
 //! renamed, so a crash never leaves half a file.
 
 use super::recalibrate::StatementRecord;
-use super::Decider;
+use super::{Decider, MAX_RECORDS};
 use serde::{Deserialize, Serialize};
 use shipcast_wire::payload::MAX_STEPS;
 use std::path::{Path, PathBuf};
@@ -68,6 +68,14 @@ impl StatementsFile {
                 self.dt_s
             ));
         }
+        // A deck keeps at most MAX_RECORDS window lengths; more could only be kept by
+        // dropping some, and the next write would lose them from the file for good.
+        if self.records.len() > MAX_RECORDS {
+            return Err(format!(
+                "{} window lengths, a deck keeps at most {MAX_RECORDS}",
+                self.records.len()
+            ));
+        }
         let mut out: Vec<(usize, StatementRecord)> = Vec::with_capacity(self.records.len());
         for w in &self.records {
             if w.window_steps == 0 || w.window_steps > MAX_STEPS {
@@ -99,16 +107,35 @@ pub fn load(path: &Path) -> anyhow::Result<Option<StatementsFile>> {
         .map_err(|e| anyhow::anyhow!("statements file {}: {e}", path.display()))
 }
 
-/// Write a statements file atomically (a temporary file beside it, then renamed over it).
+/// Write a statements file atomically: a temporary file beside it, flushed to the disk, then
+/// renamed over it, and the directory flushed so the rename survives a power cut too (a
+/// rename of unflushed data can leave an empty file after one, the very loss this avoids).
 pub fn save(path: &Path, file: &StatementsFile) -> anyhow::Result<()> {
+    use std::io::Write;
     let mut tmp = path.as_os_str().to_owned();
     tmp.push(".tmp");
     let tmp = std::path::PathBuf::from(tmp);
     let text = serde_json::to_string(file)?;
-    std::fs::write(&tmp, text)
-        .map_err(|e| anyhow::anyhow!("statements file {}: {e}", tmp.display()))?;
-    std::fs::rename(&tmp, path)
-        .map_err(|e| anyhow::anyhow!("statements file {}: {e}", path.display()))
+    let io_err =
+        |p: &Path, e: std::io::Error| anyhow::anyhow!("statements file {}: {e}", p.display());
+    let mut out = std::fs::File::create(&tmp).map_err(|e| io_err(&tmp, e))?;
+    out.write_all(text.as_bytes())
+        .and_then(|()| out.sync_all())
+        .map_err(|e| io_err(&tmp, e))?;
+    drop(out);
+    std::fs::rename(&tmp, path).map_err(|e| io_err(path, e))?;
+    // Flushing a directory is a Unix notion; elsewhere the rename is left to the OS.
+    #[cfg(unix)]
+    {
+        let dir = match path.parent() {
+            Some(d) if !d.as_os_str().is_empty() => d,
+            _ => Path::new("."),
+        };
+        std::fs::File::open(dir)
+            .and_then(|d| d.sync_all())
+            .map_err(|e| io_err(dir, e))?;
+    }
+    Ok(())
 }
 
 /// A deck's statements file: read into its decider at start, written as statements are
@@ -201,6 +228,20 @@ mod tests {
     }
 
     #[test]
+    fn a_write_that_cannot_be_made_is_an_error_naming_the_file_and_leaves_nothing() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("no such dir").join("statements.json");
+        let file = StatementsFile::of(0.5, std::iter::empty());
+        let e = save(&path, &file).unwrap_err().to_string();
+        assert!(e.contains("statements.json"), "{e}");
+        assert!(!path.exists());
+        // The same write where the directory exists is flushed, renamed and readable.
+        let path = dir.path().join("statements.json");
+        save(&path, &file).unwrap();
+        assert_eq!(load(&path).unwrap(), Some(file));
+    }
+
+    #[test]
     fn files_for_other_steps_or_edited_by_hand_are_refused_with_a_reason() {
         let a = record(&[(0.3, true)]);
         let good = StatementsFile::of(0.5, [(20, &a)].into_iter());
@@ -215,6 +256,18 @@ mod tests {
         let mut f = good.clone();
         f.records.push(f.records[0].clone());
         assert!(err(&f).contains("twice"));
+        // More window lengths than a deck keeps: refused, not silently cut to the first ones
+        // (the next write would have lost the rest). Exactly MAX_RECORDS is fine.
+        let mut f = good.clone();
+        f.records = (1..=MAX_RECORDS + 1)
+            .map(|n| WindowRecord {
+                window_steps: n,
+                bins: good.records[0].bins.clone(),
+            })
+            .collect();
+        assert!(err(&f).contains("at most"), "{}", err(&f));
+        f.records.pop();
+        assert_eq!(f.records(0.5).unwrap().len(), MAX_RECORDS);
         let mut f = good.clone();
         f.records[0].bins[0][3] = 2.0;
         assert!(err(&f).contains("window of 20 steps"));
