@@ -103,8 +103,9 @@ def carried(work, fresh_main):
             if seed in PAPER_SEEDS:
                 continue
             print(f"\n## paper sea, 4 h, seed {seed}, {label}, fresh deck")
-            config = write_config(os.path.join(work, f"fresh_{tag}.toml"), horizon)
-            reports = decisions(paper_record(work, seed), config if horizon else None)
+            config = (write_config(os.path.join(work, f"fresh_{tag}.toml"), horizon)
+                      if horizon else None)
+            reports = decisions(paper_record(work, seed), config)
             for d in reports:
                 table(d)
             fresh.append(reports)
