@@ -102,32 +102,24 @@ def carried(work, fresh_main):
         for seed in CARRY_SEEDS:
             if seed in PAPER_SEEDS:
                 continue
-            print(f"\n## paper sea, 4 h, seed {seed}, {label}, fresh deck")
             config = (write_config(os.path.join(work, f"fresh_{tag}.toml"), horizon)
                       if horizon else None)
-            reports = decisions(paper_record(work, seed), config)
-            for d in reports:
-                table(d)
-            fresh.append(reports)
-        print(f"\n## paper sea, seeds {CARRY_SEEDS[0]}-{CARRY_SEEDS[-1]} pooled "
-              f"({4 * len(CARRY_SEEDS)} h), {label}, fresh deck")
-        for per_mot in zip(*fresh):
-            table(pooled(list(per_mot)))
+            fresh.append(replay_tables(f"paper sea, 4 h, seed {seed}, {label}, fresh deck",
+                                       paper_record(work, seed), config))
+        pooled_tables(f"paper sea, seeds {CARRY_SEEDS[0]}-{CARRY_SEEDS[-1]} pooled "
+                      f"({4 * len(CARRY_SEEDS)} h), {label}, fresh deck", fresh)
         paper = []
         for i, (name, path) in enumerate(targets):
             own = os.path.join(work, f"statements_from_seed1_{tag}_{i}.json")
             shutil.copyfile(first, own)
             config = write_config(os.path.join(work, f"carry_{tag}_{i}.toml"), horizon, own)
-            print(f"\n## {name}, {label}, starting from seed 1's statements")
-            reports = decisions(path, config)
-            for d in reports:
-                table(d)
+            reports = replay_tables(f"{name}, {label}, starting from seed 1's statements",
+                                    path, config)
             if name.startswith("paper"):
                 paper.append(reports)
-        print(f"\n## paper sea, seeds {CARRY_SEEDS[0]}-{CARRY_SEEDS[-1]} pooled "
-              f"({4 * len(CARRY_SEEDS)} h), {label}, each starting from seed 1's statements")
-        for per_mot in zip(*paper):
-            table(pooled(list(per_mot)))
+        pooled_tables(f"paper sea, seeds {CARRY_SEEDS[0]}-{CARRY_SEEDS[-1]} pooled "
+                      f"({4 * len(CARRY_SEEDS)} h), {label}, each starting from seed 1's "
+                      "statements", paper)
 
 
 def decisions(path, config):
@@ -136,6 +128,24 @@ def decisions(path, config):
         args += ["--config", config]
     rows = [json.loads(line) for line in run(args).splitlines() if line.strip()]
     return [r["decisions"] for r in rows if "decisions" in r]
+
+
+def replay_tables(title, path, config):
+    """A section: its title, then the table of each MOT that replaying `path` scores. Returns
+    the reports, for pooling."""
+    print(f"\n## {title}")
+    reports = decisions(path, config)
+    for d in reports:
+        table(d)
+    return reports
+
+
+def pooled_tables(title, runs):
+    """A section: its title, then one table per MOT with `runs` (each the reports of one
+    record) pooled."""
+    print(f"\n## {title}")
+    for per_mot in zip(*runs):
+        table(pooled(list(per_mot)))
 
 
 def half_width(p, episodes):
@@ -246,18 +256,13 @@ def main():
         path = os.path.join(a.work, f"record{i + 1}.csv")
         run(["simulate"] + sim + ["--rate", "8", "--out", path])
         for label, horizon in HORIZONS:
-            print(f"\n## {name}, {label}")
-            reports = decisions(path, config if horizon else None)
-            for d in reports:
-                table(d)
+            reports = replay_tables(f"{name}, {label}", path, config if horizon else None)
             if i < len(PAPER_SEEDS):
                 paper[label].append(reports)
         if i == len(PAPER_SEEDS) - 1:
             for label, _ in HORIZONS:
-                print(f"\n## paper sea, seeds {PAPER_SEEDS[0]}-{PAPER_SEEDS[-1]} pooled "
-                      f"({4 * len(PAPER_SEEDS)} h), {label}")
-                for per_mot in zip(*paper[label]):
-                    table(pooled(list(per_mot)))
+                pooled_tables(f"paper sea, seeds {PAPER_SEEDS[0]}-{PAPER_SEEDS[-1]} pooled "
+                              f"({4 * len(PAPER_SEEDS)} h), {label}", paper[label])
     print("\n# A deck that has run before: each replay starts from the verified statements "
           "of seed 1's")
     carried(a.work, paper)
