@@ -151,34 +151,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         while !limit.reached() {
             forecasts.wait(Duration::from_millis(100))?;
             // What happened: forecasts whose horizon is now past teach the decider.
-            // Only from the producer's port: a second publisher on the motion service must not
-            // teach the decider what "happened".
-            while let Some((sample, origin)) = motion.receive_with_origin()? {
-                let admitted = match motion_port.is_followed(origin) {
-                    true => Ok(()),
-                    false => {
-                        motion.publishers(&mut connected);
-                        motion_port.admit(origin, &connected)
-                    }
-                };
-                match admitted {
-                    Ok(()) => {
-                        if outcomes.push_sample(&sample) == SeqCheck::NewRun {
-                            tracing::info!(
-                                restarts = outcomes.counts.restarts,
-                                "deck: the producer started a new run: decisions waiting on the old run's clock are dropped as unverifiable"
-                            );
-                        }
-                    }
-                    Err(e) => {
-                        motion_rejected += 1;
-                        tracing::warn!(
-                            rejected = motion_rejected,
-                            "deck: motion sample rejected: {e}"
-                        );
-                    }
-                }
-            }
+            take_motion(
+                &motion,
+                &mut motion_port,
+                &mut connected,
+                &mut outcomes,
+                &mut motion_rejected,
+            )?;
             outcomes.verify_ready(advisor.decider_mut());
             if last_save.elapsed() >= SAVE_STATEMENTS_EVERY {
                 save_statements(statements.as_mut(), advisor);
@@ -191,19 +170,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                     last_status = Instant::now();
                 }
             }
-            // Every sample is checked, not only the newest: a foreign one must not hide the
-            // predictor's. Only the newest accepted forecast matters to the landing officer.
-            let mut newest = None;
-            while let Some((forecast, origin)) = forecasts.receive_with_origin()? {
-                forecasts.publishers(&mut connected);
-                match gate.check(origin, &connected, &forecast) {
-                    Ok(()) => newest = Some(forecast),
-                    Err(e) => tracing::warn!(
-                        rejected = gate.stream.rejected.total(),
-                        "deck: rejected: {e}"
-                    ),
-                }
-            }
+            let newest = newest_accepted(&forecasts, &mut gate, &mut connected)?;
             let Some(forecast) = newest else {
                 if !waiting_reported && last_forecast.elapsed() >= Duration::from_secs(5) {
                     tracing::info!("deck: no forecast for 5 s");
@@ -247,6 +214,57 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         outcomes.counts.rejected_samples
     );
     Ok(())
+}
+
+/// Hand the new motion samples to `outcomes`, which verifies the decisions against them.
+/// Only the producer's port counts: a second publisher on the motion service must not teach
+/// the decider what "happened"; its samples are counted in `rejected` and logged.
+fn take_motion(
+    motion: &IoxSubscriber<MotionSample>,
+    port: &mut IoxFollowedPort,
+    connected: &mut Vec<u128>,
+    outcomes: &mut Outcomes,
+    rejected: &mut u64,
+) -> anyhow::Result<()> {
+    while let Some((sample, origin)) = motion.receive_with_origin()? {
+        match port.admit_listing(origin, connected, |c| motion.publishers(c)) {
+            Ok(()) => {
+                if outcomes.push_sample(&sample) == SeqCheck::NewRun {
+                    tracing::info!(
+                        restarts = outcomes.counts.restarts,
+                        "deck: the producer started a new run: decisions waiting on the old run's clock are dropped as unverifiable"
+                    );
+                }
+            }
+            Err(e) => {
+                *rejected += 1;
+                tracing::warn!(rejected = *rejected, "deck: motion sample rejected: {e}");
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The newest waiting forecast that passes the gate. Every one is checked, not only the
+/// newest: a foreign one must not hide the predictor's. Only the newest accepted forecast
+/// matters to the landing officer.
+fn newest_accepted(
+    forecasts: &IoxSubscriber<Forecast>,
+    gate: &mut IoxForecastGate,
+    connected: &mut Vec<u128>,
+) -> anyhow::Result<Option<Forecast>> {
+    let mut newest = None;
+    while let Some((forecast, origin)) = forecasts.receive_with_origin()? {
+        forecasts.publishers(connected);
+        match gate.check(origin, connected, &forecast) {
+            Ok(()) => newest = Some(forecast),
+            Err(e) => tracing::warn!(
+                rejected = gate.stream.rejected.total(),
+                "deck: rejected: {e}"
+            ),
+        }
+    }
+    Ok(newest)
 }
 
 /// How often the deck publishes its counters.

@@ -202,21 +202,20 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             idle = false;
             // Only the producer's port: a second publisher on the motion service (a stale
             // producer, an intruder) must not feed the forecasts.
-            if !producer_port.is_followed(origin) {
-                motion.publishers(&mut connected);
-                if let Err(e) = producer_port.admit(origin, &connected) {
-                    engine.counters.received += 1;
-                    engine.counters.rejected_source += 1;
-                    if engine.counters.rejected_source == 1
-                        || last_log.elapsed() >= Duration::from_secs(10)
-                    {
-                        tracing::warn!(
-                            rejected = engine.counters.rejected_source,
-                            "predictor: motion sample rejected: {e}"
-                        );
-                    }
-                    continue;
+            if let Err(e) =
+                producer_port.admit_listing(origin, &mut connected, |c| motion.publishers(c))
+            {
+                engine.counters.received += 1;
+                engine.counters.rejected_source += 1;
+                if engine.counters.rejected_source == 1
+                    || last_log.elapsed() >= Duration::from_secs(10)
+                {
+                    tracing::warn!(
+                        rejected = engine.counters.rejected_source,
+                        "predictor: motion sample rejected: {e}"
+                    );
                 }
+                continue;
             }
             let received_ns = stamps.as_ref().map(|_| monotonic_ns());
             last_sample = Some(Instant::now());

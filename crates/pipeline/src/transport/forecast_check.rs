@@ -232,6 +232,21 @@ impl IoxFollowedPort {
         self.followed == Some(origin)
     }
 
+    /// [`admit`](Self::admit), asking for the connected ports (`list` fills `connected`) only
+    /// when `origin` is not the port followed now.
+    pub fn admit_listing(
+        &mut self,
+        origin: u128,
+        connected: &mut Vec<u128>,
+        list: impl FnOnce(&mut Vec<u128>),
+    ) -> Result<(), Rejection> {
+        if self.is_followed(origin) {
+            return Ok(());
+        }
+        list(connected);
+        self.admit(origin, connected)
+    }
+
     /// Is `origin` the followed port, while `connected` are the service's publishers?
     pub fn admit(&mut self, origin: u128, connected: &[u128]) -> Result<(), Rejection> {
         if self.followed.is_some_and(|f| !connected.contains(&f)) {
@@ -515,5 +530,40 @@ mod tests {
                 payload: 1
             }
         );
+    }
+
+    #[test]
+    fn a_followed_port_is_admitted_without_listing_the_ports_and_another_only_after() {
+        let mut port = IoxFollowedPort::default();
+        let mut connected = Vec::new();
+        let list = |ports: &[u128]| {
+            let ports = ports.to_vec();
+            move |c: &mut Vec<u128>| {
+                c.clear();
+                c.extend(ports);
+            }
+        };
+        // Nothing followed yet: the ports are listed, and the one alone is followed.
+        assert!(port.admit_listing(7, &mut connected, list(&[7])).is_ok());
+        assert!(port.is_followed(7));
+        // The followed port again: admitted without asking (this list, empty, would refuse
+        // it).
+        let mut asked = false;
+        let empty = |c: &mut Vec<u128>| {
+            asked = true;
+            c.clear();
+        };
+        assert!(port.admit_listing(7, &mut connected, empty).is_ok());
+        assert!(!asked);
+        // Another port: the ports are listed, and it is refused while the followed one is
+        // still connected.
+        assert!(matches!(
+            port.admit_listing(8, &mut connected, list(&[7, 8])),
+            Err(Rejection::NotLivePublisher { .. })
+        ));
+        assert_eq!(connected, vec![7, 8]);
+        // The followed port gone: the other one alone is followed from then on.
+        assert!(port.admit_listing(8, &mut connected, list(&[8])).is_ok());
+        assert!(port.is_followed(8) && !port.is_followed(7));
     }
 }
