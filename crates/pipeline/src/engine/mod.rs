@@ -53,7 +53,7 @@ const RMS_MEMORY: f64 = 600.0;
 const RMS_MEMORY_FAST: f64 = 60.0;
 
 /// Values of live history before the first forecast: the live RMS must mean something.
-const MIN_VALUES_TO_PUBLISH: u64 = 60;
+pub const MIN_VALUES_TO_PUBLISH: u64 = 60;
 
 /// Memory and refractory time of the change detector [values]: two minutes, longer than a
 /// wave group, whose passing must not count as a change of sea.
@@ -77,6 +77,10 @@ pub struct EngineCounts {
     /// Retrained models kept out because the running one scored better.
     pub kept_running: u64,
     pub changes: u64,
+    /// DOF models that failed numerically (an online AR that diverged on a spike, say) and
+    /// were taken out of service until the next model set.
+    #[serde(default)]
+    pub model_failures: u64,
 }
 
 /// The engine's state.
@@ -118,6 +122,65 @@ pub struct Engine {
     prepared_for: Option<(u64, u32)>,
     last_time_s: f64,
     last_implausible_log: [u64; NUM_DOF],
+    /// DOF whose running model failed: no skill until a new set is in use.
+    failed: FailedModels,
+}
+
+/// DOF whose running model failed numerically (an online AR whose update diverged on a
+/// spike, say): taken out of service until the next model set. Their forecasts are no skill
+/// (mean 0, sigma the live RMS, counted as implausible) and a retrain is asked for at once
+/// (`Engine::handle_failures`). A model that cannot forecast one DOF must not stop the other
+/// five, nor the service.
+#[derive(Debug, Default)]
+struct FailedModels {
+    dof: [bool; NUM_DOF],
+    total: u64,
+    /// A failure since the engine last asked for a retrain.
+    unhandled: bool,
+}
+
+impl FailedModels {
+    fn fail(&mut self, d: usize, time_s: f64, error: &dyn std::fmt::Display) {
+        self.dof[d] = true;
+        self.total += 1;
+        self.unhandled = true;
+        tracing::warn!(
+            dof = Dof::ALL[d].name(),
+            time_s,
+            failures = self.total,
+            "predictor: the {} model failed ({error}); no skill for it until a retrain",
+            Dof::ALL[d].name()
+        );
+    }
+}
+
+/// Does a new model set (scores `new`, per DOF) replace the running one (`running`), and
+/// the two mean scores over the DOF compared? Only DOF both can be scored on count: a DOF
+/// absent from the record or constant scores NaN for both (0 / 0), and summed in, it made
+/// every retrain replace the running set. A DOF only the new set can be scored on (the
+/// running one could not forecast it, or has too long an order for the data) makes the new
+/// set replace it, as before.
+fn replaces(new: &[f64; NUM_DOF], running: &[f64; NUM_DOF]) -> (bool, f64, f64) {
+    let mut compared = 0;
+    let (mut new_total, mut running_total) = (0.0, 0.0);
+    let mut only_new = false;
+    for (n, r) in new.iter().zip(running) {
+        match (n.is_finite(), r.is_finite()) {
+            (true, true) => {
+                compared += 1;
+                new_total += n;
+                running_total += r;
+            }
+            (true, false) => only_new = true,
+            _ => {}
+        }
+    }
+    let mean = |total: f64| match compared {
+        0 => f64::NAN,
+        n => total / n as f64,
+    };
+    let better = only_new || compared == 0 || running_total > new_total;
+    (better, mean(new_total), mean(running_total))
 }
 
 impl Engine {
@@ -159,6 +222,7 @@ impl Engine {
             prepared_for: None,
             last_time_s: f64::NAN,
             last_implausible_log: [0; NUM_DOF],
+            failed: FailedModels::default(),
             models: None,
             config,
         };
@@ -223,6 +287,7 @@ impl Engine {
             self.calib.reset(d, prior);
         }
         self.models = Some(set);
+        self.failed.dof = [false; NUM_DOF];
         self.prepared_for = None;
     }
 
@@ -276,18 +341,30 @@ impl Engine {
         if let Some(m) = self.models.as_mut() {
             let horizon = m.horizon();
             for (d, p) in m.predictors.iter_mut().enumerate() {
-                if p.is_online() {
+                if p.is_online() && !self.failed.dof[d] {
                     if let Some(recent) = self.ingest.last(d, p.order() + horizon) {
-                        p.update(recent)?;
+                        if let Err(e) = p.update(recent) {
+                            self.failed.fail(d, v.time_s, &e);
+                        }
                     }
                 }
             }
         }
+        self.handle_failures();
         if self.values < MIN_VALUES_TO_PUBLISH {
             return Ok(false);
         }
         self.compose(index, &x, v)?;
+        self.handle_failures();
         Ok(true)
+    }
+
+    /// Ask for a retrain at once after a model failed (`FailedModels`), and count it.
+    fn handle_failures(&mut self) {
+        if std::mem::take(&mut self.failed.unhandled) {
+            self.counts.model_failures = self.failed.total;
+            self.retrain_due.get_or_insert("a model failed");
+        }
     }
 
     /// Score what the new value completes; learn from it; watch for a changed sea.
@@ -417,14 +494,12 @@ impl Engine {
             tracing::warn!("predictor: retrained model has another horizon: ignored");
             return;
         }
-        let new_total: f64 = outcome.new_score.iter().sum();
-        let old_total: f64 = outcome.running_score.iter().sum();
-        // NaN for the running model means it could not be scored on this data: take the new.
-        let better = old_total.is_nan() || old_total > new_total;
+        let (better, new_score, running_score) =
+            replaces(&outcome.new_score, &outcome.running_score);
         tracing::info!(
             reason = outcome.reason,
-            new_score = new_total / NUM_DOF as f64,
-            running_score = old_total / NUM_DOF as f64,
+            new_score,
+            running_score,
             held_out_score = new.mean_score(),
             seconds = outcome.seconds,
             "predictor: retrained on live history ({}); {}",
@@ -543,10 +618,13 @@ impl Engine {
         for d in 0..NUM_DOF {
             let raw = &mut self.raw[d][..horizon];
             raw.fill(0.0);
-            if let Some(m) = self.models.as_mut() {
+            if let Some(m) = self.models.as_mut().filter(|_| !self.failed.dof[d]) {
                 let p = &mut m.predictors[d];
                 if let Some(past) = self.ingest.last(d, p.order()) {
-                    p.forecast(past, raw)?;
+                    if let Err(e) = p.forecast(past, raw) {
+                        raw.fill(0.0);
+                        self.failed.fail(d, v.time_s, &e);
+                    }
                 }
             }
         }
@@ -561,7 +639,8 @@ impl Engine {
             let rms = var.sqrt();
             let bound = self.config.plausible_rms_factor * rms;
             let inflate = self.change.inflation(d);
-            let mut plausible = true;
+            // A failed model's DOF is delivered as no skill, like an implausible forecast.
+            let mut plausible = !self.failed.dof[d];
             for k in 0..horizon {
                 let c = self.calib.get(d, k, variance[d]);
                 let raw = self.raw[d][k];
@@ -579,9 +658,11 @@ impl Engine {
                     entry.mean[d][k] = 0.0;
                     entry.sigma[d][k] = rms.max(entry.sigma[d][k]);
                 }
-                // One line per DOF per minute of record time at most.
-                if self.values >= self.last_implausible_log[d] + 120
-                    || self.counts.implausible[d] == 1
+                // One line per DOF per minute of record time at most (a failed model was
+                // logged when it failed).
+                if !self.failed.dof[d]
+                    && (self.values >= self.last_implausible_log[d] + 120
+                        || self.counts.implausible[d] == 1)
                 {
                     self.last_implausible_log[d] = self.values;
                     tracing::warn!(
@@ -625,11 +706,17 @@ impl Engine {
         }
         if let Some(m) = self.models.as_mut() {
             for (d, p) in m.predictors.iter_mut().enumerate() {
+                if self.failed.dof[d] {
+                    continue;
+                }
                 if let Some(known) = self.ingest.last(d, p.order()) {
-                    p.prepare(known)?;
+                    if let Err(e) = p.prepare(known) {
+                        self.failed.fail(d, self.last_time_s, &e);
+                    }
                 }
             }
         }
+        self.handle_failures();
         self.prepared_for = Some(now);
         Ok(())
     }

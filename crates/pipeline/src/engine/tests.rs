@@ -34,6 +34,20 @@ fn record(heave: Vec<f64>, rate: f64) -> MotionData {
     }
 }
 
+/// An engine at 2 Hz whose start-up models were fitted on 6000 values of `ar2(seed)` in every
+/// DOF, retraining inline as `config` says.
+fn engine_fitted_on_ar2(config: &PredictorServiceConfig, seed: u64) -> Engine {
+    let clean = ar2(6000, seed, |_| 1.0);
+    let models = super::models::fit(&vec![clean; 6], config, 1).unwrap();
+    Engine::new(
+        config.clone(),
+        2.0,
+        Some(models),
+        Retrainer::inline(config.clone()),
+    )
+    .unwrap()
+}
+
 fn run(data: &MotionData, skip_s: f64) -> DofReplay {
     let config = PredictorServiceConfig::default();
     let (report, _) = replay(data, &config, None, skip_s, false, &|_| {}).unwrap();
@@ -103,15 +117,7 @@ fn an_implausible_forecast_is_never_published() {
         retrain_every_s: 0.0,
         ..PredictorServiceConfig::default()
     };
-    let clean = ar2(6000, 30, |_| 1.0);
-    let models = super::models::fit(&vec![clean; 6], &config, 1).unwrap();
-    let mut engine = Engine::new(
-        config.clone(),
-        2.0,
-        Some(models),
-        Retrainer::inline(config.clone()),
-    )
-    .unwrap();
+    let mut engine = engine_fitted_on_ar2(&config, 30);
     let mut published = 0;
     for (i, v) in x.iter().enumerate() {
         let mut sample = MotionSample {
@@ -139,6 +145,90 @@ fn an_implausible_forecast_is_never_published() {
         engine.counts.implausible[2] > 0,
         "no forecast was ever implausible"
     );
+}
+
+#[test]
+fn a_model_that_fails_numerically_is_taken_out_of_service_and_replaced_by_a_retrain() {
+    // Regression: an online AR whose LMS update diverged on one spike returned an error that
+    // stopped replay and the predictor service. Now that DOF says no skill (mean 0, sigma the
+    // live RMS) until a retrain puts a new model in, and the other DOF go on as they were.
+    let config = PredictorServiceConfig {
+        method: shipcast_predict::Method::Ar,
+        // Plain LMS with a gain this process's power allows (the paper's diverges on it in
+        // training already, and every fit would fall back to the zero forecast); a spike of
+        // 1e5 is far beyond what it allows.
+        ar: Some(crate::config::ArSettings {
+            lms_gain: 1e-5,
+            normalized: false,
+        }),
+        ..PredictorServiceConfig::default()
+    };
+    let mut engine = engine_fitted_on_ar2(&config, 40);
+    let x = ar2(2 * 1800, 41, |_| 1.0);
+    let spike = 600;
+    let (mut failed_at, mut replaced_at) = (None, None);
+    for (i, v) in x.iter().enumerate() {
+        let mut sample = MotionSample {
+            seq: i as u64,
+            time_s: i as f64 * 0.5,
+            ..MotionSample::default()
+        };
+        sample.dof[2] = if i == spike { 1e5 } else { *v };
+        sample.dof[3] = *v;
+        if engine.push(&sample).unwrap().is_none() {
+            continue;
+        }
+        let f = engine.forecast();
+        if failed_at.is_none() && engine.counts.model_failures > 0 {
+            failed_at = Some(i);
+        }
+        if failed_at.is_some() && replaced_at.is_none() {
+            if engine.failed.dof[2] {
+                // No skill, honestly: zero mean, sigma at least the live RMS.
+                let rms = engine.live_rms(2);
+                for k in 0..f.steps as usize {
+                    assert_eq!(f.mean[2][k], 0.0);
+                    assert!(f64::from(f.sigma[2][k]) >= rms * (1.0 - 1e-6));
+                }
+            } else {
+                replaced_at = Some(i);
+            }
+        }
+        for d in [2, 3] {
+            assert!(f.mean[d][..f.steps as usize].iter().all(|m| m.is_finite()));
+        }
+    }
+    let failed_at = failed_at.expect("the spike never made the AR fail");
+    assert!(failed_at >= spike, "failed at {failed_at}");
+    let replaced_at = replaced_at.expect("the failed model was never replaced");
+    assert!(engine.counts.swaps >= 1);
+    // Replaced at the next retrain the data allow, not at the next scheduled one (300 s).
+    assert!(
+        replaced_at - failed_at < 600,
+        "{failed_at} -> {replaced_at}"
+    );
+    assert!(engine.counts.implausible[2] > 0 && engine.counts.implausible[3] == 0);
+}
+
+#[test]
+fn a_retrain_is_compared_on_the_dof_both_sets_can_be_scored_on() {
+    use super::replaces;
+    let nan = f64::NAN;
+    // Regression: a DOF absent from the record (or constant) scores NaN for both sets; summed
+    // in, it made every retrain replace the running set, however it scored elsewhere.
+    let running = [0.5, 0.5, nan, 0.5, 0.5, 0.5];
+    let (better, new, old) = replaces(&[0.6, 0.6, nan, 0.6, 0.6, 0.6], &running);
+    assert!(!better);
+    assert!((new - 0.6).abs() < 1e-12 && (old - 0.5).abs() < 1e-12);
+    assert!(replaces(&[0.4, 0.5, nan, 0.5, 0.5, 0.5], &running).0);
+    // Equal scores keep the running set.
+    assert!(!replaces(&running, &running).0);
+    // A DOF only the new set can be scored on (the running model failed there, or its order
+    // is too long for the data) makes the new set replace it.
+    assert!(replaces(&[0.9, 0.9, 0.9, 0.9, 0.9, 0.9], &running).0);
+    // Nothing comparable at all: the new set, as before.
+    let (better, new, old) = replaces(&[nan; 6], &[nan; 6]);
+    assert!(better && new.is_nan() && old.is_nan());
 }
 
 #[test]
