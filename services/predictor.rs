@@ -256,9 +256,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                     stages,
                 })?;
             }
-            // Last of all: the motion goes out as received, finite samples only (the engine
-            // counts and skips the others).
-            if sample.is_finite() {
+            // Last of all: the motion goes out as received, sound samples only (the engine
+            // counts and skips the others: non-finite or beyond MAX_ABS_MOTION).
+            if sample.is_sound() {
                 motion_json.put_shared(motion_encoder.encode_shared(&sample)?)?;
             }
             // The models prepare the next forecast on a sample that completes none (three in

@@ -65,7 +65,7 @@ impl MotionHistory {
         match verdict {
             SeqCheck::NewRun => self.samples.clear(),
             SeqCheck::Accepted { .. } => {}
-            SeqCheck::NonFinite | SeqCheck::OutOfOrder => return verdict,
+            SeqCheck::BadValue | SeqCheck::OutOfOrder => return verdict,
         }
         if self.samples.len() >= self.capacity {
             self.samples.pop_front();
@@ -150,7 +150,7 @@ mod tests {
         assert_eq!(h.dof_at(2.75), None);
         // A sample out of order, or not finite, changes nothing.
         assert_eq!(h.push(&sample(20, 3.0, 9.0)), SeqCheck::OutOfOrder);
-        assert_eq!(h.push(&sample(41, f64::NAN, 9.0)), SeqCheck::NonFinite);
+        assert_eq!(h.push(&sample(41, f64::NAN, 9.0)), SeqCheck::BadValue);
         assert_eq!(h.dof_at(3.0).map(|d| d[0]), Some(3.0));
         // The ring never grows past what the rate implies: samples ten times faster than
         // configured fill 4 s with 40, and fewer are kept, the newest.

@@ -10,6 +10,7 @@
 //! with values printed in Rust's shortest round-trip form, so reading back gives the same `f64`s.
 
 use shipcast_wire::dof::Dof;
+use shipcast_wire::payload::MAX_ABS_MOTION;
 use std::fs::File;
 use std::io::{self, BufWriter, Read, Write};
 use std::path::Path;
@@ -44,6 +45,14 @@ pub enum MotionCsvError {
         expected: usize,
         got: usize,
     },
+    #[error("line {line}: the last row does not end with a line break, so the file may have been cut off inside it (if the file is complete, end it with a line break)")]
+    Unterminated { line: u64 },
+    #[error("line {line}, column '{column}': value '{text}' is beyond +-{MAX_ABS_MOTION:e}, which no motion reaches")]
+    OutOfRange {
+        line: u64,
+        column: String,
+        text: String,
+    },
     #[error("line {line}, column '{column}': missing value")]
     Missing { line: u64, column: String },
     #[error("line {line}, column '{column}': '{text}' is not a number")]
@@ -58,7 +67,7 @@ pub enum MotionCsvError {
         column: String,
         text: String,
     },
-    #[error("line {line}, column '{TIME_COLUMN}': time {time} does not increase (previous row: {previous})")]
+    #[error("line {line}, column '{TIME_COLUMN}': time {} does not increase (previous row: {})", shown_number(*.time), shown_number(*.previous))]
     TimeNotIncreasing { line: u64, time: f64, previous: f64 },
     #[error("line {line}: malformed CSV: {message}")]
     Malformed { line: u64, message: String },
@@ -82,7 +91,7 @@ pub enum MotionCsvError {
         column: String,
         value: f64,
     },
-    #[error("row {row}: time {time} does not increase (previous row: {previous})")]
+    #[error("row {row}: time {} does not increase (previous row: {})", shown_number(*.time), shown_number(*.previous))]
     WriteTimeNotIncreasing { row: u64, time: f64, previous: f64 },
 }
 
@@ -125,7 +134,7 @@ impl MotionData {
             .has_headers(false)
             .flexible(true)
             .trim(csv::Trim::All)
-            .from_reader(input);
+            .from_reader(LastByte::new(input));
         let mut record = csv::StringRecord::new();
         if !read_record(&mut reader, &mut record)? {
             return Err(MotionCsvError::Empty);
@@ -135,8 +144,9 @@ impl MotionData {
 
         let mut time = Vec::new();
         let mut values: Vec<Vec<f64>> = vec![Vec::new(); names.len()];
+        let mut line = 1;
         while read_record(&mut reader, &mut record)? {
-            let line = record_line(&record);
+            line = record_line(&record);
             if record.len() < names.len() {
                 return Err(MotionCsvError::Truncated {
                     line,
@@ -157,6 +167,14 @@ impl MotionData {
                 } else {
                     parse_value(text, line, &names[i])?
                 };
+                // Time may be epoch seconds; every other column is a motion or a wave.
+                if i != time_index && value.abs() > MAX_ABS_MOTION {
+                    return Err(MotionCsvError::OutOfRange {
+                        line,
+                        column: names[i].clone(),
+                        text: shown_field(text),
+                    });
+                }
                 values[i].push(value);
             }
             let t = values[time_index][values[time_index].len() - 1];
@@ -173,6 +191,9 @@ impl MotionData {
         }
         if time.is_empty() {
             return Err(MotionCsvError::NoRows);
+        }
+        if !matches!(reader.get_ref().last, Some(b'\n' | b'\r')) {
+            return Err(MotionCsvError::Unterminated { line });
         }
         let columns = names
             .into_iter()
@@ -250,6 +271,55 @@ impl MotionData {
     }
 }
 
+/// The input passed through, its last byte kept: a file whose last row ends without a line
+/// break may have been cut off inside its last field, where the cut leaves a shorter number
+/// that still parses (`-2.074122e-03` cut to `-2.074122`).
+///
+/// It also refuses a line longer than [`MAX_LINE_BYTES`]: the CSV reader would buffer one
+/// without end (`--input /dev/zero` grew to 24 GB before the system killed it).
+struct LastByte<R> {
+    inner: R,
+    last: Option<u8>,
+    line_bytes: usize,
+}
+
+/// Longest line a motion CSV may have: some hundred columns of numbers take a few kB.
+pub const MAX_LINE_BYTES: usize = 1 << 20;
+
+impl<R> LastByte<R> {
+    fn new(inner: R) -> Self {
+        Self {
+            inner,
+            last: None,
+            line_bytes: 0,
+        }
+    }
+}
+
+impl<R: Read> Read for LastByte<R> {
+    fn read(&mut self, buf: &mut [u8]) -> io::Result<usize> {
+        let n = self.inner.read(buf)?;
+        let read = &buf[..n];
+        if let Some(&last) = read.last() {
+            self.last = Some(last);
+        }
+        self.line_bytes = match read.iter().rposition(|&b| b == b'\n') {
+            Some(i) => n - i - 1,
+            None => self.line_bytes + n,
+        };
+        if self.line_bytes > MAX_LINE_BYTES {
+            return Err(io::Error::new(
+                io::ErrorKind::InvalidData,
+                format!(
+                    "a line longer than {} MiB: not a motion CSV",
+                    MAX_LINE_BYTES >> 20
+                ),
+            ));
+        }
+        Ok(n)
+    }
+}
+
 /// Read the next record; `Ok(false)` at the end of the input.
 fn read_record<R: Read>(
     reader: &mut csv::Reader<R>,
@@ -271,22 +341,54 @@ fn record_line(record: &csv::StringRecord) -> u64 {
 
 /// Validate the header; returns the index of the time column.
 fn check_header(names: &[String]) -> Result<usize, MotionCsvError> {
+    // A set, not a scan of the names before each: a header of 300 000 columns took minutes.
+    let mut seen = std::collections::HashSet::with_capacity(names.len());
     for (i, name) in names.iter().enumerate() {
         if name.is_empty() {
             return Err(MotionCsvError::EmptyColumnName { index: i + 1 });
         }
-        if names[..i].contains(name) {
+        if !seen.insert(name.as_str()) {
             return Err(MotionCsvError::DuplicateColumn {
                 column: name.clone(),
             });
         }
     }
-    names
-        .iter()
-        .position(|n| n == TIME_COLUMN)
-        .ok_or_else(|| MotionCsvError::MissingTime {
-            columns: names.join(", "),
-        })
+    names.iter().position(|n| n == TIME_COLUMN).ok_or_else(|| {
+        // At most the first few names: a header of garbage can be a megabyte long.
+        const SHOWN: usize = 12;
+        let mut columns = names
+            .iter()
+            .take(SHOWN)
+            .map(|n| shown_name(n))
+            .collect::<Vec<_>>()
+            .join(", ");
+        if names.len() > SHOWN {
+            columns.push_str(&format!(", ... ({} columns)", names.len()));
+        }
+        MotionCsvError::MissingTime { columns }
+    })
+}
+
+/// A column name as an error shows it: on one line, cut short.
+fn shown_name(name: &str) -> String {
+    const MAX_CHARS: usize = 40;
+    let head: String = name.chars().take(MAX_CHARS).collect();
+    let head = head.escape_debug().to_string();
+    if name.chars().count() > MAX_CHARS {
+        format!("{head}...")
+    } else {
+        head
+    }
+}
+
+/// A number as an error shows it: in scientific notation when very large or small, so that a
+/// time of 1e300 is not three hundred digits in a one-line message.
+fn shown_number(x: f64) -> String {
+    if x != 0.0 && x.is_finite() && !(1e-6..1e9).contains(&x.abs()) {
+        format!("{x:e}")
+    } else {
+        format!("{x}")
+    }
 }
 
 /// A field as an error shows it: on one line, and cut short. A stray quote makes the CSV
@@ -501,6 +603,24 @@ mod tests {
                 "time_s,heave_m,pitch_rad\n0,1,2\n-1,1,2\n",
                 "line 3, column 'time_s'",
             ),
+            (
+                "time_s,heave_m,pitch_rad\n1e300,1,2\n0.5,1,2\n",
+                "time 0.5 does not increase (previous row: 1e300)",
+            ),
+            (
+                "time_s,heave_m,pitch_rad\n0,1,2\n1,1e200,2\n",
+                "line 3, column 'heave_m': value '1e200' is beyond +-1e6",
+            ),
+            (
+                "time_s,heave_m,pitch_rad\n0,1,2\n1,1,-1000000.5\n",
+                "line 3, column 'pitch_rad': value '-1000000.5' is beyond",
+            ),
+            // Regression: a file cut inside its last field parsed the rest as a number
+            // (-2.074122e-03 cut to -2.074122, a thousand times too large).
+            (
+                "time_s,heave_m,pitch_rad\n0,1,2\n0.5,1,-2.074122",
+                "line 3: the last row does not end with a line break",
+            ),
         ];
         for (text, expected) in cases {
             let message = err(text);
@@ -511,6 +631,28 @@ mod tests {
             assert!(!message.contains('\n'), "multi-line error: {message}");
         }
         assert!(read_str(&format!("{header}0,1,2\n")).is_ok());
+        assert!(read_str(&format!("{header}0,1,2\r\n")).is_ok());
+        // Epoch seconds are a time, not a motion; a value at the bound is still a value.
+        let epoch = read_str("time_s,heave_m\n1764860000,1000000\n1764860000.5,-1e6\n").unwrap();
+        assert_eq!(epoch.time, vec![1764860000.0, 1764860000.5]);
+        assert_eq!(epoch.dof(Dof::Heave).unwrap(), &[1e6, -1e6]);
+        // Regression: a line without end (`--input /dev/zero`) was buffered until the system
+        // killed the process; a megabyte of header without `time_s` was echoed in full.
+        let zeros = std::io::Read::take(std::io::repeat(0), 64 << 20);
+        let e = MotionData::read(zeros).unwrap_err().to_string();
+        assert!(e.contains("a line longer than 1 MiB"), "{e}");
+        let junk: Vec<String> = (0..50_000).map(|i| format!("junk{i}")).collect();
+        let e = err(&format!("{}\n1\n", junk.join(",")));
+        assert!(
+            e.contains("no 'time_s' column") && e.contains("(50000 columns)"),
+            "{e}"
+        );
+        assert!(e.len() < 300, "{} characters", e.len());
+        // A duplicate far into a wide header is still found (and quickly: the names are
+        // checked against a set, not each against all before it).
+        let wide: Vec<String> = (0..100_000).map(|i| format!("c{i}")).collect();
+        let message = err(&format!("time_s,{},c7\n", wide.join(",")));
+        assert!(message.contains("'c7' appears twice"), "{message}");
         // Regression: a stray quote made the rest of the file one field, and the whole of it
         // (newlines included) the error message.
         let mut quoted = format!("{header}0,1,2\n1,2,\"3\n");

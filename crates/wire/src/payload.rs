@@ -58,10 +58,23 @@ pub struct MotionSample {
     pub dof: [f64; NUM_DOF],
 }
 
+/// Largest magnitude of a motion value a sample may carry [m or rad]. No ship moves a thousand
+/// kilometres or turns a million radians from its mean: a value beyond is a fault (a sensor,
+/// a unit, a corrupt file), and its square would swamp every running mean square and sum of
+/// squares the predictor keeps (1e200 squares to infinity and leaves NaN behind for the rest
+/// of the run). Time is not bounded: a record may keep epoch seconds.
+pub const MAX_ABS_MOTION: f64 = 1.0e6;
+
 impl MotionSample {
     /// True if the time and every DOF value are finite.
     pub fn is_finite(&self) -> bool {
         self.time_s.is_finite() && self.dof.iter().all(|v| v.is_finite())
+    }
+
+    /// True if the sample can be used: finite, and every DOF value within
+    /// [`MAX_ABS_MOTION`].
+    pub fn is_sound(&self) -> bool {
+        self.is_finite() && self.dof.iter().all(|v| v.abs() <= MAX_ABS_MOTION)
     }
 
     /// Parse the JSON form: exactly the four fields, `dof` six numbers. A non-finite value

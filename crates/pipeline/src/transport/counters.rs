@@ -12,7 +12,9 @@ pub struct Counters {
     /// Samples missing according to gaps in `seq` (in the predictor also gaps in record time
     /// that `seq` does not show: a recorded file with a hole, sent with consecutive seq).
     pub lost: u64,
-    /// Samples with a NaN or infinite value.
+    /// Samples with a NaN or infinite value, or a DOF value beyond
+    /// [`MAX_ABS_MOTION`](shipcast_wire::payload::MAX_ABS_MOTION) (the status keeps the
+    /// field's first name).
     pub rejected_nonfinite: u64,
     /// Samples older than one already accepted (seq or record time going back).
     pub rejected_order: u64,
@@ -32,7 +34,7 @@ impl Counters {
         match check {
             SeqCheck::Accepted { lost } => self.lost = self.lost.saturating_add(lost),
             SeqCheck::NewRun => self.restarts += 1,
-            SeqCheck::NonFinite => self.rejected_nonfinite += 1,
+            SeqCheck::BadValue => self.rejected_nonfinite += 1,
             SeqCheck::OutOfOrder => self.rejected_order += 1,
         }
     }
@@ -40,7 +42,7 @@ impl Counters {
     /// One-line summary for logs and the live view.
     pub fn summary(&self) -> String {
         format!(
-            "received {} lost {} rejected {} (non-finite {}, out-of-order {}, foreign {}) published {} restarts {}",
+            "received {} lost {} rejected {} (non-finite or out of range {}, out-of-order {}, foreign {}) published {} restarts {}",
             self.received,
             self.lost,
             self.rejected_nonfinite + self.rejected_order + self.rejected_source,
@@ -61,8 +63,9 @@ pub enum SeqCheck {
     /// seq 0 after a run: a new producer started. The sample is accepted and starts a new,
     /// discontinuous record.
     NewRun,
-    /// Rejected: a value is NaN or infinite.
-    NonFinite,
+    /// Rejected: a value is NaN or infinite, or a DOF value is beyond
+    /// [`MAX_ABS_MOTION`](shipcast_wire::payload::MAX_ABS_MOTION).
+    BadValue,
     /// Rejected: seq or record time is not after the last accepted sample.
     OutOfOrder,
 }
@@ -101,7 +104,7 @@ impl SeqTracker {
 
     /// Judge `sample` and, if accepted, remember it as the newest.
     pub fn check(&mut self, sample: &MotionSample) -> SeqCheck {
-        if !sample.is_finite() {
+        if !sample.is_sound() {
             // The sample arrived, so it is not lost: advance seq (not time, which may be NaN)
             // so the next good sample does not count it again as a gap.
             if let Some((last_seq, last_time)) = self.last {
@@ -109,7 +112,7 @@ impl SeqTracker {
                     self.last = Some((sample.seq, last_time));
                 }
             }
-            return SeqCheck::NonFinite;
+            return SeqCheck::BadValue;
         }
         let verdict = match self.last {
             None => SeqCheck::Accepted { lost: 0 },
@@ -167,6 +170,7 @@ impl SeqTracker {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use shipcast_wire::payload::MAX_ABS_MOTION;
 
     fn s(seq: u64, time_s: f64) -> MotionSample {
         MotionSample {
@@ -194,17 +198,26 @@ mod tests {
         assert_eq!(feed(s(5, 0.5)), SeqCheck::OutOfOrder);
         let mut nan = s(5, 0.625);
         nan.dof[2] = f64::NAN;
-        assert_eq!(feed(nan), SeqCheck::NonFinite);
-        // The rejected seq 5 arrived: it is counted as rejected, not again as lost.
-        assert_eq!(feed(s(6, 0.75)), SeqCheck::Accepted { lost: 0 });
+        assert_eq!(feed(nan), SeqCheck::BadValue);
+        // A finite value no ship's motion can have: refused the same way.
+        let mut absurd = s(5, 0.625);
+        absurd.dof[2] = 1e200;
+        assert_eq!(feed(absurd), SeqCheck::BadValue);
+        let mut edge = s(5, 0.625);
+        edge.dof[3] = -MAX_ABS_MOTION;
+        edge.seq = 6;
+        edge.time_s = 0.75;
+        // The rejected seq 5 arrived: it is counted as rejected, not again as lost. A value
+        // at the bound is still a value.
+        assert_eq!(feed(edge), SeqCheck::Accepted { lost: 0 });
         assert_eq!(feed(s(0, 0.0)), SeqCheck::NewRun);
         assert_eq!(feed(s(1, 0.125)), SeqCheck::Accepted { lost: 0 });
         assert_eq!(
             c,
             Counters {
-                received: 10,
+                received: 11,
                 lost: 2,
-                rejected_nonfinite: 1,
+                rejected_nonfinite: 2,
                 rejected_order: 3,
                 rejected_source: 0,
                 published: 0,

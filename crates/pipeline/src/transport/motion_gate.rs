@@ -94,7 +94,7 @@ impl MotionGate {
         match history.push(&sample) {
             SeqCheck::Accepted { .. } => Ok(admitted),
             SeqCheck::NewRun => Ok(Admitted::Restarted),
-            SeqCheck::NonFinite | SeqCheck::OutOfOrder => Err(not_forward()),
+            SeqCheck::BadValue | SeqCheck::OutOfOrder => Err(not_forward()),
         }
     }
 }
