@@ -90,10 +90,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         );
     }
     // Skipping the whole record would score nothing and print a table of NaN.
+    let start_s = data.time.first().copied().unwrap_or(0.0);
     let end_s = data.time.last().copied().unwrap_or(0.0);
     if skip_s >= end_s {
         anyhow::bail!(
-            "--skip-s {skip_s} s skips the whole record (it ends at {end_s:.1} s in {})",
+            "--skip-s {skip_s} s (record time) skips the whole record: it runs from {start_s:.1} to {end_s:.1} s in {}",
             input.display()
         );
     }
@@ -112,6 +113,24 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         &|n| bar.inc(n),
     )?;
     bar.finish_and_clear();
+    // A record too short for any forecast to be scored would print a table of NaN.
+    if report.dofs.iter().all(|d| d.scored == 0) {
+        anyhow::bail!(
+            "no forecast could be scored in {}: it runs from {start_s:.1} to {end_s:.1} s, and a forecast is scored only if issued at record time >= {skip_s} s (--skip-s), after {:.0} s of history, with all {:.1} s of its steps inside the record",
+            input.display(),
+            shipcast_pipeline::engine::MIN_VALUES_TO_PUBLISH as f64 / config.predictor.sample_rate_hz,
+            config.predictor.horizon as f64 / config.predictor.sample_rate_hz,
+        );
+    }
+    if report.input.lost > 0 {
+        tracing::warn!(
+            missing = report.input.lost,
+            "replay: {} samples missing from {} (gaps in time): runs of up to {} were bridged by holding the last value, longer gaps restarted the history",
+            report.input.lost,
+            input.display(),
+            shipcast_pipeline::engine::MAX_FILL
+        );
+    }
     let mut out = std::io::stdout().lock();
     if json {
         for d in &report.dofs {
@@ -136,6 +155,13 @@ fn table(r: &ReplayReport) -> String {
         "replay: {} forecasts, {} retrains ({} failed), {} swaps ({} kept the running model), {} sea changes; input {} Hz\n",
         r.counts.forecasts, r.counts.retrains, r.counts.retrain_failures, r.counts.swaps, r.counts.kept_running, r.counts.changes, r.input_rate_hz
     );
+    s.push_str(&format!(
+        "input: {} samples, {} missing (gaps), {} rejected; {} model failures\n",
+        r.input.received,
+        r.input.lost,
+        r.input.rejected_nonfinite + r.input.rejected_order,
+        r.counts.model_failures
+    ));
     s.push_str("dof     lead  rms      nrmse  persist  sigma    cov1   cov2\n");
     for d in &r.dofs {
         for lead in TABLE_LEADS {
@@ -171,7 +197,7 @@ fn table(r: &ReplayReport) -> String {
             let why = if d.mot_s > horizon_s + 1e-9 {
                 "the horizon is shorter than the MOT"
             } else {
-                "no window of it ended inside the scored part of the record"
+                "no probability was stated in the scored part of the record: the deck states none before it has verified errors, about 5 minutes"
             };
             s.push_str(&format!(
                 "{} MOT {:.0}s: no call ({why})\n",

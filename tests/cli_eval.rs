@@ -429,16 +429,38 @@ fn replay_refuses_a_model_of_another_horizon_than_the_configured_one() {
 }
 
 /// Regression: a record too short for any window of MOT to be verified was reported as "the
-/// horizon is shorter than the MOT", which was true only of the 30 s MOT.
+/// horizon is shorter than the MOT", which was true only of the 30 s MOT; and one too short
+/// for any forecast to be scored printed a table of NaN and succeeded.
 #[test]
-fn replay_of_a_record_too_short_to_score_a_window_says_why_there_is_no_call() {
+fn replay_of_a_record_too_short_to_score_says_why() {
     let dir = tempfile::tempdir().unwrap();
-    let csv = dir.path().join("short.csv");
-    let csv = csv.to_str().unwrap();
-    assert!(shipcast(&["simulate", "--duration", "45", "--out", csv])
-        .status
-        .success());
-    let output = shipcast(&["replay", "--input", csv, "--skip-s", "0"]);
+    let record = |name: &str, duration: &str| {
+        let csv = dir.path().join(name).to_str().unwrap().to_string();
+        assert!(
+            shipcast(&["simulate", "--duration", duration, "--out", &csv])
+                .status
+                .success()
+        );
+        csv
+    };
+    // 45 s: the first forecast comes after 30 s of history, and its 25 s of steps end
+    // beyond the record.
+    let short = record("short.csv", "45");
+    let output = shipcast(&["replay", "--input", &short, "--skip-s", "0"]);
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(
+        !output.status.success() && output.stdout.is_empty(),
+        "{stderr}"
+    );
+    let error = stderr.lines().last().unwrap_or_default();
+    assert!(
+        error.starts_with("error: no forecast could be scored in") && error.contains("25.0 s"),
+        "{stderr}"
+    );
+    // 2 minutes: forecasts are scored, but the deck states no probability before it has
+    // verified errors.
+    let csv = record("two_minutes.csv", "120");
+    let output = shipcast(&["replay", "--input", &csv, "--skip-s", "0"]);
     assert!(output.status.success());
     let out = String::from_utf8_lossy(&output.stdout);
     let no_call = |mot: &str| {
@@ -450,10 +472,56 @@ fn replay_of_a_record_too_short_to_score_a_window_says_why_there_is_no_call() {
     // The default horizon is 25 s: MOT 10 s fits it, 30 s does not.
     assert_eq!(
         no_call("10"),
-        "deck MOT 10s: no call (no window of it ended inside the scored part of the record)"
+        "deck MOT 10s: no call (no probability was stated in the scored part of the record: the deck states none before it has verified errors, about 5 minutes)"
     );
     assert_eq!(
         no_call("30"),
         "deck MOT 30s: no call (the horizon is shorter than the MOT)"
+    );
+}
+
+/// Regression: samples missing from a record (every other one over its second half) were
+/// bridged without a count or a word; eval refuses such a file, replay said nothing.
+#[test]
+fn replay_counts_and_reports_the_samples_missing_from_a_record() {
+    let dir = tempfile::tempdir().unwrap();
+    let full = dir.path().join("full.csv");
+    assert!(shipcast(&[
+        "simulate",
+        "--duration",
+        "400",
+        "--rate",
+        "8",
+        "--out",
+        full.to_str().unwrap()
+    ])
+    .status
+    .success());
+    let text = std::fs::read_to_string(&full).unwrap();
+    let mut lines = text.lines();
+    let mut thinned = format!("{}\n", lines.next().unwrap());
+    let rows: Vec<&str> = lines.collect();
+    let mut removed = 0;
+    for (i, row) in rows.iter().enumerate() {
+        if i >= rows.len() / 2 && i % 2 == 1 && i + 1 < rows.len() {
+            removed += 1;
+            continue;
+        }
+        thinned.push_str(row);
+        thinned.push('\n');
+    }
+    let input = write(dir.path(), "thinned.csv", &thinned);
+    let output = shipcast(&["replay", "--input", input.to_str().unwrap()]);
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(output.status.success(), "{stderr}");
+    let out = String::from_utf8_lossy(&output.stdout);
+    let expected = format!(
+        "input: {} samples, {removed} missing (gaps), 0 rejected",
+        rows.len() - removed
+    );
+    assert!(out.contains(&expected), "want '{expected}' in:\n{out}");
+    assert!(
+        stderr.contains(&format!("replay: {removed} samples missing from")),
+        "{stderr}"
     );
 }

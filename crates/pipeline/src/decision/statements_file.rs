@@ -118,10 +118,17 @@ pub fn save(path: &Path, file: &StatementsFile) -> anyhow::Result<()> {
     let text = serde_json::to_string(file)?;
     let io_err =
         |p: &Path, e: std::io::Error| anyhow::anyhow!("statements file {}: {e}", p.display());
-    let mut out = std::fs::File::create(&tmp).map_err(|e| io_err(&tmp, e))?;
+    let tmp_err = |e: std::io::Error| {
+        anyhow::anyhow!(
+            "statements file {}: writing its temporary file {}: {e}",
+            path.display(),
+            tmp.display()
+        )
+    };
+    let mut out = std::fs::File::create(&tmp).map_err(tmp_err)?;
     out.write_all(text.as_bytes())
         .and_then(|()| out.sync_all())
-        .map_err(|e| io_err(&tmp, e))?;
+        .map_err(tmp_err)?;
     drop(out);
     std::fs::rename(&tmp, path).map_err(|e| io_err(path, e))?;
     // Flushing a directory is a Unix notion; elsewhere the rename is left to the OS.
@@ -154,6 +161,25 @@ impl StatementsKeeper {
     /// caller then runs without a keeper, so that file is never overwritten (it may be the
     /// only copy of a long run's statements).
     pub fn open(path: &Path, dt_s: f64, decider: &mut Decider) -> anyhow::Result<Self> {
+        // Where it cannot be written is found now, not at the first write after hours of
+        // calls (or, in replay, after the whole record).
+        if path.as_os_str().is_empty() {
+            anyhow::bail!("statements file: the path is empty");
+        }
+        if path.is_dir() {
+            anyhow::bail!("statements file {}: is a directory", path.display());
+        }
+        let dir = match path.parent() {
+            Some(d) if !d.as_os_str().is_empty() => d,
+            _ => Path::new("."),
+        };
+        if !dir.is_dir() {
+            anyhow::bail!(
+                "statements file {}: its directory {} does not exist",
+                path.display(),
+                dir.display()
+            );
+        }
         let mut keeper = Self {
             path: path.to_path_buf(),
             dt_s,
@@ -233,12 +259,38 @@ mod tests {
         let path = dir.path().join("no such dir").join("statements.json");
         let file = StatementsFile::of(0.5, std::iter::empty());
         let e = save(&path, &file).unwrap_err().to_string();
-        assert!(e.contains("statements.json"), "{e}");
+        // The message names the configured file first, not only its temporary one.
+        assert!(
+            e.starts_with(&format!("statements file {}: ", path.display())),
+            "{e}"
+        );
         assert!(!path.exists());
         // The same write where the directory exists is flushed, renamed and readable.
         let path = dir.path().join("statements.json");
         save(&path, &file).unwrap();
         assert_eq!(load(&path).unwrap(), Some(file));
+    }
+
+    /// Regression: a statements file in a directory that does not exist was found out only
+    /// at the first write: in replay, after the whole record, whose results were then lost.
+    #[test]
+    fn a_path_that_cannot_be_written_is_refused_when_opened() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut decider = Decider::new(&crate::config::DeckConfig::default());
+        let mut open = |path: &Path| {
+            StatementsKeeper::open(path, 0.5, &mut decider)
+                .err()
+                .map(|e| e.to_string())
+        };
+        let missing = dir.path().join("no such dir").join("s.json");
+        let e = open(&missing).expect("a missing directory was accepted");
+        assert!(e.contains("does not exist") && e.contains("s.json"), "{e}");
+        let e = open(dir.path()).expect("a directory was accepted");
+        assert!(e.contains("is a directory"), "{e}");
+        let e = open(Path::new("")).expect("an empty path was accepted");
+        assert!(e.contains("empty"), "{e}");
+        // A file not there yet in a directory that is: a deck's first run.
+        assert_eq!(open(&dir.path().join("s.json")), None);
     }
 
     #[test]

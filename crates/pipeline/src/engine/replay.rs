@@ -13,6 +13,7 @@ use crate::config::{DeckConfig, PredictorServiceConfig};
 use crate::decision::score::{DecisionReport, DecisionScorer};
 use crate::decision::statements_file::StatementsKeeper;
 use crate::engine::models::ModelSet;
+use crate::transport::counters::Counters;
 use serde::Serialize;
 use shipcast_series::motion_csv::MotionData;
 use shipcast_wire::payload::{Forecast, MotionSample, MAX_STEPS, NUM_DOF};
@@ -54,6 +55,10 @@ pub struct ReplayReport {
     pub input_rate_hz: f64,
     pub dt_s: f64,
     pub counts: EngineCounts,
+    /// The record's samples as the engine took them: received, missing (gaps in time; runs
+    /// of up to `MAX_FILL` bridged by holding the last value, longer ones restart the
+    /// history) and rejected.
+    pub input: Counters,
     pub dofs: Vec<DofReplay>,
     /// Deck decisions scored against the record (one per MOT; empty unless asked).
     pub decisions: Vec<DecisionReport>,
@@ -216,6 +221,7 @@ pub fn replay_scored(
     progress(unreported);
     let steps = engine.forecast().steps as usize;
     let counts = engine.counts;
+    let input = engine.counters;
     let dofs = present
         .iter()
         .map(|&dof| {
@@ -257,6 +263,7 @@ pub fn replay_scored(
             input_rate_hz: rate,
             dt_s: dt,
             counts,
+            input,
             dofs,
             decisions: scorer.map_or_else(Vec::new, DecisionScorer::finish),
         },
