@@ -251,6 +251,28 @@ impl PipelineConfig {
             MAX_RETRAIN_WINDOW,
         )?;
         limits::count("predictor.holdout", q.holdout, 0, MAX_RETRAIN_WINDOW)?;
+        // A candidate is scored on the held-out part at every origin with its whole horizon
+        // inside: too short a part scores no order, and retraining silently never happens.
+        if q.retrain_every_s > 0.0 {
+            let smallest = q
+                .candidate_orders
+                .iter()
+                .copied()
+                .chain(std::iter::once(q.order))
+                .filter(|&o| o >= 1 && o <= q.order)
+                .filter(|&o| q.method != shipcast_predict::Method::Mca || o > q.horizon)
+                .min()
+                .unwrap_or(q.order);
+            let needed = smallest + q.horizon + crate::engine::models::MIN_HOLDOUT_ORIGINS;
+            if q.holdout < needed {
+                return Err(format!(
+                    "predictor.holdout = {} values is too short to score any candidate: the smallest order ({smallest}) with the horizon ({}) and {} origins needs {needed}; raise holdout",
+                    q.holdout,
+                    q.horizon,
+                    crate::engine::models::MIN_HOLDOUT_ORIGINS
+                ));
+            }
+        }
         // The first fit waits for `first_fit_s` of history, and the history holds
         // `history_values`: a longer wait would never end, silently.
         let first_fit_values = (q.first_fit_s * q.sample_rate_hz).round();

@@ -197,6 +197,17 @@ fn a_first_fit_within_the_history_is_accepted() {
     assert!(PipelineConfig::from_toml(ok, Path::new("p.toml")).is_ok());
     let never = "[predictor]\nfirst_fit_s = 3000.0\nretrain_window = 5000\nretrain_every_s = 0.0";
     assert!(PipelineConfig::from_toml(never, Path::new("p.toml")).is_ok());
+    // Held-out parts: exactly long enough, and any length without retraining.
+    let holdout = |text: &str| PipelineConfig::from_toml(text, Path::new("p.toml")).is_ok();
+    assert!(holdout("[predictor]\nholdout = 135"));
+    assert!(holdout("[predictor]\nholdout = 0\nretrain_every_s = 0.0"));
+    // The smallest order that is a candidate counts: without 25, it is 50.
+    assert!(!holdout(
+        "[predictor]\nholdout = 150\ncandidate_orders = [50, 100]"
+    ));
+    assert!(holdout(
+        "[predictor]\nholdout = 160\ncandidate_orders = [50, 100]"
+    ));
 }
 
 #[test]
@@ -210,6 +221,12 @@ fn impossible_values_are_refused() {
         (
             "[predictor]\nfirst_fit_s = 3000.0\nretrain_window = 5000",
             "first fit would never come",
+        ),
+        // Regression: a held-out part too short to score the smallest order (25) with the
+        // horizon (50) at 60 origins meant no retrain ever, and nothing said so.
+        (
+            "[predictor]\nholdout = 134",
+            "predictor.holdout = 134 values is too short to score any candidate: the smallest order (25) with the horizon (50) and 60 origins needs 135",
         ),
     ] {
         let r = PipelineConfig::from_toml(text, Path::new("p.toml"))
@@ -264,6 +281,8 @@ fn an_endpoint_without_protocol_or_port_is_refused_naming_key_and_flag() {
         ("[\"garbage\"]", false),
         ("[\"tcp/127.0.0.1\"]", false),
         ("[\"tcp/127.0.0.1:99999\"]", false),
+        // Port 0: the system would pick one no consumer could be told.
+        ("[\"tcp/127.0.0.1:0\"]", false),
         ("[\"/127.0.0.1:7447\"]", false),
         ("[\"tcp/127.0.0.1:7447\"]", true),
         ("[\"tcp/[::1]:7447\", \"udp/10.0.0.5:7447\"]", true),
