@@ -179,6 +179,9 @@ pub struct Snapshot {
     pub vessels: Vec<VesselView>,
     /// Messages dropped because they named a vessel or station beyond the board's bounds.
     pub beyond_bounds: u64,
+    /// Messages refused (bad JSON, failed checks) for a vessel not on the board: counted
+    /// here, so that a refused message never makes a board entry.
+    pub rejected_unheard: u64,
 }
 
 /// Most vessels, and stations per vessel, the board holds. Names come from zenoh keys, which
@@ -212,6 +215,7 @@ pub struct Board {
     limits: Limits,
     stale_after: Duration,
     beyond_bounds: std::sync::atomic::AtomicU64,
+    rejected_unheard: std::sync::atomic::AtomicU64,
 }
 
 impl Board {
@@ -221,18 +225,40 @@ impl Board {
             limits,
             stale_after,
             beyond_bounds: Default::default(),
+            rejected_unheard: Default::default(),
         }
     }
 
     /// Run `f` on the vessel's entry, made if new; None (and counted) when the board holds
-    /// `MAX_VESSELS` others already.
-    fn with_vessel<R>(&self, vessel: &str, f: impl FnOnce(&mut Vessel) -> R) -> Option<R> {
+    /// `MAX_VESSELS` others already. With `make_room` (a forecast arriving at that instant) a
+    /// full board first drops the entry stale the longest (one never sent a forecast first):
+    /// names made up by stray or hostile messages must not keep a live vessel off the board
+    /// for good. A board of 64 live vessels still refuses the 65th.
+    fn with_vessel<R>(
+        &self,
+        vessel: &str,
+        make_room: Option<Instant>,
+        f: impl FnOnce(&mut Vessel) -> R,
+    ) -> Option<R> {
         // A panic elsewhere never leaves the map half-written (every update is one assignment),
         // so a poisoned lock is still safe to use.
         let mut map = self.vessels.lock().unwrap_or_else(|p| p.into_inner());
         if !map.contains_key(vessel) && map.len() >= MAX_VESSELS {
-            self.count_beyond_bounds();
-            return None;
+            let stalest = make_room.and_then(|now| {
+                map.iter()
+                    .filter(|(_, v)| self.is_stale(v.forecast_at, now))
+                    .min_by_key(|(_, v)| v.forecast_at)
+                    .map(|(name, _)| name.clone())
+            });
+            match stalest {
+                Some(name) => {
+                    map.remove(&name);
+                }
+                None => {
+                    self.count_beyond_bounds();
+                    return None;
+                }
+            }
         }
         Some(f(map.entry(vessel.to_string()).or_default()))
     }
@@ -256,7 +282,7 @@ impl Board {
     /// Put a forecast (already through the content checks) on the board. Its seq must follow
     /// the shown one, except after the vessel went stale (a restarted predictor counts from 0).
     pub fn forecast(&self, vessel: &str, f: &Forecast, now: Instant) -> Result<(), Refused> {
-        self.with_vessel(vessel, |v| {
+        self.with_vessel(vessel, Some(now), |v| {
             let live = !self.is_stale(v.forecast_at, now);
             if let (true, Some(shown)) = (live, &v.forecast) {
                 if f.seq <= shown.seq {
@@ -274,13 +300,22 @@ impl Board {
         .unwrap_or(Err(Refused::BeyondBounds))
     }
 
-    /// Count a message refused before it reached the board (bad JSON, failed checks).
+    /// Count a message refused before it reached the board (bad JSON, failed checks): on the
+    /// vessel's entry if it has one, else in `rejected_unheard` (a refused message never makes
+    /// an entry: junk on 64 made-up keys filled the board and kept real vessels off it).
     pub fn reject(&self, vessel: &str) {
-        self.with_vessel(vessel, |v| v.rejected += 1);
+        let mut map = self.vessels.lock().unwrap_or_else(|p| p.into_inner());
+        match map.get_mut(vessel) {
+            Some(v) => v.rejected += 1,
+            None => {
+                self.rejected_unheard
+                    .fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+            }
+        }
     }
 
     pub fn advisory(&self, vessel: &str, station: &str, advisory: AdvisoryView) {
-        let kept = self.with_vessel(vessel, |v| {
+        let kept = self.with_vessel(vessel, None, |v| {
             if !v.advisories.contains_key(station) && v.advisories.len() >= MAX_STATIONS {
                 return false;
             }
@@ -296,7 +331,7 @@ impl Board {
     pub fn verification(&self, vessel: &str, report: &VerificationIn) -> bool {
         match report.skill() {
             Some(skill) => {
-                self.with_vessel(vessel, |v| v.skill = skill);
+                self.with_vessel(vessel, None, |v| v.skill = skill);
                 true
             }
             None => {
@@ -335,6 +370,9 @@ impl Board {
             vessels,
             beyond_bounds: self
                 .beyond_bounds
+                .load(std::sync::atomic::Ordering::Relaxed),
+            rejected_unheard: self
+                .rejected_unheard
                 .load(std::sync::atomic::Ordering::Relaxed),
         }
     }
@@ -438,12 +476,14 @@ mod tests {
             b.forecast("one-too-many", &forecast(1, 1.0, 0.0), t0),
             Err(Refused::BeyondBounds)
         );
+        // A refused message makes no entry: counted apart.
         b.reject("another");
         // A vessel already held is still served.
         b.forecast("v0", &forecast(2, 2.0, 0.0), t0).unwrap();
         let s = b.snapshot(t0);
         assert_eq!(s.vessels.len(), MAX_VESSELS);
-        assert_eq!(s.beyond_bounds, 2);
+        assert_eq!((s.beyond_bounds, s.rejected_unheard), (1, 1));
+        assert!(s.vessels.iter().all(|v| v.vessel != "another"));
         let mut advisor = shipcast_pipeline::deck::DeckAdvisor::new(
             &shipcast_pipeline::config::DeckConfig::default(),
         );
@@ -455,7 +495,53 @@ mod tests {
         let s = b.snapshot(t0);
         let v1 = s.vessels.iter().find(|v| v.vessel == "v1").unwrap();
         assert_eq!(v1.advisories.len(), MAX_STATIONS);
-        assert_eq!(s.beyond_bounds, 3);
+        assert_eq!(s.beyond_bounds, 2);
+    }
+
+    /// Regression: junk on 64 made-up vessel keys filled the board with entries that never
+    /// had a forecast, and a real vessel was kept off it for good.
+    #[test]
+    fn a_full_board_makes_room_for_a_live_vessel_by_dropping_the_stalest() {
+        let b = board();
+        let t0 = Instant::now();
+        let stale_after = Duration::from_secs_f64(b.snapshot(t0).stale_after_s);
+        // 63 vessels that once sent a forecast, at t0, and one that never did (an advisory
+        // alone makes an entry).
+        for i in 0..MAX_VESSELS - 1 {
+            b.forecast(&format!("v{i}"), &forecast(1, 1.0, 0.0), t0)
+                .unwrap();
+        }
+        let json = serde_json::to_vec(
+            &shipcast_pipeline::deck::DeckAdvisor::new(
+                &shipcast_pipeline::config::DeckConfig::default(),
+            )
+            .advise(&calm_forecast(50)),
+        )
+        .unwrap();
+        b.advisory("never", "deck", serde_json::from_slice(&json).unwrap());
+        // While all the others are live, the one that never sent a forecast makes room.
+        b.forecast("real", &forecast(1, 1.0, 0.0), t0).unwrap();
+        let names = |t| -> Vec<String> {
+            b.snapshot(t)
+                .vessels
+                .into_iter()
+                .map(|v| v.vessel)
+                .collect()
+        };
+        assert!(!names(t0).contains(&"never".to_string()));
+        assert_eq!(names(t0).len(), MAX_VESSELS);
+        // A board of live vessels refuses the next one.
+        assert_eq!(
+            b.forecast("late", &forecast(1, 1.0, 0.0), t0),
+            Err(Refused::BeyondBounds)
+        );
+        // Once they are stale, the stalest (v0..v62 at t0; "real" refreshed later) go first.
+        let later = t0 + stale_after + Duration::from_secs(1);
+        b.forecast("real", &forecast(2, 1.0, 0.0), later).unwrap();
+        b.forecast("late", &forecast(1, 1.0, 0.0), later).unwrap();
+        let now = names(later);
+        assert!(now.contains(&"late".to_string()) && now.contains(&"real".to_string()));
+        assert_eq!(now.len(), MAX_VESSELS);
     }
 
     /// A calm forecast of `steps` steps: every motion small, sigma small.
