@@ -116,9 +116,19 @@ impl TryFrom<Args> for Config {
         }
         let listen_host = endpoint_host(&args.listen)?.to_string();
         let mut taken: Vec<String> = args.vessel.iter().map(|v| pipeline_name(v)).collect();
-        if args.router.is_some() {
+        // The configurations written beside the stations' `<station>.toml`: a station of the
+        // same name would overwrite one (and the report would still point at it).
+        let configs: Vec<String> = if args.router.is_some() {
+            if args.vessel.iter().any(|v| v == ROUTER_NAME) {
+                anyhow::bail!(
+                    "--vessel '{ROUTER_NAME}': {ROUTER_NAME}.toml is the fleet router's configuration; choose another vessel name"
+                );
+            }
             taken.push(ROUTER_NAME.to_string());
-        }
+            args.vessel.clone()
+        } else {
+            vec!["shipcast".to_string()]
+        };
         for (i, s) in args.station.iter().enumerate() {
             // The second would overwrite the first's files, and the report count both.
             if args.station[..i].contains(s) {
@@ -130,6 +140,11 @@ impl TryFrom<Args> for Config {
             }
             if taken.contains(s) {
                 anyhow::bail!("--station '{s}' is the name of a pipeline or of the router");
+            }
+            if configs.contains(s) {
+                anyhow::bail!(
+                    "--station '{s}': {s}.toml is a pipeline's configuration in this setup; choose another station name"
+                );
             }
         }
         // Beyond about a century the certificate's end date overflows its time type.
@@ -382,13 +397,20 @@ fn consumer_toml(names: &Names, zenoh: &ZenohConfig) -> anyhow::Result<String> {
 
 /// Write `name` into `dir`; secrets (private keys, files embedding one) readable by the owner
 /// only.
+///
+/// Whatever is at the path is removed first and the file is created anew (`create_new`, which
+/// never follows a symlink): the mode of `open` applies only to a file it creates, so a key
+/// written over an existing world-readable file kept that file's mode, and a symlink planted
+/// at the key's name had the key written wherever it pointed.
 fn write(dir: &Path, name: &str, text: &str, secret: bool) -> anyhow::Result<()> {
     use std::os::unix::fs::OpenOptionsExt;
     let path = dir.join(name);
+    if path.symlink_metadata().is_ok() {
+        std::fs::remove_file(&path).with_context(|| format!("replace {}", path.display()))?;
+    }
     let mut file = std::fs::OpenOptions::new()
         .write(true)
-        .create(true)
-        .truncate(true)
+        .create_new(true)
         .mode(if secret { 0o600 } else { 0o644 })
         .open(&path)
         .with_context(|| format!("write {}", path.display()))?;
@@ -456,6 +478,19 @@ mod tests {
             refused(&["--station", "ddg51-pipeline"]),
             "--station 'ddg51-pipeline' is the name of a pipeline or of the router"
         );
+        // Regression: a station named like a configuration beside it overwrote that file.
+        assert_eq!(
+            refused(&["--station", "shipcast"]),
+            "--station 'shipcast': shipcast.toml is a pipeline's configuration in this setup; choose another station name"
+        );
+        assert_eq!(
+            refused(&["--router", "tls/r:1", "--vessel", "a", "--station", "a"]),
+            "--station 'a': a.toml is a pipeline's configuration in this setup; choose another station name"
+        );
+        assert_eq!(
+            refused(&["--router", "tls/r:1", "--vessel", "router"]),
+            "--vessel 'router': router.toml is the fleet router's configuration; choose another vessel name"
+        );
         assert_eq!(
             refused(&["--station", "a b"]),
             "--station 'a b': 1 to 64 letters, digits, '-', '_' or '.'"
@@ -470,6 +505,29 @@ mod tests {
         );
         let bad = crate::refused::<Args, Config>(&["--out", "x", "--listen", "tcp/h:1"]);
         assert_eq!(bad, "certs: endpoint 'tcp/h:1' is not tls/HOST:PORT");
+    }
+
+    /// Regression: a key written over an existing world-readable file kept its mode, and
+    /// one written at a planted symlink went where the link pointed.
+    #[test]
+    fn a_key_is_written_anew_readable_by_its_owner_only() {
+        use std::os::unix::fs::PermissionsExt;
+        let dir = tempfile::tempdir().unwrap();
+        let mode = |p: &Path| p.metadata().unwrap().permissions().mode() & 0o777;
+        let key = dir.path().join("pipeline.key");
+        std::fs::write(&key, "old").unwrap();
+        std::fs::set_permissions(&key, std::fs::Permissions::from_mode(0o644)).unwrap();
+        write(dir.path(), "pipeline.key", "secret", true).unwrap();
+        assert_eq!(mode(&key), 0o600);
+        assert_eq!(std::fs::read_to_string(&key).unwrap(), "secret");
+        let elsewhere = dir.path().join("elsewhere");
+        std::fs::write(&elsewhere, "untouched").unwrap();
+        let link = dir.path().join("router.key");
+        std::os::unix::fs::symlink(&elsewhere, &link).unwrap();
+        write(dir.path(), "router.key", "secret", true).unwrap();
+        assert_eq!(std::fs::read_to_string(&elsewhere).unwrap(), "untouched");
+        assert!(!link.symlink_metadata().unwrap().file_type().is_symlink());
+        assert_eq!(mode(&link), 0o600);
     }
 
     #[test]
