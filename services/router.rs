@@ -63,11 +63,17 @@ impl TryFrom<Args> for Config {
         if args.listen.is_empty() && args.config.is_none() {
             anyhow::bail!("give the endpoints to listen on (--listen) or a --config that has them");
         }
-        let config = PipelineConfig::load(args.config.as_deref())?;
-        let mut settings = config.zenoh.publisher_side();
+        let mut config = PipelineConfig::load(args.config.as_deref())?;
         if !args.listen.is_empty() {
-            settings.listen = args.listen;
+            config.zenoh.listen = args.listen;
         }
+        // The pipeline's checks of the endpoints (as the router uses them: listening only,
+        // no scouting), before zenoh sees them: its errors name its own JSON keys, or come
+        // as a debug dump.
+        config.zenoh.connect.clear();
+        config.zenoh.multicast_scouting = false;
+        config.zenoh.validate()?;
+        let mut settings = config.zenoh.publisher_side();
         if settings.listen.is_empty() {
             anyhow::bail!("the [zenoh] section of --config has no listen endpoint: give --listen");
         }
@@ -131,6 +137,16 @@ mod tests {
             refused(&[]),
             "give the endpoints to listen on (--listen) or a --config that has them"
         );
+        // Regression: the router passed its endpoints to zenoh unchecked, and a bad one came
+        // back as a debug dump of zenoh's JSON5 error; port 0 was taken and never told.
+        for bad in ["127.0.0.1:7447", "tcp/127.0.0.1", "tcp/127.0.0.1:0"] {
+            let e = refused(&["--listen", bad]);
+            assert!(
+                e.contains(&format!("endpoint '{bad}' is not PROTOCOL/HOST:PORT")),
+                "{e}"
+            );
+        }
+        assert!(refused(&["--listen", "tls/127.0.0.1:7447"]).contains("tls"));
         assert_eq!(
             refused(&["--listen", "tcp/127.0.0.1:7447", "--downsample-hz", "nan"]),
             format!(

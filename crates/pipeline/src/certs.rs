@@ -116,7 +116,7 @@ pub fn endpoint_host(endpoint: &str) -> Result<&str, CertError> {
     // Endpoint options (`#...`, `?...`) are not part of the address.
     let address = address.split(['#', '?']).next().unwrap_or(address);
     let (host, port) = address.rsplit_once(':').ok_or_else(bad)?;
-    if host.is_empty() || port.parse::<u16>().is_err() {
+    if host.is_empty() || !port.parse::<u16>().is_ok_and(|p| p != 0) {
         return Err(bad());
     }
     Ok(host.trim_start_matches('[').trim_end_matches(']'))
@@ -156,6 +156,7 @@ mod tests {
             "tls/127.0.0.1",
             "tls/:7447",
             "tls/h:port",
+            "tls/127.0.0.1:0",
         ] {
             let e = anyhow::Error::from(endpoint_host(bad).unwrap_err());
             assert_eq!(

@@ -115,7 +115,7 @@ impl ZenohConfig {
     }
 
     /// Check the endpoints' shape and the security settings that parse but cannot work.
-    pub(super) fn validate(&self) -> Result<(), ConfigError> {
+    pub fn validate(&self) -> Result<(), ConfigError> {
         let bad = |m: &str| Err(ConfigError::Invalid(format!("zenoh.{m}")));
         for (key, flag, endpoints) in [
             ("listen", "--zenoh-listen", &self.listen),
@@ -123,7 +123,7 @@ impl ZenohConfig {
         ] {
             if let Some(e) = endpoints.iter().find(|e| !endpoint_shape_ok(e)) {
                 return bad(&format!(
-                    "{key} (or {flag}) endpoint '{e}' is not PROTOCOL/HOST:PORT, e.g. tcp/127.0.0.1:7447 or tls/10.0.0.5:7447"
+                    "{key} (or {flag}) endpoint '{e}' is not PROTOCOL/HOST:PORT, with a port other than 0, e.g. tcp/127.0.0.1:7447 or tls/10.0.0.5:7447"
                 ));
             }
         }
@@ -166,9 +166,13 @@ fn endpoint_shape_ok(endpoint: &str) -> bool {
         return false;
     };
     match protocol {
-        "tcp" | "udp" | "tls" | "quic" | "ws" => address
-            .rsplit_once(':')
-            .is_some_and(|(host, port)| !host.is_empty() && port.parse::<u16>().is_ok()),
+        // Port 0 lets the system pick one that nobody can be told: consumers copy the
+        // listen endpoints to connect to, and connected to port 0 they heard nothing.
+        "tcp" | "udp" | "tls" | "quic" | "ws" => {
+            address.rsplit_once(':').is_some_and(|(host, port)| {
+                !host.is_empty() && port.parse::<u16>().is_ok_and(|p| p != 0)
+            })
+        }
         "" => false,
         // Other transports (unixsock-stream, serial, ...) have addresses of their own.
         _ => !address.is_empty(),

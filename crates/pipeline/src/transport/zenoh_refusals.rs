@@ -81,6 +81,12 @@ pub fn classify(target: &str, message: &str) -> Option<Refusal> {
         // gives BadSignature rather than UnknownIssuer.
         return if detail.contains("UnknownIssuer") || detail.contains("BadSignature") {
             known("certificate not signed by our CA")
+        } else if detail.ends_with("received fatal alert: CertificateExpired") {
+            // The client sent the alert: it is *our* certificate that expired.
+            Some(Refusal {
+                reason: "the client rejected our certificate: it has expired (renew it with shipcast certs)",
+                detail: Some("fatal alert CertificateExpired".into()),
+            })
         } else if detail.contains("certificate expired") || detail.ends_with("Expired") {
             known("certificate expired")
         } else if detail.contains("not valid yet") || detail.ends_with("NotValidYet") {
@@ -222,6 +228,12 @@ mod tests {
         assert_eq!(
             tls("invalid peer certificate: certificate expired: verification time 1 (UNIX), but certificate is not valid after 0 (1 seconds ago)").as_deref(),
             Some("certificate expired")
+        );
+        // Regression: the alert a client sends when *our* certificate has expired was logged
+        // as the client's certificate having expired.
+        assert_eq!(
+            tls("received fatal alert: CertificateExpired").as_deref(),
+            Some("the client rejected our certificate: it has expired (renew it with shipcast certs): fatal alert CertificateExpired")
         );
         assert_eq!(
             tls("peer sent no certificates").as_deref(),
