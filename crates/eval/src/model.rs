@@ -68,7 +68,8 @@ pub enum ModelError {
     #[error(
         "{path}: model format version {found}, this shipcast reads version {MODEL_FORMAT_VERSION}"
     )]
-    Version { path: PathBuf, found: u64 },
+    /// `found` is the field as written (a number, or e.g. `"1"` when quoted).
+    Version { path: PathBuf, found: String },
     #[error("{path}: {reason}")]
     Invalid { path: PathBuf, reason: String },
     #[error(transparent)]
@@ -197,17 +198,18 @@ impl ModelFile {
             format_version: Option<serde_json::Value>,
         }
         let probe: VersionOnly = serde_json::from_str(text).map_err(json_err)?;
-        match probe.format_version.as_ref().map(serde_json::Value::as_u64) {
+        match probe.format_version {
             None => {
                 return Err(ModelError::NoVersion {
                     path: path.to_path_buf(),
                 })
             }
-            Some(Some(v)) if v == u64::from(MODEL_FORMAT_VERSION) => {}
+            Some(v) if v.as_u64() == Some(u64::from(MODEL_FORMAT_VERSION)) => {}
+            // Shown as written: a quoted "1" was reported as version 0.
             Some(found) => {
                 return Err(ModelError::Version {
                     path: path.to_path_buf(),
-                    found: found.unwrap_or(0),
+                    found: found.to_string(),
                 })
             }
         }
@@ -522,6 +524,12 @@ mod tests {
         let mut v = good.clone();
         v["format_version"] = 7.into();
         assert!(load(&v).contains("model format version 7, this shipcast reads version 1"));
+        v["format_version"] = "1".into();
+        assert!(
+            load(&v).contains("model format version \"1\", this shipcast reads version 1"),
+            "{}",
+            load(&v)
+        );
         let mut v = good.clone();
         v.as_object_mut().unwrap().remove("format_version");
         assert!(load(&v).contains("no 'format_version'"));

@@ -68,6 +68,9 @@ pub struct NewValue {
     pub source_stamp_ns: u64,
 }
 
+/// Record time between two log lines about gaps too long to bridge [s].
+const GAP_LOG_EVERY_S: f64 = 10.0;
+
 /// Turns accepted samples into decimated per-DOF history.
 pub struct Ingest {
     decimators: Vec<Decimator>,
@@ -90,6 +93,11 @@ pub struct Ingest {
     /// What the newest accepted sample's time gap added to `lost` beyond its seq gap; taken
     /// back if that sample turns out to be a glitch the stream resynchronises away from.
     last_lost_by_time: u64,
+    /// Gaps too long to bridge since the last one logged, and the record time of that log: a
+    /// stream of such gaps (a producer sending far below its rate) logs one line per
+    /// `GAP_LOG_EVERY_S` of record time, not one per sample.
+    gaps_unlogged: u64,
+    gap_logged_at: Option<f64>,
 }
 
 impl Ingest {
@@ -114,6 +122,8 @@ impl Ingest {
             max_fill,
             held_run: 0,
             last_lost_by_time: 0,
+            gaps_unlogged: 0,
+            gap_logged_at: None,
         })
     }
 
@@ -177,7 +187,7 @@ impl Ingest {
         let mut lost_by_time_only = 0;
         match verdict {
             SeqCheck::OutOfOrder => return None,
-            SeqCheck::NonFinite => {
+            SeqCheck::BadValue => {
                 // Keep the fixed-rate grid: bridge the bad sample with the last good values,
                 // and count its slot as filled so the next good sample is no gap in time.
                 self.last_time = self.last_time.map(|t| t + 1.0 / self.input_rate_hz);
@@ -220,7 +230,21 @@ impl Ingest {
                         }
                     }
                     _ => {
-                        tracing::warn!(lost, "predictor: gap too long to bridge: history restarts");
+                        self.gaps_unlogged += 1;
+                        let due = self
+                            .gap_logged_at
+                            // Either way: a new run starts its record time again.
+                            .is_none_or(|t| (sample.time_s - t).abs() >= GAP_LOG_EVERY_S);
+                        if due {
+                            tracing::warn!(
+                                lost,
+                                gaps = self.gaps_unlogged,
+                                "predictor: gap too long to bridge: history restarts ({} such gaps since the last line)",
+                                self.gaps_unlogged
+                            );
+                            self.gaps_unlogged = 0;
+                            self.gap_logged_at = Some(sample.time_s);
+                        }
                         self.restart();
                     }
                 }
