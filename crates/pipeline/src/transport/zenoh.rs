@@ -620,7 +620,13 @@ mod tests {
     fn an_invalid_certificate_file_prints_each_cause_once() {
         let dir = tempfile::tempdir().unwrap();
         let garbage = dir.path().join("pipeline.pem");
-        std::fs::write(&garbage, "not a certificate\n").unwrap();
+        // A PEM block (so our own check of the files passes) that holds no certificate: the
+        // error comes from zenoh.
+        std::fs::write(
+            &garbage,
+            "-----BEGIN CERTIFICATE-----\nnot a certificate\n-----END CERTIFICATE-----\n",
+        )
+        .unwrap();
         let garbage = garbage.display().to_string();
         let tcp = free_loopback_endpoint().unwrap();
         let listen = tcp.replacen("tcp/", "tls/", 1);
