@@ -144,6 +144,12 @@ impl MotionData {
 
         let mut time = Vec::new();
         let mut values: Vec<Vec<f64>> = vec![Vec::new(); names.len()];
+        // The motion and wave columns are bounded; other extra columns (a stamp in
+        // nanoseconds, say) are the file's own business and ignored by the readers.
+        let bounded: Vec<bool> = names
+            .iter()
+            .map(|n| n == "wave_m" || Dof::ALL.iter().any(|d| d.csv_column() == n))
+            .collect();
         let mut line = 1;
         while read_record(&mut reader, &mut record)? {
             line = record_line(&record);
@@ -167,8 +173,7 @@ impl MotionData {
                 } else {
                     parse_value(text, line, &names[i])?
                 };
-                // Time may be epoch seconds; every other column is a motion or a wave.
-                if i != time_index && value.abs() > MAX_ABS_MOTION {
+                if bounded[i] && value.abs() > MAX_ABS_MOTION {
                     return Err(MotionCsvError::OutOfRange {
                         line,
                         column: names[i].clone(),
@@ -303,7 +308,8 @@ impl<R: Read> Read for LastByte<R> {
         if let Some(&last) = read.last() {
             self.last = Some(last);
         }
-        self.line_bytes = match read.iter().rposition(|&b| b == b'\n') {
+        // A bare CR ends a line too, as the CSV reader takes it.
+        self.line_bytes = match read.iter().rposition(|&b| b == b'\n' || b == b'\r') {
             Some(i) => n - i - 1,
             None => self.line_bytes + n,
         };
@@ -636,6 +642,17 @@ mod tests {
         let epoch = read_str("time_s,heave_m\n1764860000,1000000\n1764860000.5,-1e6\n").unwrap();
         assert_eq!(epoch.time, vec![1764860000.0, 1764860000.5]);
         assert_eq!(epoch.dof(Dof::Heave).unwrap(), &[1e6, -1e6]);
+        // An extra column other than wave_m is not a motion: not bounded.
+        let stamped = read_str("time_s,heave_m,stamp_ns\n0,1,1764860000000000000\n").unwrap();
+        assert_eq!(stamped.column("stamp_ns").unwrap(), &[1.76486e18]);
+        assert!(err("time_s,wave_m\n0,2e6\n").contains("column 'wave_m'"));
+        // Bare CR line ends over more than the 1 MiB a line may have are lines, not one.
+        let mut cr = String::from("time_s,heave_m\r");
+        for i in 0..100_000 {
+            cr.push_str(&format!("{i},0.125\r"));
+        }
+        assert!(cr.len() > 1 << 20);
+        assert_eq!(read_str(&cr).unwrap().len(), 100_000);
         // Regression: a line without end (`--input /dev/zero`) was buffered until the system
         // killed the process; a megabyte of header without `time_s` was echoed in full.
         let zeros = std::io::Read::take(std::io::repeat(0), 64 << 20);
