@@ -377,13 +377,9 @@ fn check_header(names: &[String]) -> Result<usize, MotionCsvError> {
 
 /// A column name as an error shows it: on one line, cut short.
 fn shown_name(name: &str) -> String {
-    const MAX_CHARS: usize = 40;
-    let head: String = name.chars().take(MAX_CHARS).collect();
-    let head = head.escape_debug().to_string();
-    if name.chars().count() > MAX_CHARS {
-        format!("{head}...")
-    } else {
-        head
+    match shown_head(name) {
+        (head, None) => head,
+        (head, Some(_)) => format!("{head}..."),
     }
 }
 
@@ -401,19 +397,20 @@ fn shown_number(x: f64) -> String {
 /// reader take the rest of the file, newlines included, as one field; the message must stay
 /// one readable line.
 fn shown_field(text: &str) -> String {
-    const MAX_CHARS: usize = 40;
-    let count = text.chars().count();
-    let head: String = text
-        .chars()
-        .take(MAX_CHARS)
-        .collect::<String>()
-        .escape_debug()
-        .to_string();
-    if count <= MAX_CHARS {
-        head
-    } else {
-        format!("{head}... ({count} characters: an unclosed quote?)")
+    match shown_head(text) {
+        (head, None) => head,
+        (head, Some(count)) => format!("{head}... ({count} characters: an unclosed quote?)"),
     }
+}
+
+/// The first 40 characters of `text`, escaped onto one line, and its length in characters
+/// if it had more.
+fn shown_head(text: &str) -> (String, Option<usize>) {
+    const MAX_CHARS: usize = 40;
+    let head: String = text.chars().take(MAX_CHARS).collect();
+    let head = head.escape_debug().to_string();
+    let count = text.chars().count();
+    (head, (count > MAX_CHARS).then_some(count))
 }
 
 fn parse_value(text: &str, line: u64, column: &str) -> Result<f64, MotionCsvError> {
