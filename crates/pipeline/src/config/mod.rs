@@ -251,25 +251,33 @@ impl PipelineConfig {
             MAX_RETRAIN_WINDOW,
         )?;
         limits::count("predictor.holdout", q.holdout, 0, MAX_RETRAIN_WINDOW)?;
-        // A candidate is scored on the held-out part at every origin with its whole horizon
-        // inside: too short a part scores no order, and retraining silently never happens.
+        // Every fit the engine makes must be able to fit and score some candidate: the live
+        // retrains on the retrain window, and the start-up fit on simulated history (no model
+        // file, warmup_s > 0), which needs its held-out part whether or not retraining is on.
         if q.retrain_every_s > 0.0 {
-            let smallest = q
-                .candidate_orders
-                .iter()
-                .copied()
-                .chain(std::iter::once(q.order))
-                .filter(|&o| o >= 1 && o <= q.order)
-                .filter(|&o| q.method != shipcast_predict::Method::Mca || o > q.horizon)
-                .min()
-                .unwrap_or(q.order);
-            let needed = smallest + q.horizon + crate::engine::models::MIN_HOLDOUT_ORIGINS;
-            if q.holdout < needed {
+            let span = FitSpan {
+                len: q.retrain_window,
+                shown: format!("predictor.retrain_window = {} values", q.retrain_window),
+                raise: "retrain_window",
+            };
+            if let Some(problem) = q.fit_span_problem(&span) {
+                return Err(problem);
+            }
+        }
+        if q.model.is_none() && q.warmup_s > 0.0 {
+            // The start-up history decimated to the forecast rate (at least this many values).
+            let len = (q.warmup_s * q.sample_rate_hz).floor() as usize;
+            let span = FitSpan {
+                len,
+                shown: format!(
+                    "predictor.warmup_s = {} s ({len} values at {} Hz)",
+                    q.warmup_s, q.sample_rate_hz
+                ),
+                raise: "warmup_s",
+            };
+            if let Some(problem) = q.fit_span_problem(&span) {
                 return Err(format!(
-                    "predictor.holdout = {} values is too short to score any candidate: the smallest order ({smallest}) with the horizon ({}) and {} origins needs {needed}; raise holdout",
-                    q.holdout,
-                    q.horizon,
-                    crate::engine::models::MIN_HOLDOUT_ORIGINS
+                    "{problem} (the start-up fit on simulated history; or give predictor.model, or set warmup_s = 0 to start with no skill)"
                 ));
             }
         }

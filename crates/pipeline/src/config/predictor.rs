@@ -234,3 +234,55 @@ impl PredictorServiceConfig {
         Ok(())
     }
 }
+
+/// A stretch of values the engine fits on: the live retrain window, or the simulated start-up
+/// history. `shown` names it as the user configured it ("predictor.retrain_window = 6000
+/// values"); `raise` is the key to raise when it is too short.
+pub(super) struct FitSpan<'a> {
+    pub len: usize,
+    pub shown: String,
+    pub raise: &'a str,
+}
+
+impl PredictorServiceConfig {
+    /// Why a fit on `span` could fit and score no candidate order, if it could not: the same
+    /// rule the engine fits by (`models::any_feasible_order` on the held-out part
+    /// `models::holdout_for`, at most a third of the span). Unchecked, retraining silently
+    /// never happened, or the start-up fit failed after simulating the whole history.
+    pub(super) fn fit_span_problem(&self, span: &FitSpan) -> Option<String> {
+        use crate::engine::models::{self, MIN_HOLDOUT_ORIGINS, TRAIN_PER_ORDER};
+        let held_out = models::holdout_for(self, span.len);
+        if models::any_feasible_order(self, span.len, held_out) {
+            return None;
+        }
+        let Some(smallest) = models::candidate_orders(self).min() else {
+            return Some(format!(
+                "predictor: no candidate order is above the horizon ({}), and MCA needs one: raise predictor.order or add such an order to candidate_orders",
+                self.horizon
+            ));
+        };
+        let needed = smallest + self.horizon + MIN_HOLDOUT_ORIGINS;
+        if self.holdout < needed {
+            return Some(format!(
+                "predictor.holdout = {} values is too short to score any candidate: the smallest order ({smallest}) with the horizon ({}) and {MIN_HOLDOUT_ORIGINS} origins needs {needed}; raise holdout",
+                self.holdout, self.horizon
+            ));
+        }
+        if held_out < needed {
+            return Some(format!(
+                "{} holds out at most a third of itself ({held_out} values), too short to score any candidate: the smallest order ({smallest}) with the horizon ({}) and {MIN_HOLDOUT_ORIGINS} origins needs {needed}; raise {} to hold at least {} values",
+                span.shown,
+                self.horizon,
+                span.raise,
+                3 * needed
+            ));
+        }
+        let train = span.len - held_out;
+        Some(format!(
+            "{} leaves {train} values to train on beside the {held_out} held out: the smallest order ({smallest}) needs {TRAIN_PER_ORDER} x {smallest} = {}; raise {}",
+            span.shown,
+            TRAIN_PER_ORDER * smallest,
+            span.raise
+        ))
+    }
+}

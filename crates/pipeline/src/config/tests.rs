@@ -200,7 +200,13 @@ fn a_first_fit_within_the_history_is_accepted() {
     // Held-out parts: exactly long enough, and any length without retraining.
     let holdout = |text: &str| PipelineConfig::from_toml(text, Path::new("p.toml")).is_ok();
     assert!(holdout("[predictor]\nholdout = 135"));
-    assert!(holdout("[predictor]\nholdout = 0\nretrain_every_s = 0.0"));
+    // Any length when the engine never fits: no retraining and no start-up fit.
+    assert!(holdout(
+        "[predictor]\nholdout = 0\nretrain_every_s = 0.0\nwarmup_s = 0.0"
+    ));
+    assert!(holdout(
+        "[predictor]\nholdout = 0\nretrain_every_s = 0.0\nmodel = \"m.json\""
+    ));
     // The smallest order that is a candidate counts: without 25, it is 50.
     assert!(!holdout(
         "[predictor]\nholdout = 150\ncandidate_orders = [50, 100]"
@@ -208,6 +214,15 @@ fn a_first_fit_within_the_history_is_accepted() {
     assert!(holdout(
         "[predictor]\nholdout = 160\ncandidate_orders = [50, 100]"
     ));
+    // The boundaries of the spans: a window holding out exactly 135, a training part of
+    // exactly 4 x 400, and a model file instead of a start-up fit.
+    assert!(holdout(
+        "[predictor]\nretrain_window = 405\nfirst_fit_s = 100.0"
+    ));
+    assert!(holdout(
+        "[predictor]\norder = 400\ncandidate_orders = [400]\nretrain_window = 2400\nfirst_fit_s = 100.0"
+    ));
+    assert!(holdout("[predictor]\nwarmup_s = 100.0\nmodel = \"m.json\""));
 }
 
 #[test]
@@ -227,6 +242,34 @@ fn impossible_values_are_refused() {
         (
             "[predictor]\nholdout = 134",
             "predictor.holdout = 134 values is too short to score any candidate: the smallest order (25) with the horizon (50) and 60 origins needs 135",
+        ),
+        // Regression: without retraining the start-up fit on simulated history still holds
+        // out a part, and failed at start after simulating it (the check was skipped).
+        (
+            "[predictor]\nholdout = 0\nretrain_every_s = 0.0",
+            "predictor.holdout = 0 values is too short to score any candidate",
+        ),
+        // Regression: the held-out part is at most a third of the window, which the check
+        // ignored: a 400-value window holds out 133, and no retrain ever came.
+        (
+            "[predictor]\nretrain_window = 400\nfirst_fit_s = 100.0",
+            "predictor.retrain_window = 400 values holds out at most a third of itself (133 values), too short to score any candidate: the smallest order (25) with the horizon (50) and 60 origins needs 135; raise retrain_window to hold at least 405 values",
+        ),
+        // The training part left beside it must hold four values per order.
+        (
+            "[predictor]\norder = 400\ncandidate_orders = [400]\nretrain_window = 1530\nfirst_fit_s = 100.0",
+            "predictor.retrain_window = 1530 values leaves 1020 values to train on beside the 510 held out: the smallest order (400) needs 4 x 400 = 1600; raise retrain_window",
+        ),
+        // The start-up history is a span of its own.
+        (
+            "[predictor]\nwarmup_s = 100.0",
+            "predictor.warmup_s = 100 s (200 values at 2 Hz) holds out at most a third of itself (66 values)",
+        ),
+        // Regression: MCA with no candidate above the horizon got through the check (the
+        // smallest order fell back to predictor.order) and then never fitted anything.
+        (
+            "[predictor]\nmethod = \"mca\"\norder = 40\ncandidate_orders = [20, 40]",
+            "no candidate order is above the horizon (50), and MCA needs one",
         ),
     ] {
         let r = PipelineConfig::from_toml(text, Path::new("p.toml"))

@@ -149,15 +149,21 @@ fn feasible(
     holdout: usize,
 ) -> impl Iterator<Item = usize> + '_ {
     let train = len.saturating_sub(holdout);
+    candidate_orders(config).filter(move |&o| {
+        train >= TRAIN_PER_ORDER * o && holdout >= o + config.horizon + MIN_HOLDOUT_ORIGINS
+    })
+}
+
+/// The orders the configured method may be fitted at, unsorted and possibly repeated, however
+/// many values there are: `order` and the `candidate_orders` up to it (MCA's above the horizon
+/// only).
+pub fn candidate_orders(config: &PredictorServiceConfig) -> impl Iterator<Item = usize> + '_ {
     config
         .candidate_orders
         .iter()
         .copied()
         .chain(std::iter::once(config.order))
         .filter(|&o| o >= 1 && o <= config.order)
-        .filter(move |&o| {
-            train >= TRAIN_PER_ORDER * o && holdout >= o + config.horizon + MIN_HOLDOUT_ORIGINS
-        })
         .filter(|&o| config.method != Method::Mca || o > config.horizon)
 }
 
