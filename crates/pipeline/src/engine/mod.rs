@@ -134,20 +134,47 @@ pub struct Engine {
 #[derive(Debug, Default)]
 struct FailedModels {
     dof: [bool; NUM_DOF],
-    total: u64,
     /// A failure since the engine last asked for a retrain.
     unhandled: bool,
+    /// Value count when the latest retrain for a failure was asked for. The values that made
+    /// a model fail (a spike) stay in the input of the model that replaces it for up to an
+    /// order and a horizon, and it can fail on them in turn: 14 failures and retrains had
+    /// followed each other within 34 s. So retrains for failures back off (`failure_gap`).
+    retrain_at: Option<u64>,
+    /// Retrains for failures asked for since a model last stayed in service for a whole
+    /// order and horizon.
+    streak: u32,
 }
 
+/// Values to wait after the `streak`-th retrain for a failure in a row before the next:
+/// the first failure is retrained at once, then the wait doubles from
+/// [`FIRST_FAILURE_GAP`] up to `longest`, the longest input a model reads (after which the
+/// values it failed on have left every model's input).
+fn failure_gap(streak: u32, longest: u64) -> u64 {
+    match streak {
+        0 => 0,
+        n => FIRST_FAILURE_GAP
+            .saturating_mul(1 << (n - 1).min(32))
+            .min(longest),
+    }
+}
+
+/// Wait after the first retrain for a failure before another [values]: 2 s at 2 Hz.
+const FIRST_FAILURE_GAP: u64 = 4;
+
+/// Why a retrain is due when a model failed (`FailedModels`).
+const REASON_MODEL_FAILED: &str = "a model failed";
+
 impl FailedModels {
-    fn fail(&mut self, d: usize, time_s: f64, error: &dyn std::fmt::Display) {
+    /// Take DOF `d`'s model out of service; `failures` counts every failure.
+    fn fail(&mut self, d: usize, time_s: f64, error: &dyn std::fmt::Display, failures: &mut u64) {
         self.dof[d] = true;
-        self.total += 1;
+        *failures += 1;
         self.unhandled = true;
         tracing::warn!(
             dof = Dof::ALL[d].name(),
             time_s,
-            failures = self.total,
+            failures = *failures,
             "predictor: the {} model failed ({error}); no skill for it until a retrain",
             Dof::ALL[d].name()
         );
@@ -159,13 +186,19 @@ impl FailedModels {
 /// absent from the record or constant scores NaN for both (0 / 0), and summed in, it made
 /// every retrain replace the running set. A DOF only the new set can be scored on (the
 /// running one could not forecast it, or has too long an order for the data) makes the new
-/// set replace it, as before.
-fn replaces(new: &[f64; NUM_DOF], running: &[f64; NUM_DOF]) -> (bool, f64, f64) {
+/// set replace it, as before; so does one whose running model `failed` (`FailedModels`),
+/// whatever it scored: that DOF would otherwise stay on no skill until a retrain happened to
+/// score better on the others.
+fn replaces(
+    new: &[f64; NUM_DOF],
+    running: &[f64; NUM_DOF],
+    failed: &[bool; NUM_DOF],
+) -> (bool, f64, f64) {
     let mut compared = 0;
     let (mut new_total, mut running_total) = (0.0, 0.0);
     let mut only_new = false;
-    for (n, r) in new.iter().zip(running) {
-        match (n.is_finite(), r.is_finite()) {
+    for ((n, r), failed) in new.iter().zip(running).zip(failed) {
+        match (n.is_finite(), r.is_finite() && !failed) {
             (true, true) => {
                 compared += 1;
                 new_total += n;
@@ -344,7 +377,8 @@ impl Engine {
                 if p.is_online() && !self.failed.dof[d] {
                     if let Some(recent) = self.ingest.last(d, p.order() + horizon) {
                         if let Err(e) = p.update(recent) {
-                            self.failed.fail(d, v.time_s, &e);
+                            self.failed
+                                .fail(d, v.time_s, &e, &mut self.counts.model_failures);
                         }
                     }
                 }
@@ -359,12 +393,27 @@ impl Engine {
         Ok(true)
     }
 
-    /// Ask for a retrain at once after a model failed (`FailedModels`), and count it.
+    /// Ask for a retrain at once after a model failed (`FailedModels`).
     fn handle_failures(&mut self) {
         if std::mem::take(&mut self.failed.unhandled) {
-            self.counts.model_failures = self.failed.total;
-            self.retrain_due.get_or_insert("a model failed");
+            self.retrain_due.get_or_insert(REASON_MODEL_FAILED);
         }
+    }
+
+    /// The longest input a model in service or a retrain's candidate reads (order +
+    /// horizon): once a model has run that long, the values a model failed on have left it.
+    fn longest_input(&self) -> u64 {
+        let q = &self.config;
+        let running = self.models.as_ref().map_or(0, ModelSet::order);
+        let longest = models::candidate_orders(q).max().unwrap_or(0).max(running);
+        (longest + q.horizon) as u64
+    }
+
+    /// Values since the latest retrain for a failure, if it was recent enough to count in a
+    /// streak (`FailedModels::streak`).
+    fn since_failure_retrain(&self) -> Option<u64> {
+        let since = self.values - self.failed.retrain_at?;
+        (since < self.longest_input()).then_some(since)
     }
 
     /// Score what the new value completes; learn from it; watch for a changed sea.
@@ -495,7 +544,7 @@ impl Engine {
             return;
         }
         let (better, new_score, running_score) =
-            replaces(&outcome.new_score, &outcome.running_score);
+            replaces(&outcome.new_score, &outcome.running_score, &self.failed.dof);
         tracing::info!(
             reason = outcome.reason,
             new_score,
@@ -572,6 +621,13 @@ impl Engine {
             _ => None,
         };
         let Some(reason) = reason else { return };
+        if reason == REASON_MODEL_FAILED {
+            if let Some(since) = self.since_failure_retrain() {
+                if since < failure_gap(self.failed.streak, self.longest_input()) {
+                    return;
+                }
+            }
+        }
         // The new sea's values, for as long as the window also holds older ones (after the
         // first minutes as well: the default window spans almost three hours, and fits on the
         // whole window alone carried the old sea along; on 3-hour course-change records the
@@ -602,6 +658,14 @@ impl Engine {
             end: self.values,
         };
         if self.retrainer.request(job) {
+            if reason == REASON_MODEL_FAILED {
+                let streak = match self.since_failure_retrain() {
+                    Some(_) => self.failed.streak + 1,
+                    None => 1,
+                };
+                self.failed.streak = streak;
+                self.failed.retrain_at = Some(self.values);
+            }
             self.next_version += 1;
             self.last_fit_at = Some(self.values);
             self.retrain_due = None;
@@ -623,7 +687,8 @@ impl Engine {
                 if let Some(past) = self.ingest.last(d, p.order()) {
                     if let Err(e) = p.forecast(past, raw) {
                         raw.fill(0.0);
-                        self.failed.fail(d, v.time_s, &e);
+                        self.failed
+                            .fail(d, v.time_s, &e, &mut self.counts.model_failures);
                     }
                 }
             }
@@ -711,7 +776,8 @@ impl Engine {
                 }
                 if let Some(known) = self.ingest.last(d, p.order()) {
                     if let Err(e) = p.prepare(known) {
-                        self.failed.fail(d, self.last_time_s, &e);
+                        self.failed
+                            .fail(d, self.last_time_s, &e, &mut self.counts.model_failures);
                     }
                 }
             }

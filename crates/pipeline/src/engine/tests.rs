@@ -147,11 +147,20 @@ fn an_implausible_forecast_is_never_published() {
     );
 }
 
-#[test]
-fn a_model_that_fails_numerically_is_taken_out_of_service_and_replaced_by_a_retrain() {
-    // Regression: an online AR whose LMS update diverged on one spike returned an error that
-    // stopped replay and the predictor service. Now that DOF says no skill (mean 0, sigma the
-    // live RMS) until a retrain puts a new model in, and the other DOF go on as they were.
+/// What [`spiked_ar_run`] saw: the first forecast with a failed model, the first after it
+/// with heave back in service, the values heave spent on no skill, and the retrains asked for
+/// failures.
+struct SpikedRun {
+    engine: Engine,
+    failed_at: Option<usize>,
+    replaced_at: Option<usize>,
+    last_failed_at: Option<usize>,
+    failure_retrains: usize,
+}
+
+/// An online AR engine (on AR(2) heave and roll) fed heave with a spike of 1e5 at each of
+/// `spikes`: far beyond what its LMS gain allows, so its update diverges on it.
+fn spiked_ar_run(spikes: &[usize]) -> SpikedRun {
     let config = PredictorServiceConfig {
         method: shipcast_predict::Method::Ar,
         // Plain LMS with a gain this process's power allows (the paper's diverges on it in
@@ -163,72 +172,145 @@ fn a_model_that_fails_numerically_is_taken_out_of_service_and_replaced_by_a_retr
         }),
         ..PredictorServiceConfig::default()
     };
-    let mut engine = engine_fitted_on_ar2(&config, 40);
+    let engine = engine_fitted_on_ar2(&config, 40);
     let x = ar2(2 * 1800, 41, |_| 1.0);
-    let spike = 600;
-    let (mut failed_at, mut replaced_at) = (None, None);
+    let mut run = SpikedRun {
+        engine,
+        failed_at: None,
+        replaced_at: None,
+        last_failed_at: None,
+        failure_retrains: 0,
+    };
+    let engine = &mut run.engine;
+    let mut retrain_at = None;
     for (i, v) in x.iter().enumerate() {
         let mut sample = MotionSample {
             seq: i as u64,
             time_s: i as f64 * 0.5,
             ..MotionSample::default()
         };
-        sample.dof[2] = if i == spike { 1e5 } else { *v };
+        sample.dof[2] = if spikes.contains(&i) { 1e5 } else { *v };
         sample.dof[3] = *v;
         if engine.push(&sample).unwrap().is_none() {
             continue;
         }
-        let f = engine.forecast();
-        if failed_at.is_none() && engine.counts.model_failures > 0 {
-            failed_at = Some(i);
+        if engine.failed.retrain_at != retrain_at {
+            retrain_at = engine.failed.retrain_at;
+            run.failure_retrains += 1;
         }
-        if failed_at.is_some() && replaced_at.is_none() {
-            if engine.failed.dof[2] {
-                // No skill, honestly: zero mean, sigma at least the live RMS.
-                let rms = engine.live_rms(2);
-                for k in 0..f.steps as usize {
-                    assert_eq!(f.mean[2][k], 0.0);
-                    assert!(f64::from(f.sigma[2][k]) >= rms * (1.0 - 1e-6));
-                }
-            } else {
-                replaced_at = Some(i);
+        let f = engine.forecast();
+        if run.failed_at.is_none() && engine.counts.model_failures > 0 {
+            run.failed_at = Some(i);
+        }
+        if engine.failed.dof[2] {
+            run.last_failed_at = Some(i);
+            // No skill, honestly: zero mean, sigma at least the live RMS.
+            let rms = engine.live_rms(2);
+            for k in 0..f.steps as usize {
+                assert_eq!(f.mean[2][k], 0.0);
+                assert!(f64::from(f.sigma[2][k]) >= rms * (1.0 - 1e-6));
             }
+        } else if run.failed_at.is_some() && run.replaced_at.is_none() {
+            run.replaced_at = Some(i);
         }
         for d in [2, 3] {
             assert!(f.mean[d][..f.steps as usize].iter().all(|m| m.is_finite()));
         }
     }
-    let failed_at = failed_at.expect("the spike never made the AR fail");
+    run
+}
+
+#[test]
+fn a_model_that_fails_numerically_is_taken_out_of_service_and_replaced_by_a_retrain() {
+    // Regression: an online AR whose LMS update diverged on one spike returned an error that
+    // stopped replay and the predictor service. Now that DOF says no skill (mean 0, sigma the
+    // live RMS) until a retrain puts a new model in, and the other DOF go on as they were.
+    let spike = 600;
+    let run = spiked_ar_run(&[spike]);
+    let failed_at = run.failed_at.expect("the spike never made the AR fail");
     assert!(failed_at >= spike, "failed at {failed_at}");
-    let replaced_at = replaced_at.expect("the failed model was never replaced");
-    assert!(engine.counts.swaps >= 1);
+    let replaced_at = run
+        .replaced_at
+        .expect("the failed model was never replaced");
+    assert!(run.engine.counts.swaps >= 1);
     // Replaced at the next retrain the data allow, not at the next scheduled one (300 s).
     assert!(
         replaced_at - failed_at < 600,
         "{failed_at} -> {replaced_at}"
     );
-    assert!(engine.counts.implausible[2] > 0 && engine.counts.implausible[3] == 0);
+    // And the replacement stays in service once the spike has left every model's input
+    // (order + horizon: at most 250 values).
+    let last = run.last_failed_at.unwrap_or(failed_at);
+    assert!(last < spike + 250, "heave failed again at {last}");
+    let e = &run.engine;
+    assert!(e.counts.implausible[2] > 0 && e.counts.implausible[3] == 0);
+}
+
+#[test]
+fn retrains_for_failures_back_off_while_models_keep_failing() {
+    // Regression: the values a model failed on stay in its replacement's input, and it fails
+    // in turn: 14 failures, each retrained at once, within 34 s. A faulty heave sensor that
+    // spikes every 5 values for 100 s makes every model fail; the retrains for them wait
+    // twice as long each time (4, 8, 16, ... values), so at most 8 in the 200 values.
+    let spikes: Vec<usize> = (600..800).step_by(5).collect();
+    let run = spiked_ar_run(&spikes);
+    assert!(
+        run.engine.counts.model_failures >= 3,
+        "{} failures",
+        run.engine.counts.model_failures
+    );
+    assert!(
+        (3..=8).contains(&run.failure_retrains),
+        "{} retrains for failures",
+        run.failure_retrains
+    );
+    // Once the sensor is sound again, a model is back in service for good.
+    let last = run.last_failed_at.expect("heave never failed");
+    assert!(last < 800 + 2 * 250, "heave failed again at {last}");
+}
+
+#[test]
+fn the_wait_between_retrains_for_failures_doubles_up_to_the_longest_input() {
+    use super::{failure_gap, FIRST_FAILURE_GAP};
+    assert_eq!(failure_gap(0, 250), 0);
+    assert_eq!(failure_gap(1, 250), FIRST_FAILURE_GAP);
+    assert_eq!(failure_gap(2, 250), 2 * FIRST_FAILURE_GAP);
+    assert_eq!(failure_gap(3, 250), 4 * FIRST_FAILURE_GAP);
+    assert_eq!(failure_gap(7, 250), 250);
+    assert_eq!(failure_gap(u32::MAX, 250), 250);
 }
 
 #[test]
 fn a_retrain_is_compared_on_the_dof_both_sets_can_be_scored_on() {
     use super::replaces;
     let nan = f64::NAN;
+    const NONE_FAILED: [bool; 6] = [false; 6];
     // Regression: a DOF absent from the record (or constant) scores NaN for both sets; summed
     // in, it made every retrain replace the running set, however it scored elsewhere.
     let running = [0.5, 0.5, nan, 0.5, 0.5, 0.5];
-    let (better, new, old) = replaces(&[0.6, 0.6, nan, 0.6, 0.6, 0.6], &running);
+    let (better, new, old) = replaces(&[0.6, 0.6, nan, 0.6, 0.6, 0.6], &running, &NONE_FAILED);
     assert!(!better);
     assert!((new - 0.6).abs() < 1e-12 && (old - 0.5).abs() < 1e-12);
-    assert!(replaces(&[0.4, 0.5, nan, 0.5, 0.5, 0.5], &running).0);
+    assert!(replaces(&[0.4, 0.5, nan, 0.5, 0.5, 0.5], &running, &NONE_FAILED).0);
     // Equal scores keep the running set.
-    assert!(!replaces(&running, &running).0);
+    assert!(!replaces(&running, &running, &NONE_FAILED).0);
     // A DOF only the new set can be scored on (the running model failed there, or its order
     // is too long for the data) makes the new set replace it.
-    assert!(replaces(&[0.9, 0.9, 0.9, 0.9, 0.9, 0.9], &running).0);
+    assert!(replaces(&[0.9, 0.9, 0.9, 0.9, 0.9, 0.9], &running, &NONE_FAILED).0);
     // Nothing comparable at all: the new set, as before.
-    let (better, new, old) = replaces(&[nan; 6], &[nan; 6]);
+    let (better, new, old) = replaces(&[nan; 6], &[nan; 6], &NONE_FAILED);
     assert!(better && new.is_nan() && old.is_nan());
+    // Regression: a DOF whose running model failed stayed on no skill when the retrain scored
+    // worse on the others (the running set was kept, failed model and all).
+    let mut heave_failed = NONE_FAILED;
+    heave_failed[2] = true;
+    let running = [0.5, 0.5, 0.5, 0.5, 0.5, 0.5];
+    let worse = [0.6, 0.6, 0.6, 0.6, 0.6, 0.6];
+    assert!(!replaces(&worse, &running, &NONE_FAILED).0);
+    let (better, new, old) = replaces(&worse, &running, &heave_failed);
+    assert!(better);
+    // The means compared are over the other five DOF.
+    assert!((new - 0.6).abs() < 1e-12 && (old - 0.5).abs() < 1e-12);
 }
 
 #[test]
