@@ -72,7 +72,7 @@ impl TryFrom<Args> for Config {
         // as a debug dump.
         config.zenoh.connect.clear();
         config.zenoh.multicast_scouting = false;
-        config.zenoh.validate()?;
+        config.zenoh.validate_with_flag("--listen")?;
         let mut settings = config.zenoh.publisher_side();
         if settings.listen.is_empty() {
             anyhow::bail!("the [zenoh] section of --config has no listen endpoint: give --listen");
@@ -142,11 +142,14 @@ mod tests {
         for bad in ["127.0.0.1:7447", "tcp/127.0.0.1", "tcp/127.0.0.1:0"] {
             let e = refused(&["--listen", bad]);
             assert!(
-                e.contains(&format!("endpoint '{bad}' is not PROTOCOL/HOST:PORT")),
+                e.contains(&format!(
+                    "zenoh.listen (or --listen) endpoint '{bad}' is not PROTOCOL/HOST:PORT"
+                )),
                 "{e}"
             );
         }
-        assert!(refused(&["--listen", "tls/127.0.0.1:7447"]).contains("tls"));
+        let e = refused(&["--listen", "tls/127.0.0.1:7447"]);
+        assert!(e.contains("is required for tls/ endpoints"), "{e}");
         assert_eq!(
             refused(&["--listen", "tcp/127.0.0.1:7447", "--downsample-hz", "nan"]),
             format!(

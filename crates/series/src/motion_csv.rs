@@ -386,7 +386,7 @@ fn shown_name(name: &str) -> String {
 /// A number as an error shows it: in scientific notation when very large or small, so that a
 /// time of 1e300 is not three hundred digits in a one-line message.
 fn shown_number(x: f64) -> String {
-    if x != 0.0 && x.is_finite() && !(1e-6..1e9).contains(&x.abs()) {
+    if x != 0.0 && x.is_finite() && !(1e-6..1e15).contains(&x.abs()) {
         format!("{x:e}")
     } else {
         format!("{x}")
@@ -609,6 +609,12 @@ mod tests {
             (
                 "time_s,heave_m,pitch_rad\n1e300,1,2\n0.5,1,2\n",
                 "time 0.5 does not increase (previous row: 1e300)",
+            ),
+            // Regression: epoch time stamps (1.7e9 s) came out as 1.7330000005e9, hard to
+            // find in the file: they print as written.
+            (
+                "time_s,heave_m,pitch_rad\n1733000000.5,1,2\n1733000000.25,1,2\n",
+                "time 1733000000.25 does not increase (previous row: 1733000000.5)",
             ),
             (
                 "time_s,heave_m,pitch_rad\n0,1,2\n1,1e200,2\n",

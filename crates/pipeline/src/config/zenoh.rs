@@ -116,9 +116,15 @@ impl ZenohConfig {
 
     /// Check the endpoints' shape and the security settings that parse but cannot work.
     pub fn validate(&self) -> Result<(), ConfigError> {
+        self.validate_with_flag("--zenoh-listen")
+    }
+
+    /// [`Self::validate`] for a command whose listen endpoints come from `listen_flag`
+    /// (`shipcast router --listen`), so that its errors name the flag it has.
+    pub fn validate_with_flag(&self, listen_flag: &str) -> Result<(), ConfigError> {
         let bad = |m: &str| Err(ConfigError::Invalid(format!("zenoh.{m}")));
         for (key, flag, endpoints) in [
-            ("listen", "--zenoh-listen", &self.listen),
+            ("listen", listen_flag, &self.listen),
             ("connect", "--zenoh-connect", &self.connect),
         ] {
             if let Some(e) = endpoints.iter().find(|e| !endpoint_shape_ok(e)) {
