@@ -362,21 +362,23 @@ impl TryFrom<Args> for Config {
 
     fn try_from(args: Args) -> anyhow::Result<Self> {
         let pipeline = args.common.load()?;
+        let display = if args.no_display {
+            None
+        } else {
+            Some(display_address(args.display.as_deref())?)
+        };
+        let limit = args.common.duration()?;
+        // Created last: a refused flag must not leave an empty directory behind.
         let log_dir = match args.log_dir {
             Some(d) => d,
             None => std::env::temp_dir().join(format!("shipcast-run-{}", std::process::id())),
         };
         std::fs::create_dir_all(&log_dir)
             .with_context(|| format!("creating {}", log_dir.display()))?;
-        let display = if args.no_display {
-            None
-        } else {
-            Some(display_address(args.display.as_deref())?)
-        };
         Ok(Config {
             two_ship: args.two_ship || pipeline.relative.two_ship,
             pipeline,
-            limit: args.common.duration()?,
+            limit,
             log_dir,
             display,
         })
@@ -649,5 +651,15 @@ mod config_tests {
         let e = crate::refused::<Args, Config>(&["--log-dir", dir, "--display", "localhost"]);
         assert!(e.starts_with("--display must be HOST:PORT"), "{e}");
         let _ = std::fs::remove_dir_all(&logs);
+        // Regression: refused flags left the (empty) log directory behind.
+        for bad in [
+            &["--display", "localhost"][..],
+            &["--duration", "nan"],
+            &["--no-display", "--config", "/nonexistent/shipcast.toml"],
+        ] {
+            let argv = [&["--log-dir", dir][..], bad].concat();
+            crate::refused::<Args, Config>(&argv);
+            assert!(!logs.exists(), "{bad:?} left {}", logs.display());
+        }
     }
 }

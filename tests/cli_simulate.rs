@@ -136,7 +136,10 @@ fn bad_input_exits_with_one_clear_line() {
     let cannot_open = format!("cannot open {missing}");
     let cases: [(&[&str], &str); 6] = [
         (&["--scenario", "ss9"], "unknown scenario 'ss9'"),
-        (&["--hs", "-1"], "significant wave height must be positive"),
+        (
+            &["--hs", "-1"],
+            "significant wave height must be in (0, 30] m",
+        ),
         (&["--spreading", "cos3"], "unknown spreading 'cos3'"),
         (&["--rate", "0"], "--rate must be a number in"),
         (&["--rao-table", missing], &cannot_open),
@@ -546,5 +549,8 @@ fn a_second_vessel_meets_the_same_waves_shifted_by_its_position() {
     let o = simulate(&["--vessel-y-m", "inf", "--out", "x.csv"]);
     assert!(!o.status.success());
     let e = String::from_utf8_lossy(&o.stderr);
-    assert!(e.contains("finite"), "{e}");
+    assert!(
+        e.contains("the vessel's position must be within +-10000 m"),
+        "{e}"
+    );
 }

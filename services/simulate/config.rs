@@ -82,8 +82,12 @@ impl TryFrom<Args> for Config {
             Spectrum::new(sim.spectrum, sim.hs_m, sim.tp_s, sim.gamma)?;
         }
         if let Record::Changing { sea: Some(s), .. } = &record {
-            // The new sea is a JONSWAP with the DNV gamma (see AFTER_HELP).
+            // The new sea is a JONSWAP with the DNV gamma (see AFTER_HELP), within the ranges
+            // of any simulated sea.
             Spectrum::new(SpectrumKind::Jonswap, s.hs_m, s.tp_s, None)
+                .context("--new-hs/--new-tp")?;
+            shipcast_sim::ChangingMotion::new_sea_config(&sim, s)
+                .validate()
                 .context("--new-hs/--new-tp")?;
         }
         if let Some(svg) = &args.plot {
@@ -264,8 +268,67 @@ mod tests {
         );
         assert_eq!(
             refused(&["--out", "m.csv", "--hs", "-1"]),
-            "invalid simulation setting: significant wave height must be positive, got -1 m"
+            "invalid simulation setting: significant wave height must be in (0, 30] m, got -1"
         );
+        // Regression: absurd values beyond the RAOs' reach wrote a record of zeros without a
+        // word.
+        for (flag, value, needle) in [
+            (
+                "--hs",
+                "100",
+                "significant wave height must be in (0, 30] m, got 100",
+            ),
+            (
+                "--tp",
+                "86400",
+                "peak period must be in [1, 40] s, got 86400",
+            ),
+            ("--tp", "0.01", "peak period must be in [1, 40] s, got 0.01"),
+            (
+                "--speed-kn",
+                "1e6",
+                "speed must be in [0, 60] kn, got 1000000",
+            ),
+            (
+                "--hull-length",
+                "1e-6",
+                "hull length must be in [1, 500] m, got 0.000001 m",
+            ),
+            (
+                "--hull-length",
+                "1e5",
+                "hull length must be in [1, 500] m, got 100000 m",
+            ),
+            (
+                "--vessel-x-m",
+                "1e300",
+                "the vessel's position must be within +-10000 m of the reference vessel",
+            ),
+        ] {
+            let e = refused(&["--out", "m.csv", flag, value]);
+            assert!(e.contains(needle), "{flag} {value}: {e}");
+        }
+        let e = refused(&[
+            "--out",
+            "m.csv",
+            "--sea-change-s",
+            "100",
+            "--new-hs",
+            "3",
+            "--new-tp",
+            "500",
+        ]);
+        assert!(
+            e.starts_with("--new-hs/--new-tp: invalid simulation setting: peak period must be in"),
+            "{e}"
+        );
+        // The limits themselves are accepted.
+        for (flag, value) in [("--hs", "30"), ("--tp", "40"), ("--speed-kn", "60")] {
+            assert!(
+                config(&["--out", "m.csv", flag, value]).is_ok(),
+                "{flag} {value}"
+            );
+        }
         assert_eq!(
             refused(&[
                 "--out",

@@ -4,6 +4,10 @@ use super::SimError;
 use serde::{Deserialize, Serialize};
 use std::f64::consts::PI;
 
+/// Hull lengths accepted [m], from a model-basin hull to the largest ships afloat.
+pub const MIN_LENGTH_M: f64 = 1.0;
+pub const MAX_LENGTH_M: f64 = 500.0;
+
 /// Main dimensions and roll properties of a monohull.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Hull {
@@ -76,9 +80,9 @@ impl Hull {
 
     /// Geometrically similar hull of another length (all lengths scaled alike).
     pub fn scaled_to_length(&self, lpp_m: f64) -> Result<Self, SimError> {
-        if !(lpp_m.is_finite() && lpp_m > 0.0) {
+        if !(lpp_m.is_finite() && (MIN_LENGTH_M..=MAX_LENGTH_M).contains(&lpp_m)) {
             return Err(SimError::Config(format!(
-                "hull length must be positive, got {lpp_m} m"
+                "hull length must be in [{MIN_LENGTH_M}, {MAX_LENGTH_M}] m, got {lpp_m} m"
             )));
         }
         let f = lpp_m / self.lpp_m;

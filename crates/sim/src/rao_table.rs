@@ -8,6 +8,7 @@
 //! range the nearest edge value is used. `ScaledRaoTable` applies Froude scaling to a
 //! geometrically similar hull of another length.
 
+use super::hull::{MAX_LENGTH_M, MIN_LENGTH_M};
 use super::rao::{Rao, Response};
 use super::SimError;
 use faer::c64;
@@ -262,9 +263,9 @@ impl ScaledRaoTable {
             ("table length", table_length_m),
             ("hull length", hull_length_m),
         ] {
-            if !(v.is_finite() && v > 0.0) {
+            if !(v.is_finite() && (MIN_LENGTH_M..=MAX_LENGTH_M).contains(&v)) {
                 return Err(SimError::Config(format!(
-                    "{name} must be positive, got {v} m"
+                    "{name} must be in [{MIN_LENGTH_M}, {MAX_LENGTH_M}] m, got {v} m"
                 )));
             }
         }

@@ -93,6 +93,16 @@ impl Default for SimConfig {
     }
 }
 
+/// Fastest ship speed accepted [kn]: the fastest naval craft make about 60.
+pub const MAX_SPEED_KN: f64 = 60.0;
+
+/// Highest significant wave height accepted [m]: the highest measured are about 20 m.
+pub const MAX_HS_M: f64 = 30.0;
+
+/// Peak periods accepted [s]: wind sea to the longest swell.
+pub const MIN_TP_S: f64 = 1.0;
+pub const MAX_TP_S: f64 = 40.0;
+
 impl SimConfig {
     /// The configuration of a named scenario with the default DTMB 5415 hull.
     pub fn scenario(scenario: Scenario) -> Self {
@@ -118,12 +128,27 @@ impl SimConfig {
         self.speed_kn * KNOT_MPS
     }
 
-    /// Checks the ship operation (the sea is checked when the spectrum is built).
+    /// Checks the ship operation and that the sea state is one a ship meets (the spectrum
+    /// checks its own shape when it is built). Unbounded, absurd values (a speed of 1e6 kn, a
+    /// peak period of a day) drove every component beyond the RAOs' reach and wrote a record of
+    /// zeros without a word.
     pub fn validate(&self) -> Result<(), SimError> {
-        if !(self.speed_kn.is_finite() && self.speed_kn >= 0.0) {
+        if !(self.speed_kn.is_finite() && (0.0..=MAX_SPEED_KN).contains(&self.speed_kn)) {
             return Err(SimError::Config(format!(
-                "speed must be >= 0 kn, got {}",
+                "speed must be in [0, {MAX_SPEED_KN}] kn, got {}",
                 self.speed_kn
+            )));
+        }
+        if !(self.hs_m.is_finite() && self.hs_m > 0.0 && self.hs_m <= MAX_HS_M) {
+            return Err(SimError::Config(format!(
+                "significant wave height must be in (0, {MAX_HS_M}] m, got {}",
+                self.hs_m
+            )));
+        }
+        if !(self.tp_s.is_finite() && (MIN_TP_S..=MAX_TP_S).contains(&self.tp_s)) {
+            return Err(SimError::Config(format!(
+                "peak period must be in [{MIN_TP_S}, {MAX_TP_S}] s, got {}",
+                self.tp_s
             )));
         }
         if !self.heading_deg.is_finite() {

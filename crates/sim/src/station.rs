@@ -23,6 +23,9 @@ use super::rao::signed_encounter_omega;
 use super::{SimError, WaveComponent, G};
 use serde::{Deserialize, Serialize};
 
+/// Farthest a second vessel may sit from the reference vessel, along either axis [m].
+pub const MAX_STATION_OFFSET_M: f64 = 10_000.0;
+
 /// Position and heading of a simulated vessel relative to the reference vessel.
 #[derive(Clone, Copy, Debug, PartialEq, Default, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -45,16 +48,23 @@ impl Station {
 
     /// Checks that the station is a finite position and heading.
     pub fn validate(&self) -> Result<(), SimError> {
-        if [self.x_m, self.y_m, self.heading_offset_deg]
-            .iter()
-            .all(|v| v.is_finite())
-        {
-            Ok(())
-        } else {
-            Err(SimError::Config(
-                "the vessel's position and heading offset must be finite".into(),
-            ))
+        if !self.heading_offset_deg.is_finite() {
+            return Err(SimError::Config(
+                "the vessel's heading offset must be a finite number of degrees".into(),
+            ));
         }
+        // Two ships in one operation sit within a few hundred metres of each other; far
+        // beyond, the phase shifts lose every digit (and the sea would not be the same).
+        if ![self.x_m, self.y_m]
+            .iter()
+            .all(|v| v.is_finite() && v.abs() <= MAX_STATION_OFFSET_M)
+        {
+            return Err(SimError::Config(format!(
+                "the vessel's position must be within +-{MAX_STATION_OFFSET_M} m of the reference vessel, got ({}, {}) m",
+                self.x_m, self.y_m
+            )));
+        }
+        Ok(())
     }
 
     /// The reference vessel's components (drawn for a ship at `speed` [m/s]) as seen from this
