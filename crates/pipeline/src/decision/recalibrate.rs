@@ -54,6 +54,16 @@ impl StatementRecord {
             return;
         }
         let b = &mut self.bins[bin(p)];
+        if b[0] + 1.0 > MAX_BIN_CALLS {
+            // Only a hand-edited file gets here (thousands of years of calls). Counted on, the
+            // bin would go past the bound and the file written would be refused at the next
+            // start: halve it (whole counts, the same mean statement), so the newest calls
+            // still count.
+            let calls = (b[0] / 2.0).floor();
+            b[1] *= calls / b[0];
+            b[2] = (b[2] / 2.0).floor();
+            b[0] = calls;
+        }
         b[0] += 1.0;
         b[1] += p;
         b[2] += f64::from(u8::from(held));
@@ -215,6 +225,32 @@ mod tests {
         ] {
             assert!(edited(3, bad).is_err(), "{bad:?} accepted");
         }
+    }
+
+    #[test]
+    fn a_full_bin_is_halved_so_the_record_written_can_be_read_again() {
+        // Regression: a file edited to the bound (1e12 calls in a bin) was accepted, the run
+        // counted on, and the file it wrote was refused at the next start.
+        let p = 0.4005;
+        let full = [
+            400.0,
+            MAX_BIN_CALLS,
+            MAX_BIN_CALLS * p,
+            0.75 * MAX_BIN_CALLS,
+        ];
+        let mut r = StatementRecord::from_bins(&[full]).unwrap();
+        r.add(p, true);
+        let bins: Vec<_> = r.bins().collect();
+        let [_, calls, stated, held] = bins[0];
+        assert_eq!(calls, MAX_BIN_CALLS / 2.0 + 1.0);
+        assert_eq!(held, 0.75 * MAX_BIN_CALLS / 2.0 + 1.0);
+        assert!((stated / calls - p).abs() < 1e-9, "mean {}", stated / calls);
+        let back = StatementRecord::from_bins(&bins).unwrap();
+        assert_eq!(back.correct(p), r.correct(p));
+        // Below the bound a call only counts.
+        let mut r = StatementRecord::from_bins(&[[400.0, 10.0, 10.0 * p, 5.0]]).unwrap();
+        r.add(p, false);
+        assert_eq!(r.bins().next().unwrap()[1..], [11.0, 11.0 * p, 5.0]);
     }
 
     #[test]
