@@ -127,6 +127,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     } = Config::try_from(args)?;
     let limit = shutdown::RunLimit::new(limit);
     let names = config.names()?;
+    // Before the start-up fit: a second predictor under these names is refused at once.
+    let _lock = shipcast_pipeline::transport::host_lock::HostLock::acquire(&names, "predictor")?;
 
     let models = shipcast_pipeline::engine::startup::initial_models(&config)?;
     if let Some(m) = &models {

@@ -82,6 +82,35 @@ fn killed_predictor_restarts_and_consumers_resume() {
     });
 }
 
+/// Regression: a second predictor under the same names (a second `shipcast run` with the same
+/// `--instance`) ran uselessly beside the first, its forecasts refused by every consumer. It
+/// is refused at start, naming the first, and the first runs on.
+#[test]
+fn a_second_predictor_under_the_same_names_is_refused() {
+    let p = TestPipeline::new("twice", "[producer]\nspeed = 20.0\nbackfill_s = 0.0\n");
+    let first = p.spawn("predictor", &[]);
+    first.wait_for("(iceoryx2 and zenoh)");
+    let mut second = p.spawn("predictor", &[]);
+    let status = second.wait_exit();
+    assert!(!status.success());
+    let stderr = second.stderr().join("\n");
+    assert!(
+        stderr.contains(&format!(
+            "error: another predictor for vessel '{}' in instance '{}' is running on this host",
+            p.names().vessel(),
+            p.names().instance().unwrap()
+        )),
+        "{stderr}"
+    );
+    // The first still serves: a producer started now gets its forecasts.
+    let mut producer = p.spawn("producer", &["--wait-subscriber-s", "30"]);
+    let status = p.watch_status();
+    status.wait_until("forecasts from the first predictor", |s| {
+        status_u64(s, &["forecasts"]) > 0
+    });
+    producer.terminate();
+}
+
 /// The producer dies: the predictor reports the motion stale; a new producer (seq from 0)
 /// brings it back and forecasts resume on the new record.
 #[test]

@@ -4,6 +4,7 @@
 pub mod clock;
 pub mod counters;
 pub mod forecast_check;
+pub mod host_lock;
 pub mod iox;
 pub mod motion_gate;
 pub mod naming;
