@@ -1,6 +1,7 @@
 //! Transports: service and key naming, iceoryx2 (local, zero-copy) and zenoh (remote) plumbing,
 //! message counters and the monotonic clock used for latency stamps.
 
+pub mod cert_validity;
 pub mod clock;
 pub mod counters;
 pub mod forecast_check;

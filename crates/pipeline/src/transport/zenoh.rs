@@ -4,6 +4,7 @@
 //! "latest value" subscribers backed by a ring channel so a slow consumer never blocks zenoh's
 //! receive thread.
 
+use crate::transport::cert_validity::{self, Validity};
 use crate::transport::zenoh_security::{self as security, AccessRules, TlsSettings, UserPassword};
 use serde::{Deserialize, Serialize};
 use shipcast_wire::payload::limits;
@@ -234,20 +235,44 @@ pub fn config_document(settings: &ZenohSettings) -> serde_json::Value {
 /// before zenoh is given it: zenoh finds out only when a link is made, and a client retried
 /// for its whole patience (a minute) and then reported a timeout that named no file.
 fn check_tls_file(key: &str, value: &str) -> Result<(), ZenohError> {
-    if security::is_inline_pem(value) {
-        return Ok(());
-    }
-    let context = || format!("tls {key} file {value}");
-    let text = std::fs::read(value).map_err(err(context()))?;
-    if !text.windows(10).any(|w| w == b"-----BEGIN") {
-        let why = if text.is_empty() {
-            "the file is empty"
-        } else {
-            "no PEM block (-----BEGIN ...) in it"
-        };
-        return Err(err(context())(why));
+    let (context, text) = if security::is_inline_pem(value) {
+        (format!("tls {key} (inline)"), value.as_bytes().to_vec())
+    } else {
+        let context = format!("tls {key} file {value}");
+        let text = std::fs::read(value).map_err(err(context.clone()))?;
+        if !text.windows(10).any(|w| w == b"-----BEGIN") {
+            let why = if text.is_empty() {
+                "the file is empty"
+            } else {
+                "no PEM block (-----BEGIN ...) in it"
+            };
+            return Err(err(context)(why));
+        }
+        (context, text)
+    };
+    if key != "private_key" {
+        check_certificate_dates(&context, &text, cert_validity::now_unix())?;
     }
     Ok(())
+}
+
+/// Refuse a certificate (ours, or the root CA we trust) outside its dates, and warn two weeks
+/// before it expires (`cert_validity`).
+fn check_certificate_dates(context: &str, pem: &[u8], now_unix: i64) -> Result<(), ZenohError> {
+    let renew = "make new certificates with `shipcast certs` and hand them out";
+    match cert_validity::validity(pem, now_unix) {
+        Validity::Valid | Validity::Unreadable => Ok(()),
+        Validity::ExpiresSoon { not_after } => {
+            tracing::warn!("{context}: the certificate expires on {not_after}: {renew}");
+            Ok(())
+        }
+        Validity::Expired { not_after } => Err(err(context)(format!(
+            "the certificate expired on {not_after}: {renew}"
+        ))),
+        Validity::NotYetValid { not_before } => Err(err(context)(format!(
+            "the certificate is not valid before {not_before}: is this machine's clock right?"
+        ))),
+    }
 }
 
 /// The zenoh configuration of `settings`.
@@ -540,6 +565,50 @@ mod tests {
         assert!(check_tls_file("certificate", &path("ok.pem")).is_ok());
         // Inline PEM (a station's configuration) is not a path.
         assert!(check_tls_file("root_ca", "-----BEGIN CERTIFICATE-----\nMIIB\n").is_ok());
+    }
+
+    /// Regression: an expired certificate of our own was found only when a peer refused it in
+    /// the handshake; the service had started as if all was well.
+    #[test]
+    fn a_certificate_outside_its_dates_is_refused_at_start_naming_the_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut params = rcgen::CertificateParams::new(vec!["vessel".to_string()]).unwrap();
+        params.not_before = rcgen::date_time_ymd(2020, 1, 1);
+        params.not_after = rcgen::date_time_ymd(2021, 1, 1);
+        let key = rcgen::KeyPair::generate().unwrap();
+        let expired = params.self_signed(&key).unwrap().pem();
+        let file = dir.path().join("vessel.pem").to_string_lossy().into_owned();
+        std::fs::write(&file, &expired).unwrap();
+        let e = format!(
+            "{:#}",
+            anyhow::Error::from(check_tls_file("certificate", &file).unwrap_err())
+        );
+        assert!(
+            e.starts_with(&format!(
+                "zenoh: tls certificate file {file}: the certificate expired on "
+            )) && e.contains("2021")
+                && e.ends_with("make new certificates with `shipcast certs` and hand them out"),
+            "{e}"
+        );
+        // Inline, and as the root CA, the same; a key file is not a certificate.
+        let e = format!(
+            "{:#}",
+            anyhow::Error::from(check_tls_file("root_ca", &expired).unwrap_err())
+        );
+        assert!(
+            e.starts_with("zenoh: tls root_ca (inline): the certificate expired"),
+            "{e}"
+        );
+        assert!(check_tls_file("private_key", &expired).is_ok());
+        // Before its dates (by a clock set back): the clock is named.
+        let e = format!(
+            "{:#}",
+            anyhow::Error::from(
+                check_certificate_dates("tls certificate", expired.as_bytes(), 1_500_000_000)
+                    .unwrap_err()
+            )
+        );
+        assert!(e.ends_with("is this machine's clock right?"), "{e}");
     }
     use std::time::Instant;
 

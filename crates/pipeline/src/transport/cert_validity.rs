@@ -1,0 +1,129 @@
+//! Is a TLS certificate valid now? Checked when a service starts, for its own certificate and
+//! the root CA it trusts.
+//!
+//! Why: an expired certificate was found only when a peer refused it during the handshake. The
+//! service itself started as if all was well, a client retried for its whole patience, and the
+//! log named the peer's alert, not the file to renew. Now the service says at start which file
+//! expired and when, and warns two weeks ahead.
+//!
+//! A PEM block that does not parse as a certificate is not judged here: zenoh reads the file
+//! itself and names what is wrong with it.
+
+use x509_parser::pem::Pem;
+
+/// How long before expiry a service warns [s]: two weeks, time to make new certificates
+/// (`shipcast certs`) and hand them out between sorties.
+pub const WARN_BEFORE_EXPIRY_S: i64 = 14 * 86_400;
+
+/// What the first certificate of a PEM text says about `now_unix` [s since 1970].
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Validity {
+    /// Valid now and for longer than [`WARN_BEFORE_EXPIRY_S`].
+    Valid,
+    /// Valid now, but it expires within [`WARN_BEFORE_EXPIRY_S`], at the time given.
+    ExpiresSoon { not_after: String },
+    /// Expired at the time given.
+    Expired { not_after: String },
+    /// Not valid until the time given (a clock that is wrong, or certificates made ahead).
+    NotYetValid { not_before: String },
+    /// No certificate could be read from it: left to zenoh.
+    Unreadable,
+}
+
+/// The validity of the first certificate in `pem` (a service's own certificate comes first
+/// in its file; a chain may follow) at `now_unix`.
+pub fn validity(pem: &[u8], now_unix: i64) -> Validity {
+    let Some(Ok(block)) = Pem::iter_from_buffer(pem).next() else {
+        return Validity::Unreadable;
+    };
+    let Ok(cert) = block.parse_x509() else {
+        return Validity::Unreadable;
+    };
+    let v = cert.validity();
+    let (not_before, not_after) = (v.not_before.timestamp(), v.not_after.timestamp());
+    if now_unix < not_before {
+        Validity::NotYetValid {
+            not_before: v.not_before.to_string(),
+        }
+    } else if now_unix > not_after {
+        Validity::Expired {
+            not_after: v.not_after.to_string(),
+        }
+    } else if not_after - now_unix < WARN_BEFORE_EXPIRY_S {
+        Validity::ExpiresSoon {
+            not_after: v.not_after.to_string(),
+        }
+    } else {
+        Validity::Valid
+    }
+}
+
+/// Seconds since 1970 now, by the system clock (what the peers check against too).
+pub fn now_unix() -> i64 {
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| i64::try_from(d.as_secs()).unwrap_or(i64::MAX))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rcgen::{date_time_ymd, CertificateParams, KeyPair};
+
+    fn pem(not_before: (i32, u8, u8), not_after: (i32, u8, u8)) -> String {
+        let mut params = CertificateParams::new(vec!["vessel".to_string()]).unwrap();
+        params.not_before = date_time_ymd(not_before.0, not_before.1, not_before.2);
+        params.not_after = date_time_ymd(not_after.0, not_after.1, not_after.2);
+        let key = KeyPair::generate().unwrap();
+        params.self_signed(&key).unwrap().pem()
+    }
+
+    /// 2026-06-01 00:00:00 UTC.
+    const JUNE_2026: i64 = 1_780_272_000;
+
+    #[test]
+    fn a_certificate_is_judged_against_its_dates() {
+        let cert = pem((2026, 1, 1), (2027, 1, 1));
+        assert_eq!(validity(cert.as_bytes(), JUNE_2026), Validity::Valid);
+        // Its last day: valid, with a warning; a day later, expired.
+        let last = 1_798_761_600 - 3600; // 2026-12-31 23:00 UTC
+        assert!(matches!(
+            validity(cert.as_bytes(), last),
+            Validity::ExpiresSoon { .. }
+        ));
+        let after = 1_798_761_600 + 86_400;
+        match validity(cert.as_bytes(), after) {
+            Validity::Expired { not_after } => assert!(not_after.contains("2027"), "{not_after}"),
+            other => panic!("{other:?}"),
+        }
+        match validity(cert.as_bytes(), 1_767_225_600 - 86_400) {
+            Validity::NotYetValid { not_before } => {
+                assert!(not_before.contains("2026"), "{not_before}")
+            }
+            other => panic!("{other:?}"),
+        }
+        // Fifteen days before the end: no warning yet.
+        assert_eq!(
+            validity(cert.as_bytes(), 1_798_761_600 - 15 * 86_400),
+            Validity::Valid
+        );
+    }
+
+    #[test]
+    fn only_the_first_certificate_counts_and_junk_is_left_to_zenoh() {
+        let own = pem((2020, 1, 1), (2021, 1, 1));
+        let chain = pem((2026, 1, 1), (2030, 1, 1));
+        let both = format!("{own}{chain}");
+        assert!(matches!(
+            validity(both.as_bytes(), JUNE_2026),
+            Validity::Expired { .. }
+        ));
+        for junk in [
+            "",
+            "not a certificate",
+            "-----BEGIN CERTIFICATE-----\nMIIB\n-----END CERTIFICATE-----\n",
+        ] {
+            assert_eq!(validity(junk.as_bytes(), JUNE_2026), Validity::Unreadable);
+        }
+    }
+}
