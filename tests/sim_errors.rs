@@ -34,9 +34,36 @@ fn non_physical_settings_are_rejected() {
         ..base.clone()
     });
     assert!(
-        e.contains("significant wave height must be positive"),
+        e.contains("significant wave height must be in (0, 30] m, got -1"),
         "{e}"
     );
+    // Regression: seas and speeds far outside any a ship meets wrote a record of zeros.
+    for (cfg, needle) in [
+        (
+            SimConfig {
+                hs_m: 1e3,
+                ..base.clone()
+            },
+            "significant wave height must be in (0, 30] m",
+        ),
+        (
+            SimConfig {
+                tp_s: 1e5,
+                ..base.clone()
+            },
+            "peak period must be in [1, 40] s",
+        ),
+        (
+            SimConfig {
+                speed_kn: 1e6,
+                ..base.clone()
+            },
+            "speed must be in [0, 60] kn",
+        ),
+    ] {
+        let e = error_of(cfg);
+        assert!(e.contains(needle), "{e}");
+    }
     let e = error_of(SimConfig {
         tp_s: f64::NAN,
         ..base.clone()
