@@ -9,7 +9,10 @@
 //! - [`server`]: the HTTP server (axum): the page and a server-sent-event stream of board
 //!   snapshots. Each client is sent the newest snapshot at a fixed pace; a client that reads
 //!   slowly or never skips snapshots and holds nothing up.
+//! - [`connections`]: what one host can take of the server: a cap on connections served at
+//!   once and a timeout for a request head, in the server's own accept loop.
 
 pub mod board;
+pub mod connections;
 pub mod feed;
 pub mod server;
