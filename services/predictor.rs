@@ -93,7 +93,8 @@ impl TryFrom<Args> for Config {
     type Error = anyhow::Error;
 
     fn try_from(args: Args) -> anyhow::Result<Self> {
-        let mut pipeline = args.common.load()?;
+        // Validated once its own flags (--model, --order, ...) are applied, below.
+        let mut pipeline = args.common.load_unvalidated()?;
         if let Some(core) = args.pin_core {
             checked(limits::core("--pin-core", core))?;
         }

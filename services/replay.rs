@@ -60,7 +60,7 @@ impl TryFrom<Args> for Config {
             args.skip_s,
             limits::MAX_SECONDS,
         ))?;
-        let mut pipeline = PipelineConfig::load(args.config.as_deref())?;
+        let mut pipeline = PipelineConfig::load_unvalidated(args.config.as_deref())?;
         if args.model.is_some() {
             pipeline.predictor.model = args.model;
         }
@@ -262,5 +262,20 @@ mod tests {
             let e = crate::refused::<Args, Config>(&["--input", "x.csv", "--skip-s", bad]);
             assert!(e.starts_with("--skip-s"), "{e}");
         }
+    }
+
+    #[test]
+    fn the_configuration_is_checked_after_the_model_flag() {
+        // Regression: the file was checked before --model was applied, so a start-up history
+        // too short to fit on was refused although the model file made it moot.
+        let dir = tempfile::tempdir().unwrap();
+        let file = dir.path().join("short.toml");
+        std::fs::write(&file, "[predictor]\nwarmup_s = 60.0\n").unwrap();
+        let file = file.to_str().unwrap();
+        let args = ["--input", "x.csv", "--config", file];
+        let e = crate::refused::<Args, Config>(&args);
+        assert!(e.contains("predictor.warmup_s = 60 s"), "{e}");
+        let with_model = [&args[..], &["--model", "m.json"]].concat();
+        assert!(crate::validated::<Args, Config>(&with_model).is_ok());
     }
 }

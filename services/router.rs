@@ -63,7 +63,8 @@ impl TryFrom<Args> for Config {
         if args.listen.is_empty() && args.config.is_none() {
             anyhow::bail!("give the endpoints to listen on (--listen) or a --config that has them");
         }
-        let mut config = PipelineConfig::load(args.config.as_deref())?;
+        // Checked once --listen has replaced the file's endpoints (below).
+        let mut config = PipelineConfig::load_unvalidated(args.config.as_deref())?;
         if !args.listen.is_empty() {
             config.zenoh.listen = args.listen;
         }
@@ -73,6 +74,7 @@ impl TryFrom<Args> for Config {
         config.zenoh.connect.clear();
         config.zenoh.multicast_scouting = false;
         config.zenoh.validate_with_flag("--listen")?;
+        config.validate()?;
         let mut settings = config.zenoh.publisher_side();
         if settings.listen.is_empty() {
             anyhow::bail!("the [zenoh] section of --config has no listen endpoint: give --listen");
@@ -190,5 +192,15 @@ mod tests {
             refused(&["--config", file.to_str().unwrap()]),
             "the [zenoh] section of --config has no listen endpoint: give --listen"
         );
+        // Regression: the file was checked before --listen replaced its endpoints, so a bad one
+        // there was refused (and named as --zenoh-listen's) although --listen replaced it.
+        std::fs::write(&file, "[zenoh]\nlisten = [\"tcp/127.0.0.1:0\"]\n").unwrap();
+        let file = file.to_str().unwrap();
+        let e = refused(&["--config", file]);
+        assert!(e.contains("zenoh.listen (or --listen) endpoint"), "{e}");
+        let c =
+            crate::validated::<Args, Config>(&["--config", file, "--listen", "tcp/127.0.0.1:7449"])
+                .unwrap();
+        assert_eq!(c.settings.listen, ["tcp/127.0.0.1:7449"]);
     }
 }

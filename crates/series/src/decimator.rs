@@ -116,6 +116,19 @@ pub fn decimate_with(
     Ok(series.iter().filter_map(|&x| decimator.push(x)).collect())
 }
 
+/// How many values [`decimate`] (or [`decimate_with`]) makes of `inputs` values: all of them
+/// at factor 1; otherwise one per `factor` once the filter's `4 * factor + 1` taps are filled.
+pub fn decimated_len(inputs: usize, factor: usize) -> usize {
+    match factor {
+        0 => 0,
+        1 => inputs,
+        f => match inputs.checked_sub(4 * f + 1) {
+            Some(rest) => rest / f + 1,
+            None => 0,
+        },
+    }
+}
+
 /// Decimate a whole series: exactly [`Decimator`] run over `series`, collecting its outputs.
 /// Output `j` belongs to input index `j * factor + 2 * factor` (see [`Decimator`]).
 pub fn decimate(series: &[f64], factor: usize) -> Result<Vec<f64>, ResampleError> {
@@ -151,6 +164,13 @@ mod tests {
                 (x.len() - taps) / factor + 1
             };
             assert_eq!(batch.len(), expected, "factor {factor}");
+            for n in [0, 4 * factor, 4 * factor + 1, 4 * factor + 2, 999, 1000] {
+                assert_eq!(
+                    decimated_len(n, factor),
+                    decimate(&x[..n], factor).unwrap().len(),
+                    "{n} values at factor {factor}"
+                );
+            }
             let mut d = Decimator::new(factor).unwrap();
             // Run twice: reset must restore the fresh state.
             for _ in 0..2 {

@@ -131,20 +131,35 @@ fn parse_message(text: &str, e: &toml::de::Error) -> String {
 impl PipelineConfig {
     /// Parse TOML text; `origin` names the source in errors.
     pub fn from_toml(text: &str, origin: &Path) -> Result<Self, ConfigError> {
-        let config: PipelineConfig = toml::from_str(text).map_err(|e| ConfigError::Parse {
+        let config = Self::from_toml_unvalidated(text, origin)?;
+        config.validate()?;
+        Ok(config)
+    }
+
+    /// [`Self::from_toml`] without the checks, for a command that applies its flags first and
+    /// then validates once: checked before, a file that needs a flag to make sense (a short
+    /// `warmup_s` with `--model`, a bad endpoint that `--listen` replaces) was refused.
+    fn from_toml_unvalidated(text: &str, origin: &Path) -> Result<Self, ConfigError> {
+        let mut config: PipelineConfig = toml::from_str(text).map_err(|e| ConfigError::Parse {
             path: origin.to_path_buf(),
             message: parse_message(text, &e),
         })?;
-        let mut config = config;
         if let Some(dir) = origin.parent() {
             config.zenoh.resolve_paths(dir);
         }
-        config.validate()?;
         Ok(config)
     }
 
     /// Load `path`, or the defaults when none is given.
     pub fn load(path: Option<&Path>) -> Result<Self, ConfigError> {
+        let config = Self::load_unvalidated(path)?;
+        config.validate()?;
+        Ok(config)
+    }
+
+    /// [`Self::load`] without the checks: the caller applies its flags, then calls
+    /// [`Self::validate`].
+    pub fn load_unvalidated(path: Option<&Path>) -> Result<Self, ConfigError> {
         match path {
             None => Ok(Self::default()),
             Some(p) => {
@@ -152,7 +167,7 @@ impl PipelineConfig {
                     path: p.to_path_buf(),
                     error,
                 })?;
-                Self::from_toml(&text, p)
+                Self::from_toml_unvalidated(&text, p)
             }
         }
     }
@@ -259,14 +274,29 @@ impl PipelineConfig {
                 len: q.retrain_window,
                 shown: format!("predictor.retrain_window = {} values", q.retrain_window),
                 raise: "retrain_window",
+                seconds_for: None,
             };
             if let Some(problem) = q.fit_span_problem(&span) {
                 return Err(problem);
             }
         }
         if q.model.is_none() && q.warmup_s > 0.0 {
-            // The start-up history decimated to the forecast rate (at least this many values).
-            let len = (q.warmup_s * q.sample_rate_hz).floor() as usize;
+            // The start-up history as `startup::initial_models` makes it: ceil(warmup_s x the
+            // producer's rate) samples, decimated to the forecast rate (the filter's warm-up
+            // costs a few values).
+            let rate = self.producer.rate_hz;
+            let samples = (q.warmup_s * rate).ceil() as usize;
+            // Not an integer ratio: refused where the factor is needed (`decimation_factor`).
+            let factor = ((rate / q.sample_rate_hz).round() as usize).max(1);
+            let len = shipcast_series::decimated_len(samples, factor);
+            // The warm-up that makes `values` values: the inverse of `decimated_len`.
+            let seconds_for = |values: usize| {
+                let samples = match factor {
+                    1 => values,
+                    f => (values.max(1) - 1) * f + 4 * f + 1,
+                };
+                samples as f64 / rate
+            };
             let span = FitSpan {
                 len,
                 shown: format!(
@@ -274,6 +304,7 @@ impl PipelineConfig {
                     q.warmup_s, q.sample_rate_hz
                 ),
                 raise: "warmup_s",
+                seconds_for: Some(&seconds_for),
             };
             if let Some(problem) = q.fit_span_problem(&span) {
                 return Err(format!(
@@ -390,7 +421,15 @@ pub struct CommonArgs {
 impl CommonArgs {
     /// The config file (or the defaults) with the flags applied, validated.
     pub fn load(&self) -> Result<PipelineConfig, ConfigError> {
-        let mut config = PipelineConfig::load(self.config.as_deref())?;
+        let config = self.load_unvalidated()?;
+        config.validate()?;
+        Ok(config)
+    }
+
+    /// [`Self::load`] without the checks, for a command with flags of its own: it applies
+    /// them, then calls [`PipelineConfig::validate`] once.
+    pub fn load_unvalidated(&self) -> Result<PipelineConfig, ConfigError> {
+        let mut config = PipelineConfig::load_unvalidated(self.config.as_deref())?;
         if let Some(i) = &self.instance {
             config.instance = Some(i.clone());
         }
@@ -406,7 +445,6 @@ impl CommonArgs {
         if let Some(s) = self.speed {
             config.producer.speed = s;
         }
-        config.validate()?;
         Ok(config)
     }
 

@@ -242,6 +242,22 @@ pub(super) struct FitSpan<'a> {
     pub len: usize,
     pub shown: String,
     pub raise: &'a str,
+    /// For a span set in seconds (`warmup_s`): the seconds a span of n values takes.
+    pub seconds_for: Option<&'a dyn Fn(usize) -> f64>,
+}
+
+impl FitSpan<'_> {
+    /// "raise retrain_window to hold at least N values", in the span's own unit.
+    fn raise_to(&self, values: usize) -> String {
+        match self.seconds_for {
+            Some(seconds) => format!(
+                "raise {} to at least {} s ({values} values)",
+                self.raise,
+                seconds(values).ceil()
+            ),
+            None => format!("raise {} to at least {values} values", self.raise),
+        }
+    }
 }
 
 impl PredictorServiceConfig {
@@ -268,21 +284,34 @@ impl PredictorServiceConfig {
                 self.holdout, self.horizon
             ));
         }
+        // The shortest span that fits and scores the smallest candidate: feasibility only
+        // grows with the span (both the held-out and the training part do), so a bisection.
+        let (mut lo, mut hi) = (span.len, span.len.max(1));
+        while !models::any_feasible_order(self, hi, models::holdout_for(self, hi)) {
+            hi = hi.saturating_mul(2);
+        }
+        while hi - lo > 1 {
+            let mid = lo + (hi - lo) / 2;
+            if models::any_feasible_order(self, mid, models::holdout_for(self, mid)) {
+                hi = mid;
+            } else {
+                lo = mid;
+            }
+        }
         if held_out < needed {
             return Some(format!(
-                "{} holds out at most a third of itself ({held_out} values), too short to score any candidate: the smallest order ({smallest}) with the horizon ({}) and {MIN_HOLDOUT_ORIGINS} origins needs {needed}; raise {} to hold at least {} values",
+                "{} holds out at most a third of itself ({held_out} values), too short to score any candidate: the smallest order ({smallest}) with the horizon ({}) and {MIN_HOLDOUT_ORIGINS} origins needs {needed}; {}",
                 span.shown,
                 self.horizon,
-                span.raise,
-                3 * needed
+                span.raise_to(hi)
             ));
         }
         let train = span.len - held_out;
         Some(format!(
-            "{} leaves {train} values to train on beside the {held_out} held out: the smallest order ({smallest}) needs {TRAIN_PER_ORDER} x {smallest} = {}; raise {}",
+            "{} leaves {train} values to train on beside the {held_out} held out: the smallest order ({smallest}) needs {TRAIN_PER_ORDER} x {smallest} = {}; {}",
             span.shown,
             TRAIN_PER_ORDER * smallest,
-            span.raise
+            span.raise_to(hi)
         ))
     }
 }

@@ -223,6 +223,18 @@ fn a_first_fit_within_the_history_is_accepted() {
         "[predictor]\norder = 400\ncandidate_orders = [400]\nretrain_window = 2400\nfirst_fit_s = 100.0"
     ));
     assert!(holdout("[predictor]\nwarmup_s = 100.0\nmodel = \"m.json\""));
+    // Regression: the start-up span was counted before the decimating filter's warm-up (four
+    // values at 8 Hz), so 202.5 s passed the check and the fit failed at start. The shortest
+    // the message names is the boundary: 205 s holds 405 values (135 held out), 204 s 404.
+    assert!(holdout("[predictor]\nwarmup_s = 205.0"));
+    assert!(!holdout("[predictor]\nwarmup_s = 204.0"));
+    assert!(!holdout("[predictor]\nwarmup_s = 202.5"));
+    assert!(holdout(
+        "[predictor]\norder = 400\ncandidate_orders = [400]\nretrain_window = 2399\nfirst_fit_s = 100.0"
+    ));
+    assert!(!holdout(
+        "[predictor]\norder = 400\ncandidate_orders = [400]\nretrain_window = 2398\nfirst_fit_s = 100.0"
+    ));
 }
 
 #[test]
@@ -253,17 +265,17 @@ fn impossible_values_are_refused() {
         // ignored: a 400-value window holds out 133, and no retrain ever came.
         (
             "[predictor]\nretrain_window = 400\nfirst_fit_s = 100.0",
-            "predictor.retrain_window = 400 values holds out at most a third of itself (133 values), too short to score any candidate: the smallest order (25) with the horizon (50) and 60 origins needs 135; raise retrain_window to hold at least 405 values",
+            "predictor.retrain_window = 400 values holds out at most a third of itself (133 values), too short to score any candidate: the smallest order (25) with the horizon (50) and 60 origins needs 135; raise retrain_window to at least 405 values",
         ),
         // The training part left beside it must hold four values per order.
         (
             "[predictor]\norder = 400\ncandidate_orders = [400]\nretrain_window = 1530\nfirst_fit_s = 100.0",
-            "predictor.retrain_window = 1530 values leaves 1020 values to train on beside the 510 held out: the smallest order (400) needs 4 x 400 = 1600; raise retrain_window",
+            "predictor.retrain_window = 1530 values leaves 1020 values to train on beside the 510 held out: the smallest order (400) needs 4 x 400 = 1600; raise retrain_window to at least 2399 values",
         ),
         // The start-up history is a span of its own.
         (
             "[predictor]\nwarmup_s = 100.0",
-            "predictor.warmup_s = 100 s (200 values at 2 Hz) holds out at most a third of itself (66 values)",
+            "predictor.warmup_s = 100 s (196 values at 2 Hz) holds out at most a third of itself (65 values), too short to score any candidate: the smallest order (25) with the horizon (50) and 60 origins needs 135; raise warmup_s to at least 205 s (405 values)",
         ),
         // Regression: MCA with no candidate above the horizon got through the check (the
         // smallest order fell back to predictor.order) and then never fitted anything.
