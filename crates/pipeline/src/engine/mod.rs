@@ -141,8 +141,10 @@ struct FailedModels {
     /// order and a horizon, and it can fail on them in turn: 14 failures and retrains had
     /// followed each other within 34 s. So retrains for failures back off (`failure_gap`).
     retrain_at: Option<u64>,
-    /// Retrains for failures asked for since a model last stayed in service for a whole
-    /// order and horizon.
+    /// Value count of the latest failure.
+    last_failure_at: Option<u64>,
+    /// Retrains for failures asked for in a row: each after a model failed again within the
+    /// longest input of the previous retrain (the values it failed on could still be there).
     streak: u32,
 }
 
@@ -159,6 +161,22 @@ fn failure_gap(streak: u32, longest: u64) -> u64 {
     }
 }
 
+/// The streak of a retrain for a failure about to be asked for: one more if a model failed
+/// again while the values the previous one failed on could still be in its input (within
+/// `longest` values of that retrain, or at it: an inline retrain's model is updated, and may
+/// fail, on the very value it was asked for at); else the first of a new streak.
+fn next_streak(failed: &FailedModels, longest: u64) -> u32 {
+    let again = match (failed.retrain_at, failed.last_failure_at) {
+        (Some(r), Some(f)) => f >= r && f - r < longest,
+        _ => false,
+    };
+    if again {
+        failed.streak.saturating_add(1)
+    } else {
+        1
+    }
+}
+
 /// Wait after the first retrain for a failure before another [values]: 2 s at 2 Hz.
 const FIRST_FAILURE_GAP: u64 = 4;
 
@@ -166,9 +184,17 @@ const FIRST_FAILURE_GAP: u64 = 4;
 const REASON_MODEL_FAILED: &str = "a model failed";
 
 impl FailedModels {
-    /// Take DOF `d`'s model out of service; `failures` counts every failure.
-    fn fail(&mut self, d: usize, time_s: f64, error: &dyn std::fmt::Display, failures: &mut u64) {
+    /// Take DOF `d`'s model out of service at value count `at`; `failures` counts every
+    /// failure.
+    fn fail(
+        &mut self,
+        d: usize,
+        (at, time_s): (u64, f64),
+        error: &dyn std::fmt::Display,
+        failures: &mut u64,
+    ) {
         self.dof[d] = true;
+        self.last_failure_at = Some(at);
         *failures += 1;
         self.unhandled = true;
         tracing::warn!(
@@ -377,8 +403,12 @@ impl Engine {
                 if p.is_online() && !self.failed.dof[d] {
                     if let Some(recent) = self.ingest.last(d, p.order() + horizon) {
                         if let Err(e) = p.update(recent) {
-                            self.failed
-                                .fail(d, v.time_s, &e, &mut self.counts.model_failures);
+                            self.failed.fail(
+                                d,
+                                (self.values, v.time_s),
+                                &e,
+                                &mut self.counts.model_failures,
+                            );
                         }
                     }
                 }
@@ -510,12 +540,23 @@ impl Engine {
     }
 
     /// Pick up a finished retrain; it replaces the running models only where it scored better
-    /// on the newest data.
+    /// on the newest data. A DOF whose model failed and that the retrain did not replace (it
+    /// failed, it could not score that DOF, it had another horizon) asks for another, on the
+    /// failures' backoff: it would otherwise wait on no skill for the next scheduled retrain.
     fn take_models(&mut self) {
-        let outcome = match self.retrainer.take() {
-            None => return,
-            Some(Ok(outcome)) => outcome,
-            Some(Err(e)) => {
+        let Some(result) = self.retrainer.take() else {
+            return;
+        };
+        self.use_outcome(result);
+        if self.failed.dof.contains(&true) {
+            self.failed.unhandled = true;
+        }
+    }
+
+    fn use_outcome(&mut self, result: Result<retrain::Outcome, String>) {
+        let outcome = match result {
+            Ok(outcome) => outcome,
+            Err(e) => {
                 // The running models stay; the next scheduled retrain tries again.
                 self.counts.retrain_failures += 1;
                 tracing::warn!(
@@ -659,11 +700,7 @@ impl Engine {
         };
         if self.retrainer.request(job) {
             if reason == REASON_MODEL_FAILED {
-                let streak = match self.since_failure_retrain() {
-                    Some(_) => self.failed.streak + 1,
-                    None => 1,
-                };
-                self.failed.streak = streak;
+                self.failed.streak = next_streak(&self.failed, self.longest_input());
                 self.failed.retrain_at = Some(self.values);
             }
             self.next_version += 1;
@@ -687,8 +724,12 @@ impl Engine {
                 if let Some(past) = self.ingest.last(d, p.order()) {
                     if let Err(e) = p.forecast(past, raw) {
                         raw.fill(0.0);
-                        self.failed
-                            .fail(d, v.time_s, &e, &mut self.counts.model_failures);
+                        self.failed.fail(
+                            d,
+                            (self.values, v.time_s),
+                            &e,
+                            &mut self.counts.model_failures,
+                        );
                     }
                 }
             }
@@ -776,8 +817,12 @@ impl Engine {
                 }
                 if let Some(known) = self.ingest.last(d, p.order()) {
                     if let Err(e) = p.prepare(known) {
-                        self.failed
-                            .fail(d, self.last_time_s, &e, &mut self.counts.model_failures);
+                        self.failed.fail(
+                            d,
+                            (self.values, self.last_time_s),
+                            &e,
+                            &mut self.counts.model_failures,
+                        );
                     }
                 }
             }

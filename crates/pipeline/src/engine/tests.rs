@@ -250,8 +250,9 @@ fn a_model_that_fails_numerically_is_taken_out_of_service_and_replaced_by_a_retr
 fn retrains_for_failures_back_off_while_models_keep_failing() {
     // Regression: the values a model failed on stay in its replacement's input, and it fails
     // in turn: 14 failures, each retrained at once, within 34 s. A faulty heave sensor that
-    // spikes every 5 values for 100 s makes every model fail; the retrains for them wait
-    // twice as long each time (4, 8, 16, ... values), so at most 8 in the 200 values.
+    // spikes every 5 values for 100 s makes model after model fail (12 failures and retrains
+    // without the backoff); the retrains for them wait twice as long each time (4, 8, 16, ...
+    // values), so at most 8 in the 200 values.
     let spikes: Vec<usize> = (600..800).step_by(5).collect();
     let run = spiked_ar_run(&spikes);
     assert!(
@@ -267,6 +268,36 @@ fn retrains_for_failures_back_off_while_models_keep_failing() {
     // Once the sensor is sound again, a model is back in service for good.
     let last = run.last_failed_at.expect("heave never failed");
     assert!(last < 800 + 2 * 250, "heave failed again at {last}");
+}
+
+#[test]
+fn a_streak_of_retrains_for_failures_goes_on_while_models_keep_failing() {
+    use super::{next_streak, FailedModels};
+    let longest = 250;
+    let failed = |retrain_at, last_failure_at, streak| FailedModels {
+        retrain_at,
+        last_failure_at,
+        streak,
+        ..FailedModels::default()
+    };
+    // The first failure starts a streak.
+    assert_eq!(next_streak(&failed(None, Some(10), 0), longest), 1);
+    // A model failed again after the previous retrain, while the values could still be in its
+    // input: the streak goes on, also at the cap (regression: a retrain that had waited the
+    // whole longest input started the streak anew, so a sensor that kept spiking got eight
+    // quick retrains per cycle for ever).
+    assert_eq!(next_streak(&failed(Some(100), Some(101), 3), longest), 4);
+    assert_eq!(next_streak(&failed(Some(100), Some(349), 9), longest), 10);
+    // An inline retrain's model failing on the value it was asked for at.
+    assert_eq!(next_streak(&failed(Some(100), Some(100), 2), longest), 3);
+    // The model stayed in service for the longest input: a new streak.
+    assert_eq!(next_streak(&failed(Some(100), Some(350), 9), longest), 1);
+    // The failure that triggered the previous retrain is not "again".
+    assert_eq!(next_streak(&failed(Some(100), Some(99), 5), longest), 1);
+    assert_eq!(
+        next_streak(&failed(Some(1), Some(2), u32::MAX), longest),
+        u32::MAX
+    );
 }
 
 #[test]
