@@ -4,13 +4,19 @@
 //! `--instance`, say) opens the same iceoryx2 services and zenoh keys. It then publishes a
 //! second forecast stream that the consumers refuse as not the live publisher's, and it runs
 //! uselessly until stopped, without a word. iceoryx2 services are per host, so the lock is a
-//! file in the system's temporary directory, locked (`flock`) while the service runs: the
-//! kernel lets go of it when the process ends, also when it is killed, so a crashed service
-//! never blocks its restart.
+//! file locked (`flock`) while the service runs: the kernel lets go of it when the process
+//! ends, also when it is killed, so a crashed service never blocks its restart.
+//!
+//! The files live in a directory of the user's own (`$XDG_RUNTIME_DIR`, else
+//! `<temp>/shipcast-locks-<uid>`, mode 0700, checked to be the user's): in the shared temporary
+//! directory any other user could create and hold the file and keep our predictor from ever
+//! starting, or plant a symlink for the truncation of the pid to follow. The file itself is
+//! opened without following a symlink.
 
 use super::naming::Names;
 use std::fs::{File, OpenOptions, TryLockError};
 use std::io::{Read, Seek, Write};
+use std::os::unix::fs::{DirBuilderExt, MetadataExt, OpenOptionsExt, PermissionsExt};
 use std::path::{Path, PathBuf};
 
 /// Why a service may not start.
@@ -39,19 +45,29 @@ impl HostLock {
     /// file that cannot be opened at all (another user's, a read-only temporary directory) is
     /// not a reason to refuse to run: the service runs unguarded, with a warning.
     pub fn acquire(names: &Names, service: &str) -> Result<Self, HostLockError> {
-        Self::acquire_in(&std::env::temp_dir(), names, service)
+        match lock_dir() {
+            Ok(dir) => Self::acquire_in(&dir, names, service),
+            Err(e) => {
+                tracing::warn!(
+                    "{service}: no directory of this user's for its lock file ({e}); a second {service} under the same names would not be refused"
+                );
+                Ok(Self { _file: None })
+            }
+        }
     }
 
     /// [`Self::acquire`] with the lock files in `dir`.
     pub fn acquire_in(dir: &Path, names: &Names, service: &str) -> Result<Self, HostLockError> {
         let path = dir.join(lock_file_name(names, service));
+        // Never through a symlink, and readable by this user only.
         let opened = OpenOptions::new()
             .read(true)
             .write(true)
             .create(true)
             .truncate(false)
-            .open(&path)
-            .or_else(|_| File::open(&path));
+            .mode(0o600)
+            .custom_flags(libc::O_NOFOLLOW)
+            .open(&path);
         let mut file = match opened {
             Ok(f) => f,
             Err(e) => {
@@ -104,6 +120,41 @@ impl HostLock {
     }
 }
 
+/// The user's own directory for lock files, made if needed: `$XDG_RUNTIME_DIR` (made by the
+/// system for this user alone), else `<temp>/shipcast-locks-<uid>` with mode 0700. One that
+/// another user owns, or that others may write to, is refused.
+fn lock_dir() -> std::io::Result<PathBuf> {
+    if let Some(dir) = std::env::var_os("XDG_RUNTIME_DIR").filter(|d| !d.is_empty()) {
+        let dir = PathBuf::from(dir);
+        check_own_dir(&dir)?;
+        return Ok(dir);
+    }
+    // SAFETY: geteuid takes no arguments, touches no memory of ours and cannot fail.
+    let uid = unsafe { libc::geteuid() };
+    let dir = std::env::temp_dir().join(format!("shipcast-locks-{uid}"));
+    match std::fs::DirBuilder::new().mode(0o700).create(&dir) {
+        Ok(()) => {}
+        Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {}
+        Err(e) => return Err(e),
+    }
+    check_own_dir(&dir)?;
+    Ok(dir)
+}
+
+/// `dir` is a real directory (not a symlink) of this user's that no one else may write to.
+fn check_own_dir(dir: &Path) -> std::io::Result<()> {
+    let meta = std::fs::symlink_metadata(dir)?;
+    // SAFETY: as in `lock_dir`.
+    let uid = unsafe { libc::geteuid() };
+    if !meta.is_dir() || meta.uid() != uid || meta.permissions().mode() & 0o022 != 0 {
+        return Err(std::io::Error::other(format!(
+            "{} is not a directory of this user's that only it may write to",
+            dir.display()
+        )));
+    }
+    Ok(())
+}
+
 /// `shipcast+<instance>+<vessel>+<service>.lock`: '+' is in no name segment
 /// (`naming::check_segment`), so two different sets of names never share a file.
 fn lock_file_name(names: &Names, service: &str) -> String {
@@ -142,6 +193,29 @@ mod tests {
         // Once the first lets go, a new one starts.
         drop(first);
         let _again = HostLock::acquire_in(dir.path(), &names, "predictor").unwrap();
+    }
+
+    #[test]
+    fn locks_live_in_a_directory_of_the_users_own_and_never_follow_a_symlink() {
+        let dir = lock_dir().unwrap();
+        assert!(check_own_dir(&dir).is_ok());
+        // A directory others may write to is not one.
+        let shared = tempfile::tempdir().unwrap();
+        std::fs::set_permissions(shared.path(), std::fs::Permissions::from_mode(0o777)).unwrap();
+        assert!(check_own_dir(shared.path()).is_err());
+        // A lock file that is a planted symlink is not followed (nor truncated): the service
+        // runs unguarded, and the file pointed at is left as it was.
+        let own = tempfile::tempdir().unwrap();
+        let names = Names::new(Some("lock-test"), "ddg").unwrap();
+        let victim = own.path().join("victim.txt");
+        std::fs::write(&victim, "keep me").unwrap();
+        std::os::unix::fs::symlink(
+            &victim,
+            own.path().join(lock_file_name(&names, "predictor")),
+        )
+        .unwrap();
+        assert!(HostLock::acquire_in(own.path(), &names, "predictor").is_ok());
+        assert_eq!(std::fs::read_to_string(&victim).unwrap(), "keep me");
     }
 
     #[test]
