@@ -31,11 +31,26 @@ pub enum Validity {
 }
 
 /// The validity of the first certificate in `pem` (a service's own certificate comes first
-/// in its file; a chain may follow) at `now_unix`.
+/// in its file; a chain may follow; blocks that are not certificates are passed over) at
+/// `now_unix`.
 pub fn validity(pem: &[u8], now_unix: i64) -> Validity {
-    let Some(Ok(block)) = Pem::iter_from_buffer(pem).next() else {
-        return Validity::Unreadable;
-    };
+    validities(pem, now_unix)
+        .into_iter()
+        .next()
+        .unwrap_or(Validity::Unreadable)
+}
+
+/// The validity of every certificate in `pem` at `now_unix`, in order: a root CA file may
+/// hold several (the old CA and its successor while certificates are being renewed).
+pub fn validities(pem: &[u8], now_unix: i64) -> Vec<Validity> {
+    Pem::iter_from_buffer(pem)
+        .map_while(Result::ok)
+        .filter(|block| block.label == "CERTIFICATE")
+        .map(|block| block_validity(&block, now_unix))
+        .collect()
+}
+
+fn block_validity(block: &Pem, now_unix: i64) -> Validity {
     let Ok(cert) = block.parse_x509() else {
         return Validity::Unreadable;
     };
@@ -125,5 +140,14 @@ mod tests {
         ] {
             assert_eq!(validity(junk.as_bytes(), JUNE_2026), Validity::Unreadable);
         }
+        // A key block first is passed over; every certificate of a bundle is judged.
+        let key = KeyPair::generate().unwrap().serialize_pem();
+        let keyed = format!("{key}{chain}");
+        assert_eq!(validity(keyed.as_bytes(), JUNE_2026), Validity::Valid);
+        let v = validities(both.as_bytes(), JUNE_2026);
+        assert!(
+            matches!(v[..], [Validity::Expired { .. }, Validity::Valid]),
+            "{v:?}"
+        );
     }
 }

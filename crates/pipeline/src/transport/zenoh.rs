@@ -250,8 +250,26 @@ fn check_tls_file(key: &str, value: &str) -> Result<(), ZenohError> {
         }
         (context, text)
     };
-    if key != "private_key" {
-        check_certificate_dates(&context, &text, cert_validity::now_unix())?;
+    let now = cert_validity::now_unix();
+    match key {
+        "private_key" => {}
+        // A bundle of CAs (the old one and its successor while certificates are renewed) is
+        // refused only if none of them is valid; an expired one beside a valid one warns.
+        "root_ca" => {
+            let all = cert_validity::validities(&text, now);
+            let valid = |v: &Validity| matches!(v, Validity::Valid | Validity::ExpiresSoon { .. });
+            if !all.iter().any(valid) {
+                return check_certificate_dates(&context, &text, now);
+            }
+            for v in all.iter().filter(|v| !valid(v)) {
+                if let Validity::Expired { not_after } = v {
+                    tracing::warn!(
+                        "{context}: one of its CA certificates expired on {not_after}; a valid one is used"
+                    );
+                }
+            }
+        }
+        _ => check_certificate_dates(&context, &text, now)?,
     }
     Ok(())
 }
@@ -600,6 +618,15 @@ mod tests {
             "{e}"
         );
         assert!(check_tls_file("private_key", &expired).is_ok());
+        // A CA bundle with a valid CA beside the expired one is accepted (CA rotation); our
+        // own certificate first in its file is what counts.
+        let mut params = rcgen::CertificateParams::new(vec!["ca".to_string()]).unwrap();
+        params.not_before = rcgen::date_time_ymd(2024, 1, 1);
+        params.not_after = rcgen::date_time_ymd(4000, 1, 1);
+        let current = params.self_signed(&key).unwrap().pem();
+        assert!(check_tls_file("root_ca", &format!("{expired}{current}")).is_ok());
+        assert!(check_tls_file("certificate", &format!("{expired}{current}")).is_err());
+        assert!(check_tls_file("certificate", &format!("{current}{expired}")).is_ok());
         // Before its dates (by a clock set back): the clock is named.
         let e = format!(
             "{:#}",
