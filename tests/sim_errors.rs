@@ -51,7 +51,7 @@ fn non_physical_settings_are_rejected() {
                 tp_s: 1e5,
                 ..base.clone()
             },
-            "peak period must be in [1, 40] s",
+            "peak period must be in [0.5, 40] s",
         ),
         (
             SimConfig {

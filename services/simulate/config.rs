@@ -281,9 +281,13 @@ mod tests {
             (
                 "--tp",
                 "86400",
-                "peak period must be in [1, 40] s, got 86400",
+                "peak period must be in [0.5, 40] s, got 86400",
             ),
-            ("--tp", "0.01", "peak period must be in [1, 40] s, got 0.01"),
+            (
+                "--tp",
+                "0.01",
+                "peak period must be in [0.5, 40] s, got 0.01",
+            ),
             (
                 "--speed-kn",
                 "1e6",

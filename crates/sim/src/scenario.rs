@@ -99,8 +99,9 @@ pub const MAX_SPEED_KN: f64 = 60.0;
 /// Highest significant wave height accepted [m]: the highest measured are about 20 m.
 pub const MAX_HS_M: f64 = 30.0;
 
-/// Peak periods accepted [s]: wind sea to the longest swell.
-pub const MIN_TP_S: f64 = 1.0;
+/// Peak periods accepted [s]: from a model basin's waves (a 1 m model of a 140 m ship at
+/// Froude scale sees 0.8 s for 9.7 s) to the longest swell.
+pub const MIN_TP_S: f64 = 0.5;
 pub const MAX_TP_S: f64 = 40.0;
 
 impl SimConfig {
