@@ -129,6 +129,15 @@ pub fn decimated_len(inputs: usize, factor: usize) -> usize {
     }
 }
 
+/// The fewest inputs from which [`decimated_len`] makes `values` values (at least one): the
+/// filter's taps for the first, then `factor` more for each further one.
+pub fn decimation_inputs_for(values: usize, factor: usize) -> usize {
+    match factor {
+        0 | 1 => values,
+        f => (values.max(1) - 1) * f + 4 * f + 1,
+    }
+}
+
 /// Decimate a whole series: exactly [`Decimator`] run over `series`, collecting its outputs.
 /// Output `j` belongs to input index `j * factor + 2 * factor` (see [`Decimator`]).
 pub fn decimate(series: &[f64], factor: usize) -> Result<Vec<f64>, ResampleError> {
@@ -164,6 +173,15 @@ mod tests {
                 (x.len() - taps) / factor + 1
             };
             assert_eq!(batch.len(), expected, "factor {factor}");
+            for values in [1, 2, 3, 200] {
+                let inputs = decimation_inputs_for(values, factor);
+                assert_eq!(decimated_len(inputs, factor), values, "factor {factor}");
+                assert_eq!(
+                    decimated_len(inputs - 1, factor),
+                    values - 1,
+                    "factor {factor}"
+                );
+            }
             for n in [0, 4 * factor, 4 * factor + 1, 4 * factor + 2, 999, 1000] {
                 assert_eq!(
                     decimated_len(n, factor),

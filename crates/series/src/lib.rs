@@ -14,6 +14,6 @@ pub mod fir;
 pub mod motion_csv;
 pub mod resample;
 
-pub use decimator::{decimate, decimate_with, decimated_len, Decimator};
+pub use decimator::{decimate, decimate_with, decimated_len, decimation_inputs_for, Decimator};
 pub use fir::FilterPhase;
 pub use resample::{decimation_factor, median_rate, resample_motion, sample_rate, ResampleError};

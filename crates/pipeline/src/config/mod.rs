@@ -289,13 +289,9 @@ impl PipelineConfig {
             // Not an integer ratio: refused where the factor is needed (`decimation_factor`).
             let factor = ((rate / q.sample_rate_hz).round() as usize).max(1);
             let len = shipcast_series::decimated_len(samples, factor);
-            // The warm-up that makes `values` values: the inverse of `decimated_len`.
+            // The warm-up that makes `values` values.
             let seconds_for = |values: usize| {
-                let samples = match factor {
-                    1 => values,
-                    f => (values.max(1) - 1) * f + 4 * f + 1,
-                };
-                samples as f64 / rate
+                shipcast_series::decimation_inputs_for(values, factor) as f64 / rate
             };
             let span = FitSpan {
                 len,

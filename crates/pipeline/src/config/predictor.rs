@@ -262,15 +262,15 @@ impl FitSpan<'_> {
 
 impl PredictorServiceConfig {
     /// Why a fit on `span` could fit and score no candidate order, if it could not: the same
-    /// rule the engine fits by (`models::any_feasible_order` on the held-out part
-    /// `models::holdout_for`, at most a third of the span). Unchecked, retraining silently
+    /// rule the engine fits by (`models::window_fits`: the held-out part is at most a third of
+    /// the span). Unchecked, retraining silently
     /// never happened, or the start-up fit failed after simulating the whole history.
     pub(super) fn fit_span_problem(&self, span: &FitSpan) -> Option<String> {
         use crate::engine::models::{self, MIN_HOLDOUT_ORIGINS, TRAIN_PER_ORDER};
-        let held_out = models::holdout_for(self, span.len);
-        if models::any_feasible_order(self, span.len, held_out) {
+        if models::window_fits(self, span.len) {
             return None;
         }
+        let held_out = models::holdout_for(self, span.len);
         let Some(smallest) = models::candidate_orders(self).min() else {
             return Some(format!(
                 "predictor: no candidate order is above the horizon ({}), and MCA needs one: raise predictor.order or add such an order to candidate_orders",
@@ -287,12 +287,12 @@ impl PredictorServiceConfig {
         // The shortest span that fits and scores the smallest candidate: feasibility only
         // grows with the span (both the held-out and the training part do), so a bisection.
         let (mut lo, mut hi) = (span.len, span.len.max(1));
-        while !models::any_feasible_order(self, hi, models::holdout_for(self, hi)) {
+        while !models::window_fits(self, hi) {
             hi = hi.saturating_mul(2);
         }
         while hi - lo > 1 {
             let mid = lo + (hi - lo) / 2;
-            if models::any_feasible_order(self, mid, models::holdout_for(self, mid)) {
+            if models::window_fits(self, mid) {
                 hi = mid;
             } else {
                 lo = mid;

@@ -439,13 +439,6 @@ impl Engine {
         (longest + q.horizon) as u64
     }
 
-    /// Values since the latest retrain for a failure, if it was recent enough to count in a
-    /// streak (`FailedModels::streak`).
-    fn since_failure_retrain(&self) -> Option<u64> {
-        let since = self.values - self.failed.retrain_at?;
-        (since < self.longest_input()).then_some(since)
-    }
-
     /// Score what the new value completes; learn from it; watch for a changed sea.
     fn score(&mut self, index: u64, x: &[f64; NUM_DOF]) {
         let version = self.model_version();
@@ -615,7 +608,7 @@ impl Engine {
         let q = &self.config;
         self.sea_since
             .map(|at| usize::try_from(self.values - at).unwrap_or(usize::MAX))
-            .filter(|&n| n < take && models::any_feasible_order(q, n, models::holdout_for(q, n)))
+            .filter(|&n| n < take && models::window_fits(q, n))
     }
 
     /// Ask for a retrain when one is due: the first after `first_fit_s` of live data, then
@@ -662,12 +655,13 @@ impl Engine {
             _ => None,
         };
         let Some(reason) = reason else { return };
-        if reason == REASON_MODEL_FAILED {
-            if let Some(since) = self.since_failure_retrain() {
-                if since < failure_gap(self.failed.streak, self.longest_input()) {
-                    return;
-                }
-            }
+        // A retrain for a failure waits out the backoff after the previous one.
+        if reason == REASON_MODEL_FAILED
+            && self.failed.retrain_at.is_some_and(|at| {
+                self.values - at < failure_gap(self.failed.streak, self.longest_input())
+            })
+        {
+            return;
         }
         // The new sea's values, for as long as the window also holds older ones (after the
         // first minutes as well: the default window spans almost three hours, and fits on the

@@ -167,6 +167,12 @@ pub fn candidate_orders(config: &PredictorServiceConfig) -> impl Iterator<Item =
         .filter(|&o| config.method != Method::Mca || o > config.horizon)
 }
 
+/// Can a fit on a window of `len` values (with its own held-out part, [`holdout_for`]) fit and
+/// score some candidate order?
+pub fn window_fits(config: &PredictorServiceConfig, len: usize) -> bool {
+    any_feasible_order(config, len, holdout_for(config, len))
+}
+
 /// The held-out part of a window of `len` values.
 pub fn holdout_for(config: &PredictorServiceConfig, len: usize) -> usize {
     config.holdout.min(len / 3)
