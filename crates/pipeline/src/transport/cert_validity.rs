@@ -30,6 +30,13 @@ pub enum Validity {
     Unreadable,
 }
 
+impl Validity {
+    /// Valid now (also when it expires soon).
+    pub fn is_usable(&self) -> bool {
+        matches!(self, Validity::Valid | Validity::ExpiresSoon { .. })
+    }
+}
+
 /// The validity of the first certificate in `pem` (a service's own certificate comes first
 /// in its file; a chain may follow; blocks that are not certificates are passed over) at
 /// `now_unix`.

@@ -252,33 +252,33 @@ fn check_tls_file(key: &str, value: &str) -> Result<(), ZenohError> {
     };
     let now = cert_validity::now_unix();
     match key {
-        "private_key" => {}
+        "private_key" => Ok(()),
         // A bundle of CAs (the old one and its successor while certificates are renewed) is
         // refused only if none of them is valid; an expired one beside a valid one warns.
         "root_ca" => {
             let all = cert_validity::validities(&text, now);
-            let valid = |v: &Validity| matches!(v, Validity::Valid | Validity::ExpiresSoon { .. });
-            if !all.iter().any(valid) {
-                return check_certificate_dates(&context, &text, now);
+            if !all.iter().any(Validity::is_usable) {
+                let first = all.into_iter().next().unwrap_or(Validity::Unreadable);
+                return judge_certificate_dates(&context, first);
             }
-            for v in all.iter().filter(|v| !valid(v)) {
+            for v in &all {
                 if let Validity::Expired { not_after } = v {
                     tracing::warn!(
                         "{context}: one of its CA certificates expired on {not_after}; a valid one is used"
                     );
                 }
             }
+            Ok(())
         }
-        _ => check_certificate_dates(&context, &text, now)?,
+        _ => judge_certificate_dates(&context, cert_validity::validity(&text, now)),
     }
-    Ok(())
 }
 
 /// Refuse a certificate (ours, or the root CA we trust) outside its dates, and warn two weeks
 /// before it expires (`cert_validity`).
-fn check_certificate_dates(context: &str, pem: &[u8], now_unix: i64) -> Result<(), ZenohError> {
+fn judge_certificate_dates(context: &str, validity: Validity) -> Result<(), ZenohError> {
     let renew = "make new certificates with `shipcast certs` and hand them out";
-    match cert_validity::validity(pem, now_unix) {
+    match validity {
         Validity::Valid | Validity::Unreadable => Ok(()),
         Validity::ExpiresSoon { not_after } => {
             tracing::warn!("{context}: the certificate expires on {not_after}: {renew}");
@@ -631,8 +631,11 @@ mod tests {
         let e = format!(
             "{:#}",
             anyhow::Error::from(
-                check_certificate_dates("tls certificate", expired.as_bytes(), 1_500_000_000)
-                    .unwrap_err()
+                judge_certificate_dates(
+                    "tls certificate",
+                    cert_validity::validity(expired.as_bytes(), 1_500_000_000)
+                )
+                .unwrap_err()
             )
         );
         assert!(e.ends_with("is this machine's clock right?"), "{e}");
