@@ -16,6 +16,7 @@
 
 pub mod calibrate;
 pub mod change;
+mod failures;
 pub mod ingest;
 pub mod models;
 pub mod replay;
@@ -29,9 +30,10 @@ use crate::config::PredictorServiceConfig;
 use crate::transport::{monotonic_ns, Counters};
 use calibrate::Calibrator;
 use change::{Change, ChangeDetector};
+use failures::{failure_gap, next_streak, FailedModels, REASON_MODEL_FAILED};
 use ingest::{Ingest, NewValue};
 use models::ModelSet;
-use retrain::{Job, Retrainer};
+use retrain::{replaces, Job, Retrainer};
 use serde::Serialize;
 use shape::SigmaShape;
 use shipcast_predict::Predictor;
@@ -124,122 +126,6 @@ pub struct Engine {
     last_implausible_log: [u64; NUM_DOF],
     /// DOF whose running model failed: no skill until a new set is in use.
     failed: FailedModels,
-}
-
-/// DOF whose running model failed numerically (an online AR whose update diverged on a
-/// spike, say): taken out of service until the next model set. Their forecasts are no skill
-/// (mean 0, sigma the live RMS, counted as implausible) and a retrain is asked for at once
-/// (`Engine::handle_failures`). A model that cannot forecast one DOF must not stop the other
-/// five, nor the service.
-#[derive(Debug, Default)]
-struct FailedModels {
-    dof: [bool; NUM_DOF],
-    /// A failure since the engine last asked for a retrain.
-    unhandled: bool,
-    /// Value count when the latest retrain for a failure was asked for. The values that made
-    /// a model fail (a spike) stay in the input of the model that replaces it for up to an
-    /// order and a horizon, and it can fail on them in turn: 14 failures and retrains had
-    /// followed each other within 34 s. So retrains for failures back off (`failure_gap`).
-    retrain_at: Option<u64>,
-    /// Value count of the latest failure.
-    last_failure_at: Option<u64>,
-    /// Retrains for failures asked for in a row: each after a model failed again within the
-    /// longest input of the previous retrain (the values it failed on could still be there).
-    streak: u32,
-}
-
-/// Values to wait after the `streak`-th retrain for a failure in a row before the next:
-/// the first failure is retrained at once, then the wait doubles from
-/// [`FIRST_FAILURE_GAP`] up to `longest`, the longest input a model reads (after which the
-/// values it failed on have left every model's input).
-fn failure_gap(streak: u32, longest: u64) -> u64 {
-    match streak {
-        0 => 0,
-        n => FIRST_FAILURE_GAP
-            .saturating_mul(1 << (n - 1).min(32))
-            .min(longest),
-    }
-}
-
-/// The streak of a retrain for a failure about to be asked for: one more if a model failed
-/// again while the values the previous one failed on could still be in its input (within
-/// `longest` values of that retrain, or at it: an inline retrain's model is updated, and may
-/// fail, on the very value it was asked for at); else the first of a new streak.
-fn next_streak(failed: &FailedModels, longest: u64) -> u32 {
-    let again = match (failed.retrain_at, failed.last_failure_at) {
-        (Some(r), Some(f)) => f >= r && f - r < longest,
-        _ => false,
-    };
-    if again {
-        failed.streak.saturating_add(1)
-    } else {
-        1
-    }
-}
-
-/// Wait after the first retrain for a failure before another [values]: 2 s at 2 Hz.
-const FIRST_FAILURE_GAP: u64 = 4;
-
-/// Why a retrain is due when a model failed (`FailedModels`).
-const REASON_MODEL_FAILED: &str = "a model failed";
-
-impl FailedModels {
-    /// Take DOF `d`'s model out of service at value count `at`; `failures` counts every
-    /// failure.
-    fn fail(
-        &mut self,
-        d: usize,
-        (at, time_s): (u64, f64),
-        error: &dyn std::fmt::Display,
-        failures: &mut u64,
-    ) {
-        self.dof[d] = true;
-        self.last_failure_at = Some(at);
-        *failures += 1;
-        self.unhandled = true;
-        tracing::warn!(
-            dof = Dof::ALL[d].name(),
-            time_s,
-            failures = *failures,
-            "predictor: the {} model failed ({error}); no skill for it until a retrain",
-            Dof::ALL[d].name()
-        );
-    }
-}
-
-/// Does a new model set (scores `new`, per DOF) replace the running one (`running`), and
-/// the two mean scores over the DOF compared? Only DOF both can be scored on count: a DOF
-/// absent from the record or constant scores NaN for both (0 / 0), and summed in, it made
-/// every retrain replace the running set. A DOF only the new set can be scored on (the
-/// running one could not forecast it, or has too long an order for the data) makes the new
-/// set replace it, as before; so does one whose running model `failed` (`FailedModels`),
-/// whatever it scored: that DOF would otherwise stay on no skill until a retrain happened to
-/// score better on the others.
-fn replaces(
-    new: &[f64; NUM_DOF],
-    running: &[f64; NUM_DOF],
-    failed: &[bool; NUM_DOF],
-) -> (bool, f64, f64) {
-    let mut compared = 0;
-    let (mut new_total, mut running_total) = (0.0, 0.0);
-    let mut only_new = false;
-    for ((n, r), failed) in new.iter().zip(running).zip(failed) {
-        match (n.is_finite(), r.is_finite() && !failed) {
-            (true, true) => {
-                compared += 1;
-                new_total += n;
-                running_total += r;
-            }
-            (true, false) => only_new = true,
-            _ => {}
-        }
-    }
-    let mean = |total: f64| match compared {
-        0 => f64::NAN,
-        n => total / n as f64,
-    };
-    let better = only_new || compared == 0 || running_total > new_total;
-    (better, mean(new_total), mean(running_total))
 }
 
 impl Engine {

@@ -11,6 +11,41 @@ use std::sync::mpsc::{self, Receiver, SyncSender, TrySendError};
 use std::sync::Arc;
 use std::time::Instant;
 
+/// Does a new model set (scores `new`, per DOF) replace the running one (`running`), and
+/// the two mean scores over the DOF compared? Only DOF both can be scored on count: a DOF
+/// absent from the record or constant scores NaN for both (0 / 0), and summed in, it made
+/// every retrain replace the running set. A DOF only the new set can be scored on (the
+/// running one could not forecast it, or has too long an order for the data) makes the new
+/// set replace it, as before; so does one whose running model `failed`, whatever it scored
+/// (`failures::FailedModels`): that DOF would otherwise stay on no skill until a retrain
+/// happened to score better on the others.
+pub fn replaces(
+    new: &[f64; NUM_DOF],
+    running: &[f64; NUM_DOF],
+    failed: &[bool; NUM_DOF],
+) -> (bool, f64, f64) {
+    let mut compared = 0;
+    let (mut new_total, mut running_total) = (0.0, 0.0);
+    let mut only_new = false;
+    for ((n, r), failed) in new.iter().zip(running).zip(failed) {
+        match (n.is_finite(), r.is_finite() && !failed) {
+            (true, true) => {
+                compared += 1;
+                new_total += n;
+                running_total += r;
+            }
+            (true, false) => only_new = true,
+            _ => {}
+        }
+    }
+    let mean = |total: f64| match compared {
+        0 => f64::NAN,
+        n => total / n as f64,
+    };
+    let better = only_new || compared == 0 || running_total > new_total;
+    (better, mean(new_total), mean(running_total))
+}
+
 /// What a retrain is asked to do.
 pub struct Job {
     pub series: Vec<Vec<f64>>,

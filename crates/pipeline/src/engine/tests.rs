@@ -272,7 +272,7 @@ fn retrains_for_failures_back_off_while_models_keep_failing() {
 
 #[test]
 fn a_streak_of_retrains_for_failures_goes_on_while_models_keep_failing() {
-    use super::{next_streak, FailedModels};
+    use super::failures::{next_streak, FailedModels};
     let longest = 250;
     let failed = |retrain_at, last_failure_at, streak| FailedModels {
         retrain_at,
@@ -302,7 +302,7 @@ fn a_streak_of_retrains_for_failures_goes_on_while_models_keep_failing() {
 
 #[test]
 fn the_wait_between_retrains_for_failures_doubles_up_to_the_longest_input() {
-    use super::{failure_gap, FIRST_FAILURE_GAP};
+    use super::failures::{failure_gap, FIRST_FAILURE_GAP};
     assert_eq!(failure_gap(0, 250), 0);
     assert_eq!(failure_gap(1, 250), FIRST_FAILURE_GAP);
     assert_eq!(failure_gap(2, 250), 2 * FIRST_FAILURE_GAP);
