@@ -269,10 +269,10 @@ fn retrained_models_are_swapped_in_without_a_missed_forecast() {
         .all(|w| w[1].model_version >= w[0].model_version));
     let first = &got[0];
     let last = got.last().unwrap();
-    // No start-up model (warmup_s = 0): no skill, mean zero and sigma the live RMS, until the
-    // first live fit after first_fit_s.
+    // No start-up model (warmup_s = 0): no skill, a flat forecast at the motion's level and
+    // sigma the live RMS, until the first live fit after first_fit_s.
     assert_eq!(first.model_version, 0);
-    assert!(first.mean[2][..50].iter().all(|m| *m == 0.0));
+    assert!(first.mean[2][..50].iter().all(|m| *m == first.mean[2][0]));
     assert!(last.model_version >= 2, "never retrained");
     assert_ne!(
         first.sigma[2][..50],

@@ -7,7 +7,7 @@ use shipcast_wire::Dof;
 
 /// DOF whose running model failed numerically (an online AR whose update diverged on a
 /// spike, say): taken out of service until the next model set. Their forecasts are no skill
-/// (mean 0, sigma the live RMS, counted as implausible) and a retrain is asked for at once
+/// (the level, sigma the live RMS, counted as implausible) and a retrain is asked for at once
 /// (`Engine::handle_failures`). A model that cannot forecast one DOF must not stop the other
 /// five, nor the service.
 #[derive(Debug, Default)]

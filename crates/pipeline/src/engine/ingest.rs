@@ -2,6 +2,7 @@
 //! rejects), gap filling, 8 -> 2 Hz decimation with the evaluation's filter, and a ring of the
 //! most recent decimated values that always yields a contiguous window without copying.
 
+use super::level::Level;
 use crate::transport::{Counters, SeqCheck, SeqTracker};
 use shipcast_series::Decimator;
 use shipcast_wire::payload::{MotionSample, NUM_DOF};
@@ -74,7 +75,11 @@ const GAP_LOG_EVERY_S: f64 = 10.0;
 /// Turns accepted samples into decimated per-DOF history.
 pub struct Ingest {
     decimators: Vec<Decimator>,
+    /// Per DOF, the decimated values less their level (`level.rs`): what the predictors read.
     history: Vec<Ring>,
+    level: Level,
+    /// The newest decimated value per DOF, as measured.
+    newest: [f64; NUM_DOF],
     tracker: SeqTracker,
     last_good: Option<[f64; NUM_DOF]>,
     /// Record time of the last accepted sample: a jump in time is a gap even when seq has none
@@ -113,6 +118,8 @@ impl Ingest {
         Ok(Self {
             decimators: vec![decimator; NUM_DOF],
             history: vec![Ring::new(capacity); NUM_DOF],
+            level: Level::default(),
+            newest: [0.0; NUM_DOF],
             tracker: SeqTracker::new(),
             last_good: None,
             last_time: None,
@@ -136,9 +143,19 @@ impl Ingest {
         self.history[0].is_empty()
     }
 
-    /// The newest `n` values of DOF `d`.
+    /// The newest `n` values of DOF `d`, each less the level it was taken from.
     pub fn last(&self, d: usize, n: usize) -> Option<&[f64]> {
         self.history[d].last(n)
+    }
+
+    /// The newest decimated value of DOF `d` as measured (0 before the first).
+    pub fn newest(&self, d: usize) -> f64 {
+        self.newest[d]
+    }
+
+    /// The level DOF `d` moves about now.
+    pub fn level(&self, d: usize) -> f64 {
+        self.level.get(d)
     }
 
     /// Restarts of the history so far.
@@ -169,7 +186,8 @@ impl Ingest {
             .enumerate()
         {
             if let Some(y) = dec.push(dof[d]) {
-                hist.push(y);
+                self.newest[d] = y;
+                hist.push(self.level.remove(d, y));
                 produced = true;
             }
         }
@@ -329,7 +347,12 @@ mod tests {
         for d in 0..NUM_DOF {
             let series: Vec<f64> = input.iter().map(|s| s.dof[d]).collect();
             let batch = decimate(&series, 4).unwrap();
-            assert_eq!(ingest.last(d, batch.len()).unwrap(), &batch[..]);
+            assert_eq!(ingest.newest(d), *batch.last().unwrap());
+            // The history is the same values, each less the level before it.
+            let mut level = Level::default();
+            let deviations: Vec<f64> = batch.iter().map(|y| level.remove(d, *y)).collect();
+            assert_eq!(ingest.last(d, batch.len()).unwrap(), &deviations[..]);
+            assert_eq!(ingest.level(d), level.get(d));
         }
         let v = last.unwrap();
         // Outputs come at inputs 16, 20, ..., 396 (the filter holds 17 taps).

@@ -2,22 +2,26 @@
 //! makes a forecast safe to act on. The predictor service drives it from iceoryx2 samples and
 //! `shipcast replay` from a motion CSV; both run this same code.
 //!
+//! The predictors read and are fitted on each value less the DOF's level (`level.rs`: a static
+//! list or trim, a sensor offset), and the level is added back to what they forecast.
+//!
 //! Per new decimated value (2 Hz) the engine:
 //! 1. scores the steps of earlier forecasts that this value completes (live verification, and
 //!    the evidence the calibrator learns from);
 //! 2. watches for errors leaving sigma (a changed sea), and then retrains at once;
 //! 3. updates online models, schedules retraining (first fit after `first_fit_s` of live data,
 //!    then every `retrain_every_s`, on a window that grows up to `retrain_window`);
-//! 4. forecasts with the running model, shrinks the mean per step towards zero by the verified
-//!    regression coefficient and sets sigma to the error that shrunk forecast really had;
-//! 5. never delivers an implausible mean (non-finite, or beyond `plausible_rms_factor` times
-//!    the live RMS of the motion): that DOF falls back to "no skill" (mean 0, sigma = RMS), and
+//! 4. forecasts with the running model, shrinks the mean per step towards the level by the
+//!    verified regression coefficient and sets sigma to the error that shrunk forecast really had;
+//! 5. never delivers an implausible mean (non-finite, or further from the level than
+//!    `plausible_rms_factor` times the live RMS of the motion about it): that DOF falls back to "no skill" (the level, sigma = RMS), and
 //!    the event is counted and logged.
 
 pub mod calibrate;
 pub mod change;
 mod failures;
 pub mod ingest;
+pub mod level;
 pub mod models;
 pub mod replay;
 pub mod retrain;
@@ -97,7 +101,7 @@ pub struct Engine {
     shape: SigmaShape,
     verifier: Verifier,
     change: ChangeDetector,
-    /// Exponentially weighted mean square of each DOF (the motion's RMS about zero), over
+    /// Exponentially weighted mean square of each DOF about its level (`level.rs`), over
     /// about 5 minutes and over about 30 s: a growing sea shows in the short one first.
     mean_square: [f64; NUM_DOF],
     mean_square_fast: [f64; NUM_DOF],
@@ -204,8 +208,8 @@ impl Engine {
         self.ingest.delay_s()
     }
 
-    /// Live RMS of DOF `d` about zero (exponentially weighted over about 5 minutes): what
-    /// predicting zero would score, and the scale of the plausibility bound.
+    /// Live RMS of DOF `d` about its level (exponentially weighted over about 5 minutes): what
+    /// predicting the level would score, and the scale of the plausibility bound.
     pub fn live_rms(&self, d: usize) -> f64 {
         self.live_variance(d).sqrt()
     }
@@ -260,13 +264,12 @@ impl Engine {
         self.last_time_s = v.time_s;
         let index = self.values;
         self.values += 1;
-        let mut x = [0.0; NUM_DOF];
-        for (d, xd) in x.iter_mut().enumerate() {
-            *xd = self.ingest.last(d, 1).map_or(0.0, |s| s[0]);
-        }
+        let x: [f64; NUM_DOF] = std::array::from_fn(|d| self.ingest.newest(d));
         // Scored before the value enters the live RMS, which bounds its weight in calibration.
         self.score(index, &x);
-        for (d, xd) in x.iter().enumerate() {
+        for (d, x) in x.iter().enumerate() {
+            // About the level: what predicting the level would score.
+            let xd = x - self.ingest.level(d);
             let a = if self.values <= 1 {
                 1.0
             } else {
@@ -352,7 +355,8 @@ impl Engine {
                     self.shape.observe(d, k, (x[d] - f.mean[d][k]).abs() / s);
                 }
                 if f.version == version {
-                    let clipped = x[d].clamp(-cap[d], cap[d]);
+                    // The model forecast the deviation from the level it was issued at.
+                    let clipped = (x[d] - f.level[d]).clamp(-cap[d], cap[d]);
                     self.calib
                         .observe(d, k, f.raw[d][k].clamp(-cap[d], cap[d]), clipped);
                     let e = x[d] - f.mean[d][k];
@@ -623,6 +627,8 @@ impl Engine {
         let f = &mut *self.forecast;
         for (d, var) in variance.iter().enumerate() {
             let rms = var.sqrt();
+            let level = self.ingest.level(d);
+            entry.level[d] = level;
             let bound = self.config.plausible_rms_factor * rms;
             let inflate = self.change.inflation(d);
             // A failed model's DOF is delivered as no skill, like an implausible forecast.
@@ -630,18 +636,18 @@ impl Engine {
             for k in 0..horizon {
                 let c = self.calib.get(d, k, variance[d]);
                 let raw = self.raw[d][k];
-                let mean = c.beta * raw;
+                let deviation = c.beta * raw;
                 let sigma = if c.sigma.is_finite() { c.sigma } else { rms };
                 entry.raw[d][k] = if raw.is_finite() { raw } else { 0.0 };
-                entry.mean[d][k] = mean;
+                entry.mean[d][k] = level + deviation;
                 entry.sigma_calibrated[d][k] = sigma;
                 entry.sigma[d][k] = sigma * self.shape.factor(d, k) * inflate;
-                plausible &= mean.is_finite() && mean.abs() <= bound;
+                plausible &= deviation.is_finite() && deviation.abs() <= bound;
             }
             if !plausible {
                 self.counts.implausible[d] += 1;
                 for k in 0..horizon {
-                    entry.mean[d][k] = 0.0;
+                    entry.mean[d][k] = level;
                     entry.sigma[d][k] = rms.max(entry.sigma[d][k]);
                 }
                 // One line per DOF per minute of record time at most (a failed model was

@@ -25,7 +25,9 @@ pub struct Issued {
     pub version: u32,
     /// The newest value per DOF (persistence's forecast).
     pub last: [f64; NUM_DOF],
-    /// The model's own output, before recalibration.
+    /// The level per DOF the forecast was issued about (`level.rs`).
+    pub level: [f64; NUM_DOF],
+    /// The model's own output, before recalibration: the deviation from `level`.
     pub raw: [[f64; MAX_STEPS]; NUM_DOF],
     /// What was delivered.
     pub mean: [[f64; MAX_STEPS]; NUM_DOF],
@@ -42,6 +44,7 @@ impl Default for Issued {
             steps: 0,
             version: 0,
             last: [0.0; NUM_DOF],
+            level: [0.0; NUM_DOF],
             raw: [[0.0; MAX_STEPS]; NUM_DOF],
             mean: [[0.0; MAX_STEPS]; NUM_DOF],
             sigma: [[0.0; MAX_STEPS]; NUM_DOF],
