@@ -1,16 +1,25 @@
 //! What one host can take of the display's server: at most [`MAX_CONNECTIONS`] connections
 //! at once (a further one is closed as soon as it is accepted, and reported at most once per
-//! [`REPORT_PERIOD`]), and a connection that does not send a complete request head within
-//! [`HEAD_TIMEOUT`] is closed. Each connection is its own task, so a stalled one holds only its
-//! own slot. The HTTP routes themselves are in [`crate::server`].
+//! [`REPORT_PERIOD`]), a connection that does not send a complete request head within
+//! [`HEAD_TIMEOUT`] is closed, and so is one whose client takes nothing sent for
+//! [`WRITE_TIMEOUT`] (also reported at most once per period). Each connection is its own task,
+//! so a stalled one holds only its own slot. The HTTP routes themselves are in
+//! [`crate::server`].
 
+use crate::tally::{Report, Tally};
+use crate::write_timeout::{is_write_stall, WriteTimeout};
 use axum::Router;
+use hyper::server::conn::http1;
 use hyper_util::rt::{TokioIo, TokioTimer};
 use hyper_util::service::TowerToHyperService;
 use std::convert::Infallible;
+use std::future::Future;
 use std::io::ErrorKind;
+use std::net::SocketAddr;
 use std::time::Duration;
-use tokio::task::JoinSet;
+use tokio::net::TcpStream;
+use tokio::task::{JoinError, JoinSet};
+use tokio::time::Instant;
 
 /// The most connections served at once. Each holds a file descriptor, which the process
 /// shares with its zenoh sockets (the usual soft limit is 1024), and a task with its buffers. A
@@ -25,9 +34,32 @@ pub const MAX_CONNECTIONS: usize = 64;
 /// is closed before it can hold its slot for long.
 pub const HEAD_TIMEOUT: Duration = Duration::from_secs(10);
 
-/// Connections closed for the cap are reported at most once per this period (the first at
-/// once), with how many there were: a flood of connections must not become a flood of lines.
-/// Accept errors are reported as seldom.
+/// How long a write to a client may wait before its connection is closed. A write waits when
+/// the connection's buffers are full: the client has stopped reading what it is sent (a script
+/// that opens the event stream and never reads, a page whose machine went to sleep or off the
+/// network), and an event stream would otherwise keep its slot for ever. A page that reads
+/// takes each snapshot within milliseconds; 30 s also rides out a short network outage (the
+/// page reconnects by itself after a longer one, as after any closed stream). The timer starts
+/// only once the buffers are full and stops at any progress, so a client that reads is not cut
+/// however slow its network: only 30 s without any progress closes a connection.
+///
+/// Measured on loopback, a client that never reads had some 270 kB waiting for it before a
+/// write waited ([`SEND_BUFFER`] and its own receive window), and was closed 31 s after it
+/// connected with 64 vessels on the page, 35 s with 8 and 69 s with one (some 7 kB/s of
+/// snapshots); an empty page sends so little that it was still open after 25 minutes.
+pub const WRITE_TIMEOUT: Duration = Duration::from_secs(30);
+
+/// The send buffer asked of the operating system for each connection, in bytes (Linux doubles
+/// it for its bookkeeping). Left to the system, Linux grew the send buffer of a client that takes
+/// nothing to 4 MiB, so that the write timeout started only after some 4 MB of snapshots had
+/// piled up: with one vessel on the page, ten minutes. Some 100 kB a round trip still carries a
+/// page of 64 vessels with full forecasts (some 0.5 MB twice a second) over a ship's LAN or
+/// Wi-Fi, whose round trips take milliseconds; a slower client skips snapshots.
+pub const SEND_BUFFER: usize = 64 << 10;
+
+/// Connections closed for the cap, and those closed for the write timeout, are reported at
+/// most once per this period (the first at once), with how many there were: a flood of
+/// connections must not become a flood of lines. Accept errors are reported as seldom.
 pub const REPORT_PERIOD: Duration = Duration::from_secs(10);
 
 /// How long the accept loop pauses after an error other than a connection's own (out of file
@@ -35,12 +67,14 @@ pub const REPORT_PERIOD: Duration = Duration::from_secs(10);
 /// once would only spin.
 const ACCEPT_RETRY: Duration = Duration::from_secs(1);
 
-/// What one host can take of the server: [`MAX_CONNECTIONS`] and [`HEAD_TIMEOUT`] unless a
-/// test needs them small.
+/// What one host can take of the server: [`MAX_CONNECTIONS`], [`HEAD_TIMEOUT`],
+/// [`WRITE_TIMEOUT`] and [`SEND_BUFFER`] unless a test needs them small.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(crate) struct ConnectionLimits {
     pub max_connections: usize,
     pub head_timeout: Duration,
+    pub write_timeout: Duration,
+    pub send_buffer: usize,
 }
 
 impl Default for ConnectionLimits {
@@ -48,8 +82,19 @@ impl Default for ConnectionLimits {
         ConnectionLimits {
             max_connections: MAX_CONNECTIONS,
             head_timeout: HEAD_TIMEOUT,
+            write_timeout: WRITE_TIMEOUT,
+            send_buffer: SEND_BUFFER,
         }
     }
+}
+
+/// How a connection ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Ended {
+    /// Its client closed it, or it failed for another reason (no head in time, garbage).
+    Closed,
+    /// Closed because its client took nothing sent for the write timeout.
+    Stalled,
 }
 
 /// Accept connections forever, each served by its own task in one set: the set's size is the
@@ -59,45 +104,34 @@ pub(crate) async fn accept_loop(
     app: Router,
     limits: ConnectionLimits,
 ) -> Infallible {
-    let mut http = hyper::server::conn::http1::Builder::new();
-    // The head timeout needs a timer; without one hyper would wait for a head forever.
-    http.timer(TokioTimer::new())
-        .header_read_timeout(limits.head_timeout);
+    let http = http_builder(limits.head_timeout);
     let mut connections = JoinSet::new();
-    let mut refusals = Refusals::new(REPORT_PERIOD);
-    let mut accept_errors_reported: Option<tokio::time::Instant> = None;
+    let mut closes = Closes::new(limits);
+    let mut accept_errors_reported: Option<Instant> = None;
     loop {
-        let report_due = refusals.due_at();
+        let report_due = closes.due_at();
         tokio::select! {
             accepted = listener.accept() => match accepted {
                 Ok((stream, peer)) => {
                     // Connections that ended since the last reap give their slots back first.
-                    while connections.try_join_next().is_some() {}
+                    while let Some(ended) = connections.try_join_next() {
+                        closes.ended(ended);
+                    }
                     if connections.len() >= limits.max_connections {
                         // Closed at once, before anything is read: a refused connection costs
                         // a descriptor only for this moment, and the client is not left queued.
                         drop(stream);
-                        if let Some(report) = refusals.refuse(tokio::time::Instant::now()) {
-                            report.log(limits.max_connections);
-                        }
+                        closes.refused();
                         continue;
                     }
-                    let service = TowerToHyperService::new(app.clone());
-                    let connection = http.serve_connection(TokioIo::new(stream), service);
-                    connections.spawn(async move {
-                        // Errors here are the client's doing (it went away mid-response, sent
-                        // no head in time, or sent garbage): worth a debug line, no more.
-                        if let Err(e) = connection.await {
-                            tracing::debug!("display: connection from {peer} ended: {e}");
-                        }
-                    });
+                    connections.spawn(serve_connection(&http, stream, peer, app.clone(), &limits));
                 }
                 // A connection that failed before it was accepted: the listener is fine.
                 Err(e) if is_connection_error(e.kind()) => {
                     tracing::debug!("display: a connection failed before it was accepted: {e}");
                 }
                 Err(e) => {
-                    let now = tokio::time::Instant::now();
+                    let now = Instant::now();
                     if accept_errors_reported
                         .is_none_or(|t| now.duration_since(t) >= REPORT_PERIOD)
                     {
@@ -111,15 +145,56 @@ pub(crate) async fn accept_loop(
                 }
             },
             // Reap connections as they end, so that finished tasks do not pile up in the set.
-            Some(_) = connections.join_next(), if !connections.is_empty() => {}
-            // Refusals since the last report are reported once they are due, even when no
+            Some(ended) = connections.join_next(), if !connections.is_empty() => {
+                closes.ended(ended);
+            }
+            // Closes since the last report are reported once they are due, even when no
             // further connection comes to trigger it.
-            () = tokio::time::sleep_until(report_due.unwrap_or_else(tokio::time::Instant::now)),
+            () = tokio::time::sleep_until(report_due.unwrap_or_else(Instant::now)),
                 if report_due.is_some() =>
             {
-                if let Some(report) = refusals.report_if_due(tokio::time::Instant::now()) {
-                    report.log(limits.max_connections);
-                }
+                closes.report_due();
+            }
+        }
+    }
+}
+
+/// HTTP/1 as the server serves it, with its head timeout.
+fn http_builder(head_timeout: Duration) -> http1::Builder {
+    let mut http = http1::Builder::new();
+    // The head timeout needs a timer; without one hyper would wait for a head forever.
+    http.timer(TokioTimer::new())
+        .header_read_timeout(head_timeout);
+    http
+}
+
+/// Serve one connection (HTTP/1, its send buffer and write timeout from `limits`) until it
+/// ends.
+fn serve_connection(
+    http: &http1::Builder,
+    stream: TcpStream,
+    peer: SocketAddr,
+    app: Router,
+    limits: &ConnectionLimits,
+) -> impl Future<Output = Ended> + Send + 'static {
+    if let Err(e) = socket2::SockRef::from(&stream).set_send_buffer_size(limits.send_buffer) {
+        // The connection still works, only with the system's buffer; the timeout still holds.
+        tracing::debug!("display: connection from {peer}: cannot set its send buffer: {e}");
+    }
+    let io = TokioIo::new(WriteTimeout::new(stream, limits.write_timeout));
+    let connection = http.serve_connection(io, TowerToHyperService::new(app));
+    async move {
+        match connection.await {
+            Ok(()) => Ended::Closed,
+            Err(e) if is_write_stall(&e) => {
+                tracing::debug!("display: connection from {peer} closed: {e}");
+                Ended::Stalled
+            }
+            // Errors here are the client's doing (it went away mid-response, sent no head in
+            // time, or sent garbage): worth a debug line, no more.
+            Err(e) => {
+                tracing::debug!("display: connection from {peer} ended: {e}");
+                Ended::Closed
             }
         }
     }
@@ -141,117 +216,143 @@ fn is_connection_error(kind: ErrorKind) -> bool {
     )
 }
 
-/// Connections closed for the cap: counted, and reported the first at once, then at most once
-/// per period with how many came since the previous report.
+/// The connections the server closed on its own, counted and reported (each kind at most once
+/// per [`REPORT_PERIOD`]): refused for the cap, and closed for the write timeout.
 #[derive(Debug)]
-struct Refusals {
-    period: Duration,
-    total: u64,
-    unreported: u64,
-    last_report: Option<tokio::time::Instant>,
+struct Closes {
+    limits: ConnectionLimits,
+    refused: Tally,
+    stalled: Tally,
 }
 
-/// One report: refused since the previous one, and since the server started.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-struct RefusalReport {
-    refused: u64,
-    total: u64,
-}
+impl Closes {
+    fn new(limits: ConnectionLimits) -> Self {
+        Closes {
+            limits,
+            refused: Tally::new(REPORT_PERIOD),
+            stalled: Tally::new(REPORT_PERIOD),
+        }
+    }
 
-impl RefusalReport {
-    fn log(self, max_connections: usize) {
+    /// A connection was closed unserved for the cap.
+    fn refused(&mut self) {
+        if let Some(report) = self.refused.count(Instant::now()) {
+            self.log_refused(report);
+        }
+    }
+
+    /// A connection's task ended (a task cannot panic, and the set aborts none but by being
+    /// dropped: an error is no close to count).
+    fn ended(&mut self, ended: Result<Ended, JoinError>) {
+        if let Ok(Ended::Stalled) = ended {
+            if let Some(report) = self.stalled.count(Instant::now()) {
+                self.log_stalled(report);
+            }
+        }
+    }
+
+    /// When the next report is due (None: nothing waits to be reported).
+    fn due_at(&self) -> Option<Instant> {
+        match (self.refused.due_at(), self.stalled.due_at()) {
+            (Some(a), Some(b)) => Some(a.min(b)),
+            (a, b) => a.or(b),
+        }
+    }
+
+    /// Log whatever is due.
+    fn report_due(&mut self) {
+        let now = Instant::now();
+        if let Some(report) = self.refused.report_if_due(now) {
+            self.log_refused(report);
+        }
+        if let Some(report) = self.stalled.report_if_due(now) {
+            self.log_stalled(report);
+        }
+    }
+
+    fn log_refused(&self, report: Report) {
         tracing::warn!(
-            refused = self.refused,
-            refused_total = self.total,
-            "display: {max_connections} connections open, the most it serves at once: new connections are closed unserved"
+            refused = report.since_last,
+            refused_total = report.total,
+            "display: {} connections open, the most it serves at once: new connections are closed unserved",
+            self.limits.max_connections
         );
     }
-}
 
-impl Refusals {
-    fn new(period: Duration) -> Self {
-        Refusals {
-            period,
-            total: 0,
-            unreported: 0,
-            last_report: None,
-        }
-    }
-
-    /// Count one refused connection; the report to log, if one is due.
-    fn refuse(&mut self, now: tokio::time::Instant) -> Option<RefusalReport> {
-        self.total += 1;
-        self.unreported += 1;
-        self.report_if_due(now)
-    }
-
-    /// The report of the refusals not reported yet, if there are any and the period since the
-    /// last report has passed.
-    fn report_if_due(&mut self, now: tokio::time::Instant) -> Option<RefusalReport> {
-        if self.unreported == 0 {
-            return None;
-        }
-        if self
-            .last_report
-            .is_some_and(|t| now.duration_since(t) < self.period)
-        {
-            return None;
-        }
-        self.last_report = Some(now);
-        Some(RefusalReport {
-            refused: std::mem::take(&mut self.unreported),
-            total: self.total,
-        })
-    }
-
-    /// When the refusals not reported yet will be due (None: none are waiting).
-    fn due_at(&self) -> Option<tokio::time::Instant> {
-        match (self.unreported, self.last_report) {
-            (0, _) => None,
-            (_, Some(t)) => Some(t + self.period),
-            (_, None) => Some(tokio::time::Instant::now()),
-        }
+    fn log_stalled(&self, report: Report) {
+        tracing::warn!(
+            closed = report.since_last,
+            closed_total = report.total,
+            "display: connections whose client took nothing sent for {} s are closed, freeing their slots",
+            self.limits.write_timeout.as_secs_f64()
+        );
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use axum::routing::get;
+    use std::io::{Read, Write};
 
-    #[test]
-    fn refusals_are_reported_at_once_then_at_most_once_per_period() {
-        let period = Duration::from_secs(10);
-        let mut refusals = Refusals::new(period);
-        let t0 = tokio::time::Instant::now();
-        assert_eq!(refusals.due_at(), None);
-        assert_eq!(
-            refusals.refuse(t0),
-            Some(RefusalReport {
-                refused: 1,
-                total: 1
-            })
-        );
-        assert_eq!(refusals.due_at(), None, "nothing waits after a report");
-        for k in 1..=5 {
-            assert_eq!(refusals.refuse(t0 + Duration::from_secs(k)), None);
-        }
-        assert_eq!(refusals.due_at(), Some(t0 + period));
-        assert_eq!(refusals.report_if_due(t0 + Duration::from_secs(9)), None);
-        assert_eq!(
-            refusals.report_if_due(t0 + period),
-            Some(RefusalReport {
-                refused: 5,
-                total: 6
-            })
-        );
-        assert_eq!(refusals.report_if_due(t0 + period * 3), None);
-        // After a quiet spell, the next refusal is reported at once again.
-        assert_eq!(
-            refusals.refuse(t0 + period * 3),
-            Some(RefusalReport {
-                refused: 1,
-                total: 7
-            })
-        );
+    /// The longest a test waits for a connection to end: generous, so that a loaded machine
+    /// does not fail it.
+    const WAIT: Duration = Duration::from_secs(30);
+
+    /// A connection served as the accept loop serves it, for a route whose response is far
+    /// larger than the socket buffers, and the client's end as a blocking socket that has
+    /// sent its request (with a small receive buffer, so that a client that does not read
+    /// fills it at once).
+    async fn connection(
+        write_timeout: Duration,
+    ) -> (impl Future<Output = Ended>, std::net::TcpStream) {
+        let app = Router::new().route("/", get(|| async { "x".repeat(8 << 20) }));
+        let listener = tokio::net::TcpListener::bind("127.0.0.1:0")
+            .await
+            .expect("a loopback listener");
+        let socket = tokio::net::TcpSocket::new_v4().expect("a socket");
+        socket
+            .set_recv_buffer_size(16 << 10)
+            .expect("a small receive buffer");
+        let client = socket
+            .connect(listener.local_addr().expect("its address"))
+            .await
+            .expect("connect");
+        let (stream, peer) = listener.accept().await.expect("accept");
+        let mut client = client.into_std().expect("a std socket");
+        client.set_nonblocking(false).expect("blocking");
+        client
+            .write_all(b"GET / HTTP/1.1\r\nHost: display\r\nConnection: close\r\n\r\n")
+            .expect("send the request");
+        let limits = ConnectionLimits {
+            write_timeout,
+            ..ConnectionLimits::default()
+        };
+        let served = serve_connection(&http_builder(HEAD_TIMEOUT), stream, peer, app, &limits);
+        (served, client)
+    }
+
+    #[tokio::test]
+    async fn a_connection_whose_client_takes_nothing_ends_stalled() {
+        let (served, _client) = connection(Duration::from_millis(100)).await;
+        let ended = tokio::time::timeout(WAIT, served)
+            .await
+            .expect("a connection whose client reads nothing is closed");
+        assert_eq!(ended, Ended::Stalled);
+    }
+
+    #[tokio::test]
+    async fn a_connection_whose_client_reads_is_not_cut_by_the_write_timeout() {
+        let (served, mut client) = connection(Duration::from_secs(2)).await;
+        let reader = std::thread::spawn(move || {
+            let mut response = Vec::new();
+            client.read_to_end(&mut response).map(|_| response.len())
+        });
+        let ended = tokio::time::timeout(WAIT, served)
+            .await
+            .expect("the response is sent");
+        assert_eq!(ended, Ended::Closed);
+        let read = reader.join().expect("the reader").expect("the response");
+        assert!(read > 8 << 20, "the whole response: {read} bytes");
     }
 }

@@ -10,9 +10,14 @@
 //!   snapshots. Each client is sent the newest snapshot at a fixed pace; a client that reads
 //!   slowly or never skips snapshots and holds nothing up.
 //! - [`connections`]: what one host can take of the server: a cap on connections served at
-//!   once and a timeout for a request head, in the server's own accept loop.
+//!   once, a timeout for a request head and one for a write its client does not take, in the
+//!   server's own accept loop.
+//! - `write_timeout`: a connection's IO whose writes fail once one has waited too long.
+//! - `tally`: events counted and reported at most once per period.
 
 pub mod board;
 pub mod connections;
 pub mod feed;
 pub mod server;
+mod tally;
+mod write_timeout;
