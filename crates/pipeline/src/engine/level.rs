@@ -2,8 +2,8 @@
 //! sensor's offset. Wave-driven motion oscillates about it, and the predictors, which are
 //! linear maps without a constant term, forecast the oscillation; fed the level as well, a
 //! Wiener fit spends its coefficients on carrying it and forecasts the motion worse than
-//! predicting the level (a 0.05 rad list tripled the roll error 5 s ahead on the paper sea).
-//! So the history the predictors read and are fitted on holds each value less the level, the
+//! predicting the level (on the paper sea a 0.05 rad list made the roll error 5 s ahead 3.7
+//! times larger). So the history the predictors read and are fitted on holds each value less the level, the
 //! delivered forecast adds the level back, and "no skill" means the level, not zero.
 //!
 //! The level is an exponentially weighted mean over about 5 minutes (`MEMORY_VALUES`): wave
