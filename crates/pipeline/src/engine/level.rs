@@ -3,8 +3,9 @@
 //! linear maps without a constant term, forecast the oscillation; fed the level as well, a
 //! Wiener fit spends its coefficients on carrying it and forecasts the motion worse than
 //! predicting the level (on the paper sea a 0.05 rad list made the roll error 5 s ahead 3.7
-//! times larger). So the history the predictors read and are fitted on holds each value less the level, the
-//! delivered forecast adds the level back, and "no skill" means the level, not zero.
+//! times larger). So the history the predictors read and are fitted on holds each value less
+//! the level, the delivered forecast adds the level back, and "no skill" means the level, not
+//! zero.
 //!
 //! The level is an exponentially weighted mean over about 5 minutes (`MEMORY_VALUES`): wave
 //! motion has next to no energy at zero frequency, so its mean over a few minutes hardly moves
