@@ -95,18 +95,15 @@ impl Level {
         if judged {
             // The level jumped: estimate it again from this value on, as at the start.
             self.steps[d] += 1;
-            self.seen[d] = 0;
+            self.level[d] = y;
+            self.seen[d] = 1;
             self.recent[d] = 0.0;
             self.run[d] = 0;
-        }
-        self.seen[d] += 1;
-        let a = (1.0 / self.seen[d] as f64).max(1.0 / MEMORY_VALUES);
-        let towards = if self.seen[d] == 1 {
-            y - self.level[d]
         } else {
-            counted
-        };
-        self.level[d] += a * towards;
+            self.seen[d] += 1;
+            let a = (1.0 / self.seen[d] as f64).max(1.0 / MEMORY_VALUES);
+            self.level[d] += a * counted;
+        }
         deviation
     }
 

@@ -12,10 +12,11 @@
 //! 3. updates online models, schedules retraining (first fit after `first_fit_s` of live data,
 //!    then every `retrain_every_s`, on a window that grows up to `retrain_window`);
 //! 4. forecasts with the running model, shrinks the mean per step towards the level by the
-//!    verified regression coefficient and sets sigma to the error that shrunk forecast really had;
+//!    verified regression coefficient and sets sigma to the error that shrunk forecast really
+//!    had;
 //! 5. never delivers an implausible mean (non-finite, or further from the level than
-//!    `plausible_rms_factor` times the live RMS of the motion about it): that DOF falls back to "no skill" (the level, sigma = RMS), and
-//!    the event is counted and logged.
+//!    `plausible_rms_factor` times the live RMS of the motion about it): that DOF falls back
+//!    to "no skill" (the level, sigma = RMS), and the event is counted and logged.
 
 pub mod calibrate;
 pub mod change;
