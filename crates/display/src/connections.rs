@@ -107,7 +107,8 @@ pub(crate) async fn accept_loop(
     let http = http_builder(limits.head_timeout);
     let mut connections = JoinSet::new();
     let mut closes = Closes::new(limits);
-    let mut accept_errors_reported: Option<Instant> = None;
+    // Only the first of each period is logged; the next due report waits for the next error.
+    let mut accept_errors = Tally::new(REPORT_PERIOD);
     loop {
         let report_due = closes.due_at();
         tokio::select! {
@@ -131,11 +132,7 @@ pub(crate) async fn accept_loop(
                     tracing::debug!("display: a connection failed before it was accepted: {e}");
                 }
                 Err(e) => {
-                    let now = Instant::now();
-                    if accept_errors_reported
-                        .is_none_or(|t| now.duration_since(t) >= REPORT_PERIOD)
-                    {
-                        accept_errors_reported = Some(now);
+                    if accept_errors.count(Instant::now()).is_some() {
                         tracing::warn!(
                             "display: cannot accept connections ({e}): retrying every {} s",
                             ACCEPT_RETRY.as_secs()
