@@ -95,6 +95,22 @@ impl Server {
         (!response.is_empty()).then(|| String::from_utf8_lossy(&response).into_owned())
     }
 
+    /// A GET of `path` once the server serves one (it closes connections beyond its cap
+    /// unserved), polled for at most `wait`.
+    fn get_once_served(&self, path: &str, wait: Duration) -> String {
+        let deadline = Instant::now() + wait;
+        loop {
+            if let Some(response) = self.get(path) {
+                return response;
+            }
+            assert!(
+                Instant::now() < deadline,
+                "no slot came free within {wait:?}"
+            );
+            std::thread::sleep(Duration::from_millis(50));
+        }
+    }
+
     /// An event-stream client that has read the response head and its first snapshot.
     fn open_events(&self) -> BufReader<TcpStream> {
         let mut events = request_events(self.connect());
@@ -149,16 +165,25 @@ fn is_closed(e: &std::io::Error) -> bool {
 /// Whether the server closes `stream` within [`WAIT`]; whatever it still sends is read
 /// and dropped.
 fn closed_by_server(stream: &mut impl Read) -> bool {
-    let mut buf = [0u8; 4096];
-    loop {
+    closed_within(stream, WAIT)
+}
+
+/// Whether the server closes `stream` within `wait`: whatever it still sends is read and
+/// dropped, and a stream still served (it goes on sending) or silent past its read timeout is
+/// not closed.
+fn closed_within(stream: &mut impl Read, wait: Duration) -> bool {
+    let deadline = Instant::now() + wait;
+    let mut buf = [0u8; 16 << 10];
+    while Instant::now() < deadline {
         match stream.read(&mut buf) {
             Ok(0) => return true,
             Ok(_) => {}
             Err(e) if is_closed(&e) => return true,
-            // The read timeout: still open after WAIT.
+            // The read timeout: still open.
             Err(_) => return false,
         }
     }
+    false
 }
 
 #[test]
@@ -237,17 +262,7 @@ fn the_cap_closes_new_connections_and_a_slot_is_freed_when_a_client_leaves() {
     // The first client leaves; its slot comes free once the server notices, which it
     // does at the latest when the next snapshot cannot be sent.
     drop(first);
-    let deadline = Instant::now() + WAIT;
-    let response = loop {
-        if let Some(response) = server.get("/snapshot.json") {
-            break response;
-        }
-        assert!(
-            Instant::now() < deadline,
-            "the slot of a client that left never came free"
-        );
-        std::thread::sleep(Duration::from_millis(50));
-    };
+    let response = server.get_once_served("/snapshot.json", WAIT);
     assert!(response.starts_with("HTTP/1.1 200"), "{response}");
     assert!(
         response.contains("application/json"),

@@ -78,38 +78,17 @@ impl Server {
         stream.set_read_timeout(Some(WAIT)).expect("read timeout");
         request_events(stream)
     }
-
-    /// A GET of `path` once the server serves one (it closes connections beyond its cap
-    /// unserved), polled for at most [`STALL_WAIT`].
-    fn get_once_served(&self, path: &str) -> String {
-        let deadline = Instant::now() + STALL_WAIT;
-        loop {
-            if let Some(response) = self.get(path) {
-                return response;
-            }
-            assert!(
-                Instant::now() < deadline,
-                "no slot came free within {STALL_WAIT:?}"
-            );
-            std::thread::sleep(Duration::from_millis(50));
-        }
-    }
 }
 
-/// Whether the server has closed `stream`: what it still had buffered is read and dropped,
-/// and then the stream must end within [`STALL_WAIT`] (a stream still served goes on).
-fn closed_within_stall_wait(stream: &mut impl Read) -> bool {
-    let deadline = Instant::now() + STALL_WAIT;
-    let mut buf = [0u8; 16 << 10];
-    while Instant::now() < deadline {
-        match stream.read(&mut buf) {
-            Ok(0) => return true,
-            Ok(_) => {}
-            Err(e) if is_closed(&e) => return true,
-            Err(_) => return false,
-        }
-    }
-    false
+/// The stalled stream is closed once its buffers are full and the write timeout has passed,
+/// and its slot serves the next client.
+fn assert_closed_and_its_slot_served(server: &Server, stalled: &mut impl Read) {
+    let response = server.get_once_served("/snapshot.json", STALL_WAIT);
+    assert!(response.starts_with("HTTP/1.1 200"), "{response:.200}");
+    assert!(
+        closed_within(stalled, STALL_WAIT),
+        "the stalled event stream is still served"
+    );
 }
 
 #[test]
@@ -118,14 +97,7 @@ fn an_event_stream_whose_client_stops_reading_is_closed_and_its_slot_freed() {
     // Takes the only slot, then stops reading.
     let mut stalled = server.open_events_then_stop_reading();
 
-    // Once its buffers are full and the write timeout has passed, the stream is closed and
-    // its slot served to the next client.
-    let response = server.get_once_served("/snapshot.json");
-    assert!(response.starts_with("HTTP/1.1 200"), "{response:.200}");
-    assert!(
-        closed_within_stall_wait(&mut stalled),
-        "the stalled event stream is still served"
-    );
+    assert_closed_and_its_slot_served(&server, &mut stalled);
 }
 
 #[test]
@@ -148,12 +120,7 @@ fn a_client_that_reads_is_served_on_while_a_stalled_one_next_to_it_is_closed() {
     let mut stalled = server.open_events_then_stop_reading();
 
     // The stalled stream is closed after the write timeout, which frees the second slot...
-    let response = server.get_once_served("/snapshot.json");
-    assert!(response.starts_with("HTTP/1.1 200"), "{response:.200}");
-    assert!(
-        closed_within_stall_wait(&mut stalled),
-        "the stalled event stream is still served"
-    );
+    assert_closed_and_its_slot_served(&server, &mut stalled);
     // ...while the stream of the client that reads went on all along, and goes on.
     stop.store(true, Ordering::Relaxed);
     let (mut reader, snapshots) = reading.join().expect("the reading client's stream went on");
