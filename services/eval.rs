@@ -6,7 +6,7 @@ use anyhow::Context;
 use shipcast_eval::{self as eval, report, Entry, EvalSettings};
 use shipcast_pipeline::config::MAX_PRODUCER_RATE_HZ;
 use shipcast_pipeline::limits;
-use shipcast_predict::{AverageMode, Averaging, McaWeighting, Method, PredictorConfig};
+use shipcast_predict::{AverageMode, Averaging, McaWeighting, Method, PredictorConfig, WienerFit};
 use shipcast_series as signal;
 use shipcast_series::motion_csv::MotionData;
 use shipcast_wire::Dof;
@@ -41,6 +41,10 @@ pub struct PredictorArgs {
     /// (all, 1/(lambda + eps): the conditional mean; --ridge sets eps, 0 = default 1e-3).
     #[arg(long, default_value_t = PredictorConfig::default().mca_weighting)]
     pub mca_weighting: McaWeighting,
+    /// Wiener: how the weights are estimated, autocorrelation (the paper's Yule-Walker) or
+    /// least-squares (over the training segment's forecast origins; not in the paper).
+    #[arg(long, default_value_t = PredictorConfig::default().wiener_fit)]
+    pub wiener_fit: WienerFit,
     /// AR: normalised LMS instead of plain LMS.
     #[arg(long)]
     pub nlms: bool,
@@ -74,6 +78,7 @@ impl PredictorArgs {
             mca_weighting: self.mca_weighting,
             lms_gain: checked(limits::positive("--lms-gain", self.lms_gain, MAX_GAIN))?,
             lms_normalized: self.nlms,
+            wiener_fit: self.wiener_fit,
             mlp_hidden: checked(limits::count("--hidden", self.hidden, 1, MAX_HIDDEN))?,
             mlp_epochs: checked(limits::count("--epochs", self.epochs, 1, MAX_EPOCHS))?,
             seed,

@@ -144,17 +144,20 @@ fn learns(method: Method) -> bool {
     !matches!(method, Method::Persistence | Method::Zero)
 }
 
-fn fitted(method: Method, train: &[f64]) -> AnyPredictor {
-    let mut p = AnyPredictor::new(method, &config())
-        .unwrap_or_else(|e| panic!("{method}: cannot build: {e}"));
+fn fitted(method: Method, config: &PredictorConfig, train: &[f64]) -> AnyPredictor {
+    let mut p =
+        AnyPredictor::new(method, config).unwrap_or_else(|e| panic!("{method}: cannot build: {e}"));
     p.fit(train)
         .unwrap_or_else(|e| panic!("{method}: fit failed: {e}"));
     p
 }
 
-pub fn reports_its_shape_and_writes_exactly_horizon_steps(method: Method) {
+pub fn reports_its_shape_and_writes_exactly_horizon_steps(
+    method: Method,
+    config: &PredictorConfig,
+) {
     let x = noisy_oscillation(TRAIN + 100, 1);
-    let mut p = fitted(method, &x[..TRAIN]);
+    let mut p = fitted(method, config, &x[..TRAIN]);
     assert_eq!(p.method(), method);
     assert_eq!(p.order(), ORDER, "{method}");
     assert_eq!(p.horizon(), HORIZON, "{method}");
@@ -180,9 +183,9 @@ pub fn reports_its_shape_and_writes_exactly_horizon_steps(method: Method) {
     );
 }
 
-pub fn forecast_and_update_never_allocate(method: Method) {
+pub fn forecast_and_update_never_allocate(method: Method, config: &PredictorConfig) {
     let x = noisy_oscillation(TRAIN + 100, 2);
-    let mut p = fitted(method, &x[..TRAIN]);
+    let mut p = fitted(method, config, &x[..TRAIN]);
     let mut out = vec![0.0; HORIZON];
     let allocations = allocations_during(|| {
         for end in TRAIN..TRAIN + 20 {
@@ -197,10 +200,13 @@ pub fn forecast_and_update_never_allocate(method: Method) {
     );
 }
 
-pub fn prepared_forecasts_are_bit_identical_to_unprepared_ones(method: Method) {
+pub fn prepared_forecasts_are_bit_identical_to_unprepared_ones(
+    method: Method,
+    config: &PredictorConfig,
+) {
     let x = noisy_oscillation(TRAIN + 100, 7);
-    let mut plain = fitted(method, &x[..TRAIN]);
-    let mut prepared = fitted(method, &x[..TRAIN]);
+    let mut plain = fitted(method, config, &x[..TRAIN]);
+    let mut prepared = fitted(method, config, &x[..TRAIN]);
     let (mut a, mut b) = (vec![0.0; HORIZON], vec![0.0; HORIZON]);
     for end in TRAIN + 1..TRAIN + 60 {
         plain.update(&x[..end]).unwrap();
@@ -219,10 +225,10 @@ pub fn prepared_forecasts_are_bit_identical_to_unprepared_ones(method: Method) {
     }
 }
 
-pub fn same_config_and_seed_give_identical_forecasts(method: Method) {
+pub fn same_config_and_seed_give_identical_forecasts(method: Method, config: &PredictorConfig) {
     let x = noisy_oscillation(TRAIN + 100, 3);
-    let mut a = fitted(method, &x[..TRAIN]);
-    let mut b = fitted(method, &x[..TRAIN]);
+    let mut a = fitted(method, config, &x[..TRAIN]);
+    let mut b = fitted(method, config, &x[..TRAIN]);
     let (mut fa, mut fb) = (vec![0.0; HORIZON], vec![0.0; HORIZON]);
     for end in [TRAIN, TRAIN + 37, TRAIN + 100] {
         a.forecast(&x[..end], &mut fa).unwrap();
@@ -231,9 +237,9 @@ pub fn same_config_and_seed_give_identical_forecasts(method: Method) {
     }
 }
 
-pub fn too_short_or_non_finite_training_is_a_clear_error(method: Method) {
+pub fn too_short_or_non_finite_training_is_a_clear_error(method: Method, config: &PredictorConfig) {
     let x = noisy_oscillation(TRAIN, 4);
-    let mut p = AnyPredictor::new(method, &config()).unwrap();
+    let mut p = AnyPredictor::new(method, config).unwrap();
     let err = p.fit(&[]).unwrap_err();
     assert!(
         matches!(err, PredictError::TooShort { got: 0, .. }),
@@ -267,18 +273,18 @@ pub fn too_short_or_non_finite_training_is_a_clear_error(method: Method) {
     );
 }
 
-pub fn too_short_buffers_and_unfitted_use_are_errors(method: Method) {
+pub fn too_short_buffers_and_unfitted_use_are_errors(method: Method, config: &PredictorConfig) {
     let x = noisy_oscillation(TRAIN, 5);
     let mut out = vec![0.0; HORIZON];
     if learns(method) {
-        let mut unfitted = AnyPredictor::new(method, &config()).unwrap();
+        let mut unfitted = AnyPredictor::new(method, config).unwrap();
         assert_eq!(
             unfitted.forecast(&x[..ORDER], &mut out),
             Err(PredictError::NotFitted(method)),
             "{method}"
         );
     }
-    let mut p = fitted(method, &x);
+    let mut p = fitted(method, config, &x);
     let err = p.forecast(&x[..ORDER - 1], &mut out).unwrap_err();
     assert!(matches!(err, PredictError::Length(_)), "{method}: {err}");
     let err = p
@@ -287,9 +293,9 @@ pub fn too_short_buffers_and_unfitted_use_are_errors(method: Method) {
     assert!(matches!(err, PredictError::Length(_)), "{method}: {err}");
 }
 
-pub fn saved_and_loaded_models_forecast_identically(method: Method) {
+pub fn saved_and_loaded_models_forecast_identically(method: Method, config: &PredictorConfig) {
     let x = noisy_oscillation(TRAIN + 100, 6);
-    let mut p = fitted(method, &x[..TRAIN]);
+    let mut p = fitted(method, config, &x[..TRAIN]);
     let json = serde_json::to_string(&p).unwrap();
     let mut loaded: AnyPredictor = serde_json::from_str(&json)
         .unwrap_or_else(|e| panic!("{method}: cannot load its own model: {e}"));
@@ -306,14 +312,17 @@ pub fn saved_and_loaded_models_forecast_identically(method: Method) {
     }
 }
 
-pub fn learning_methods_beat_the_zero_predictor_on_sinusoids(method: Method) {
+pub fn learning_methods_beat_the_zero_predictor_on_sinusoids(
+    method: Method,
+    config: &PredictorConfig,
+) {
     if !learns(method) {
         return;
     }
     let x = sum_of_sinusoids(TRAIN + 400);
-    let mut zero = fitted(Method::Zero, &x[..TRAIN]);
+    let mut zero = fitted(Method::Zero, config, &x[..TRAIN]);
     let zero_rms = rms_over_test(&mut zero, &x, TRAIN, 5);
-    let mut p = fitted(method, &x[..TRAIN]);
+    let mut p = fitted(method, config, &x[..TRAIN]);
     let rms = rms_over_test(&mut p, &x, TRAIN, 5);
     assert!(
         rms < zero_rms,
@@ -321,21 +330,28 @@ pub fn learning_methods_beat_the_zero_predictor_on_sinusoids(method: Method) {
     );
 }
 
-/// Every check of the suite on `method`; panics with the method and the check that failed.
+/// Every check of the suite on `method` with the suite's configuration; panics with the method
+/// and the check that failed.
 pub fn check_all(method: Method) {
+    check_all_with(method, &config());
+}
+
+/// Every check of the suite on `method` with `config` (the suite's with a method's own option
+/// changed, e.g. how a Wiener fit estimates its weights).
+pub fn check_all_with(method: Method, config: &PredictorConfig) {
     assert!(
         counting_allocator_installed(),
         "conformance: install shipcast_predict::conformance::CountingAllocator as the \
          #[global_allocator] of the test binary (the allocation check needs it)"
     );
-    reports_its_shape_and_writes_exactly_horizon_steps(method);
-    forecast_and_update_never_allocate(method);
-    prepared_forecasts_are_bit_identical_to_unprepared_ones(method);
-    same_config_and_seed_give_identical_forecasts(method);
-    too_short_or_non_finite_training_is_a_clear_error(method);
-    too_short_buffers_and_unfitted_use_are_errors(method);
-    saved_and_loaded_models_forecast_identically(method);
-    learning_methods_beat_the_zero_predictor_on_sinusoids(method);
+    reports_its_shape_and_writes_exactly_horizon_steps(method, config);
+    forecast_and_update_never_allocate(method, config);
+    prepared_forecasts_are_bit_identical_to_unprepared_ones(method, config);
+    same_config_and_seed_give_identical_forecasts(method, config);
+    too_short_or_non_finite_training_is_a_clear_error(method, config);
+    too_short_buffers_and_unfitted_use_are_errors(method, config);
+    saved_and_loaded_models_forecast_identically(method, config);
+    learning_methods_beat_the_zero_predictor_on_sinusoids(method, config);
 }
 
 #[cfg(test)]
@@ -393,6 +409,14 @@ mod tests {
     #[test]
     fn wiener_conforms() {
         check_all(Method::Wiener);
+    }
+    #[test]
+    fn wiener_least_squares_conforms() {
+        let least_squares = PredictorConfig {
+            wiener_fit: crate::WienerFit::LeastSquares,
+            ..config()
+        };
+        check_all_with(Method::Wiener, &least_squares);
     }
     #[test]
     fn ar_conforms() {

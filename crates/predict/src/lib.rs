@@ -68,6 +68,7 @@ pub mod mca;
 pub mod mlp;
 pub(crate) mod vector_state;
 pub mod wiener;
+pub mod wiener_ls;
 
 #[cfg(any(test, feature = "conformance"))]
 pub mod conformance;
@@ -83,6 +84,7 @@ pub use baseline::{PersistencePredictor, ZeroPredictor};
 pub use mca::{McaPredictor, McaWeighting};
 pub use mlp::MlpPredictor;
 pub use wiener::WienerPredictor;
+pub use wiener_ls::WienerFit;
 
 /// Why a predictor could not be built, fitted or asked for a forecast.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -198,6 +200,8 @@ pub struct PredictorConfig {
     pub lms_gain: f64,
     /// AR: normalised LMS (step divided by the input power) instead of plain LMS.
     pub lms_normalized: bool,
+    /// Wiener: how the weights are estimated (paper: the biased autocorrelation).
+    pub wiener_fit: WienerFit,
     /// MLP: hidden tanh units (paper: 100).
     pub mlp_hidden: usize,
     /// MLP: Rprop epochs (full-batch).
@@ -218,6 +222,7 @@ impl Default for PredictorConfig {
             mca_weighting: McaWeighting::Paper,
             lms_gain: 0.005,
             lms_normalized: false,
+            wiener_fit: WienerFit::Autocorrelation,
             mlp_hidden: 100,
             mlp_epochs: 200,
             seed: 1,

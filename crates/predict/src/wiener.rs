@@ -6,9 +6,12 @@
 //! Levinson recursion. `fit` uses the biased autocorrelation of the training segment
 //! (positive definite by construction); `from_autocorrelation` takes an exact one, e.g. from a
 //! wave spectrum, to compute the optimal linear predictor the other methods are measured against.
+//! With `wiener_fit = least-squares` the same predictor is fitted by least squares over the
+//! training segment's origins instead (`wiener_ls.rs`; not the paper's).
 
 use super::levinson::{solve_toeplitz, workspace_len};
 use super::linear_map::LinearMap;
+use super::wiener_ls::{least_squares_coefficients, values_needed, WienerFit};
 use super::{
     check_forecast_buffers, check_training, Method, PredictError, Predictor, PredictorConfig,
 };
@@ -21,6 +24,9 @@ use serde::{Deserialize, Serialize};
 pub struct WienerPredictor {
     order: usize,
     horizon: usize,
+    /// How `fit` estimates the weights (model files written before it existed: the paper's).
+    #[serde(default)]
+    fit: WienerFit,
     /// `None` until fitted.
     coefficients: Option<LinearMap>,
 }
@@ -32,6 +38,7 @@ impl WienerPredictor {
         Ok(Self {
             order: config.order,
             horizon: config.horizon,
+            fit: config.wiener_fit,
             coefficients: None,
         })
     }
@@ -57,6 +64,7 @@ impl WienerPredictor {
         Ok(Self {
             order,
             horizon,
+            fit: WienerFit::Autocorrelation,
             coefficients: Some(solve_coefficients(r, order, horizon)?),
         })
     }
@@ -145,9 +153,18 @@ impl Predictor for WienerPredictor {
 
     fn fit(&mut self, train: &[f64]) -> Result<(), PredictError> {
         let lags = self.order + self.horizon;
-        check_training(Method::Wiener, self.order, lags, train)?;
-        let r = biased_autocorrelation(train, lags);
-        self.coefficients = Some(solve_coefficients(&r, self.order, self.horizon)?);
+        self.coefficients = Some(match self.fit {
+            WienerFit::Autocorrelation => {
+                check_training(Method::Wiener, self.order, lags, train)?;
+                let r = biased_autocorrelation(train, lags);
+                solve_coefficients(&r, self.order, self.horizon)?
+            }
+            WienerFit::LeastSquares => {
+                let needed = values_needed(self.order, self.horizon);
+                check_training(Method::Wiener, self.order, needed, train)?;
+                least_squares_coefficients(train, self.order, self.horizon)?
+            }
+        });
         Ok(())
     }
 

@@ -1,7 +1,7 @@
 //! `[predictor]`: the forecasting service, its method and the engine's settings.
 
 use serde::{Deserialize, Serialize};
-use shipcast_predict::{McaWeighting, Method, PredictorConfig};
+use shipcast_predict::{McaWeighting, Method, PredictorConfig, WienerFit};
 use std::path::PathBuf;
 
 /// The forecasting service.
@@ -57,6 +57,28 @@ pub struct PredictorServiceConfig {
     /// `[predictor.mlp]`: settings of the MLP method; only with `method = "mlp"`.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub mlp: Option<MlpSettings>,
+    /// `[predictor.wiener]`: settings of the Wiener method; only with `method = "wiener"`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub wiener: Option<WienerSettings>,
+}
+
+/// `[predictor.wiener]`: the Wiener method's settings.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct WienerSettings {
+    /// How the weights are estimated: "autocorrelation" (default: the paper's Yule-Walker
+    /// estimate) or "least-squares" (over the training window's forecast origins: sharper on
+    /// a steady sea, but wild for a while after a change of sea; docs/forecasting.md, "How
+    /// the weights are estimated").
+    pub fit: WienerFit,
+}
+
+impl Default for WienerSettings {
+    fn default() -> Self {
+        Self {
+            fit: WienerFit::Autocorrelation,
+        }
+    }
 }
 
 /// `[predictor.mca]`: the MCA method's settings (the `shipcast eval` MCA options).
@@ -162,6 +184,7 @@ impl Default for PredictorServiceConfig {
             mca: None,
             ar: None,
             mlp: None,
+            wiener: None,
         }
     }
 }
@@ -189,10 +212,18 @@ impl PredictorServiceConfig {
             mca_weighting: mca.weighting,
             lms_gain: ar.lms_gain,
             lms_normalized: ar.normalized,
+            wiener_fit: self.wiener_fit(),
             mlp_hidden: mlp.hidden,
             mlp_epochs: mlp.epochs,
             seed: mlp.seed,
         }
+    }
+
+    /// How a Wiener fit estimates its weights: `[predictor.wiener] fit`, or its default.
+    pub fn wiener_fit(&self) -> WienerFit {
+        self.wiener
+            .as_ref()
+            .map_or_else(|| WienerSettings::default().fit, |w| w.fit)
     }
 
     /// A method section is refused unless it is the chosen method's: a key that does nothing
@@ -202,6 +233,7 @@ impl PredictorServiceConfig {
             ("mca", self.mca.is_some(), Method::Mca),
             ("ar", self.ar.is_some(), Method::Ar),
             ("mlp", self.mlp.is_some(), Method::Mlp),
+            ("wiener", self.wiener.is_some(), Method::Wiener),
         ] {
             if present && self.method != method {
                 return Err(format!(

@@ -1,7 +1,7 @@
 //! Tests of the configuration: defaults, unknown keys, ranges and error messages.
 
 use super::*;
-use shipcast_predict::{McaWeighting, PredictorConfig};
+use shipcast_predict::{McaWeighting, PredictorConfig, WienerFit};
 
 /// Every cause in `{:#}` of `error` (what the binary prints) appears exactly once.
 fn assert_causes_print_once(error: anyhow::Error, causes: &[String]) {
@@ -138,7 +138,7 @@ fn toml_round_trip_and_flags_override_the_file() {
 
 #[test]
 fn method_sections_apply_to_their_method_only() {
-    // The default method (Wiener) has no settings of its own: an MCA section is refused.
+    // The default method is Wiener: an MCA section is refused.
     for (text, needle) in [
         (
             "[predictor.mca]\nshift = 3",
@@ -151,6 +151,14 @@ fn method_sections_apply_to_their_method_only() {
         (
             "[predictor]\nmethod = \"ar\"\n[predictor.mlp]\nhidden = 3",
             "[predictor.mlp]",
+        ),
+        (
+            "[predictor]\nmethod = \"mca\"\n[predictor.wiener]\nfit = \"least-squares\"",
+            "[predictor.wiener] applies to method = \"wiener\"",
+        ),
+        (
+            "[predictor.wiener]\nfit = \"yule-walker\"",
+            "expected `autocorrelation` or `least-squares`",
         ),
     ] {
         let err = PipelineConfig::from_toml(text, Path::new("p.toml"))
@@ -185,6 +193,16 @@ fn method_sections_apply_to_their_method_only() {
         (McaWeighting::Inverse, 2, true)
     );
     assert_eq!(pc.lms_gain, PredictorConfig::default().lms_gain);
+    assert_eq!(pc.wiener_fit, WienerFit::Autocorrelation);
+    let c = PipelineConfig::from_toml(
+        "[predictor.wiener]\nfit = \"least-squares\"",
+        Path::new("p.toml"),
+    )
+    .unwrap();
+    assert_eq!(
+        c.predictor.predictor_config().wiener_fit,
+        WienerFit::LeastSquares
+    );
     // Round trip through the TOML `shipcast run` hands its children.
     let text = c.to_toml().unwrap();
     assert_eq!(PipelineConfig::from_toml(&text, Path::new("t")).unwrap(), c);

@@ -12,7 +12,7 @@ use crate::config::PredictorServiceConfig;
 use anyhow::Context;
 use shipcast_eval::model::ModelFile;
 use shipcast_eval::{EvalError, OnlineFeed};
-use shipcast_predict::{AnyPredictor, Method, Predictor};
+use shipcast_predict::{AnyPredictor, Method, Predictor, WienerFit};
 use shipcast_wire::payload::{MAX_STEPS, NUM_DOF};
 use shipcast_wire::Dof;
 use std::path::Path;
@@ -150,8 +150,23 @@ fn feasible(
 ) -> impl Iterator<Item = usize> + '_ {
     let train = len.saturating_sub(holdout);
     candidate_orders(config).filter(move |&o| {
-        train >= TRAIN_PER_ORDER * o && holdout >= o + config.horizon + MIN_HOLDOUT_ORIGINS
+        train >= training_values_needed(config, o)
+            && holdout >= o + config.horizon + MIN_HOLDOUT_ORIGINS
     })
+}
+
+/// Training values a fit of `order` needs: `TRAIN_PER_ORDER` per order, and for a
+/// least-squares Wiener fit enough forecast origins per weight as well.
+fn training_values_needed(config: &PredictorServiceConfig, order: usize) -> usize {
+    let per_order = TRAIN_PER_ORDER * order;
+    if config.method == Method::Wiener && config.wiener_fit() == WienerFit::LeastSquares {
+        per_order.max(shipcast_predict::wiener_ls::values_needed(
+            order,
+            config.horizon,
+        ))
+    } else {
+        per_order
+    }
 }
 
 /// The orders the configured method may be fitted at, unsorted and possibly repeated, however
@@ -450,6 +465,32 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn a_least_squares_wiener_is_tried_only_where_it_has_its_origins() {
+        // Order 25, horizon 50: the paper's estimate needs 4 values per order (100); a
+        // least-squares fit needs 2 origins per weight, 2 * 25 + 25 + 50 - 1 = 124 values.
+        // 135 held-out values leave 60 origins to score on.
+        let mut c = config(Method::Wiener, 25, 50, 135);
+        let orders =
+            |c: &PredictorServiceConfig, train: usize| feasible_orders(c, train + 135, 135);
+        assert_eq!(orders(&c, 100), vec![25], "the paper's estimate");
+        c.wiener = Some(crate::config::WienerSettings {
+            fit: WienerFit::LeastSquares,
+        });
+        assert!(orders(&c, 123).is_empty());
+        assert_eq!(orders(&c, 124), vec![25]);
+        // A window the engine fits on (a third held out) gets a working least-squares fit.
+        let series: Vec<Vec<f64>> = (0..NUM_DOF)
+            .map(|d| {
+                (0..405)
+                    .map(|i| (0.3 * i as f64 + d as f64).sin())
+                    .collect()
+            })
+            .collect();
+        let set = fit(&series, &c, 1).unwrap();
+        assert!(set.predictors.iter().all(|p| p.order() == 25));
     }
 
     /// A noisy two-tone series (deterministic: a fixed linear congruential generator).

@@ -1,0 +1,329 @@
+//! The least-squares (covariance-method) estimate of the Wiener predictor: for each step h the
+//! weights minimise the squared h-step error over the training segment's own forecast origins,
+//! instead of solving the normal equations under the biased autocorrelation (the paper's
+//! Yule-Walker estimate, `wiener.rs`). Not in the paper; `wiener_fit = least-squares`.
+//!
+//! The biased autocorrelation tapers lag k by (1 - k/T) and treats the segment as zero outside
+//! it. That bias smooths the spectrum the predictor is fitted to, which costs accuracy on a
+//! steady sea (ship motion is smooth and very predictable a few seconds ahead) and buys
+//! robustness: the fit never leans on frequencies the segment did not hold. The least-squares
+//! fit does lean on them, so it is sharper while the sea stays as it was and wild for a while
+//! after it changes. Both measured in docs/forecasting.md ("How the weights are estimated");
+//! the service keeps the paper's estimate by default.
+//!
+//! The normal equations `A w_h = b_h` share one `order x order` matrix for all steps (every
+//! step is fitted on the same origins), so the cost is one Gram matrix of the lagged values,
+//! computed from its first row by a recursion along its diagonals (`lagged_gram`), and one
+//! Cholesky factorisation.
+
+use super::linear_map::LinearMap;
+use super::PredictError;
+use faer::linalg::solvers::Solve;
+use faer::{Mat, Side};
+use serde::{Deserialize, Serialize};
+
+/// How a Wiener predictor's weights are estimated from a training segment.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum WienerFit {
+    /// The paper's: the Toeplitz normal equations under the biased autocorrelation.
+    #[default]
+    Autocorrelation,
+    /// Least squares over the training segment's forecast origins (not in the paper).
+    LeastSquares,
+}
+
+impl WienerFit {
+    /// CLI / config name.
+    pub const fn name(self) -> &'static str {
+        match self {
+            WienerFit::Autocorrelation => "autocorrelation",
+            WienerFit::LeastSquares => "least-squares",
+        }
+    }
+}
+
+impl std::fmt::Display for WienerFit {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl std::str::FromStr for WienerFit {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s.trim().to_ascii_lowercase().as_str() {
+            "autocorrelation" => Ok(WienerFit::Autocorrelation),
+            "least-squares" => Ok(WienerFit::LeastSquares),
+            _ => Err(format!(
+                "unknown Wiener fit '{s}' (expected autocorrelation or least-squares)"
+            )),
+        }
+    }
+}
+
+/// Ridges tried in turn, relative to the mean diagonal of the Gram matrix. The first is only
+/// numerical insurance: a noise-free, band-limited record makes the Gram matrix nearly
+/// singular, and anything larger measurably blurs the fit there. The second is taken only if
+/// rounding makes the first fail the Cholesky factorisation.
+const RIDGES: [f64; 2] = [1e-9, 1e-6];
+
+/// Forecast origins per weight at least: with fewer, the least-squares fit follows the
+/// training segment's noise (`origins_needed`).
+pub const ORIGINS_PER_ORDER: usize = 2;
+
+/// Training values a least-squares fit of `order` and `horizon` needs: `ORIGINS_PER_ORDER`
+/// origins per weight, each with `order` values before it and `horizon` after.
+pub const fn values_needed(order: usize, horizon: usize) -> usize {
+    ORIGINS_PER_ORDER * order + order + horizon - 1
+}
+
+/// Gram matrix of the lagged vectors `z_t(k) = x[t + lead - k]`, `k = 0 .. size`, summed over
+/// the origins `t = first ..= last`: `gram[k * size + l] = sum_t z_t(k) z_t(l)`.
+///
+/// Row 0 is summed directly; every further entry follows from the one before it on its
+/// diagonal, `G[k+1][l+1] = G[k][l] + z_{first-1}(k) z_{first-1}(l) - z_last(k) z_last(l)`,
+/// because shifting both lags by one shifts the origins by one. `O(size * origins + size^2)`
+/// instead of `O(size^2 * origins)`.
+///
+/// The caller guarantees `first + lead >= size - 1` (hence `first >= 1` or `size == lead + 1`)
+/// and `last + lead < x.len()`, so every index is inside `x`.
+fn lagged_gram(x: &[f64], first: usize, last: usize, lead: usize, size: usize) -> Vec<f64> {
+    let mut gram = vec![0.0; size * size];
+    for l in 0..size {
+        gram[l] = (first..=last).map(|t| x[t + lead] * x[t + lead - l]).sum();
+    }
+    // The value of z at origin t and lag k; t = first - 1 is only read for k >= 1 below, and
+    // first + lead - 1 - k >= 0 there by the caller's guarantee.
+    let z = |t: usize, k: usize| x[t + lead - k];
+    for k in 0..size - 1 {
+        for l in k..size - 1 {
+            let entering = z(first - 1, k) * z(first - 1, l);
+            let leaving = z(last, k) * z(last, l);
+            gram[(k + 1) * size + l + 1] = gram[k * size + l] + entering - leaving;
+        }
+    }
+    for k in 0..size {
+        for l in 0..k {
+            gram[k * size + l] = gram[l * size + k];
+        }
+    }
+    gram
+}
+
+/// The least-squares weights of every step `1..=horizon` for a predictor of `order` past values,
+/// fitted on `x` (oldest first), as a matrix over the past window in chronological order.
+pub fn least_squares_coefficients(
+    x: &[f64],
+    order: usize,
+    horizon: usize,
+) -> Result<LinearMap, PredictError> {
+    let needed = values_needed(order, horizon);
+    if x.len() < needed {
+        return Err(PredictError::Length(format!(
+            "a least-squares Wiener fit of order {order} and horizon {horizon} needs {needed} \
+             training values ({ORIGINS_PER_ORDER} forecast origins per weight), got {}",
+            x.len()
+        )));
+    }
+    // Origins t: order - 1 values before each, horizon after. z_t(k) = x[t + horizon - k]:
+    // k = 0 .. horizon - 1 are the targets x[t + horizon] .. x[t + 1], k = horizon + l is the
+    // past value x[t - l].
+    let (first, last) = (order - 1, x.len() - 1 - horizon);
+    let size = order + horizon;
+    let gram = if first == 0 {
+        // One past value: no origin before the first, so no recursion (and size == horizon + 1
+        // would read x[-1] for the entering term); sum every entry directly.
+        let mut g = vec![0.0; size * size];
+        for k in 0..size {
+            for l in 0..size {
+                g[k * size + l] = (first..=last)
+                    .map(|t| x[t + horizon - k] * x[t + horizon - l])
+                    .sum();
+            }
+        }
+        g
+    } else {
+        lagged_gram(x, first, last, horizon, size)
+    };
+    let past = |l: usize| horizon + l;
+    let a = Mat::from_fn(order, order, |i, j| gram[past(i) * size + past(j)]);
+    // b[l][h-1] = sum_t x[t - l] x[t + h] = G[horizon + l][horizon - h].
+    let b = Mat::from_fn(order, horizon, |l, h| {
+        gram[past(l) * size + horizon - 1 - h]
+    });
+    let mean_diagonal = (0..order).map(|i| a[(i, i)]).sum::<f64>() / order as f64;
+    if !(mean_diagonal.is_finite() && mean_diagonal > 0.0) {
+        return Err(PredictError::Numerical(
+            "least-squares Wiener fit: the training segment has no power".into(),
+        ));
+    }
+    for ridge in RIDGES {
+        let mut regularised = a.clone();
+        for i in 0..order {
+            regularised[(i, i)] += ridge * mean_diagonal;
+        }
+        let Ok(llt) = regularised.llt(Side::Lower) else {
+            continue;
+        };
+        let w = llt.solve(&b);
+        // w[(l, h-1)] multiplies x(t - l), the value l steps before the newest: column
+        // order - 1 - l of row h - 1.
+        let coef: Vec<f64> = (0..horizon)
+            .flat_map(|h| (0..order).map(move |j| (h, j)))
+            .map(|(h, j)| w[(order - 1 - j, h)])
+            .collect();
+        if coef.iter().any(|c| !c.is_finite()) {
+            continue;
+        }
+        return LinearMap::from_row_major(horizon, order, coef).map_err(PredictError::Numerical);
+    }
+    Err(PredictError::Numerical(
+        "least-squares Wiener fit: the lagged Gram matrix is not positive definite even with a \
+         ridge of 1e-6"
+            .into(),
+    ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use faer::linalg::solvers::SolveLstsq;
+    use rand::SeedableRng;
+    use rand_distr::{Distribution, StandardNormal};
+
+    fn white(n: usize, seed: u64) -> Vec<f64> {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+        (0..n).map(|_| StandardNormal.sample(&mut rng)).collect()
+    }
+
+    #[test]
+    fn the_gram_recursion_equals_the_direct_sums() {
+        let x = white(300, 1);
+        let (first, last, lead, size) = (9, 260, 30, 40);
+        let g = lagged_gram(&x, first, last, lead, size);
+        for k in 0..size {
+            for l in 0..size {
+                let direct: f64 = (first..=last)
+                    .map(|t| x[t + lead - k] * x[t + lead - l])
+                    .sum();
+                assert!(
+                    (g[k * size + l] - direct).abs() < 1e-9 * direct.abs().max(1.0),
+                    "({k}, {l}): {} vs {direct}",
+                    g[k * size + l]
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn an_ar1_is_fitted_as_phi_to_the_power_h_on_the_newest_value() {
+        // x_t = 0.9 x_{t-1} + e_t: the best h-step predictor is 0.9^h x_t, nothing older.
+        let e = white(40_000, 2);
+        let mut x = vec![0.0; e.len()];
+        for t in 1..x.len() {
+            x[t] = 0.9 * x[t - 1] + e[t];
+        }
+        let (order, horizon) = (5, 4);
+        let map = least_squares_coefficients(&x, order, horizon).unwrap();
+        for h in 1..=horizon {
+            let row = map.row(h - 1);
+            let newest = row[order - 1];
+            assert!(
+                (newest - 0.9f64.powi(h as i32)).abs() < 0.02,
+                "step {h}: {newest}"
+            );
+            for (j, c) in row[..order - 1].iter().enumerate() {
+                assert!(c.abs() < 0.02, "step {h}, column {j}: {c}");
+            }
+        }
+    }
+
+    #[test]
+    fn it_is_the_dense_least_squares_solution() {
+        // Independent path: the regression matrix written out and solved through faer's QR.
+        let x = white(400, 3);
+        let (order, horizon) = (6, 3);
+        let map = least_squares_coefficients(&x, order, horizon).unwrap();
+        let origins: Vec<usize> = (order - 1..x.len() - horizon).collect();
+        let design = Mat::from_fn(origins.len(), order, |i, j| x[origins[i] + j + 1 - order]);
+        let targets = Mat::from_fn(origins.len(), horizon, |i, h| x[origins[i] + h + 1]);
+        let w = design.qr().solve_lstsq(&targets);
+        for h in 0..horizon {
+            for j in 0..order {
+                let got = map.row(h)[j];
+                assert!(
+                    (got - w[(j, h)]).abs() < 1e-6,
+                    "step {} column {j}: {got} vs {}",
+                    h + 1,
+                    w[(j, h)]
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn order_one_has_no_recursion_and_is_still_exact() {
+        let x = white(200, 4);
+        let map = least_squares_coefficients(&x, 1, 2).unwrap();
+        for h in 1..=2 {
+            let (num, den) = (0..x.len() - 2).fold((0.0, 0.0), |(n, d), t| {
+                (n + x[t] * x[t + h], d + x[t] * x[t])
+            });
+            let got = map.row(h - 1)[0];
+            assert!((got - num / den).abs() < 1e-6, "step {h}: {got}");
+        }
+    }
+
+    #[test]
+    fn too_short_a_segment_and_a_silent_one_are_errors() {
+        let err = least_squares_coefficients(&[1.0; 20], 10, 5).unwrap_err();
+        assert!(err.to_string().contains("needs 34"), "{err}");
+        let err = least_squares_coefficients(&[0.0; 200], 10, 5).unwrap_err();
+        assert!(err.to_string().contains("no power"), "{err}");
+    }
+
+    #[test]
+    fn a_sum_of_sinusoids_is_predicted_from_a_segment_the_autocorrelation_fit_cannot_use() {
+        // Three lines are exactly predictable by a linear map of 6 or more past values. The
+        // autocorrelation estimate's taper (1 - k/T) keeps Wiener-40 at about 1e-2 on 1000
+        // values (`wiener.rs` needs 80000 for 1e-3); least squares has no taper.
+        use crate::conformance::{nrmse_over_test, sum_of_sinusoids};
+        use crate::{Predictor, PredictorConfig, WienerPredictor};
+        let x = sum_of_sinusoids(1400);
+        let nrmse = |fit: WienerFit| {
+            let config = PredictorConfig {
+                order: 40,
+                horizon: 20,
+                wiener_fit: fit,
+                ..PredictorConfig::default()
+            };
+            let mut p = WienerPredictor::new(&config).unwrap();
+            p.fit(&x[..1000]).unwrap();
+            nrmse_over_test(&mut p, &x, 1000, 3)
+        };
+        let (ls, yw) = (
+            nrmse(WienerFit::LeastSquares),
+            nrmse(WienerFit::Autocorrelation),
+        );
+        assert!(ls < 1e-3, "least squares: {ls}");
+        assert!(yw > 10.0 * ls, "autocorrelation {yw} vs least squares {ls}");
+    }
+
+    #[test]
+    fn a_model_file_without_the_fit_is_the_papers() {
+        // Model files written before `fit` existed load as what fitted them.
+        let json = r#"{"order": 1, "horizon": 1, "coefficients": null}"#;
+        let p: crate::WienerPredictor = serde_json::from_str(json).unwrap();
+        let back = serde_json::to_value(&p).unwrap();
+        assert_eq!(back["fit"], "autocorrelation");
+    }
+
+    #[test]
+    fn names_round_trip() {
+        for fit in [WienerFit::Autocorrelation, WienerFit::LeastSquares] {
+            assert_eq!(fit.name().parse::<WienerFit>().unwrap(), fit);
+        }
+        assert!("yule".parse::<WienerFit>().is_err());
+    }
+}
