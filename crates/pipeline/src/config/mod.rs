@@ -280,14 +280,15 @@ impl PipelineConfig {
                 return Err(problem);
             }
         }
-        if q.model.is_none() && q.warmup_s > 0.0 {
+        // A rate that is no integer multiple of the forecast rate is refused where the factor
+        // is needed, with its own message.
+        let startup_fit = q.model.is_none() && q.warmup_s > 0.0;
+        if let Some(factor) = self.decimation_factor().ok().filter(|_| startup_fit) {
             // The start-up history as `startup::initial_models` makes it: ceil(warmup_s x the
             // producer's rate) samples, decimated to the forecast rate (the filter's warm-up
             // costs a few values).
             let rate = self.producer.rate_hz;
             let samples = (q.warmup_s * rate).ceil() as usize;
-            // Not an integer ratio: refused where the factor is needed (`decimation_factor`).
-            let factor = ((rate / q.sample_rate_hz).round() as usize).max(1);
             let len = shipcast_series::decimated_len(samples, factor);
             // The warm-up that makes `values` values.
             let seconds_for = |values: usize| {

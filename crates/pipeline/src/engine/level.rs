@@ -40,6 +40,13 @@ const STEP_RUN: u32 = 6;
 /// The most RMS of the deviations that one value counts for in the level and the RMS.
 const CLIP_SPREADS: f64 = 4.0;
 
+/// Weight of the newest of `count` values in a running mean that is a plain mean until `memory`
+/// values have been seen and an exponentially weighted one over `memory` values after: the
+/// start is as good as the data allow, and the memory bounds what an old value still counts.
+pub fn running_weight(count: u64, memory: f64) -> f64 {
+    (1.0 / count.max(1) as f64).max(1.0 / memory)
+}
+
 /// Per-DOF level and the deviations from it.
 #[derive(Debug, Clone, Default)]
 pub struct Level {
@@ -68,7 +75,6 @@ impl Level {
         }
         let deviation = y - self.level[d];
         self.total[d] += 1;
-        let n = self.total[d] as f64;
         let warm = self.total[d] >= STEP_WARMUP;
         let rms = self.spread[d].sqrt();
         // Once the deviations' RMS is known, one value counts at most `CLIP_SPREADS` RMS: a
@@ -79,8 +85,8 @@ impl Level {
             f64::INFINITY
         };
         let counted = deviation.clamp(-clip, clip);
-        let spread_a = (1.0 / n).max(1.0 / MEMORY_VALUES);
-        let recent_a = (1.0 / n).max(1.0 / STEP_VALUES as f64);
+        let spread_a = running_weight(self.total[d], MEMORY_VALUES);
+        let recent_a = running_weight(self.total[d], STEP_VALUES as f64);
         self.recent[d] += recent_a * (counted - self.recent[d]);
         // A step keeps every value beyond the threshold, on one side; a spike does not.
         let beyond = STEP_SPREADS * rms;
@@ -101,7 +107,7 @@ impl Level {
             self.run[d] = 0;
         } else {
             self.seen[d] += 1;
-            let a = (1.0 / self.seen[d] as f64).max(1.0 / MEMORY_VALUES);
+            let a = running_weight(self.seen[d], MEMORY_VALUES);
             self.level[d] += a * counted;
         }
         deviation
@@ -121,6 +127,21 @@ impl Level {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_running_weight_gives_a_plain_mean_then_a_fixed_memory() {
+        // Updating m += w (y - m) with w = running_weight(n, 8) over y = 1, 2, ... is the plain
+        // mean for the first 8 values, then an exponential mean with weight 1/8.
+        let mut m = 0.0;
+        for n in 1..=8u64 {
+            m += running_weight(n, 8.0) * (n as f64 - m);
+            assert!((m - (n as f64 + 1.0) / 2.0).abs() < 1e-12, "n = {n}: {m}");
+        }
+        assert_eq!(running_weight(9, 8.0), 1.0 / 8.0);
+        assert_eq!(running_weight(1000, 8.0), 1.0 / 8.0);
+        // A count of 0 is taken as the first value, not a division by zero.
+        assert_eq!(running_weight(0, 8.0), 1.0);
+    }
 
     #[test]
     fn a_constant_is_its_own_level_with_no_deviation() {

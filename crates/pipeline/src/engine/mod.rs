@@ -271,11 +271,7 @@ impl Engine {
         for (d, x) in x.iter().enumerate() {
             // About the level: what predicting the level would score.
             let xd = x - self.ingest.level(d);
-            let a = if self.values <= 1 {
-                1.0
-            } else {
-                (1.0 / self.values as f64).max(1.0 / RMS_MEMORY)
-            };
+            let a = level::running_weight(self.values, RMS_MEMORY);
             self.mean_square[d] += a * (xd * xd - self.mean_square[d]);
             let fast = a.max(1.0 / RMS_MEMORY_FAST);
             self.mean_square_fast[d] += fast * (xd * xd - self.mean_square_fast[d]);
