@@ -41,8 +41,9 @@ pub struct PredictorArgs {
     /// (all, 1/(lambda + eps): the conditional mean; --ridge sets eps, 0 = default 1e-3).
     #[arg(long, default_value_t = PredictorConfig::default().mca_weighting)]
     pub mca_weighting: McaWeighting,
-    /// Wiener: how the weights are estimated, autocorrelation (the paper's Yule-Walker) or
-    /// least-squares (over the training segment's forecast origins; not in the paper).
+    /// Wiener: how the weights are estimated, autocorrelation (the paper's Yule-Walker),
+    /// least-squares (over the training segment's forecast origins) or guarded (least squares
+    /// held near the autocorrelation fit's forecast; the service's default).
     #[arg(long, default_value_t = PredictorConfig::default().wiener_fit)]
     pub wiener_fit: WienerFit,
     /// AR: normalised LMS instead of plain LMS.

@@ -410,13 +410,21 @@ mod tests {
     fn wiener_conforms() {
         check_all(Method::Wiener);
     }
-    #[test]
-    fn wiener_least_squares_conforms() {
-        let least_squares = PredictorConfig {
-            wiener_fit: crate::WienerFit::LeastSquares,
+    /// The Wiener predictor fitted the way `fit` says.
+    fn wiener_fitted_by(fit: crate::WienerFit) {
+        let config = PredictorConfig {
+            wiener_fit: fit,
             ..config()
         };
-        check_all_with(Method::Wiener, &least_squares);
+        check_all_with(Method::Wiener, &config);
+    }
+    #[test]
+    fn wiener_least_squares_conforms() {
+        wiener_fitted_by(crate::WienerFit::LeastSquares);
+    }
+    #[test]
+    fn wiener_guarded_conforms() {
+        wiener_fitted_by(crate::WienerFit::Guarded);
     }
     #[test]
     fn ar_conforms() {

@@ -7,11 +7,12 @@
 //! (positive definite by construction); `from_autocorrelation` takes an exact one, e.g. from a
 //! wave spectrum, to compute the optimal linear predictor the other methods are measured against.
 //! With `wiener_fit = least-squares` the same predictor is fitted by least squares over the
-//! training segment's origins instead (`wiener_ls.rs`; not the paper's).
+//! training segment's origins instead, and with `guarded` each forecast of that fit is held
+//! near the autocorrelation fit's (`wiener_ls.rs`; neither is the paper's).
 
 use super::levinson::{solve_toeplitz, workspace_len};
 use super::linear_map::LinearMap;
-use super::wiener_ls::{least_squares_coefficients, values_needed, WienerFit};
+use super::wiener_ls::{least_squares_from, FitGram, Guard, WienerFit};
 use super::{
     check_forecast_buffers, check_training, Method, PredictError, Predictor, PredictorConfig,
 };
@@ -29,6 +30,9 @@ pub struct WienerPredictor {
     fit: WienerFit,
     /// `None` until fitted.
     coefficients: Option<LinearMap>,
+    /// `fit = guarded`: the band around the autocorrelation fit that forecasts are held in.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    guard: Option<Guard>,
 }
 
 impl WienerPredictor {
@@ -40,6 +44,7 @@ impl WienerPredictor {
             horizon: config.horizon,
             fit: config.wiener_fit,
             coefficients: None,
+            guard: None,
         })
     }
 
@@ -66,6 +71,7 @@ impl WienerPredictor {
             horizon,
             fit: WienerFit::Autocorrelation,
             coefficients: Some(solve_coefficients(r, order, horizon)?),
+            guard: None,
         })
     }
 
@@ -93,7 +99,10 @@ impl WienerPredictor {
                 self.horizon,
                 self.order
             )),
-            _ => Ok(()),
+            _ => match &self.guard {
+                Some(guard) => guard.validate(self.order, self.horizon),
+                None => Ok(()),
+            },
         }
     }
 }
@@ -153,18 +162,26 @@ impl Predictor for WienerPredictor {
 
     fn fit(&mut self, train: &[f64]) -> Result<(), PredictError> {
         let lags = self.order + self.horizon;
-        self.coefficients = Some(match self.fit {
-            WienerFit::Autocorrelation => {
-                check_training(Method::Wiener, self.order, lags, train)?;
-                let r = biased_autocorrelation(train, lags);
-                solve_coefficients(&r, self.order, self.horizon)?
+        let autocorrelation_fit = || -> Result<LinearMap, PredictError> {
+            let r = biased_autocorrelation(train, lags);
+            solve_coefficients(&r, self.order, self.horizon)
+        };
+        let needed = self.fit.training_values(self.order, self.horizon);
+        check_training(Method::Wiener, self.order, needed, train)?;
+        let (coefficients, guard) = match self.fit {
+            WienerFit::Autocorrelation => (autocorrelation_fit()?, None),
+            WienerFit::LeastSquares | WienerFit::Guarded => {
+                let gram = FitGram::new(train, self.order, self.horizon)?;
+                let sharp = least_squares_from(&gram)?;
+                let guard = match self.fit {
+                    WienerFit::Guarded => Some(Guard::fit(&gram, &sharp, autocorrelation_fit()?)?),
+                    _ => None,
+                };
+                (sharp, guard)
             }
-            WienerFit::LeastSquares => {
-                let needed = values_needed(self.order, self.horizon);
-                check_training(Method::Wiener, self.order, needed, train)?;
-                least_squares_coefficients(train, self.order, self.horizon)?
-            }
-        });
+        };
+        self.coefficients = Some(coefficients);
+        self.guard = guard;
         Ok(())
     }
 
@@ -175,12 +192,18 @@ impl Predictor for WienerPredictor {
             .ok_or(PredictError::NotFitted(Method::Wiener))?;
         check_forecast_buffers(self.order, self.horizon, past, out)?;
         map.apply_prepared(&past[past.len() - self.order..], out);
+        if let Some(guard) = self.guard.as_mut() {
+            guard.hold(past, out);
+        }
         Ok(())
     }
 
     fn prepare(&mut self, known: &[f64]) -> Result<(), PredictError> {
         if let Some(map) = self.coefficients.as_mut() {
             map.prepare(known);
+        }
+        if let Some(guard) = self.guard.as_mut() {
+            guard.prepare(known);
         }
         Ok(())
     }

@@ -8,8 +8,10 @@
 //! steady sea (ship motion is smooth and very predictable a few seconds ahead) and buys
 //! robustness: the fit never leans on frequencies the segment did not hold. The least-squares
 //! fit does lean on them, so it is sharper while the sea stays as it was and wild for a while
-//! after it changes. Both measured in docs/forecasting.md ("How the weights are estimated");
-//! the service keeps the paper's estimate by default.
+//! after it changes. `Guard` holds it near the autocorrelation fit's forecast, which keeps the
+//! sharpness on the sea both fits know and the robustness off it; that is the service's default
+//! (`WienerFit::Guarded`). All three measured in docs/forecasting.md ("How the weights are
+//! estimated").
 //!
 //! The normal equations `A w_h = b_h` share one `order x order` matrix for all steps (every
 //! step is fitted on the same origins), so the cost is one Gram matrix of the lagged values,
@@ -31,6 +33,9 @@ pub enum WienerFit {
     Autocorrelation,
     /// Least squares over the training segment's forecast origins (not in the paper).
     LeastSquares,
+    /// Least squares held step by step within a band around the autocorrelation fit's
+    /// forecast (`Guard`; not in the paper).
+    Guarded,
 }
 
 impl WienerFit {
@@ -39,6 +44,18 @@ impl WienerFit {
         match self {
             WienerFit::Autocorrelation => "autocorrelation",
             WienerFit::LeastSquares => "least-squares",
+            WienerFit::Guarded => "guarded",
+        }
+    }
+}
+
+impl WienerFit {
+    /// Training values a fit of `order` and `horizon` needs: the autocorrelation's lags, or
+    /// the least-squares fit's origins (`values_needed`).
+    pub const fn training_values(self, order: usize, horizon: usize) -> usize {
+        match self {
+            WienerFit::Autocorrelation => order + horizon,
+            WienerFit::LeastSquares | WienerFit::Guarded => values_needed(order, horizon),
         }
     }
 }
@@ -55,8 +72,9 @@ impl std::str::FromStr for WienerFit {
         match s.trim().to_ascii_lowercase().as_str() {
             "autocorrelation" => Ok(WienerFit::Autocorrelation),
             "least-squares" => Ok(WienerFit::LeastSquares),
+            "guarded" => Ok(WienerFit::Guarded),
             _ => Err(format!(
-                "unknown Wiener fit '{s}' (expected autocorrelation or least-squares)"
+                "unknown Wiener fit '{s}' (expected autocorrelation, least-squares or guarded)"
             )),
         }
     }
@@ -111,13 +129,33 @@ fn lagged_gram(x: &[f64], first: usize, last: usize, lead: usize, size: usize) -
     gram
 }
 
-/// The least-squares weights of every step `1..=horizon` for a predictor of `order` past values,
-/// fitted on `x` (oldest first), as a matrix over the past window in chronological order.
-pub fn least_squares_coefficients(
-    x: &[f64],
+/// The Gram matrix of a fit of `order` and `horizon` on `x`, over its forecast origins
+/// `t = order - 1 ..= len - 1 - horizon`, with `z_t(k) = x[t + horizon - k]`: `k < horizon` are
+/// the targets `x[t + horizon] .. x[t + 1]`, `k = horizon + l` the past value `x[t - l]`.
+/// Both the least-squares weights and their `Guard` are read off it.
+pub struct FitGram {
     order: usize,
     horizon: usize,
-) -> Result<LinearMap, PredictError> {
+    /// Row-major, `order + horizon` square.
+    gram: Vec<f64>,
+    origins: usize,
+}
+
+impl FitGram {
+    /// The Gram matrix of a fit of `order` and `horizon` on `x`.
+    pub fn new(x: &[f64], order: usize, horizon: usize) -> Result<Self, PredictError> {
+        let (gram, origins) = fit_gram(x, order, horizon)?;
+        Ok(Self {
+            order,
+            horizon,
+            gram,
+            origins,
+        })
+    }
+}
+
+/// The matrix of [`FitGram`] (row-major, `order + horizon` square) and the number of origins.
+fn fit_gram(x: &[f64], order: usize, horizon: usize) -> Result<(Vec<f64>, usize), PredictError> {
     let needed = values_needed(order, horizon);
     if x.len() < needed {
         return Err(PredictError::Length(format!(
@@ -126,9 +164,6 @@ pub fn least_squares_coefficients(
             x.len()
         )));
     }
-    // Origins t: order - 1 values before each, horizon after. z_t(k) = x[t + horizon - k]:
-    // k = 0 .. horizon - 1 are the targets x[t + horizon] .. x[t + 1], k = horizon + l is the
-    // past value x[t - l].
     let (first, last) = (order - 1, x.len() - 1 - horizon);
     let size = order + horizon;
     let gram = if first == 0 {
@@ -146,6 +181,23 @@ pub fn least_squares_coefficients(
     } else {
         lagged_gram(x, first, last, horizon, size)
     };
+    Ok((gram, last - first + 1))
+}
+
+/// The least-squares weights of every step `1..=horizon` for a predictor of `order` past values,
+/// fitted on `x` (oldest first), as a matrix over the past window in chronological order.
+pub fn least_squares_coefficients(
+    x: &[f64],
+    order: usize,
+    horizon: usize,
+) -> Result<LinearMap, PredictError> {
+    least_squares_from(&FitGram::new(x, order, horizon)?)
+}
+
+/// The least-squares weights read off a fit's Gram matrix.
+pub fn least_squares_from(fit: &FitGram) -> Result<LinearMap, PredictError> {
+    let (order, horizon, gram) = (fit.order, fit.horizon, &fit.gram);
+    let size = order + horizon;
     let past = |l: usize| horizon + l;
     let a = Mat::from_fn(order, order, |i, j| gram[past(i) * size + past(j)]);
     // b[l][h-1] = sum_t x[t - l] x[t + h] = G[horizon + l][horizon - h].
@@ -183,6 +235,148 @@ pub fn least_squares_coefficients(
          ridge of 1e-6"
             .into(),
     ))
+}
+
+/// How far, in RMS differences over the training origins, a guarded forecast may stray from
+/// its reference (`Guard`).
+pub const GUARD_SPREADS: f64 = 3.0;
+
+/// A band around a reference forecast (the autocorrelation fit's) that a sharper forecast (the
+/// least-squares fit's) is held in, step by step.
+///
+/// On the sea they were fitted on, the two forecasts differ by a typical amount per step,
+/// measured on the training origins; a sharper forecast that leaves the reference by several
+/// times that is extrapolating from a sea it has not seen (after a turn, the least-squares
+/// forecasts left it within seconds and missed by up to 9 std). `GUARD_SPREADS` of those RMS
+/// differences bound it, so the guarded forecast is the sharper one on the sea both know and
+/// stays near the robust one off it.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(from = "GuardFile", into = "GuardFile")]
+pub struct Guard {
+    /// The reference fit on the same segment, `horizon x order`.
+    reference: LinearMap,
+    /// Per step, the largest distance of the delivered forecast from the reference's.
+    band: Vec<f64>,
+    /// The reference's forecast, one value per step: sized with the band, so holding a
+    /// forecast never allocates.
+    scratch: Vec<f64>,
+}
+
+/// A guard as a model file holds it.
+#[derive(Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct GuardFile {
+    reference: LinearMap,
+    band: Vec<f64>,
+}
+
+impl From<GuardFile> for Guard {
+    fn from(f: GuardFile) -> Self {
+        Guard::new(f.reference, f.band)
+    }
+}
+
+impl From<Guard> for GuardFile {
+    fn from(g: Guard) -> Self {
+        GuardFile {
+            reference: g.reference,
+            band: g.band,
+        }
+    }
+}
+
+impl Guard {
+    /// A guard of `reference` with `band` per step.
+    pub fn new(reference: LinearMap, band: Vec<f64>) -> Self {
+        let scratch = vec![0.0; band.len()];
+        Self {
+            reference,
+            band,
+            scratch,
+        }
+    }
+
+    /// Per step, the largest distance of the delivered forecast from the reference's.
+    pub fn band(&self) -> &[f64] {
+        &self.band
+    }
+
+    /// The guard of `delivered` against `reference`, both fitted on the window of `fit`: per
+    /// step, `GUARD_SPREADS` times the RMS over its origins of the difference of their
+    /// forecasts (from the past block of its Gram matrix).
+    pub fn fit(
+        fit: &FitGram,
+        delivered: &LinearMap,
+        reference: LinearMap,
+    ) -> Result<Self, PredictError> {
+        let (order, horizon, gram, origins) = (fit.order, fit.horizon, &fit.gram, fit.origins);
+        if (delivered.rows(), delivered.cols()) != (horizon, order)
+            || (reference.rows(), reference.cols()) != (horizon, order)
+        {
+            return Err(PredictError::Length(format!(
+                "a Wiener guard of order {order} and horizon {horizon} needs two {horizon} x {order} maps"
+            )));
+        }
+        let size = order + horizon;
+        let mut difference = vec![0.0; order];
+        let band = (0..horizon)
+            .map(|h| {
+                // In lag order: lag l is column order - 1 - l.
+                for (l, dw) in difference.iter_mut().enumerate() {
+                    *dw = delivered.row(h)[order - 1 - l] - reference.row(h)[order - 1 - l];
+                }
+                let mut quadratic = 0.0;
+                for (i, di) in difference.iter().enumerate() {
+                    let row = &gram[(horizon + i) * size + horizon..(horizon + i) * size + size];
+                    quadratic += di
+                        * row
+                            .iter()
+                            .zip(&difference)
+                            .map(|(g, dj)| g * dj)
+                            .sum::<f64>();
+                }
+                GUARD_SPREADS * (quadratic.max(0.0) / origins as f64).sqrt()
+            })
+            .collect::<Vec<f64>>();
+        if band.iter().any(|b| !b.is_finite()) {
+            return Err(PredictError::Numerical(
+                "guarded Wiener fit: the band is not finite".into(),
+            ));
+        }
+        Ok(Self::new(reference, band))
+    }
+
+    /// Hold each step of `out` (forecast from the last `order` values of `past`) within the
+    /// band around the reference's forecast from the same values. Never allocates.
+    pub fn hold(&mut self, past: &[f64], out: &mut [f64]) {
+        let window = &past[past.len() - self.reference.cols()..];
+        self.reference.apply_prepared(window, &mut self.scratch);
+        for ((o, reference), band) in out.iter_mut().zip(&self.scratch).zip(&self.band) {
+            *o = o.clamp(reference - band, reference + band);
+        }
+    }
+
+    /// The reference's share of `Predictor::prepare`.
+    pub fn prepare(&mut self, known: &[f64]) {
+        self.reference.prepare(known);
+    }
+
+    /// What a model file's guard must satisfy for a predictor of `order` and `horizon`.
+    pub fn validate(&self, order: usize, horizon: usize) -> Result<(), String> {
+        if (self.reference.rows(), self.reference.cols()) != (horizon, order) {
+            return Err(format!(
+                "Wiener guard reference is {} x {}; horizon {horizon} and order {order} need {horizon} x {order}",
+                self.reference.rows(),
+                self.reference.cols()
+            ));
+        }
+        if self.band.len() != horizon || self.band.iter().any(|b| !(b.is_finite() && *b >= 0.0)) {
+            return Err(format!(
+                "Wiener guard band must hold {horizon} finite values >= 0"
+            ));
+        }
+        Ok(())
+    }
 }
 
 #[cfg(test)]
@@ -319,9 +513,96 @@ mod tests {
         assert_eq!(back["fit"], "autocorrelation");
     }
 
+    /// A map of `rows x cols` with entries from `seed`.
+    fn random_map(rows: usize, cols: usize, seed: u64) -> LinearMap {
+        LinearMap::from_row_major(rows, cols, white(rows * cols, seed)).unwrap()
+    }
+
+    #[test]
+    fn the_band_is_the_rms_difference_of_the_two_forecasts_over_the_training_origins() {
+        let x = white(500, 5);
+        let (order, horizon) = (8, 4);
+        let (a, b) = (random_map(horizon, order, 6), random_map(horizon, order, 7));
+        let guard = Guard::fit(&FitGram::new(&x, order, horizon).unwrap(), &a, b.clone()).unwrap();
+        // Directly: every origin t = order - 1 ..= len - 1 - horizon, window x[t-order+1 ..= t].
+        for h in 0..horizon {
+            let origins = order - 1..x.len() - horizon;
+            let n = origins.len() as f64;
+            let mean_square = origins
+                .map(|t| {
+                    let w = &x[t + 1 - order..=t];
+                    let d: f64 = (0..order).map(|j| (a.row(h)[j] - b.row(h)[j]) * w[j]).sum();
+                    d * d
+                })
+                .sum::<f64>()
+                / n;
+            let expect = GUARD_SPREADS * mean_square.sqrt();
+            assert!(
+                (guard.band()[h] - expect).abs() < 1e-9 * expect,
+                "step {}: {} vs {expect}",
+                h + 1,
+                guard.band()[h]
+            );
+        }
+    }
+
+    #[test]
+    fn a_forecast_is_held_within_the_band_and_left_alone_inside_it() {
+        // Reference: step 1 repeats the newest value, step 2 forecasts 0; bands 1 and 0.5.
+        let reference = LinearMap::from_row_major(2, 2, vec![0.0, 1.0, 0.0, 0.0]).unwrap();
+        let mut guard = Guard::new(reference, vec![1.0, 0.5]);
+        let past = [7.0, 3.0, 10.0];
+        let mut out = [10.4, -0.2, 99.0];
+        guard.hold(&past, &mut out);
+        assert_eq!(
+            out,
+            [10.4, -0.2, 99.0],
+            "inside the band, and past the horizon"
+        );
+        let mut out = [20.0, -3.0];
+        guard.hold(&past, &mut out);
+        assert_eq!(out, [11.0, -0.5]);
+        // A guard of a fit against itself has no band: the forecast is the reference's.
+        let x = white(300, 8);
+        let same = random_map(3, 5, 9);
+        let guard = Guard::fit(&FitGram::new(&x, 5, 3).unwrap(), &same, same.clone()).unwrap();
+        assert!(guard.band().iter().all(|b| *b == 0.0), "{:?}", guard.band());
+    }
+
+    #[test]
+    fn a_model_file_guard_of_the_wrong_shape_is_refused() {
+        let guard = Guard::new(random_map(3, 5, 10), vec![1.0; 3]);
+        assert!(guard.validate(5, 3).is_ok());
+        assert!(guard.validate(4, 3).unwrap_err().contains("3 x 5"));
+        let short = Guard::new(random_map(3, 5, 10), vec![1.0; 2]);
+        assert!(short
+            .validate(5, 3)
+            .unwrap_err()
+            .contains("3 finite values"));
+        let negative = Guard::new(random_map(3, 5, 10), vec![1.0, -1.0, 1.0]);
+        assert!(negative.validate(5, 3).is_err());
+        // Through a model file: a hand-edited band of the wrong length is refused on load.
+        let config = crate::PredictorConfig {
+            order: 5,
+            horizon: 3,
+            wiener_fit: WienerFit::Guarded,
+            ..crate::PredictorConfig::default()
+        };
+        let mut p = crate::WienerPredictor::new(&config).unwrap();
+        crate::Predictor::fit(&mut p, &white(200, 11)).unwrap();
+        let mut json = serde_json::to_value(&p).unwrap();
+        json["guard"]["band"] = serde_json::json!([1.0, 1.0]);
+        let err = serde_json::from_value::<crate::WienerPredictor>(json).unwrap_err();
+        assert!(err.to_string().contains("3 finite values"), "{err}");
+    }
+
     #[test]
     fn names_round_trip() {
-        for fit in [WienerFit::Autocorrelation, WienerFit::LeastSquares] {
+        for fit in [
+            WienerFit::Autocorrelation,
+            WienerFit::LeastSquares,
+            WienerFit::Guarded,
+        ] {
             assert_eq!(fit.name().parse::<WienerFit>().unwrap(), fit);
         }
         assert!("yule".parse::<WienerFit>().is_err());

@@ -158,7 +158,7 @@ fn method_sections_apply_to_their_method_only() {
         ),
         (
             "[predictor.wiener]\nfit = \"yule-walker\"",
-            "expected `autocorrelation` or `least-squares`",
+            "expected one of `autocorrelation`, `least-squares`, `guarded`",
         ),
     ] {
         let err = PipelineConfig::from_toml(text, Path::new("p.toml"))
@@ -193,7 +193,7 @@ fn method_sections_apply_to_their_method_only() {
         (McaWeighting::Inverse, 2, true)
     );
     assert_eq!(pc.lms_gain, PredictorConfig::default().lms_gain);
-    assert_eq!(pc.wiener_fit, WienerFit::Autocorrelation);
+    assert_eq!(pc.wiener_fit, WienerFit::Guarded);
     let c = PipelineConfig::from_toml(
         "[predictor.wiener]\nfit = \"least-squares\"",
         Path::new("p.toml"),

@@ -12,7 +12,7 @@ use crate::config::PredictorServiceConfig;
 use anyhow::Context;
 use shipcast_eval::model::ModelFile;
 use shipcast_eval::{EvalError, OnlineFeed};
-use shipcast_predict::{AnyPredictor, Method, Predictor, WienerFit};
+use shipcast_predict::{AnyPredictor, Method, Predictor};
 use shipcast_wire::payload::{MAX_STEPS, NUM_DOF};
 use shipcast_wire::Dof;
 use std::path::Path;
@@ -155,15 +155,12 @@ fn feasible(
     })
 }
 
-/// Training values a fit of `order` needs: `TRAIN_PER_ORDER` per order, and for a
-/// least-squares Wiener fit enough forecast origins per weight as well.
+/// Training values a fit of `order` needs: `TRAIN_PER_ORDER` per order, and a Wiener fit's own
+/// need as well (a least-squares fit's origins per weight).
 fn training_values_needed(config: &PredictorServiceConfig, order: usize) -> usize {
     let per_order = TRAIN_PER_ORDER * order;
-    if config.method == Method::Wiener && config.wiener_fit() == WienerFit::LeastSquares {
-        per_order.max(shipcast_predict::wiener_ls::values_needed(
-            order,
-            config.horizon,
-        ))
+    if config.method == Method::Wiener {
+        per_order.max(config.wiener_fit().training_values(order, config.horizon))
     } else {
         per_order
     }
@@ -423,6 +420,7 @@ pub fn load(path: &Path, sample_rate_hz: f64) -> anyhow::Result<ModelSet> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use shipcast_predict::WienerFit;
 
     fn config(
         method: Method,
@@ -475,10 +473,15 @@ mod tests {
         let mut c = config(Method::Wiener, 25, 50, 135);
         let orders =
             |c: &PredictorServiceConfig, train: usize| feasible_orders(c, train + 135, 135);
+        let wiener = |fit| Some(crate::config::WienerSettings { fit });
+        c.wiener = wiener(WienerFit::Autocorrelation);
         assert_eq!(orders(&c, 100), vec![25], "the paper's estimate");
-        c.wiener = Some(crate::config::WienerSettings {
-            fit: WienerFit::LeastSquares,
-        });
+        c.wiener = wiener(WienerFit::Guarded);
+        assert!(
+            orders(&c, 123).is_empty(),
+            "the default, guarded least squares"
+        );
+        c.wiener = wiener(WienerFit::LeastSquares);
         assert!(orders(&c, 123).is_empty());
         assert_eq!(orders(&c, 124), vec![25]);
         // A window the engine fits on (a third held out) gets a working least-squares fit.
