@@ -173,10 +173,9 @@ impl Predictor for WienerPredictor {
             WienerFit::LeastSquares | WienerFit::Guarded => {
                 let gram = FitGram::new(train, self.order, self.horizon)?;
                 let sharp = least_squares_from(&gram)?;
-                let guard = match self.fit {
-                    WienerFit::Guarded => Some(Guard::fit(&gram, &sharp, autocorrelation_fit()?)?),
-                    _ => None,
-                };
+                let guard = (self.fit == WienerFit::Guarded)
+                    .then(|| Guard::fit(&gram, &sharp, autocorrelation_fit()?))
+                    .transpose()?;
                 (sharp, guard)
             }
         };
@@ -191,9 +190,10 @@ impl Predictor for WienerPredictor {
             .as_mut()
             .ok_or(PredictError::NotFitted(Method::Wiener))?;
         check_forecast_buffers(self.order, self.horizon, past, out)?;
-        map.apply_prepared(&past[past.len() - self.order..], out);
+        let window = &past[past.len() - self.order..];
+        map.apply_prepared(window, out);
         if let Some(guard) = self.guard.as_mut() {
-            guard.hold(past, out);
+            guard.hold(window, out);
         }
         Ok(())
     }

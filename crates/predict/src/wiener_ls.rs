@@ -39,6 +39,13 @@ pub enum WienerFit {
 }
 
 impl WienerFit {
+    /// Every fit, in the order help texts list them.
+    pub const ALL: [WienerFit; 3] = [
+        WienerFit::Autocorrelation,
+        WienerFit::LeastSquares,
+        WienerFit::Guarded,
+    ];
+
     /// CLI / config name.
     pub const fn name(self) -> &'static str {
         match self {
@@ -47,9 +54,7 @@ impl WienerFit {
             WienerFit::Guarded => "guarded",
         }
     }
-}
 
-impl WienerFit {
     /// Training values a fit of `order` and `horizon` needs: the autocorrelation's lags, or
     /// the least-squares fit's origins (`values_needed`).
     pub const fn training_values(self, order: usize, horizon: usize) -> usize {
@@ -69,14 +74,15 @@ impl std::fmt::Display for WienerFit {
 impl std::str::FromStr for WienerFit {
     type Err = String;
     fn from_str(s: &str) -> Result<Self, Self::Err> {
-        match s.trim().to_ascii_lowercase().as_str() {
-            "autocorrelation" => Ok(WienerFit::Autocorrelation),
-            "least-squares" => Ok(WienerFit::LeastSquares),
-            "guarded" => Ok(WienerFit::Guarded),
-            _ => Err(format!(
-                "unknown Wiener fit '{s}' (expected autocorrelation, least-squares or guarded)"
-            )),
-        }
+        let lower = s.trim().to_ascii_lowercase();
+        WienerFit::ALL
+            .into_iter()
+            .find(|f| f.name() == lower)
+            .ok_or_else(|| {
+                format!(
+                    "unknown Wiener fit '{s}' (expected autocorrelation, least-squares or guarded)"
+                )
+            })
     }
 }
 
@@ -87,7 +93,7 @@ impl std::str::FromStr for WienerFit {
 const RIDGES: [f64; 2] = [1e-9, 1e-6];
 
 /// Forecast origins per weight at least: with fewer, the least-squares fit follows the
-/// training segment's noise (`origins_needed`).
+/// training segment's noise (`values_needed`).
 pub const ORIGINS_PER_ORDER: usize = 2;
 
 /// Training values a least-squares fit of `order` and `horizon` needs: `ORIGINS_PER_ORDER`
@@ -104,20 +110,21 @@ pub const fn values_needed(order: usize, horizon: usize) -> usize {
 /// because shifting both lags by one shifts the origins by one. `O(size * origins + size^2)`
 /// instead of `O(size^2 * origins)`.
 ///
-/// The caller guarantees `first + lead >= size - 1` (hence `first >= 1` or `size == lead + 1`)
-/// and `last + lead < x.len()`, so every index is inside `x`.
+/// The caller guarantees `first + lead >= size - 1` and `last + lead < x.len()`, so every index
+/// is inside `x` (the origin before the first, `first - 1`, may be -1: only its values at lags
+/// `k <= size - 2` are read, at `first + lead - 1 - k >= 0`).
 fn lagged_gram(x: &[f64], first: usize, last: usize, lead: usize, size: usize) -> Vec<f64> {
     let mut gram = vec![0.0; size * size];
     for l in 0..size {
         gram[l] = (first..=last).map(|t| x[t + lead] * x[t + lead - l]).sum();
     }
-    // The value of z at origin t and lag k; t = first - 1 is only read for k >= 1 below, and
-    // first + lead - 1 - k >= 0 there by the caller's guarantee.
-    let z = |t: usize, k: usize| x[t + lead - k];
+    // The values of z at the origin before the first and at the last origin, at lag k.
+    let before = |k: usize| x[first + lead - 1 - k];
+    let at_last = |k: usize| x[last + lead - k];
     for k in 0..size - 1 {
         for l in k..size - 1 {
-            let entering = z(first - 1, k) * z(first - 1, l);
-            let leaving = z(last, k) * z(last, l);
+            let entering = before(k) * before(l);
+            let leaving = at_last(k) * at_last(l);
             gram[(k + 1) * size + l + 1] = gram[k * size + l] + entering - leaving;
         }
     }
@@ -144,57 +151,26 @@ pub struct FitGram {
 impl FitGram {
     /// The Gram matrix of a fit of `order` and `horizon` on `x`.
     pub fn new(x: &[f64], order: usize, horizon: usize) -> Result<Self, PredictError> {
-        let (gram, origins) = fit_gram(x, order, horizon)?;
+        let needed = values_needed(order, horizon);
+        if x.len() < needed {
+            return Err(PredictError::Length(format!(
+                "a least-squares Wiener fit of order {order} and horizon {horizon} needs {needed} \
+                 training values ({ORIGINS_PER_ORDER} forecast origins per weight), got {}",
+                x.len()
+            )));
+        }
+        let (first, last) = (order - 1, x.len() - 1 - horizon);
         Ok(Self {
             order,
             horizon,
-            gram,
-            origins,
+            gram: lagged_gram(x, first, last, horizon, order + horizon),
+            origins: last - first + 1,
         })
     }
 }
 
-/// The matrix of [`FitGram`] (row-major, `order + horizon` square) and the number of origins.
-fn fit_gram(x: &[f64], order: usize, horizon: usize) -> Result<(Vec<f64>, usize), PredictError> {
-    let needed = values_needed(order, horizon);
-    if x.len() < needed {
-        return Err(PredictError::Length(format!(
-            "a least-squares Wiener fit of order {order} and horizon {horizon} needs {needed} \
-             training values ({ORIGINS_PER_ORDER} forecast origins per weight), got {}",
-            x.len()
-        )));
-    }
-    let (first, last) = (order - 1, x.len() - 1 - horizon);
-    let size = order + horizon;
-    let gram = if first == 0 {
-        // One past value: no origin before the first, so no recursion (and size == horizon + 1
-        // would read x[-1] for the entering term); sum every entry directly.
-        let mut g = vec![0.0; size * size];
-        for k in 0..size {
-            for l in 0..size {
-                g[k * size + l] = (first..=last)
-                    .map(|t| x[t + horizon - k] * x[t + horizon - l])
-                    .sum();
-            }
-        }
-        g
-    } else {
-        lagged_gram(x, first, last, horizon, size)
-    };
-    Ok((gram, last - first + 1))
-}
-
-/// The least-squares weights of every step `1..=horizon` for a predictor of `order` past values,
-/// fitted on `x` (oldest first), as a matrix over the past window in chronological order.
-pub fn least_squares_coefficients(
-    x: &[f64],
-    order: usize,
-    horizon: usize,
-) -> Result<LinearMap, PredictError> {
-    least_squares_from(&FitGram::new(x, order, horizon)?)
-}
-
-/// The least-squares weights read off a fit's Gram matrix.
+/// The least-squares weights of every step `1..=horizon` read off a fit's Gram matrix, as a
+/// matrix over the past window in chronological order.
 pub fn least_squares_from(fit: &FitGram) -> Result<LinearMap, PredictError> {
     let (order, horizon, gram) = (fit.order, fit.horizon, &fit.gram);
     let size = order + horizon;
@@ -346,10 +322,9 @@ impl Guard {
         Ok(Self::new(reference, band))
     }
 
-    /// Hold each step of `out` (forecast from the last `order` values of `past`) within the
+    /// Hold each step of `out` (forecast from `window`, the last `order` values) within the
     /// band around the reference's forecast from the same values. Never allocates.
-    pub fn hold(&mut self, past: &[f64], out: &mut [f64]) {
-        let window = &past[past.len() - self.reference.cols()..];
+    pub fn hold(&mut self, window: &[f64], out: &mut [f64]) {
         self.reference.apply_prepared(window, &mut self.scratch);
         for ((o, reference), band) in out.iter_mut().zip(&self.scratch).zip(&self.band) {
             *o = o.clamp(reference - band, reference + band);
@@ -386,6 +361,15 @@ mod tests {
     use rand::SeedableRng;
     use rand_distr::{Distribution, StandardNormal};
 
+    /// The least-squares weights of a fit of `order` and `horizon` on `x`.
+    fn least_squares_coefficients(
+        x: &[f64],
+        order: usize,
+        horizon: usize,
+    ) -> Result<LinearMap, PredictError> {
+        least_squares_from(&FitGram::new(x, order, horizon)?)
+    }
+
     fn white(n: usize, seed: u64) -> Vec<f64> {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
         (0..n).map(|_| StandardNormal.sample(&mut rng)).collect()
@@ -394,18 +378,20 @@ mod tests {
     #[test]
     fn the_gram_recursion_equals_the_direct_sums() {
         let x = white(300, 1);
-        let (first, last, lead, size) = (9, 260, 30, 40);
-        let g = lagged_gram(&x, first, last, lead, size);
-        for k in 0..size {
-            for l in 0..size {
-                let direct: f64 = (first..=last)
-                    .map(|t| x[t + lead - k] * x[t + lead - l])
-                    .sum();
-                assert!(
-                    (g[k * size + l] - direct).abs() < 1e-9 * direct.abs().max(1.0),
-                    "({k}, {l}): {} vs {direct}",
-                    g[k * size + l]
-                );
+        // The second case is one past value: the origin before the first is -1.
+        for (first, last, lead, size) in [(9, 260, 30, 40), (0, 269, 30, 31)] {
+            let g = lagged_gram(&x, first, last, lead, size);
+            for k in 0..size {
+                for l in 0..size {
+                    let direct: f64 = (first..=last)
+                        .map(|t| x[t + lead - k] * x[t + lead - l])
+                        .sum();
+                    assert!(
+                        (g[k * size + l] - direct).abs() < 1e-9 * direct.abs().max(1.0),
+                        "first {first}, ({k}, {l}): {} vs {direct}",
+                        g[k * size + l]
+                    );
+                }
             }
         }
     }
@@ -457,7 +443,7 @@ mod tests {
     }
 
     #[test]
-    fn order_one_has_no_recursion_and_is_still_exact() {
+    fn order_one_is_exact() {
         let x = white(200, 4);
         let map = least_squares_coefficients(&x, 1, 2).unwrap();
         for h in 1..=2 {
@@ -551,16 +537,17 @@ mod tests {
         // Reference: step 1 repeats the newest value, step 2 forecasts 0; bands 1 and 0.5.
         let reference = LinearMap::from_row_major(2, 2, vec![0.0, 1.0, 0.0, 0.0]).unwrap();
         let mut guard = Guard::new(reference, vec![1.0, 0.5]);
-        let past = [7.0, 3.0, 10.0];
+        // The forecast's window: the last two values, the newest 10.
+        let window = [3.0, 10.0];
         let mut out = [10.4, -0.2, 99.0];
-        guard.hold(&past, &mut out);
+        guard.hold(&window, &mut out);
         assert_eq!(
             out,
             [10.4, -0.2, 99.0],
             "inside the band, and past the horizon"
         );
         let mut out = [20.0, -3.0];
-        guard.hold(&past, &mut out);
+        guard.hold(&window, &mut out);
         assert_eq!(out, [11.0, -0.5]);
         // A guard of a fit against itself has no band: the forecast is the reference's.
         let x = white(300, 8);
