@@ -4,9 +4,18 @@
 //! little later or earlier and through other RAOs. The variance of the relative error is
 //! var_A + var_B - 2 cov(A, B), and neither the covariance nor how well each ship's sigma
 //! holds at the other ship's point is known in advance. So for each axis and step the relative
-//! sigma is the independent one, sqrt(var_A + var_B), times
-//! sqrt(sum of verified e_rel^2 / sum of the independent variances of those forecasts),
-//! exponentially weighted over verified forecasts (half-life in forecasts). Only forecasts whose
+//! sigma is the independent one, sqrt(var_A + var_B), times the root of the mean of the
+//! verified forecasts' e_rel^2 / (var_A + var_B), exponentially weighted over them (half-life in
+//! forecasts): the scale that makes the standardised relative error's mean square 1.
+//!
+//! Why the mean of the ratios and not the ratio of the sums (sum of e_rel^2 over sum of var_A +
+//! var_B, what this was until 2026-12-05): the two ships' sigmas move with their own live
+//! errors (for example while a change detector has widened one of them), and the relative
+//! error of two strongly correlated points need not follow. The ratio of sums is then set by
+//! the forecasts whose independent sigma is widest, and the others get a sigma too narrow: with
+//! B 15 m ahead, +-1 sigma covered 51-52 % of the relative errors across at 5 s (83-84 % within
+//! +-2 sigma) on seeds 1 and 2; with the mean of the ratios 63-70 % (93-97 %) at every lead and axis of
+//! the four geometries of `scripts/two_ship_study.py`. Only forecasts whose
 //! every step has been observed are verified (the caller feeds them in time order: causal).
 //! Until a step has `min_weight` of verified forecasts behind it, `scale` is None and the
 //! independent sigma stands. The correlation of the two ships' errors is estimated alongside,
@@ -15,16 +24,25 @@
 use super::RelativeTrack;
 use shipcast_wire::payload::MAX_STEPS;
 
+/// Largest standardised squared error one forecast adds (|e_rel| at 10 sigma). A mean of
+/// ratios is at the mercy of its largest terms: on the two-sine records of `relative::tests`,
+/// whose first forecasts (the start-up model's, before the first fit) are far off, the
+/// uncapped mean held the relative sigma at 0.37 against a relative RMS error of 0.006 (0.029
+/// with the cap). A Gaussian error passes 10 sigma once in 10^23 forecasts, so on the four
+/// geometries' records the cap changes nothing, and 100 is still a hundred honest forecasts'
+/// worth of warning.
+const MAX_Z2: f64 = 100.0;
+
 /// Running, exponentially weighted sums of verified relative forecasts.
 #[derive(Debug, Clone)]
 pub struct SigmaCalibration {
     decay: f64,
     min_weight: f64,
     weight: [f64; MAX_STEPS],
-    /// Squared relative errors.
-    ee: [[f64; MAX_STEPS]; 3],
-    /// Independent variances (var_A + var_B).
-    vv: [[f64; MAX_STEPS]; 3],
+    /// Standardised squared relative errors, e_rel^2 / (var_A + var_B).
+    standardised: [[f64; MAX_STEPS]; 3],
+    /// Forecasts counted in `standardised` (those with a positive independent variance).
+    counted: [[f64; MAX_STEPS]; 3],
     /// Products of the two ships' own point errors (A's tip, B's spot in A's axes).
     aa: [[f64; MAX_STEPS]; 3],
     bb: [[f64; MAX_STEPS]; 3],
@@ -45,8 +63,8 @@ impl SigmaCalibration {
             decay,
             min_weight: min_weight.max(1.0),
             weight: [0.0; MAX_STEPS],
-            ee: [[0.0; MAX_STEPS]; 3],
-            vv: [[0.0; MAX_STEPS]; 3],
+            standardised: [[0.0; MAX_STEPS]; 3],
+            counted: [[0.0; MAX_STEPS]; 3],
             aa: [[0.0; MAX_STEPS]; 3],
             bb: [[0.0; MAX_STEPS]; 3],
             ab: [[0.0; MAX_STEPS]; 3],
@@ -72,8 +90,11 @@ impl SigmaCalibration {
                 let eb = actual_spot[k][axis] - track.spot.mean[axis][k];
                 let e = ea - eb;
                 let v = track.tip.var[axis][k] + track.spot.var[axis][k];
-                self.ee[axis][k] = d * self.ee[axis][k] + e * e;
-                self.vv[axis][k] = d * self.vv[axis][k] + v;
+                // A step without a positive variance has no standardised error to count.
+                let counts = v > 0.0 && v.is_finite();
+                let z2 = if counts { (e * e / v).min(MAX_Z2) } else { 0.0 };
+                self.standardised[axis][k] = d * self.standardised[axis][k] + z2;
+                self.counted[axis][k] = d * self.counted[axis][k] + f64::from(u8::from(counts));
                 self.aa[axis][k] = d * self.aa[axis][k] + ea * ea;
                 self.bb[axis][k] = d * self.bb[axis][k] + eb * eb;
                 self.ab[axis][k] = d * self.ab[axis][k] + ea * eb;
@@ -88,8 +109,8 @@ impl SigmaCalibration {
 
     /// Factor on the independent sigma of `axis` at step `k`, once enough is verified.
     pub fn scale(&self, axis: usize, k: usize) -> Option<f64> {
-        (k < MAX_STEPS && self.weight[k] >= self.min_weight && self.vv[axis][k] > 0.0)
-            .then(|| (self.ee[axis][k] / self.vv[axis][k]).sqrt())
+        (k < MAX_STEPS && self.weight[k] >= self.min_weight && self.counted[axis][k] > 0.0)
+            .then(|| (self.standardised[axis][k] / self.counted[axis][k]).sqrt())
     }
 
     /// Correlation of the two ships' point errors on `axis` at step `k` (weighted, about zero
@@ -167,6 +188,37 @@ mod tests {
         // Axes and steps nobody verified have no scale.
         assert_eq!(cal.scale(0, 0), None);
         assert_eq!(cal.scale(2, 2), None);
+    }
+
+    #[test]
+    fn a_widened_ship_sigma_does_not_narrow_the_relative_sigma_of_the_other_forecasts() {
+        // Regression: half the forecasts come while one ship's sigma is widened three-fold
+        // (its variance nine-fold), the relative error unchanged, N(0, 0.1^2) throughout.
+        // Scaled by the ratio of the sums, sigma was sqrt(5) times too narrow in the other
+        // half and the standardised error's mean square was 2.78; by the mean of the ratios it
+        // is 1 overall.
+        let mut rng = ChaCha8Rng::seed_from_u64(5);
+        let mut cal = SigmaCalibration::new(f64::INFINITY, 50.0);
+        let mut narrow = RelativeTrack::default();
+        narrow.alignment.steps = 1;
+        narrow.tip.var[2][0] = 0.02;
+        narrow.spot.var[2][0] = 0.02;
+        let mut wide = narrow.clone();
+        wide.tip.var[2][0] = 0.34;
+        let track = |i: usize| if i.is_multiple_of(2) { &narrow } else { &wide };
+        let error = |rng: &mut ChaCha8Rng| [[0.0, 0.0, 0.1 * normal(rng)]];
+        for i in 0..40_000 {
+            cal.observe(track(i), &error(&mut rng), &[[0.0; 3]]);
+        }
+        let scale = cal.scale(2, 0).unwrap();
+        let mut mean_square = 0.0;
+        let n = 40_000;
+        for i in 0..n {
+            let t = track(i);
+            let sigma = scale * (t.tip.var[2][0] + t.spot.var[2][0]).sqrt();
+            mean_square += (error(&mut rng)[0][2] / sigma).powi(2) / n as f64;
+        }
+        assert!((mean_square - 1.0).abs() < 0.05, "{mean_square}");
     }
 
     #[test]

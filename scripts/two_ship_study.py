@@ -1,0 +1,118 @@
+#!/usr/bin/env python3
+"""Replay two ships in the same simulated paper sea through their engines and score the
+relative-motion forecast against the true relative motion, beside each ship's own forecast, on
+the four geometries of docs/two_ships.md (the tables there are this script's output).
+
+Geometries (ship A, the crane ship, is the same record in all four):
+- default: B 40 m to starboard, bow +10 deg (the `[relative]` defaults);
+- same heading: B 40 m to starboard, bow 0 deg;
+- close: B 15 m ahead, its landing spot at the crane tip's lever arm;
+- turned: B 40 m to starboard, bow +30 deg, a 100 m hull.
+
+Run from the repository root after `cargo build --release`; about a minute on 2 cores. Python
+standard library only.
+"""
+import argparse
+import json
+import os
+import subprocess
+import sys
+
+BIN = os.environ.get("SHIPCAST_BIN", os.path.join("target", "release", "shipcast"))
+SEA = ["--scenario", "paper", "--duration", "3600", "--rate", "8"]
+SKIP_S = "1200"
+
+# name, extra `simulate` arguments for ship B, `[relative]` configuration
+GEOMETRIES = [
+    ("default: B 40 m to starboard, bow +10 deg",
+     ["--vessel-y-m", "40", "--vessel-heading-offset-deg", "10"], ""),
+    ("same heading, B 40 m to starboard",
+     ["--vessel-y-m", "40"], "target_heading_offset_deg = 0.0\n"),
+    ("B 15 m ahead, spot at the tip's lever arm",
+     ["--vessel-x-m", "15"],
+     "target_position_m = [15.0, 0.0]\ntarget_heading_offset_deg = 0.0\n"
+     "landing_spot_m = [10.0, 15.0, -20.0]\n"),
+    ("B 40 m to starboard, bow +30 deg, 100 m hull",
+     ["--vessel-y-m", "40", "--vessel-heading-offset-deg", "30", "--hull-length", "100"],
+     "target_heading_offset_deg = 30.0\n"),
+]
+
+
+def run(args):
+    out = subprocess.run([BIN] + args, capture_output=True, text=True)
+    if out.returncode != 0:
+        sys.exit(f"two_ship_study: shipcast {' '.join(args)} failed: {out.stderr.strip()}")
+    return out.stdout
+
+
+def relative(work, seed, index, sim, config):
+    sea = SEA + ["--seed", str(seed)]
+    a = os.path.join(work, f"a_seed{seed}.csv")
+    if not os.path.exists(a):
+        run(["simulate"] + sea + ["--out", a])
+    b = os.path.join(work, f"b{index}_seed{seed}.csv")
+    run(["simulate"] + sea + sim + ["--out", b])
+    args = ["relative", "--crane-record", a, "--target-record", b, "--skip-s", SKIP_S, "--json"]
+    if config:
+        path = os.path.join(work, f"relative{index}.toml")
+        with open(path, "w") as f:
+            f.write("[relative]\n" + config)
+        args += ["--config", path]
+    lines = [l for l in run(args).splitlines() if l.strip().startswith("{")]
+    if len(lines) != 1:
+        sys.exit(f"two_ship_study: expected one JSON report from `shipcast relative`, got {len(lines)}")
+    return json.loads(lines[0])
+
+
+def f3(v):
+    return "-" if v is None else f"{v:.3f}"
+
+
+def coverage_band(rows):
+    c1 = [r["coverage_1sigma"] for r in rows]
+    c2 = [r["coverage_2sigma"] for r in rows]
+    return f"+-1 sigma {min(c1):.3f}-{max(c1):.3f}, +-2 sigma {min(c2):.3f}-{max(c2):.3f}"
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--work", default=os.path.join("target", "two-ship-study"))
+    ap.add_argument("--seed", type=int, default=1, help="the sea's realisation (default 1)")
+    args = ap.parse_args()
+    work = args.work
+    os.makedirs(work, exist_ok=True)
+    for i, (name, sim, config) in enumerate(GEOMETRIES):
+        report = relative(work, args.seed, i, sim, config)
+        leads = report["leads"]
+        print(f"## {name} (seed {args.seed})\n")
+        print(f"{report['scored']} relative forecasts scored from {SKIP_S} s; sigma calibrated "
+              f"from {report['calibrated_from_s']} s; {coverage_band(leads)} over every axis "
+              f"and lead.\n")
+        print("| axis | lead | rel_rms | rel_std | tip_rms (A) | spot_rms (B) | err_corr | sigma "
+              "| sigma_ind | cov1 | cov2 | cov1_ind | cov2_ind |")
+        print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+        for r in sorted(leads, key=lambda r: (r["lead_s"], r["axis"])):
+            print(f"| {r['axis']} | {r['lead_s']:.0f} s | {f3(r['relative_rms'])} | "
+                  f"{f3(r['relative_zero_rms'])} | {f3(r['tip_rms'])} | {f3(r['spot_rms'])} | "
+                  f"{r['error_correlation']:+.2f} | {f3(r['mean_sigma'])} | "
+                  f"{f3(r['mean_sigma_independent'])} | {f3(r['coverage_1sigma'])} | "
+                  f"{f3(r['coverage_2sigma'])} | {f3(r['coverage_1sigma_independent'])} | "
+                  f"{f3(r['coverage_2sigma_independent'])} |")
+        print()
+        if i == 0:
+            own = [o for o in report["own"] if o["dof"] in ("heave", "roll", "pitch")]
+            leads_s = own[0]["lead_s"] if own else []
+            print("Each ship's own DOF forecast, RMS error / RMS of the motion (heave in m, "
+                  "roll and pitch in rad):\n")
+            print("| ship | dof | " + " | ".join(f"{l:.0f} s" for l in leads_s) + " |")
+            print("|---|---|" + "---|" * len(leads_s))
+            for o in own:
+                digits = 3 if o["dof"] == "heave" else 4
+                cells = " | ".join(f"{e:.{digits}f}/{z:.{digits}f}"
+                                   for e, z in zip(o["rms"], o["zero_rms"]))
+                print(f"| {o['vessel']} | {o['dof']} | {cells} |")
+            print()
+
+
+if __name__ == "__main__":
+    main()
