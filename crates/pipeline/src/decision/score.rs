@@ -59,6 +59,24 @@ pub struct CurvePoint {
     pub hit_rate_by_lead: [f64; HIT_LEADS_S.len()],
 }
 
+/// How the windows of the false go calls at the configured threshold were exceeded: whether a
+/// false go was a near miss at the window's far end or a limit broken early and far.
+#[derive(Debug, Clone, Serialize)]
+pub struct FalseGoExcess {
+    /// False go calls described (`go_calls * false_go_rate`).
+    pub calls: u64,
+    /// Median and largest, over those calls, of the window's worst |actual| / limit (every
+    /// limited quantity, every step).
+    pub median_ratio: f64,
+    pub max_ratio: f64,
+    /// Median time from the window's first step to its first exceeded step [s]; the window
+    /// lasts `window_steps` steps.
+    pub median_first_exceedance_s: f64,
+    /// Calls whose first exceeded step broke each quantity worst (roll, pitch, deck vertical
+    /// displacement, deck vertical velocity).
+    pub first_broken: [u64; NUM_QUANTITIES],
+}
+
 /// `decisions` of one station and MOT in replay's output.
 #[derive(Debug, Clone, Serialize)]
 pub struct DecisionReport {
@@ -83,6 +101,8 @@ pub struct DecisionReport {
     /// Go windows announced ahead (start after the first step) and how many were exceeded.
     pub announced_go: u64,
     pub announced_false_go_rate: f64,
+    /// How far the false go calls' windows were exceeded (none: no false go).
+    pub false_go_excess: Option<FalseGoExcess>,
     pub curve: Vec<CurvePoint>,
     /// Step-to-step error correlation at the end of the replay (roll, pitch, deck vertical
     /// displacement, deck vertical velocity).
@@ -112,6 +132,9 @@ struct PerMot {
     announced_go: u64,
     announced_false: u64,
     candidates: Vec<(usize, f64)>,
+    /// Per false go at the configured threshold: worst |actual| / limit over the window, the
+    /// first exceeded step, and the quantity that broke worst there.
+    false_go: Vec<(f64, usize, usize)>,
 }
 
 struct Pending {
@@ -177,6 +200,7 @@ impl DecisionScorer {
                     announced_go: 0,
                     announced_false: 0,
                     candidates: Vec::with_capacity(MAX_STEPS),
+                    false_go: Vec::new(),
                 }
             })
             .collect();
@@ -283,6 +307,10 @@ impl DecisionScorer {
             if t0 - episode.1 > m.mot_s {
                 episode.0 += 1;
                 episode.1 = t0;
+            }
+            if may_go && !held && p >= m.thresholds[m.default_index].value {
+                m.false_go
+                    .push(window_excess(decider.limits(), &self.actual, n));
             }
             m.candidates.clear();
             for s in (0..=steps - n).filter(|_| may_go) {
@@ -413,12 +441,59 @@ impl DecisionScorer {
                         .collect(),
                     announced_go: m.announced_go,
                     announced_false_go_rate: rate(m.announced_false, m.announced_go),
+                    false_go_excess: false_go_excess(&m.false_go, self.dt_s),
                     curve,
                     error_correlation: rho,
                 }
             })
             .collect()
     }
+}
+
+/// The worst |actual| / limit over the first `n` steps, the first step at which some limit
+/// was exceeded (n when none was), and the quantity worst over its limit at that step.
+fn window_excess(limits: &[f64; NUM_QUANTITIES], actual: &Tracks, n: usize) -> (f64, usize, usize) {
+    let ratio = |q: usize, k: usize| actual.mean[q][k].abs() / limits[q];
+    let mut worst = 0.0f64;
+    let mut first = (n, 0);
+    for k in 0..n.min(actual.steps) {
+        let (q, r) = (0..NUM_QUANTITIES)
+            .map(|q| (q, ratio(q, k)))
+            .fold((0, f64::NEG_INFINITY), |a, b| if b.1 > a.1 { b } else { a });
+        worst = worst.max(r);
+        if r > 1.0 && first.0 == n {
+            first = (k, q);
+        }
+    }
+    (worst, first.0, first.1)
+}
+
+fn median(values: &mut [f64]) -> f64 {
+    values.sort_by(f64::total_cmp);
+    match values.len() {
+        0 => f64::NAN,
+        n if n % 2 == 1 => values[n / 2],
+        n => 0.5 * (values[n / 2 - 1] + values[n / 2]),
+    }
+}
+
+fn false_go_excess(false_go: &[(f64, usize, usize)], dt_s: f64) -> Option<FalseGoExcess> {
+    if false_go.is_empty() {
+        return None;
+    }
+    let mut ratios: Vec<f64> = false_go.iter().map(|f| f.0).collect();
+    let mut firsts: Vec<f64> = false_go.iter().map(|f| f.1 as f64 * dt_s).collect();
+    let mut first_broken = [0; NUM_QUANTITIES];
+    for f in false_go {
+        first_broken[f.2] += 1;
+    }
+    Some(FalseGoExcess {
+        calls: false_go.len() as u64,
+        max_ratio: ratios.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+        median_ratio: median(&mut ratios),
+        median_first_exceedance_s: median(&mut firsts),
+        first_broken,
+    })
 }
 
 #[cfg(test)]
@@ -475,6 +550,7 @@ mod tests {
         let r = &score(&config, quiet_then_rough)[0];
         assert_eq!(r.window_steps, 20);
         assert!(r.go_calls > 0 && r.false_go_rate == 0.0, "{r:?}");
+        assert!(r.false_go_excess.is_none());
         // Quiet periods begin every 40 s; those from 40 s to 1000 s can be announced 5 s
         // ahead within the record (the last forecast, at 999.5 s, reaches 1019.5 s). Go needs verified errors: a period is hit when it begins
         // at least 5 s after the ensemble is ready, and missed when the last forecast 5 s
@@ -537,6 +613,17 @@ mod tests {
             r[0].go_calls
         );
         assert!((r[0].false_go_rate - 0.75).abs() < 0.03, "{:?}", r[0]);
+        // Every false go broke roll (the deck point is at the centre of gravity and pitch is
+        // 0), at 4 deg against the 2.5 deg limit; two in three were issued inside a rough
+        // period, so half or more broke it at the window's first step.
+        let excess = r[0].false_go_excess.as_ref().unwrap();
+        let false_calls = (r[0].go_calls as f64 * r[0].false_go_rate).round() as u64;
+        assert_eq!(excess.calls, false_calls);
+        assert_eq!(excess.first_broken, [false_calls, 0, 0, 0]);
+        let ratio = 4.0 / trusting.roll_limit_deg;
+        assert!((excess.max_ratio - ratio).abs() < 1e-5, "{excess:?}");
+        assert!((excess.median_ratio - ratio).abs() < 1e-5, "{excess:?}");
+        assert_eq!(excess.median_first_exceedance_s, 0.0);
         // From then on the ensemble replays the errors that happened: a blind forecast's
         // window holds as often as the record's windows did (11 of every 40 starts), which is
         // what it states; never a go.
