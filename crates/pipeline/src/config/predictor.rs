@@ -180,7 +180,7 @@ impl Default for PredictorServiceConfig {
             holdout: 1000,
             candidate_orders: vec![25, 50, 100, 200],
             verification_window_s: 1200.0,
-            plausible_rms_factor: 5.0,
+            plausible_rms_factor: 8.0,
             change_ratio: 3.0,
             stale_after_s: 2.0,
             busy_poll: false,

@@ -185,6 +185,54 @@ fn an_implausible_forecast_is_never_published() {
     );
 }
 
+#[test]
+fn a_large_wave_forecast_well_is_delivered_not_replaced_by_no_skill() {
+    // Regression: on the Gullfaks C record (1989) a heave trough of 7.1 m came out of a sea
+    // whose live RMS was 0.97 m, and the engine had forecast it seconds ahead; a bound of 5 live
+    // RMS threw those forecasts away for "no skill", so the largest errors came at the one wave
+    // that mattered. Here a focusing wave group: 25 wave components of random frequency
+    // (periods 5-12 s) all in phase at one moment, 90 minutes into the record, so the sea
+    // (RMS sqrt(25 / 2)) peaks at 25, about 7 times its RMS. Every component has been in the
+    // record all along, so the wave is predictable, as a dispersive group is.
+    let rate = 2.0;
+    let focus_s = 5400.0;
+    let mut rng = ChaCha8Rng::seed_from_u64(4);
+    let omegas: Vec<f64> = (0..25)
+        .map(|_| 0.52 + 0.74 * rand::Rng::random::<f64>(&mut rng))
+        .collect();
+    let x: Vec<f64> = (0..((focus_s + 60.0) * rate) as usize)
+        .map(|i| {
+            let t = i as f64 / rate;
+            omegas.iter().map(|w| (w * (t - focus_s)).cos()).sum()
+        })
+        .collect();
+    let data = record(x, rate);
+    let score = |factor: f64| {
+        let config = PredictorServiceConfig {
+            plausible_rms_factor: factor,
+            ..PredictorServiceConfig::default()
+        };
+        let (report, _) = replay(&data, &config, None, focus_s - 20.0, false, &|_| {}).unwrap();
+        report.dofs.into_iter().next().unwrap()
+    };
+    let peak = omegas.len() as f64;
+    // Delivered: the crest is forecast to within a fifth of its height at every lead.
+    let default = score(PredictorServiceConfig::default().plausible_rms_factor);
+    assert_eq!(default.implausible, 0, "{default:?}");
+    assert!(default.max_abs_error < 0.2 * peak, "{default:?}");
+    // Bounded at 5 live RMS, the forecasts of the crest were replaced by the level: the crest
+    // itself became the error.
+    let tight = score(5.0);
+    assert!(tight.implausible > 0, "{tight:?}");
+    assert!(tight.max_abs_error > 0.9 * peak, "{tight:?}");
+    assert!(
+        default.rms[9] < 0.2 * tight.rms[9],
+        "{:?} {:?}",
+        default.rms,
+        tight.rms
+    );
+}
+
 /// What [`spiked_ar_run`] saw: the first forecast with a failed model, the first after it
 /// with heave back in service, the values heave spent on no skill, and the retrains asked for
 /// failures.
