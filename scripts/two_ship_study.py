@@ -74,6 +74,26 @@ def coverage_band(rows):
     return f"+-1 sigma {min(c1):.3f}-{max(c1):.3f}, +-2 sigma {min(c2):.3f}-{max(c2):.3f}"
 
 
+def bins_off(lift):
+    """Reliability bins of at least 50 calls more than 5 points off, as text."""
+    off = [f"{b['stated']:.3f} observed {b['observed']:.3f} ({b['count']} calls, "
+           f"{b['episodes']} episodes)"
+           for b in lift["reliability"]
+           if b["count"] >= 50 and abs(b["observed"] - b["stated"]) > 0.05]
+    return f"{len(off)}" + (": " + "; ".join(off) if off else "")
+
+
+def lift_line(report):
+    """The lift decisions as issued and the Gaussian model's on the same calls."""
+    rows = []
+    for name, key in (("as issued", "lift"), ("Gaussian model", "lift_gaussian")):
+        l = report[key]
+        rows.append(f"{name}: {l['calls']} calls, {l['go_calls']} go at {l['go_probability']}, "
+                    f"false go {f3(l['false_go_rate'])}, Brier {l['brier']:.4f} (base rate's "
+                    f"{l['brier_climatology']:.4f}), bins off {bins_off(l)}")
+    return f"Lift decisions (MOT {report['lift']['mot_s']:.0f} s): " + "; ".join(rows) + "."
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--work", default=os.path.join("target", "two-ship-study"))
@@ -88,6 +108,7 @@ def main():
         print(f"{report['scored']} relative forecasts scored from {SKIP_S} s; sigma calibrated "
               f"from {report['calibrated_from_s']} s; {coverage_band(leads)} over every axis "
               f"and lead.\n")
+        print(lift_line(report) + "\n")
         print("| axis | lead | rel_rms | rel_std | tip_rms (A) | spot_rms (B) | err_corr | sigma "
               "| sigma_ind | cov1 | cov2 | cov1_ind | cov2_ind |")
         print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")

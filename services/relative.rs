@@ -18,14 +18,13 @@
 use crate::progress;
 use anyhow::Context;
 use shipcast_pipeline::config::{CommonArgs, PipelineConfig};
-use shipcast_pipeline::decision::window::Lattice;
 use shipcast_pipeline::engine::startup::initial_models;
 use shipcast_pipeline::limits;
 use shipcast_pipeline::observed::MotionHistory;
 use shipcast_pipeline::relative::calibrate::SigmaCalibration;
 use shipcast_pipeline::relative::study::{study, StudyReport};
 use shipcast_pipeline::relative::verify::{RelativeVerifier, MAX_PENDING};
-use shipcast_pipeline::relative::{advisory, decide, Geometry, LiftLimits, RelativeTrack};
+use shipcast_pipeline::relative::{advisory, Geometry, LiftDecider, LiftLimits, RelativeTrack};
 use shipcast_pipeline::transport::forecast_check::{ForecastGate, PublisherWatch};
 use shipcast_pipeline::transport::motion_gate::{Admitted, MotionGate};
 use shipcast_pipeline::transport::zenoh::{self as zn, JsonPublisher, LatestSubscriber};
@@ -227,6 +226,28 @@ fn table(r: &StudyReport) -> String {
             l.coverage_2sigma_independent
         ));
     }
+    for (name, l) in [
+        ("as issued", &r.lift),
+        ("the Gaussian model's", &r.lift_gaussian),
+    ] {
+        s.push_str(&format!(
+        "lift decisions {name} (MOT {:.0} s, go at {}): {} calls, {} go, false go {:.3}; Brier {:.4} (stating the base rate {:.3}: {:.4})\n",
+        l.mot_s,
+        l.go_probability,
+        l.calls,
+        l.go_calls,
+        l.false_go_rate,
+        l.brier,
+        l.base_rate,
+        l.brier_climatology
+    ));
+        for b in l.reliability.iter().filter(|b| b.count > 0) {
+            s.push_str(&format!(
+                "  stated {:.1}-{:.1}: mean {:.3}, held {:.3} ({} calls, {} episodes)\n",
+                b.p_lo, b.p_hi, b.stated, b.observed, b.count, b.episodes
+            ));
+        }
+    }
     s.push_str("own forecasts (RMS error / RMS of the motion) at 5 10 15 20 25 s:\n");
     for o in r
         .own
@@ -374,8 +395,7 @@ fn run_live(config: &PipelineConfig, limit: Option<Duration>) -> anyhow::Result<
         None
     };
     let geometry = Geometry::new(config.crane.tip_m, r);
-    let lift = LiftLimits::new(r);
-    let lattice = Lattice::new(128, MAX_STEPS);
+    let mut lift = LiftDecider::new(LiftLimits::new(r));
     // Each ship's observed motion verifies the relative forecasts once their horizon has
     // passed; until enough are verified the sigma is the independent one (`sigma_basis`).
     let keep_s = MAX_STEPS as f64 * dt + 10.0;
@@ -443,7 +463,7 @@ fn run_live(config: &PipelineConfig, limit: Option<Duration>) -> anyhow::Result<
                 }
             }
         }
-        let decision = decide(&track, &lift, &lattice);
+        let decision = lift.decide(&track, &verifier.ensemble);
         let adv = advisory(
             &track,
             &geometry,

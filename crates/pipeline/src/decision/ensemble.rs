@@ -42,16 +42,18 @@ pub const DEFAULT_STRIDE: usize = 4;
 const MAX_MEAN_SLOPE: f64 = 1.0;
 
 #[derive(Debug, Clone)]
-struct Member {
+struct Member<const Q: usize> {
     steps: usize,
-    u: [[f32; MAX_STEPS]; NUM_QUANTITIES],
+    u: [[f32; MAX_STEPS]; Q],
     /// The forecast's standardised mean, mean / sigma (0 where either is missing).
-    z: [[f32; MAX_STEPS]; NUM_QUANTITIES],
+    z: [[f32; MAX_STEPS]; Q],
 }
 
+/// `Q` quantities, each with its own limit: the deck's four (roll, pitch, the deck's vertical
+/// displacement and velocity) by default, the lift's three relative axes.
 #[derive(Debug, Clone)]
-pub struct ErrorEnsemble {
-    members: Vec<Member>,
+pub struct ErrorEnsemble<const Q: usize = NUM_QUANTITIES> {
+    members: Vec<Member<Q>>,
     capacity: usize,
     /// Next ring slot to overwrite once full.
     next: usize,
@@ -60,17 +62,17 @@ pub struct ErrorEnsemble {
     /// Sums over the members of u z and z^2 per quantity and step, for the errors' regression
     /// on the mean: kept as members come and go, so a decision does not revisit every member
     /// for them, and summed afresh each time the ring wraps so that rounding cannot build up.
-    uz: [[f64; MAX_STEPS]; NUM_QUANTITIES],
-    zz: [[f64; MAX_STEPS]; NUM_QUANTITIES],
+    uz: [[f64; MAX_STEPS]; Q],
+    zz: [[f64; MAX_STEPS]; Q],
 }
 
-impl Default for ErrorEnsemble {
+impl<const Q: usize> Default for ErrorEnsemble<Q> {
     fn default() -> Self {
         Self::new(DEFAULT_CAPACITY, DEFAULT_STRIDE)
     }
 }
 
-impl ErrorEnsemble {
+impl<const Q: usize> ErrorEnsemble<Q> {
     pub fn new(capacity: usize, stride: usize) -> Self {
         let capacity = capacity.max(1);
         Self {
@@ -79,8 +81,8 @@ impl ErrorEnsemble {
             next: 0,
             stride: stride.max(1),
             offered: 0,
-            uz: [[0.0; MAX_STEPS]; NUM_QUANTITIES],
-            zz: [[0.0; MAX_STEPS]; NUM_QUANTITIES],
+            uz: [[0.0; MAX_STEPS]; Q],
+            zz: [[0.0; MAX_STEPS]; Q],
         }
     }
 
@@ -105,12 +107,7 @@ impl ErrorEnsemble {
     /// its standardised means (`z[q][k]`). A non-finite u (a zero sigma or a missing value)
     /// counts as no error; a non-finite z as a zero mean. One offer in `stride` is kept.
     /// Never allocates: the ring's storage is reserved by `new`.
-    pub fn offer(
-        &mut self,
-        u: &[[f64; MAX_STEPS]; NUM_QUANTITIES],
-        z: &[[f64; MAX_STEPS]; NUM_QUANTITIES],
-        steps: usize,
-    ) {
+    pub fn offer(&mut self, u: &[[f64; MAX_STEPS]; Q], z: &[[f64; MAX_STEPS]; Q], steps: usize) {
         let keep = self.offered.is_multiple_of(self.stride as u64);
         self.offered += 1;
         if !keep {
@@ -118,9 +115,9 @@ impl ErrorEnsemble {
         }
         let steps = steps.min(MAX_STEPS);
         let finite = |v: f64| if v.is_finite() { v as f32 } else { 0.0 };
-        let member = |m: &mut Member| {
+        let member = |m: &mut Member<Q>| {
             m.steps = steps;
-            for q in 0..NUM_QUANTITIES {
+            for q in 0..Q {
                 for k in 0..steps {
                     m.u[q][k] = finite(u[q][k]);
                     m.z[q][k] = finite(z[q][k]);
@@ -130,8 +127,8 @@ impl ErrorEnsemble {
         if self.members.len() < self.capacity {
             let mut m = Member {
                 steps: 0,
-                u: [[0.0; MAX_STEPS]; NUM_QUANTITIES],
-                z: [[0.0; MAX_STEPS]; NUM_QUANTITIES],
+                u: [[0.0; MAX_STEPS]; Q],
+                z: [[0.0; MAX_STEPS]; Q],
             };
             member(&mut m);
             Self::accumulate(&mut self.uz, &mut self.zz, &m, 1.0);
@@ -143,8 +140,8 @@ impl ErrorEnsemble {
             member(&mut self.members[slot]);
             self.next = (slot + 1) % self.capacity;
             if self.next == 0 {
-                self.uz = [[0.0; MAX_STEPS]; NUM_QUANTITIES];
-                self.zz = [[0.0; MAX_STEPS]; NUM_QUANTITIES];
+                self.uz = [[0.0; MAX_STEPS]; Q];
+                self.zz = [[0.0; MAX_STEPS]; Q];
                 for m in &self.members {
                     Self::accumulate(&mut self.uz, &mut self.zz, m, 1.0);
                 }
@@ -156,12 +153,12 @@ impl ErrorEnsemble {
     }
 
     fn accumulate(
-        uz: &mut [[f64; MAX_STEPS]; NUM_QUANTITIES],
-        zz: &mut [[f64; MAX_STEPS]; NUM_QUANTITIES],
-        m: &Member,
+        uz: &mut [[f64; MAX_STEPS]; Q],
+        zz: &mut [[f64; MAX_STEPS]; Q],
+        m: &Member<Q>,
         sign: f64,
     ) {
-        for q in 0..NUM_QUANTITIES {
+        for q in 0..Q {
             for k in 0..m.steps {
                 let (u, z) = (f64::from(m.u[q][k]), f64::from(m.z[q][k]));
                 uz[q][k] += sign * u * z;
@@ -173,7 +170,7 @@ impl ErrorEnsemble {
     /// Per quantity and step, the least-squares slope c of the members' errors on their
     /// standardised means (u = c z + r) over the members reaching that step; 0 where no
     /// member has a mean.
-    fn mean_slopes(&self, steps: usize, c: &mut [[f64; MAX_STEPS]; NUM_QUANTITIES]) {
+    fn mean_slopes(&self, steps: usize, c: &mut [[f64; MAX_STEPS]; Q]) {
         for ((row, uz), zz) in c.iter_mut().zip(&self.uz).zip(&self.zz) {
             for ((c, &uz), &zz) in row.iter_mut().zip(uz).zip(zz).take(steps) {
                 // Sums this small are what rounding leaves of members gone (or zero means).
@@ -193,9 +190,9 @@ impl ErrorEnsemble {
     /// whether it covers the forecast (`usable[i]`). Neither buffer is reallocated once sized.
     pub fn failures(
         &self,
-        mean: &[[f64; MAX_STEPS]; NUM_QUANTITIES],
-        sigma: &[[f64; MAX_STEPS]; NUM_QUANTITIES],
-        limits: &[f64; NUM_QUANTITIES],
+        mean: &[[f64; MAX_STEPS]; Q],
+        sigma: &[[f64; MAX_STEPS]; Q],
+        limits: &[f64; Q],
         steps: usize,
         fail_before: &mut Vec<u16>,
         usable: &mut Vec<bool>,
@@ -204,11 +201,11 @@ impl ErrorEnsemble {
         fail_before.resize(self.capacity * row, 0);
         usable.resize(self.capacity, false);
         let steps = steps.min(MAX_STEPS);
-        let mut c = [[0.0f64; MAX_STEPS]; NUM_QUANTITIES];
+        let mut c = [[0.0f64; MAX_STEPS]; Q];
         self.mean_slopes(steps, &mut c);
         // The current forecast's place on the regression, c z_now, per quantity and step.
-        let mut shift = [[0.0f64; MAX_STEPS]; NUM_QUANTITIES];
-        for q in 0..NUM_QUANTITIES {
+        let mut shift = [[0.0f64; MAX_STEPS]; Q];
+        for q in 0..Q {
             for k in 0..steps {
                 let s = sigma[q][k];
                 shift[q][k] = if s > 0.0 {
@@ -226,7 +223,7 @@ impl ErrorEnsemble {
             let counts = &mut fail_before[i * row..(i + 1) * row];
             counts[0] = 0;
             for k in 0..steps {
-                let breaks = (0..NUM_QUANTITIES).any(|q| {
+                let breaks = (0..Q).any(|q| {
                     let residual = f64::from(m.u[q][k]) - c[q][k] * f64::from(m.z[q][k]);
                     let value = mean[q][k] + sigma[q][k] * (shift[q][k] + residual);
                     value.is_nan() || value.abs() > limits[q]
@@ -437,6 +434,6 @@ mod tests {
         assert_eq!(kept, vec![4.0, 6.0, 8.0]);
         // A ring smaller than MIN_MEMBERS is ready once full.
         assert!(ensemble.ready());
-        assert!(!ErrorEnsemble::new(MIN_MEMBERS, 1).ready());
+        assert!(!ErrorEnsemble::<NUM_QUANTITIES>::new(MIN_MEMBERS, 1).ready());
     }
 }

@@ -15,6 +15,7 @@ pub mod correlation;
 pub mod ensemble;
 pub mod outcomes;
 pub mod recalibrate;
+pub mod reliability;
 pub mod score;
 pub mod statements_file;
 pub mod window;
@@ -40,7 +41,7 @@ const PITCH: usize = Dof::Pitch.index();
 /// Lattice points per window probability: 128 keeps the estimate within about a point of the
 /// exact value (window::tests measure it against a Monte Carlo) at a cost the live service
 /// and replay can afford for every candidate window.
-const LATTICE_POINTS: usize = 128;
+pub const LATTICE_POINTS: usize = 128;
 
 /// The decision for one forecast (inside the advisory JSON on `.../advisory/<station>`).
 /// Times are seconds after the forecast's `time_s`; step k of a forecast is at (k + 1) dt.

@@ -11,6 +11,8 @@
 //! - the error correlation is estimated causally: a forecast's errors join the estimate only
 //!   once its whole horizon has happened.
 
+pub use super::reliability::ReliabilityBin;
+use super::reliability::{rate, Reliability};
 use super::{
     standardised_errors, standardised_means, window_steps, Decider, ErrorCorrelation, Tracks,
     NUM_QUANTITIES,
@@ -24,26 +26,7 @@ use std::collections::{BTreeMap, VecDeque};
 pub const LEAD_S: f64 = 5.0;
 
 /// Thresholds of the false go against hit rate curve (the configured one is added).
-const CURVE: [f64; 8] = [0.5, 0.6, 0.7, 0.8, 0.9, 0.95, 0.98, 0.99];
-
-const BINS: usize = 10;
-
-#[derive(Debug, Clone, Serialize)]
-pub struct ReliabilityBin {
-    pub p_lo: f64,
-    pub p_hi: f64,
-    pub count: u64,
-    /// Mean stated probability of the calls in the bin.
-    pub stated: f64,
-    /// Fraction of them whose window held.
-    pub observed: f64,
-    /// Episodes among the calls: a call issued more than MOT after the start of the bin's
-    /// current episode starts a new one, so the windows of different episodes do not
-    /// overlap. Calls of one episode judge overlapping windows of the same sea and mostly
-    /// share their outcome: the observed frequency is known to about +-1/sqrt(episodes), not
-    /// +-1/sqrt(count).
-    pub episodes: u64,
-}
+pub const CURVE: [f64; 8] = [0.5, 0.6, 0.7, 0.8, 0.9, 0.95, 0.98, 0.99];
 
 /// Leads of `hit_rate_by_lead` [s].
 pub const HIT_LEADS_S: [f64; 5] = [0.0, 1.0, 2.0, 3.0, LEAD_S];
@@ -121,12 +104,7 @@ struct Threshold {
 #[derive(Debug, Clone)]
 struct PerMot {
     mot_s: f64,
-    calls: u64,
-    held: u64,
-    brier: f64,
-    bins: [(u64, f64, u64); BINS],
-    /// Per bin: episodes and the issue time of the current one's first call.
-    episodes: [(u64, f64); BINS],
+    reliability: Reliability,
     thresholds: Vec<Threshold>,
     default_index: usize,
     announced_go: u64,
@@ -184,11 +162,7 @@ impl DecisionScorer {
                     .unwrap_or(0);
                 PerMot {
                     mot_s: mot,
-                    calls: 0,
-                    held: 0,
-                    brier: 0.0,
-                    bins: [(0, 0.0, 0); BINS],
-                    episodes: [(0, f64::NEG_INFINITY); BINS],
+                    reliability: Reliability::new(mot),
                     thresholds: values
                         .into_iter()
                         .map(|value| Threshold {
@@ -296,18 +270,7 @@ impl DecisionScorer {
             if decider.uses_ensemble() {
                 calls.push((n, raw, held));
             }
-            m.calls += 1;
-            m.held += u64::from(held);
-            m.brier += (p - f64::from(u8::from(held))).powi(2);
-            let bin = ((p * BINS as f64) as usize).min(BINS - 1);
-            m.bins[bin].0 += 1;
-            m.bins[bin].1 += p;
-            m.bins[bin].2 += u64::from(held);
-            let episode = &mut m.episodes[bin];
-            if t0 - episode.1 > m.mot_s {
-                episode.0 += 1;
-                episode.1 = t0;
-            }
+            m.reliability.record(t0, p, held);
             if may_go && !held && p >= m.thresholds[m.default_index].value {
                 m.false_go
                     .push(window_excess(decider.limits(), &self.actual, n));
@@ -344,7 +307,6 @@ impl DecisionScorer {
     }
 
     pub fn finish(self) -> Vec<DecisionReport> {
-        let rate = |a: u64, b: u64| if b > 0 { a as f64 / b as f64 } else { f64::NAN };
         // Quiet periods: runs of consecutive grid steps in which every limit held.
         let mut runs: Vec<(i64, i64)> = Vec::new();
         let mut open: Option<(i64, i64)> = None;
@@ -401,7 +363,6 @@ impl DecisionScorer {
                         hit_rate_by_lead: HIT_LEADS_S.map(|lead_s| hit_with_lead(th, lead_s)),
                     })
                     .collect();
-                let base = rate(m.held, m.calls);
                 let default = &curve[m.default_index];
 
                 DecisionReport {
@@ -409,36 +370,15 @@ impl DecisionScorer {
                     mot_s: m.mot_s,
                     go_probability: default.threshold,
                     window_steps: n as usize,
-                    calls: m.calls,
+                    calls: m.reliability.calls,
                     go_calls: default.go_calls,
                     false_go_rate: default.false_go_rate,
                     quiet_periods: periods.len() as u64,
                     hit_rate: default.hit_rate,
                     hit_leads_s: HIT_LEADS_S,
-                    brier: if m.calls > 0 {
-                        m.brier / m.calls as f64
-                    } else {
-                        f64::NAN
-                    },
-                    brier_climatology: base * (1.0 - base),
-                    reliability: m
-                        .bins
-                        .iter()
-                        .enumerate()
-                        .zip(&m.episodes)
-                        .map(|((i, &(count, p, held)), &(episodes, _))| ReliabilityBin {
-                            p_lo: i as f64 / BINS as f64,
-                            p_hi: (i + 1) as f64 / BINS as f64,
-                            count,
-                            stated: if count > 0 {
-                                p / count as f64
-                            } else {
-                                f64::NAN
-                            },
-                            observed: rate(held, count),
-                            episodes,
-                        })
-                        .collect(),
+                    brier: m.reliability.brier(),
+                    brier_climatology: m.reliability.brier_climatology(),
+                    reliability: m.reliability.table(),
                     announced_go: m.announced_go,
                     announced_false_go_rate: rate(m.announced_false, m.announced_go),
                     false_go_excess: false_go_excess(&m.false_go, self.dt_s),
@@ -500,6 +440,7 @@ fn false_go_excess(false_go: &[(f64, usize, usize)], dt_s: f64) -> Option<FalseG
 mod tests {
     use super::*;
     use crate::decision::ensemble;
+    use crate::decision::reliability::BINS;
     use crate::deck::tests::forecast_with_roll;
 
     /// The deck tests' forecast issued at `t0`, roll `roll_deg(t)` at each step's time t, and

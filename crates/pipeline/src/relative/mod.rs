@@ -25,13 +25,14 @@
 //! origin: the older forecast's steps are shifted by the whole number of steps between them.
 
 pub mod calibrate;
+pub mod lift;
 pub mod study;
 pub mod verify;
 
 use crate::config::RelativeConfig;
-use crate::decision::window::{chain_within, Lattice};
 use crate::deck::ShipPoint;
 use calibrate::SigmaCalibration;
+pub use lift::{LiftDecider, LiftDecision, LiftLimits};
 use serde::{Deserialize, Serialize};
 use shipcast_wire::payload::{Forecast, MAX_STEPS};
 use shipcast_wire::Dof;
@@ -313,83 +314,6 @@ impl RelativeTrack {
     /// Horizontal distance of the relative mean from rest at step k [m].
     pub fn horizontal_m(&self, k: usize) -> f64 {
         self.mean[0][k].hypot(self.mean[1][k])
-    }
-}
-
-/// The lift's limits: the tip's excursion relative to the spot.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct LiftLimits {
-    pub vertical_m: f64,
-    /// Applied to each horizontal axis (along and across A): a box, not a circle.
-    pub horizontal_m: f64,
-    pub mot_s: f64,
-    pub go_probability: f64,
-    /// Step-to-step correlation of the standardised relative errors (AR(1) in lead).
-    pub error_correlation: f64,
-}
-
-impl LiftLimits {
-    pub fn new(config: &RelativeConfig) -> Self {
-        Self {
-            vertical_m: config.vertical_limit_m,
-            horizontal_m: config.horizontal_limit_m,
-            mot_s: config.mot_s,
-            go_probability: config.go_probability,
-            error_correlation: config.error_correlation,
-        }
-    }
-
-    fn limit(&self, axis: usize) -> f64 {
-        if axis == 2 {
-            self.vertical_m
-        } else {
-            self.horizontal_m
-        }
-    }
-}
-
-/// The simple lift go/no-go on a relative forecast (the window probability of the lift
-/// station is the place to swap in a richer model; this one multiplies the three axes' AR(1)
-/// chain probabilities of `decision::window`, taking the axes as independent).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct LiftDecision {
-    pub mot_s: f64,
-    pub go_probability: f64,
-    pub go: bool,
-    /// Probability that every limit holds over the window of MOT from the first step (None:
-    /// the forecast is shorter than MOT).
-    pub probability_now: Option<f64>,
-    /// First step at which the predicted mean breaks a limit.
-    pub next_exceedance_s: Option<f64>,
-}
-
-/// Decides on `track` against `limits`; `lattice` has at least as many dimensions as the
-/// window has steps.
-pub fn decide(track: &RelativeTrack, limits: &LiftLimits, lattice: &Lattice) -> LiftDecision {
-    let steps = track.steps();
-    let window = ((limits.mot_s / track.dt_s).ceil() as usize).max(1);
-    let probability_now = (window <= steps && window <= lattice.dims()).then(|| {
-        (0..3)
-            .map(|axis| {
-                chain_within(
-                    &track.mean[axis][..window],
-                    &track.sigma[axis][..window],
-                    limits.limit(axis),
-                    limits.error_correlation,
-                    lattice,
-                )
-            })
-            .product::<f64>()
-    });
-    let next_exceedance_s = (0..steps)
-        .find(|&k| (0..3).any(|axis| track.mean[axis][k].abs() > limits.limit(axis)))
-        .map(|k| (k + 1) as f64 * track.dt_s);
-    LiftDecision {
-        mot_s: limits.mot_s,
-        go_probability: limits.go_probability,
-        go: probability_now.is_some_and(|p| p >= limits.go_probability),
-        probability_now,
-        next_exceedance_s,
     }
 }
 

@@ -6,9 +6,12 @@
 //! B) at the same leads.
 
 use super::calibrate::SigmaCalibration;
+use super::lift::LiftEnsemble;
 use super::verify::{observed, RelativeVerifier, MAX_PENDING};
-use super::{Geometry, RelativeTrack, AXES};
+use super::{Geometry, LiftDecider, LiftLimits, RelativeTrack, AXES};
 use crate::config::PipelineConfig;
+use crate::decision::reliability::{rate, Reliability, ReliabilityBin};
+use crate::decision::score::CURVE;
 use crate::engine::models::ModelSet;
 use crate::engine::replay::{replay, ReplayReport};
 use crate::observed::{matches, ObservedMotion};
@@ -57,6 +60,97 @@ pub struct OwnDof {
     pub zero_rms: Vec<f64>,
 }
 
+/// Go calls and how many failed at one go threshold.
+#[derive(Debug, Clone, Serialize)]
+pub struct LiftCurvePoint {
+    pub threshold: f64,
+    pub go_calls: u64,
+    pub false_go_rate: f64,
+}
+
+/// The lift decisions (`LiftDecider`, as the live service issues them) scored against the
+/// two records: a call is every scored relative forecast whose horizon holds a window of MOT,
+/// and its window held when the true relative displacement kept every lift limit at every
+/// step of it.
+#[derive(Debug, Clone, Serialize)]
+pub struct LiftScore {
+    pub mot_s: f64,
+    pub go_probability: f64,
+    pub calls: u64,
+    pub go_calls: u64,
+    pub false_go_rate: f64,
+    /// Fraction of the calls whose window held.
+    pub base_rate: f64,
+    pub brier: f64,
+    pub brier_climatology: f64,
+    pub reliability: Vec<ReliabilityBin>,
+    pub curve: Vec<LiftCurvePoint>,
+}
+
+/// The lift calls as they are scored: the reliability table and the go counts per threshold.
+struct LiftCalls {
+    mot_s: f64,
+    go_probability: f64,
+    reliability: Reliability,
+    /// (threshold, go calls, false go calls), the configured threshold among them.
+    thresholds: Vec<(f64, u64, u64)>,
+}
+
+impl LiftCalls {
+    fn new(limits: &LiftLimits) -> Self {
+        let mut values = CURVE.to_vec();
+        if !values.contains(&limits.go_probability) {
+            values.push(limits.go_probability);
+        }
+        values.sort_by(f64::total_cmp);
+        Self {
+            mot_s: limits.mot_s,
+            go_probability: limits.go_probability,
+            reliability: Reliability::new(limits.mot_s),
+            thresholds: values.into_iter().map(|v| (v, 0, 0)).collect(),
+        }
+    }
+
+    /// One call issued at `t0_s` stating `p`; `held`: its window held.
+    fn record(&mut self, t0_s: f64, p: f64, held: bool) {
+        self.reliability.record(t0_s, p, held);
+        for (threshold, go, false_go) in &mut self.thresholds {
+            if p >= *threshold {
+                *go += 1;
+                *false_go += u64::from(!held);
+            }
+        }
+    }
+
+    fn finish(&self) -> LiftScore {
+        let curve: Vec<LiftCurvePoint> = self
+            .thresholds
+            .iter()
+            .map(|&(threshold, go, false_go)| LiftCurvePoint {
+                threshold,
+                go_calls: go,
+                false_go_rate: rate(false_go, go),
+            })
+            .collect();
+        let default = curve
+            .iter()
+            .find(|c| c.threshold == self.go_probability)
+            .cloned();
+        LiftScore {
+            mot_s: self.mot_s,
+            go_probability: self.go_probability,
+            calls: self.reliability.calls,
+            go_calls: default.as_ref().map_or(0, |c| c.go_calls),
+            false_go_rate: default.map_or(f64::NAN, |c| c.false_go_rate),
+            base_rate: self.reliability.base_rate(),
+            brier: self.reliability.brier(),
+            brier_climatology: self.reliability.brier_climatology(),
+            reliability: self.reliability.table(),
+            curve,
+        }
+    }
+}
+
 /// The whole study.
 #[derive(Debug, Clone, Serialize)]
 pub struct StudyReport {
@@ -68,6 +162,10 @@ pub struct StudyReport {
     pub calibrated_from_s: Option<f64>,
     pub leads: Vec<LeadScore>,
     pub own: Vec<OwnDof>,
+    /// The lift decisions as issued (from verified errors once the ensemble is ready).
+    pub lift: LiftScore,
+    /// The Gaussian model's statements on the same calls, for comparison.
+    pub lift_gaussian: LiftScore,
 }
 
 #[derive(Debug, Clone, Copy, Default)]
@@ -149,6 +247,10 @@ pub fn study(
         .map(|l| ((l / dt).round() as usize).max(1) - 1)
         .collect();
     let mut sums = vec![[Sums::default(); 3]; lead_k.len()];
+    let mut decider = LiftDecider::new(LiftLimits::new(r));
+    let no_ensemble = LiftEnsemble::new(1, 1);
+    let mut lift = LiftCalls::new(decider.limits());
+    let mut lift_gaussian = LiftCalls::new(decider.limits());
     let (mut tip, mut spot) = (Vec::new(), Vec::new());
     let (mut pairs, mut scored, mut unpaired) = (0u64, 0u64, 0u64);
     let mut calibrated_from_s = None;
@@ -181,6 +283,19 @@ pub fn study(
         {
             scored += 1;
             score(&track, &tip, &spot, &lead_k, &mut sums);
+            let issued = decider.decide(&track, &verifier.ensemble);
+            if let Some(p) = issued.probability_now {
+                let window = decider.limits().window_steps(track.dt_s);
+                let held = decider
+                    .limits()
+                    .window_holds(window, |k| std::array::from_fn(|a| tip[k][a] - spot[k][a]));
+                let t0 = track.alignment.time_s;
+                lift.record(t0, p, held);
+                let gaussian = decider.decide(&track, &no_ensemble).probability_now;
+                if let Some(p) = gaussian {
+                    lift_gaussian.record(t0, p, held);
+                }
+            }
         }
         verifier.push(&track);
     }
@@ -195,6 +310,8 @@ pub fn study(
             calibrated_from_s,
             leads,
             own,
+            lift: lift.finish(),
+            lift_gaussian: lift_gaussian.finish(),
         },
         report_a,
         report_b,

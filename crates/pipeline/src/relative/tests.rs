@@ -139,16 +139,18 @@ fn forecasts_are_aligned_on_the_later_origin() {
 #[test]
 fn the_lift_decision_flips_when_the_relative_motion_crosses_a_limit() {
     let config = RelativeConfig::default();
-    let limits = LiftLimits::new(&config);
-    let lattice = Lattice::new(128, 64);
+    let mut lift = LiftDecider::new(LiftLimits::new(&config));
+    // No verified errors yet: the Gaussian model decides.
+    let unverified = lift::LiftEnsemble::default();
     let g = geometry([0.0; 3], [0.0; 3], 0.0);
     let calm = [0.0, 0.0, 0.5, 0.0, 0.0, 0.0];
     let sigma = [0.05, 0.05, 0.05, 0.0, 0.0, 0.0];
     let still = forecast(0.0, 50, NONE, NONE);
     let t = relative(&g, &forecast(0.0, 50, calm, sigma), &still);
-    let d = decide(&t, &limits, &lattice);
+    let d = lift.decide(&t, &unverified);
     assert!(d.go, "{d:?}");
     assert!(d.probability_now.unwrap() > 0.99);
+    assert_eq!(d.ensemble_members, 0);
     assert_eq!(d.next_exceedance_s, None);
     // 1.2 m relative heave from step 10 on: beyond the 1 m limit inside the MOT.
     let mut rough = forecast(0.0, 50, calm, sigma);
@@ -156,7 +158,7 @@ fn the_lift_decision_flips_when_the_relative_motion_crosses_a_limit() {
         rough.mean[2][k] = 1.2;
     }
     let t = relative(&g, &rough, &still);
-    let d = decide(&t, &limits, &lattice);
+    let d = lift.decide(&t, &unverified);
     assert!(!d.go && d.probability_now.unwrap() < 0.01, "{d:?}");
     assert_eq!(d.next_exceedance_s, Some(5.0));
     // A forecast shorter than the MOT decides nothing.
@@ -165,7 +167,7 @@ fn the_lift_decision_flips_when_the_relative_motion_crosses_a_limit() {
         &forecast(0.0, 10, calm, sigma),
         &forecast(0.0, 10, NONE, NONE),
     );
-    let d = decide(&t, &limits, &lattice);
+    let d = lift.decide(&t, &unverified);
     assert!(!d.go && d.probability_now.is_none());
     // The advisory carries the published steps and survives JSON.
     let adv = advisory(&t, &g, ("ddg51", "supply"), (7, 9), d);
@@ -250,4 +252,57 @@ fn the_study_scores_the_relative_forecast_against_the_records() {
     assert!(z.error_correlation < -0.99, "{z:?}");
     assert!(opposite.calibrated_from_s.is_some());
     assert!(z.mean_sigma > 1.2 * z.mean_sigma_independent, "{z:?}");
+}
+
+#[test]
+fn verified_errors_decide_the_lift_once_enough_exist() {
+    use crate::decision::ensemble::MIN_MEMBERS;
+    let config = RelativeConfig::default();
+    let mut lift = LiftDecider::new(LiftLimits::new(&config));
+    let mut ensemble = lift::LiftEnsemble::new(MIN_MEMBERS, 1);
+    // Every verified forecast said no relative motion (z = 0) and the tip then rose exactly
+    // one sigma on every axis at every step (u = 1).
+    let ones = [[1.0; MAX_STEPS]; 3];
+    let zeros = [[0.0; MAX_STEPS]; 3];
+    let g = geometry([0.0; 3], [0.0; 3], 0.0);
+    let still = forecast(0.0, 50, NONE, NONE);
+    let sigma = [0.5, 0.5, 0.5, 0.0, 0.0, 0.0];
+    // Relative heave 0.6 m with sigma 0.5 m (per axis, the independent sum of A's and B's):
+    // what happened before puts the tip at mean + sigma, beyond the 1 m limit.
+    let near = relative(
+        &g,
+        &forecast(0.0, 50, [0.0, 0.0, 0.6, 0.0, 0.0, 0.0], sigma),
+        &still,
+    );
+    let s = near.sigma[2][0];
+    assert!(0.6 + s > config.vertical_limit_m && 0.2 + s < config.vertical_limit_m);
+    for _ in 0..MIN_MEMBERS - 1 {
+        ensemble.offer(&ones, &zeros, 50);
+    }
+    // One member short: still the Gaussian model.
+    assert_eq!(lift.decide(&near, &ensemble).ensemble_members, 0);
+    ensemble.offer(&ones, &zeros, 50);
+    let n = MIN_MEMBERS as f64;
+    let d = lift.decide(&near, &ensemble);
+    assert_eq!(d.ensemble_members, MIN_MEMBERS);
+    // Every member breaks the limit: only the broken-or-held pseudo-members' share is left.
+    assert!(
+        (d.probability_now.unwrap() - 1.0 / (n + 2.0)).abs() < 1e-12,
+        "{d:?}"
+    );
+    assert!(!d.go);
+    // 0.2 m of relative heave: every member holds (0.2 + sigma < 1 m, and x, y stay within
+    // the horizontal limit).
+    let low = relative(
+        &g,
+        &forecast(0.0, 50, [0.0, 0.0, 0.2, 0.0, 0.0, 0.0], sigma),
+        &still,
+    );
+    assert!(low.sigma[0][0] < config.horizontal_limit_m);
+    let d = lift.decide(&low, &ensemble);
+    assert!(
+        (d.probability_now.unwrap() - (n + 1.0) / (n + 2.0)).abs() < 1e-12,
+        "{d:?}"
+    );
+    assert!(d.go);
 }

@@ -5,12 +5,18 @@
 //! step; then each is verified (its tip and spot displacements at every step fed to the sigma
 //! calibration) or, if a step has no observed sample (a gap, a late start of the motion
 //! stream), dropped as unverifiable. Only whole horizons are verified, so the calibration is
-//! causal.
+//! causal. Each verified forecast's standardised relative errors also join the lift's
+//! ensemble of error paths ([`super::lift`]).
 
 use super::calibrate::SigmaCalibration;
+use super::lift::LiftEnsemble;
 use super::{point_displacement, Geometry, RelativeTrack};
 use crate::observed::ObservedMotion;
+use shipcast_wire::payload::MAX_STEPS;
 use std::collections::VecDeque;
+
+/// Per axis and step: a verified forecast's standardised errors or means.
+type PerAxis = [[f64; MAX_STEPS]; 3];
 
 /// Relative forecasts that may wait for their outcome: one per forecast value over the
 /// longest horizon, four times over (forecasts arrive at most once per value).
@@ -26,6 +32,10 @@ pub struct RelativeVerifier {
     tip: Vec<[f64; 3]>,
     spot: Vec<[f64; 3]>,
     pub calibration: SigmaCalibration,
+    /// The verified forecasts' standardised error paths, for the lift decision.
+    pub ensemble: LiftEnsemble,
+    u: Box<PerAxis>,
+    z: Box<PerAxis>,
     pub verified: u64,
     /// Dropped: a step without an observed sample, or too many waiting.
     pub unverifiable: u64,
@@ -42,6 +52,9 @@ impl RelativeVerifier {
             tip: Vec::with_capacity(shipcast_wire::payload::MAX_STEPS),
             spot: Vec::with_capacity(shipcast_wire::payload::MAX_STEPS),
             calibration,
+            ensemble: LiftEnsemble::default(),
+            u: Box::new([[0.0; MAX_STEPS]; 3]),
+            z: Box::new([[0.0; MAX_STEPS]; 3]),
             verified: 0,
             unverifiable: 0,
         }
@@ -99,12 +112,31 @@ impl RelativeVerifier {
             };
             if observed(&old, geometry, a, b, &mut self.tip, &mut self.spot) {
                 self.calibration.observe(&old, &self.tip, &self.spot);
+                self.offer_errors(&old);
                 self.verified += 1;
             } else {
                 self.unverifiable += 1;
             }
             self.spare.push(old);
         }
+    }
+}
+
+impl RelativeVerifier {
+    /// Offers the standardised errors u = (actual - mean) / sigma and means z = mean / sigma
+    /// of a verified forecast (sigma as issued) to the lift's ensemble; a step without sigma
+    /// gives a non-finite u, which the ensemble takes as no error.
+    fn offer_errors(&mut self, track: &RelativeTrack) {
+        let steps = track.steps().min(MAX_STEPS).min(self.tip.len());
+        for axis in 0..3 {
+            for k in 0..steps {
+                let actual = self.tip[k][axis] - self.spot[k][axis];
+                let (mean, sigma) = (track.mean[axis][k], track.sigma[axis][k]);
+                self.u[axis][k] = (actual - mean) / sigma;
+                self.z[axis][k] = mean / sigma;
+            }
+        }
+        self.ensemble.offer(&self.u, &self.z, steps);
     }
 }
 
@@ -186,6 +218,8 @@ mod tests {
         let until = a.newest_s().unwrap().min(b.newest_s().unwrap());
         v.verify_until(until, &geometry, &a, &b);
         assert_eq!((v.verified, v.pending()), (1, 1));
+        // Its errors joined the lift's ensemble (one verified forecast, kept at stride 4).
+        assert_eq!(v.ensemble.len(), 1);
         // Had the replaced forecast (tip mean 5) counted, the scale would be above 0.
         assert_eq!(v.calibration.scale(2, 0), Some(0.0));
         // B misses the sample at 2.0 s: that forecast cannot be verified and is dropped.
