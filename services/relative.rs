@@ -404,6 +404,7 @@ fn run_live(config: &PipelineConfig, limit: Option<Duration>) -> anyhow::Result<
     let mut target_motion = FollowedMotion::new(&session, &target_names, keep_s, rate_hz)?;
     let mut verifier = RelativeVerifier::new(
         SigmaCalibration::new(r.calibration_halflife, r.calibration_min_verified),
+        *lift.limits(),
         MAX_PENDING,
     );
     let mut warned_no_motion = false;
@@ -449,6 +450,7 @@ fn run_live(config: &PipelineConfig, limit: Option<Duration>) -> anyhow::Result<
             tracing::warn!(misaligned, "relative: cannot combine the forecasts: {e}");
             continue;
         }
+        let decision = lift.decide(&mut track, &verifier.lift);
         verifier.push(&track);
         // Forecasts of two full horizons and still no motion from a vessel: say why the
         // sigma stays independent, once.
@@ -463,7 +465,6 @@ fn run_live(config: &PipelineConfig, limit: Option<Duration>) -> anyhow::Result<
                 }
             }
         }
-        let decision = lift.decide(&track, &verifier.ensemble);
         let adv = advisory(
             &track,
             &geometry,

@@ -7,14 +7,17 @@
 //!   and z) under which, put on the current forecast, every limit holds at every step of the
 //!   window. It keeps what a Gaussian model assumes away: the errors' tails, their dependence
 //!   across steps and across the three axes.
+//!   Its statements are then corrected by what happened to earlier ones stated like them
+//!   (`decision::recalibrate`, the deck's rule: never raised above the larger of p and 0.8).
 //! - **before them, a Gaussian model**: each axis an AR(1) chain in lead
 //!   (`relative.error_correlation`), the three axes multiplied as independent. Scored against
-//!   two records (the two-ship study) it stated 10-15 points more than happened in its middle
-//!   bins.
+//!   two records (the two-ship study) it stated 6-14 points more than happened in most bins
+//!   between 0.2 and 0.8.
 
 use super::RelativeTrack;
 use crate::config::RelativeConfig;
 use crate::decision::ensemble::{share_within, ErrorEnsemble};
+use crate::decision::recalibrate::StatementRecord;
 use crate::decision::window::{chain_within, Lattice};
 use crate::decision::LATTICE_POINTS;
 use serde::{Deserialize, Serialize};
@@ -86,6 +89,57 @@ pub struct LiftDecision {
     pub ensemble_members: usize,
 }
 
+/// Per axis and step: a verified forecast's standardised errors or means.
+type PerAxis = [[f64; MAX_STEPS]; 3];
+
+/// What verification has taught the lift decision: the verified relative error paths, and
+/// the outcomes of the statements made from them.
+#[derive(Debug, Clone)]
+pub struct LiftEvidence {
+    limits: LiftLimits,
+    pub ensemble: LiftEnsemble,
+    /// The uncorrected statements from the ensemble and whether their windows held.
+    pub statements: StatementRecord,
+    u: Box<PerAxis>,
+    z: Box<PerAxis>,
+}
+
+impl LiftEvidence {
+    pub fn new(limits: LiftLimits) -> Self {
+        Self {
+            limits,
+            ensemble: LiftEnsemble::default(),
+            statements: StatementRecord::default(),
+            u: Box::new([[0.0; MAX_STEPS]; 3]),
+            z: Box::new([[0.0; MAX_STEPS]; 3]),
+        }
+    }
+
+    /// Learns from a verified forecast, `actual[k]` its true relative displacement at step k:
+    /// its standardised errors u = (actual - mean) / sigma and means z = mean / sigma (sigma as
+    /// issued; a step without sigma gives a non-finite u, which the ensemble takes as no error)
+    /// join the ensemble, and its statement, if it made one from verified errors, is recorded
+    /// against whether its window held.
+    pub fn learn(&mut self, track: &RelativeTrack, actual: &[[f64; 3]]) {
+        let steps = track.steps().min(MAX_STEPS).min(actual.len());
+        for (k, value) in actual.iter().enumerate().take(steps) {
+            for (axis, &v) in value.iter().enumerate() {
+                let (mean, sigma) = (track.mean[axis][k], track.sigma[axis][k]);
+                self.u[axis][k] = (v - mean) / sigma;
+                self.z[axis][k] = mean / sigma;
+            }
+        }
+        self.ensemble.offer(&self.u, &self.z, steps);
+        if let Some(p) = track.lift_statement {
+            let window = self.limits.window_steps(track.dt_s);
+            if window <= steps {
+                let held = self.limits.window_holds(window, |k| actual[k]);
+                self.statements.add(p, held);
+            }
+        }
+    }
+}
+
 /// Decides the lift on relative forecasts, with its work buffers (after the first decision it
 /// does not allocate).
 #[derive(Debug, Clone)]
@@ -110,12 +164,37 @@ impl LiftDecider {
         &self.limits
     }
 
-    /// Decides on `track`: from `ensemble` once it is ready, else from the Gaussian model.
-    pub fn decide(&mut self, track: &RelativeTrack, ensemble: &LiftEnsemble) -> LiftDecision {
+    /// The Gaussian model's probability that the window of MOT holds (None: the forecast is
+    /// shorter than MOT).
+    pub fn gaussian_probability(&self, track: &RelativeTrack) -> Option<f64> {
+        let limits = &self.limits;
+        let window = limits.window_steps(track.dt_s);
+        (window <= track.steps() && window <= self.lattice.dims()).then(|| {
+            (0..3)
+                .map(|axis| {
+                    chain_within(
+                        &track.mean[axis][..window],
+                        &track.sigma[axis][..window],
+                        limits.limit(axis),
+                        limits.error_correlation,
+                        &self.lattice,
+                    )
+                })
+                .product::<f64>()
+        })
+    }
+
+    /// Decides on `track`: from the evidence's ensemble once it is ready (corrected by the
+    /// earlier statements' outcomes), else from the Gaussian model. The uncorrected statement
+    /// from verified errors is noted in `track.lift_statement`, so that verification records
+    /// its outcome.
+    pub fn decide(&mut self, track: &mut RelativeTrack, evidence: &LiftEvidence) -> LiftDecision {
         let limits = self.limits;
         let steps = track.steps();
         let window = limits.window_steps(track.dt_s);
+        let ensemble = &evidence.ensemble;
         let from_ensemble = ensemble.ready();
+        track.lift_statement = None;
         let probability_now = if window > steps {
             None
         } else if from_ensemble {
@@ -127,21 +206,11 @@ impl LiftDecider {
                 &mut self.fail_before,
                 &mut self.usable,
             );
-            share_within(&self.fail_before, &self.usable, 0, window)
+            let raw = share_within(&self.fail_before, &self.usable, 0, window);
+            track.lift_statement = raw;
+            raw.map(|p| evidence.statements.correct(p))
         } else {
-            (window <= self.lattice.dims()).then(|| {
-                (0..3)
-                    .map(|axis| {
-                        chain_within(
-                            &track.mean[axis][..window],
-                            &track.sigma[axis][..window],
-                            limits.limit(axis),
-                            limits.error_correlation,
-                            &self.lattice,
-                        )
-                    })
-                    .product::<f64>()
-            })
+            self.gaussian_probability(track)
         };
         let next_exceedance_s = (0..steps)
             .find(|&k| (0..3).any(|axis| track.mean[axis][k].abs() > limits.limit(axis)))

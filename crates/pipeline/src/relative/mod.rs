@@ -32,7 +32,7 @@ pub mod verify;
 use crate::config::RelativeConfig;
 use crate::deck::ShipPoint;
 use calibrate::SigmaCalibration;
-pub use lift::{LiftDecider, LiftDecision, LiftLimits};
+pub use lift::{LiftDecider, LiftDecision, LiftEvidence, LiftLimits};
 use serde::{Deserialize, Serialize};
 use shipcast_wire::payload::{Forecast, MAX_STEPS};
 use shipcast_wire::Dof;
@@ -239,6 +239,9 @@ pub struct RelativeTrack {
     pub basis: SigmaBasis,
     pub tip: PointTrack,
     pub spot: PointTrack,
+    /// The lift decision's uncorrected probability, when it came from verified errors
+    /// (`LiftDecider::decide` notes it): verification records its outcome against it.
+    pub lift_statement: Option<f64>,
 }
 
 impl Default for RelativeTrack {
@@ -258,6 +261,7 @@ impl Default for RelativeTrack {
             basis: SigmaBasis::Independent,
             tip: PointTrack::default(),
             spot: PointTrack::default(),
+            lift_statement: None,
         }
     }
 }
@@ -308,6 +312,8 @@ impl RelativeTrack {
             n if n == total => SigmaBasis::Calibrated,
             _ => SigmaBasis::Partly,
         };
+        // A new forecast: no lift statement made on it yet.
+        self.lift_statement = None;
         Ok(())
     }
 

@@ -6,7 +6,6 @@
 //! B) at the same leads.
 
 use super::calibrate::SigmaCalibration;
-use super::lift::LiftEnsemble;
 use super::verify::{observed, RelativeVerifier, MAX_PENDING};
 use super::{Geometry, LiftDecider, LiftLimits, RelativeTrack, AXES};
 use crate::config::PipelineConfig;
@@ -236,8 +235,10 @@ pub fn study(
     let (report_b, fb) = replay(target, &config.predictor, models.1, skip_s, true, progress)?;
     let geometry = Geometry::new(config.crane.tip_m, &config.relative);
     let r = &config.relative;
+    let mut decider = LiftDecider::new(LiftLimits::new(r));
     let mut verifier = RelativeVerifier::new(
         SigmaCalibration::new(r.calibration_halflife, r.calibration_min_verified),
+        *decider.limits(),
         MAX_PENDING,
     );
     let (ta, tb) = (Truth::new(crane), Truth::new(target));
@@ -247,8 +248,6 @@ pub fn study(
         .map(|l| ((l / dt).round() as usize).max(1) - 1)
         .collect();
     let mut sums = vec![[Sums::default(); 3]; lead_k.len()];
-    let mut decider = LiftDecider::new(LiftLimits::new(r));
-    let no_ensemble = LiftEnsemble::new(1, 1);
     let mut lift = LiftCalls::new(decider.limits());
     let mut lift_gaussian = LiftCalls::new(decider.limits());
     let (mut tip, mut spot) = (Vec::new(), Vec::new());
@@ -275,6 +274,9 @@ pub fn study(
             continue;
         }
         pairs += 1;
+        // Decided on every forecast, as the live service does, so its statement's outcome
+        // teaches the later ones whether it is scored or not.
+        let issued = decider.decide(&mut track, &verifier.lift);
         if calibrated_from_s.is_none() && track.basis == super::SigmaBasis::Calibrated {
             calibrated_from_s = Some(track.alignment.time_s);
         }
@@ -283,7 +285,6 @@ pub fn study(
         {
             scored += 1;
             score(&track, &tip, &spot, &lead_k, &mut sums);
-            let issued = decider.decide(&track, &verifier.ensemble);
             if let Some(p) = issued.probability_now {
                 let window = decider.limits().window_steps(track.dt_s);
                 let held = decider
@@ -291,8 +292,7 @@ pub fn study(
                     .window_holds(window, |k| std::array::from_fn(|a| tip[k][a] - spot[k][a]));
                 let t0 = track.alignment.time_s;
                 lift.record(t0, p, held);
-                let gaussian = decider.decide(&track, &no_ensemble).probability_now;
-                if let Some(p) = gaussian {
+                if let Some(p) = decider.gaussian_probability(&track) {
                     lift_gaussian.record(t0, p, held);
                 }
             }

@@ -141,13 +141,13 @@ fn the_lift_decision_flips_when_the_relative_motion_crosses_a_limit() {
     let config = RelativeConfig::default();
     let mut lift = LiftDecider::new(LiftLimits::new(&config));
     // No verified errors yet: the Gaussian model decides.
-    let unverified = lift::LiftEnsemble::default();
+    let unverified = LiftEvidence::new(*lift.limits());
     let g = geometry([0.0; 3], [0.0; 3], 0.0);
     let calm = [0.0, 0.0, 0.5, 0.0, 0.0, 0.0];
     let sigma = [0.05, 0.05, 0.05, 0.0, 0.0, 0.0];
     let still = forecast(0.0, 50, NONE, NONE);
-    let t = relative(&g, &forecast(0.0, 50, calm, sigma), &still);
-    let d = lift.decide(&t, &unverified);
+    let mut t = relative(&g, &forecast(0.0, 50, calm, sigma), &still);
+    let d = lift.decide(&mut t, &unverified);
     assert!(d.go, "{d:?}");
     assert!(d.probability_now.unwrap() > 0.99);
     assert_eq!(d.ensemble_members, 0);
@@ -157,17 +157,17 @@ fn the_lift_decision_flips_when_the_relative_motion_crosses_a_limit() {
     for k in 9..50 {
         rough.mean[2][k] = 1.2;
     }
-    let t = relative(&g, &rough, &still);
-    let d = lift.decide(&t, &unverified);
+    let mut t = relative(&g, &rough, &still);
+    let d = lift.decide(&mut t, &unverified);
     assert!(!d.go && d.probability_now.unwrap() < 0.01, "{d:?}");
     assert_eq!(d.next_exceedance_s, Some(5.0));
     // A forecast shorter than the MOT decides nothing.
-    let t = relative(
+    let mut t = relative(
         &g,
         &forecast(0.0, 10, calm, sigma),
         &forecast(0.0, 10, NONE, NONE),
     );
-    let d = lift.decide(&t, &unverified);
+    let d = lift.decide(&mut t, &unverified);
     assert!(!d.go && d.probability_now.is_none());
     // The advisory carries the published steps and survives JSON.
     let adv = advisory(&t, &g, ("ddg51", "supply"), (7, 9), d);
@@ -257,9 +257,10 @@ fn the_study_scores_the_relative_forecast_against_the_records() {
 #[test]
 fn verified_errors_decide_the_lift_once_enough_exist() {
     use crate::decision::ensemble::MIN_MEMBERS;
+    use crate::decision::recalibrate::SHRINK_CALLS;
     let config = RelativeConfig::default();
     let mut lift = LiftDecider::new(LiftLimits::new(&config));
-    let mut ensemble = lift::LiftEnsemble::new(MIN_MEMBERS, 1);
+    let mut evidence = LiftEvidence::new(*lift.limits());
     // Every verified forecast said no relative motion (z = 0) and the tip then rose exactly
     // one sigma on every axis at every step (u = 1).
     let ones = [[1.0; MAX_STEPS]; 3];
@@ -269,40 +270,94 @@ fn verified_errors_decide_the_lift_once_enough_exist() {
     let sigma = [0.5, 0.5, 0.5, 0.0, 0.0, 0.0];
     // Relative heave 0.6 m with sigma 0.5 m (per axis, the independent sum of A's and B's):
     // what happened before puts the tip at mean + sigma, beyond the 1 m limit.
-    let near = relative(
+    let mut near = relative(
         &g,
         &forecast(0.0, 50, [0.0, 0.0, 0.6, 0.0, 0.0, 0.0], sigma),
         &still,
     );
     let s = near.sigma[2][0];
     assert!(0.6 + s > config.vertical_limit_m && 0.2 + s < config.vertical_limit_m);
-    for _ in 0..MIN_MEMBERS - 1 {
-        ensemble.offer(&ones, &zeros, 50);
+    for _ in 0..(MIN_MEMBERS - 1) * 4 {
+        evidence.ensemble.offer(&ones, &zeros, 50);
     }
-    // One member short: still the Gaussian model.
-    assert_eq!(lift.decide(&near, &ensemble).ensemble_members, 0);
-    ensemble.offer(&ones, &zeros, 50);
+    // One member short (one verified forecast in 4 is kept): still the Gaussian model, and
+    // no statement to record.
+    let d = lift.decide(&mut near, &evidence);
+    assert_eq!((d.ensemble_members, near.lift_statement), (0, None));
+    evidence.ensemble.offer(&ones, &zeros, 50);
     let n = MIN_MEMBERS as f64;
-    let d = lift.decide(&near, &ensemble);
+    let d = lift.decide(&mut near, &evidence);
     assert_eq!(d.ensemble_members, MIN_MEMBERS);
     // Every member breaks the limit: only the broken-or-held pseudo-members' share is left.
     assert!(
         (d.probability_now.unwrap() - 1.0 / (n + 2.0)).abs() < 1e-12,
         "{d:?}"
     );
+    assert_eq!(near.lift_statement, d.probability_now);
     assert!(!d.go);
     // 0.2 m of relative heave: every member holds (0.2 + sigma < 1 m, and x, y stay within
     // the horizontal limit).
-    let low = relative(
+    let mut low = relative(
         &g,
         &forecast(0.0, 50, [0.0, 0.0, 0.2, 0.0, 0.0, 0.0], sigma),
         &still,
     );
     assert!(low.sigma[0][0] < config.horizontal_limit_m);
-    let d = lift.decide(&low, &ensemble);
+    let raw = (n + 1.0) / (n + 2.0);
+    let d = lift.decide(&mut low, &evidence);
+    assert!((d.probability_now.unwrap() - raw).abs() < 1e-12, "{d:?}");
+    assert!(d.go);
+    // Earlier calls stated the same and every one of their windows broke: the statement is
+    // moved down by their mean miss, shrunk by m / (m + SHRINK_CALLS).
+    let m = SHRINK_CALLS;
+    for _ in 0..m as usize {
+        evidence.statements.add(raw, false);
+    }
+    let d = lift.decide(&mut low, &evidence);
     assert!(
-        (d.probability_now.unwrap() - (n + 1.0) / (n + 2.0)).abs() < 1e-12,
+        (d.probability_now.unwrap() - raw / 2.0).abs() < 1e-9,
         "{d:?}"
     );
-    assert!(d.go);
+    assert!(!d.go);
+    // The uncorrected statement is what its outcome is recorded against.
+    assert_eq!(low.lift_statement, Some(raw));
+}
+
+#[test]
+fn verification_records_a_lift_statement_against_whether_its_window_held() {
+    use crate::decision::recalibrate::SHRINK_CALLS;
+    let config = RelativeConfig::default();
+    let limits = LiftLimits::new(&config);
+    let g = geometry([0.0; 3], [0.0; 3], 0.0);
+    let sigma = [0.5, 0.5, 0.5, 0.0, 0.0, 0.0];
+    let mut t = relative(
+        &g,
+        &forecast(0.0, 50, NONE, sigma),
+        &forecast(0.0, 50, NONE, NONE),
+    );
+    let window = limits.window_steps(t.dt_s);
+    let mut evidence = LiftEvidence::new(limits);
+    // A forecast the Gaussian model decided on: nothing recorded.
+    let calm = vec![[0.0, 0.0, 0.5]; 50];
+    evidence.learn(&t, &calm);
+    assert_eq!(evidence.statements.calls(), 0.0);
+    // Stated 0.7 and held over the whole window.
+    t.lift_statement = Some(0.7);
+    evidence.learn(&t, &calm);
+    assert_eq!(evidence.statements.calls(), 1.0);
+    let up = 0.7 + 0.3 / (1.0 + SHRINK_CALLS);
+    assert!((evidence.statements.correct(0.7) - up).abs() < 1e-12);
+    // Stated 0.7 and the last step of the window went 1.2 m: broken. After it, nothing
+    // counts.
+    let mut rough = calm.clone();
+    rough[window - 1][2] = 1.2;
+    rough[window][2] = 5.0;
+    evidence.learn(&t, &rough);
+    let mean_miss = (1.0 - 1.4) / (2.0 + SHRINK_CALLS);
+    assert!((evidence.statements.correct(0.7) - (0.7 + mean_miss)).abs() < 1e-12);
+    let mut late = calm;
+    late[window][2] = 5.0;
+    evidence.learn(&t, &late);
+    let mean_miss = (2.0 - 2.1) / (3.0 + SHRINK_CALLS);
+    assert!((evidence.statements.correct(0.7) - (0.7 + mean_miss)).abs() < 1e-12);
 }

@@ -5,18 +5,13 @@
 //! step; then each is verified (its tip and spot displacements at every step fed to the sigma
 //! calibration) or, if a step has no observed sample (a gap, a late start of the motion
 //! stream), dropped as unverifiable. Only whole horizons are verified, so the calibration is
-//! causal. Each verified forecast's standardised relative errors also join the lift's
-//! ensemble of error paths ([`super::lift`]).
+//! causal. Each verified forecast also teaches the lift decision ([`super::lift`]).
 
 use super::calibrate::SigmaCalibration;
-use super::lift::LiftEnsemble;
+use super::lift::{LiftEvidence, LiftLimits};
 use super::{point_displacement, Geometry, RelativeTrack};
 use crate::observed::ObservedMotion;
-use shipcast_wire::payload::MAX_STEPS;
 use std::collections::VecDeque;
-
-/// Per axis and step: a verified forecast's standardised errors or means.
-type PerAxis = [[f64; MAX_STEPS]; 3];
 
 /// Relative forecasts that may wait for their outcome: one per forecast value over the
 /// longest horizon, four times over (forecasts arrive at most once per value).
@@ -32,18 +27,19 @@ pub struct RelativeVerifier {
     tip: Vec<[f64; 3]>,
     spot: Vec<[f64; 3]>,
     pub calibration: SigmaCalibration,
-    /// The verified forecasts' standardised error paths, for the lift decision.
-    pub ensemble: LiftEnsemble,
-    u: Box<PerAxis>,
-    z: Box<PerAxis>,
+    /// What the verified forecasts teach the lift decision.
+    pub lift: LiftEvidence,
+    /// The true relative displacement of the forecast being verified, per step.
+    actual: Vec<[f64; 3]>,
     pub verified: u64,
     /// Dropped: a step without an observed sample, or too many waiting.
     pub unverifiable: u64,
 }
 
 impl RelativeVerifier {
-    /// At most `max_pending` forecasts wait; the oldest beyond that are dropped.
-    pub fn new(calibration: SigmaCalibration, max_pending: usize) -> Self {
+    /// At most `max_pending` forecasts wait; the oldest beyond that are dropped. `lift`: the
+    /// limits whose windows the lift statements are judged by.
+    pub fn new(calibration: SigmaCalibration, lift: LiftLimits, max_pending: usize) -> Self {
         let max_pending = max_pending.max(1);
         Self {
             pending: VecDeque::with_capacity(max_pending + 1),
@@ -52,9 +48,8 @@ impl RelativeVerifier {
             tip: Vec::with_capacity(shipcast_wire::payload::MAX_STEPS),
             spot: Vec::with_capacity(shipcast_wire::payload::MAX_STEPS),
             calibration,
-            ensemble: LiftEnsemble::default(),
-            u: Box::new([[0.0; MAX_STEPS]; 3]),
-            z: Box::new([[0.0; MAX_STEPS]; 3]),
+            lift: LiftEvidence::new(lift),
+            actual: Vec::with_capacity(shipcast_wire::payload::MAX_STEPS),
             verified: 0,
             unverifiable: 0,
         }
@@ -112,31 +107,17 @@ impl RelativeVerifier {
             };
             if observed(&old, geometry, a, b, &mut self.tip, &mut self.spot) {
                 self.calibration.observe(&old, &self.tip, &self.spot);
-                self.offer_errors(&old);
+                self.actual.clear();
+                let relative = self.tip.iter().zip(&self.spot);
+                self.actual
+                    .extend(relative.map(|(t, s)| std::array::from_fn(|a| t[a] - s[a])));
+                self.lift.learn(&old, &self.actual);
                 self.verified += 1;
             } else {
                 self.unverifiable += 1;
             }
             self.spare.push(old);
         }
-    }
-}
-
-impl RelativeVerifier {
-    /// Offers the standardised errors u = (actual - mean) / sigma and means z = mean / sigma
-    /// of a verified forecast (sigma as issued) to the lift's ensemble; a step without sigma
-    /// gives a non-finite u, which the ensemble takes as no error.
-    fn offer_errors(&mut self, track: &RelativeTrack) {
-        let steps = track.steps().min(MAX_STEPS).min(self.tip.len());
-        for axis in 0..3 {
-            for k in 0..steps {
-                let actual = self.tip[k][axis] - self.spot[k][axis];
-                let (mean, sigma) = (track.mean[axis][k], track.sigma[axis][k]);
-                self.u[axis][k] = (actual - mean) / sigma;
-                self.z[axis][k] = mean / sigma;
-            }
-        }
-        self.ensemble.offer(&self.u, &self.z, steps);
     }
 }
 
@@ -197,7 +178,8 @@ mod tests {
     #[test]
     fn forecasts_are_verified_once_both_ships_have_passed_them_and_an_origin_counts_once() {
         let geometry = Geometry::new([0.0; 3], &crate::config::RelativeConfig::default());
-        let mut v = RelativeVerifier::new(SigmaCalibration::new(f64::INFINITY, 1.0), 8);
+        let limits = LiftLimits::new(&crate::config::RelativeConfig::default());
+        let mut v = RelativeVerifier::new(SigmaCalibration::new(f64::INFINITY, 1.0), limits, 8);
         let (mut a, mut b) = (MotionHistory::new(8.0, 60.0), MotionHistory::new(8.0, 60.0));
         // The same origin twice (the second vessel's forecast came in): the later one stands.
         v.push(&track(1.0, 5.0));
@@ -219,7 +201,7 @@ mod tests {
         v.verify_until(until, &geometry, &a, &b);
         assert_eq!((v.verified, v.pending()), (1, 1));
         // Its errors joined the lift's ensemble (one verified forecast, kept at stride 4).
-        assert_eq!(v.ensemble.len(), 1);
+        assert_eq!(v.lift.ensemble.len(), 1);
         // Had the replaced forecast (tip mean 5) counted, the scale would be above 0.
         assert_eq!(v.calibration.scale(2, 0), Some(0.0));
         // B misses the sample at 2.0 s: that forecast cannot be verified and is dropped.
