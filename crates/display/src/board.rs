@@ -80,11 +80,11 @@ pub struct DecisionView {
     pub next_window_probability: Option<f64>,
     /// First step at which a predicted mean breaks a limit.
     pub next_exceedance_s: Option<f64>,
-    /// Verified error paths behind the deck's probability; 0 while it still comes from the
-    /// Gaussian model and may not say go (the lift decision does not send it).
+    /// Verified error paths behind the probability; 0 while it still comes from the Gaussian
+    /// model (absent from a lift decision of a service older than 2026-12-05).
     #[serde(default)]
     pub ensemble_members: Option<usize>,
-    /// The deck states no probability yet: no verified errors back one.
+    /// The station states no probability yet: no verified errors back one.
     #[serde(default)]
     pub awaiting_verified_errors: bool,
 }

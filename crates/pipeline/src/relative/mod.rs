@@ -363,11 +363,12 @@ impl RelativeAdvisory {
             " | {} (MOT {:.0}s, {}), sigma {:?}",
             if d.go { "GO" } else { "NO-GO" },
             d.mot_s,
-            d.probability_now
-                .map_or("MOT beyond the horizon".into(), |p| format!(
-                    "{:.0}%",
-                    100.0 * p
-                )),
+            match d.probability_now {
+                Some(p) => format!("{:.0}%", 100.0 * p),
+                None if d.awaiting_verified_errors =>
+                    "no probability before verified errors".into(),
+                None => "MOT beyond the horizon".into(),
+            },
             self.sigma_basis
         ));
         line

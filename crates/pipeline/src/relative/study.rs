@@ -165,6 +165,9 @@ pub struct StudyReport {
     pub lift: LiftScore,
     /// The Gaussian model's statements on the same calls, for comparison.
     pub lift_gaussian: LiftScore,
+    /// The calls as issued before verified errors existed (the Gaussian model's, with the
+    /// sigma of the first minutes).
+    pub lift_before_verified: LiftScore,
 }
 
 #[derive(Debug, Clone, Copy, Default)]
@@ -250,6 +253,7 @@ pub fn study(
     let mut sums = vec![[Sums::default(); 3]; lead_k.len()];
     let mut lift = LiftCalls::new(decider.limits());
     let mut lift_gaussian = LiftCalls::new(decider.limits());
+    let mut lift_before_verified = LiftCalls::new(decider.limits());
     let (mut tip, mut spot) = (Vec::new(), Vec::new());
     let (mut pairs, mut scored, mut unpaired) = (0u64, 0u64, 0u64);
     let mut calibrated_from_s = None;
@@ -292,6 +296,9 @@ pub fn study(
                     .window_holds(window, |k| std::array::from_fn(|a| tip[k][a] - spot[k][a]));
                 let t0 = track.alignment.time_s;
                 lift.record(t0, p, held);
+                if issued.ensemble_members == 0 {
+                    lift_before_verified.record(t0, p, held);
+                }
                 if let Some(p) = decider.gaussian_probability(&track) {
                     lift_gaussian.record(t0, p, held);
                 }
@@ -312,6 +319,7 @@ pub fn study(
             own,
             lift: lift.finish(),
             lift_gaussian: lift_gaussian.finish(),
+            lift_before_verified: lift_before_verified.finish(),
         },
         report_a,
         report_b,

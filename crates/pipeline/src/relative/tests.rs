@@ -138,9 +138,12 @@ fn forecasts_are_aligned_on_the_later_origin() {
 
 #[test]
 fn the_lift_decision_flips_when_the_relative_motion_crosses_a_limit() {
-    let config = RelativeConfig::default();
+    // No verified errors yet, and the Gaussian model allowed to decide.
+    let config = RelativeConfig {
+        go_needs_verified_errors: false,
+        ..RelativeConfig::default()
+    };
     let mut lift = LiftDecider::new(LiftLimits::new(&config));
-    // No verified errors yet: the Gaussian model decides.
     let unverified = LiftEvidence::new(*lift.limits());
     let g = geometry([0.0; 3], [0.0; 3], 0.0);
     let calm = [0.0, 0.0, 0.5, 0.0, 0.0, 0.0];
@@ -280,14 +283,24 @@ fn verified_errors_decide_the_lift_once_enough_exist() {
     for _ in 0..(MIN_MEMBERS - 1) * 4 {
         evidence.ensemble.offer(&ones, &zeros, 50);
     }
-    // One member short (one verified forecast in 4 is kept): still the Gaussian model, and
-    // no statement to record.
+    // One member short (one verified forecast in 4 is kept): by default nothing is stated
+    // before verified errors, nor recorded.
     let d = lift.decide(&mut near, &evidence);
     assert_eq!((d.ensemble_members, near.lift_statement), (0, None));
+    assert!(
+        d.awaiting_verified_errors && d.probability_now.is_none() && !d.go,
+        "{d:?}"
+    );
+    // A calm forecast too: the Gaussian model would say go.
+    let mut calm = relative(&g, &forecast(0.0, 50, NONE, [0.05; 6]), &still);
+    let d = lift.decide(&mut calm, &evidence);
+    assert!(lift.gaussian_probability(&calm).unwrap() > 0.99);
+    assert!(d.awaiting_verified_errors && !d.go, "{d:?}");
     evidence.ensemble.offer(&ones, &zeros, 50);
     let n = MIN_MEMBERS as f64;
     let d = lift.decide(&mut near, &evidence);
     assert_eq!(d.ensemble_members, MIN_MEMBERS);
+    assert!(!d.awaiting_verified_errors);
     // Every member breaks the limit: only the broken-or-held pseudo-members' share is left.
     assert!(
         (d.probability_now.unwrap() - 1.0 / (n + 2.0)).abs() < 1e-12,
