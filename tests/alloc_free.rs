@@ -1,6 +1,7 @@
 //! The forecast path does not allocate in steady state: a whole engine step (ingest and
 //! decimation, scoring and calibration, the six-DOF forecast, the plausibility check, the
-//! Forecast payload) plus its JSON encoding for zenoh, counted by a global allocator.
+//! Forecast payload) plus its JSON encoding for zenoh, counted by a global allocator; and the
+//! decision loops of the deck and of the lift once their ensembles are full.
 //!
 //! The allocator (`shipcast_predict::alloc_count`) counts per thread, and only while the
 //! measuring thread asks it to: the engine's retraining thread (and the test harness) allocate
@@ -12,7 +13,7 @@ use shipcast_pipeline::config::PipelineConfig;
 use shipcast_pipeline::engine::retrain::Retrainer;
 use shipcast_pipeline::engine::{startup, Engine};
 use shipcast_predict::alloc_count::{counted, CountingAllocator};
-use shipcast_wire::payload::MotionSample;
+use shipcast_wire::payload::{Forecast, MotionSample};
 use shipcast_wire::payload_json::ForecastJsonEncoder;
 
 #[global_allocator]
@@ -63,6 +64,24 @@ fn forecast_stretch(
         stretch.json_bytes = stretch.json_bytes.max(bytes);
     }
     stretch
+}
+
+/// A forecast issued at `t0` with a 25 s horizon at 2 Hz: DOF `dof` is 0.9 times `truth` at
+/// each step (a forecast with a little skill missing), every DOF's sigma is `sigma`.
+fn swell_forecast(t0: f64, dof: usize, truth: impl Fn(f64) -> f64, sigma: f64) -> Forecast {
+    let mut f = Forecast {
+        time_s: t0,
+        dt_s: 0.5,
+        steps: 50,
+        ..Forecast::default()
+    };
+    for k in 0..50 {
+        f.mean[dof][k] = (0.9 * truth(t0 + (k + 1) as f64 * 0.5)) as f32;
+        for d in 0..6 {
+            f.sigma[d][k] = sigma as f32;
+        }
+    }
+    f
 }
 
 #[test]
@@ -144,26 +163,11 @@ fn deciding_and_verifying_from_a_full_error_ensemble_do_not_allocate() {
     use shipcast_pipeline::config::DeckConfig;
     use shipcast_pipeline::decision::outcomes::Outcomes;
     use shipcast_pipeline::decision::{ensemble, Decider};
-    use shipcast_wire::payload::Forecast;
     // A swell in roll sampled at 8 Hz, forecasts at 2 Hz with a 25 s horizon: the deck's
     // live loop (samples in, due forecasts verified, a decision, the forecast kept for
     // verification), first until the ensemble's ring is full, then counted.
     let roll = |t: f64| (2.0 * (t * std::f64::consts::TAU / 9.0).sin()).to_radians();
-    let forecast_at = |t0: f64| {
-        let mut f = Forecast {
-            time_s: t0,
-            dt_s: 0.5,
-            steps: 50,
-            ..Forecast::default()
-        };
-        for k in 0..50 {
-            f.mean[3][k] = (0.9 * roll(t0 + (k + 1) as f64 * 0.5)) as f32;
-            for d in 0..6 {
-                f.sigma[d][k] = 0.3f64.to_radians() as f32;
-            }
-        }
-        f
-    };
+    let forecast_at = |t0: f64| swell_forecast(t0, 3, roll, 0.3f64.to_radians());
     let mut decider = Decider::new(&DeckConfig::default());
     let mut outcomes = Outcomes::new(8.0, 25.0, 2.0);
     let full = ensemble::DEFAULT_CAPACITY * ensemble::DEFAULT_STRIDE + 60;
@@ -196,5 +200,68 @@ fn deciding_and_verifying_from_a_full_error_ensemble_do_not_allocate() {
     }
     assert_eq!(decider.ensemble().len(), ensemble::DEFAULT_CAPACITY);
     assert_eq!(outcomes.counts.unverifiable, 0, "{:?}", outcomes.counts);
+    assert_eq!(allocations, 0);
+}
+
+#[test]
+fn the_lift_decision_and_its_verification_do_not_allocate_once_warm() {
+    use shipcast_pipeline::config::RelativeConfig;
+    use shipcast_pipeline::decision::ensemble;
+    use shipcast_pipeline::observed::MotionHistory;
+    use shipcast_pipeline::relative::calibrate::SigmaCalibration;
+    use shipcast_pipeline::relative::verify::{RelativeVerifier, MAX_PENDING};
+    use shipcast_pipeline::relative::{Geometry, LiftDecider, LiftLimits, RelativeTrack};
+    // Two ships heaving in one swell, A's crest 2 s ahead of B's, sampled at 8 Hz, each
+    // forecast at 2 Hz with a 25 s horizon: the relative service's loop (both ships' motion
+    // in, due relative forecasts verified, the pair combined, the lift decided, the track
+    // kept for verification), first until the lift's ensemble is full, then counted.
+    let heave = |t: f64| 0.8 * (t * std::f64::consts::TAU / 9.0).sin();
+    let forecast_at = |t0: f64, lag_s: f64| swell_forecast(t0, 2, |t| heave(t - lag_s), 0.1);
+    let config = RelativeConfig::default();
+    let geometry = Geometry::new([0.0, 15.0, -20.0], &config);
+    let limits = LiftLimits::new(&config);
+    let mut decider = LiftDecider::new(limits);
+    let calibration =
+        SigmaCalibration::new(config.calibration_halflife, config.calibration_min_verified);
+    let mut verifier = RelativeVerifier::new(calibration, limits, MAX_PENDING);
+    let (mut a, mut b) = (MotionHistory::new(8.0, 74.0), MotionHistory::new(8.0, 74.0));
+    let mut track = Box::<RelativeTrack>::default();
+    let full = ensemble::DEFAULT_CAPACITY * ensemble::DEFAULT_STRIDE + 60;
+    let (mut allocations, mut sample) = (0, 0u64);
+    for step in 0..(full + 400) {
+        let t0 = step as f64 * 0.5;
+        let (fa, fb) = (forecast_at(t0, 0.0), forecast_at(t0, 2.0));
+        let (decision, n) = counted(|| {
+            while sample as f64 / 8.0 <= t0 + 1e-9 {
+                let t = sample as f64 / 8.0;
+                for (history, lag_s) in [(&mut a, 0.0), (&mut b, 2.0)] {
+                    let mut dof = [0.0; 6];
+                    dof[2] = heave(t - lag_s);
+                    history.push(&MotionSample {
+                        seq: sample,
+                        stamp_ns: sample,
+                        time_s: t,
+                        dof,
+                    });
+                }
+                sample += 1;
+            }
+            if let (Some(ta), Some(tb)) = (a.newest_s(), b.newest_s()) {
+                verifier.verify_until(ta.min(tb), &geometry, &a, &b);
+            }
+            track
+                .fill(&geometry, &fa, &fb, &verifier.calibration)
+                .expect("one clock, one step");
+            let decision = decider.decide(&mut track, &verifier.lift);
+            verifier.push(&track);
+            decision
+        });
+        if step >= full {
+            allocations += n;
+            assert_eq!(decision.ensemble_members, ensemble::DEFAULT_CAPACITY);
+        }
+    }
+    assert_eq!(verifier.unverifiable, 0);
+    assert!(verifier.lift.statements.calls() > 0.0);
     assert_eq!(allocations, 0);
 }
