@@ -22,6 +22,19 @@ use serde::Serialize;
 use shipcast_wire::payload::{Forecast, MAX_STEPS};
 use std::collections::{BTreeMap, VecDeque};
 
+/// The thresholds of the false go against hit rate curve with the configured `go_probability`
+/// among them, ascending, and the index of the configured one.
+pub fn curve_thresholds(go_probability: f64) -> (Vec<f64>, usize) {
+    let same = |v: &f64| (v - go_probability).abs() < 1e-12;
+    let mut values: Vec<f64> = CURVE.to_vec();
+    if !values.iter().any(same) {
+        values.push(go_probability);
+    }
+    values.sort_by(f64::total_cmp);
+    let default_index = values.iter().position(same).unwrap_or(0);
+    (values, default_index)
+}
+
 /// How long before a quiet period began its announcement must have come [s].
 pub const LEAD_S: f64 = 5.0;
 
@@ -148,18 +161,7 @@ impl DecisionScorer {
         let per_mot = mots
             .iter()
             .map(|&mot| {
-                let mut values: Vec<f64> = CURVE.to_vec();
-                if !values
-                    .iter()
-                    .any(|v| (v - config.go_probability).abs() < 1e-12)
-                {
-                    values.push(config.go_probability);
-                }
-                values.sort_by(f64::total_cmp);
-                let default_index = values
-                    .iter()
-                    .position(|v| (v - config.go_probability).abs() < 1e-12)
-                    .unwrap_or(0);
+                let (values, default_index) = curve_thresholds(config.go_probability);
                 PerMot {
                     mot_s: mot,
                     reliability: Reliability::new(mot),

@@ -210,7 +210,7 @@ impl LiftDecider {
             ensemble.failures(
                 &track.mean,
                 &track.sigma,
-                &[limits.horizontal_m, limits.horizontal_m, limits.vertical_m],
+                &std::array::from_fn(|axis| limits.limit(axis)),
                 window,
                 &mut self.fail_before,
                 &mut self.usable,

@@ -10,7 +10,7 @@ use super::verify::{observed, RelativeVerifier, MAX_PENDING};
 use super::{Geometry, LiftDecider, LiftLimits, RelativeTrack, AXES};
 use crate::config::PipelineConfig;
 use crate::decision::reliability::{rate, Reliability, ReliabilityBin};
-use crate::decision::score::CURVE;
+use crate::decision::score::curve_thresholds;
 use crate::engine::models::ModelSet;
 use crate::engine::replay::{replay, ReplayReport};
 use crate::observed::{matches, ObservedMotion};
@@ -93,20 +93,19 @@ struct LiftCalls {
     reliability: Reliability,
     /// (threshold, go calls, false go calls), the configured threshold among them.
     thresholds: Vec<(f64, u64, u64)>,
+    /// Where the configured threshold is in `thresholds`.
+    default_index: usize,
 }
 
 impl LiftCalls {
     fn new(limits: &LiftLimits) -> Self {
-        let mut values = CURVE.to_vec();
-        if !values.contains(&limits.go_probability) {
-            values.push(limits.go_probability);
-        }
-        values.sort_by(f64::total_cmp);
+        let (values, default_index) = curve_thresholds(limits.go_probability);
         Self {
             mot_s: limits.mot_s,
             go_probability: limits.go_probability,
             reliability: Reliability::new(limits.mot_s),
             thresholds: values.into_iter().map(|v| (v, 0, 0)).collect(),
+            default_index,
         }
     }
 
@@ -131,16 +130,13 @@ impl LiftCalls {
                 false_go_rate: rate(false_go, go),
             })
             .collect();
-        let default = curve
-            .iter()
-            .find(|c| c.threshold == self.go_probability)
-            .cloned();
+        let default = &curve[self.default_index];
         LiftScore {
             mot_s: self.mot_s,
             go_probability: self.go_probability,
             calls: self.reliability.calls,
-            go_calls: default.as_ref().map_or(0, |c| c.go_calls),
-            false_go_rate: default.map_or(f64::NAN, |c| c.false_go_rate),
+            go_calls: default.go_calls,
+            false_go_rate: default.false_go_rate,
             base_rate: self.reliability.base_rate(),
             brier: self.reliability.brier(),
             brier_climatology: self.reliability.brier_climatology(),
