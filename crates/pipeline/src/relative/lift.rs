@@ -92,8 +92,9 @@ pub struct LiftDecision {
     /// advisories of a service older than this field).
     #[serde(default)]
     pub ensemble_members: usize,
-    /// No probability is stated yet: too few verified error paths, and the Gaussian model
-    /// before them is not trusted (`relative.go_needs_verified_errors`).
+    /// No probability is stated yet: too few verified error paths (or none as long as the
+    /// window), and the Gaussian model before them is not trusted
+    /// (`relative.go_needs_verified_errors`).
     #[serde(default)]
     pub awaiting_verified_errors: bool,
 }
@@ -237,9 +238,11 @@ impl LiftDecider {
             } else {
                 0
             },
+            // No member long enough for the window (the horizon grew) is no verified errors
+            // for it either.
             awaiting_verified_errors: window <= steps
-                && !from_ensemble
-                && limits.needs_verified_errors,
+                && probability_now.is_none()
+                && (from_ensemble || limits.needs_verified_errors),
         }
     }
 }

@@ -228,6 +228,12 @@ fn the_study_scores_the_relative_forecast_against_the_records() {
         .unwrap();
     assert!(heave.tip_rms > 0.0 && (heave.tip_rms - heave.spot_rms).abs() < 1e-12);
     assert!((heave.error_correlation - 1.0).abs() < 1e-9);
+    // No relative motion: every lift window held, so nothing can be a false go, and the
+    // verified errors (none) back go calls once enough of them exist.
+    let lift = &same.lift;
+    assert!(lift.calls > 0 && lift.go_calls > 0, "{lift:?}");
+    assert_eq!((lift.base_rate, lift.false_go_rate), (1.0, 0.0), "{lift:?}");
+    assert_eq!(lift.brier_climatology, 0.0);
     // The own heave forecast of ship A is the plain replay's.
     let own = same
         .own
@@ -255,6 +261,12 @@ fn the_study_scores_the_relative_forecast_against_the_records() {
     assert!(z.error_correlation < -0.99, "{z:?}");
     assert!(opposite.calibrated_from_s.is_some());
     assert!(z.mean_sigma > 1.2 * z.mean_sigma_independent, "{z:?}");
+    // Twice A's heave (up to 2.8 m, two sines of 9 and 12 s) against the 1 m vertical limit:
+    // every window of 10 s breaks; the verified errors say so, and nothing is a go.
+    let lift = &opposite.lift;
+    assert!(lift.calls > 0 && lift.go_calls == 0, "{lift:?}");
+    assert_eq!(lift.base_rate, 0.0);
+    assert!(lift.brier < 0.01, "{lift:?}");
 }
 
 #[test]
@@ -271,6 +283,19 @@ fn verified_errors_decide_the_lift_once_enough_exist() {
     let g = geometry([0.0; 3], [0.0; 3], 0.0);
     let still = forecast(0.0, 50, NONE, NONE);
     let sigma = [0.5, 0.5, 0.5, 0.0, 0.0, 0.0];
+    // Paths verified while the horizon was 5 s are too short for a window of MOT 10 s: a
+    // ready ensemble without one usable path states nothing, and says it waits for them.
+    let mut short = LiftEvidence::new(*lift.limits());
+    for _ in 0..MIN_MEMBERS * 4 {
+        short.ensemble.offer(&ones, &zeros, 10);
+    }
+    assert!(short.ensemble.ready());
+    let mut calm = relative(&g, &forecast(0.0, 50, NONE, [0.05; 6]), &still);
+    let d = lift.decide(&mut calm, &short);
+    assert!(
+        d.probability_now.is_none() && d.awaiting_verified_errors && !d.go,
+        "{d:?}"
+    );
     // Relative heave 0.6 m with sigma 0.5 m (per axis, the independent sum of A's and B's):
     // what happened before puts the tip at mean + sigma, beyond the 1 m limit.
     let mut near = relative(

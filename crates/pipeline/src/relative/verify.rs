@@ -152,7 +152,7 @@ pub fn observed(
 mod tests {
     use super::*;
     use crate::observed::MotionHistory;
-    use shipcast_wire::payload::MotionSample;
+    use shipcast_wire::payload::{MotionSample, MAX_STEPS};
 
     fn at_rest(seq: u64, time_s: f64) -> MotionSample {
         MotionSample {
@@ -216,5 +216,50 @@ mod tests {
         // A ship's producer started again: what waits was issued on the old run's clock.
         v.drop_pending();
         assert_eq!((v.pending(), v.unverifiable), (0, 11));
+    }
+
+    /// Regression guard: the error the lift learns is (tip - spot) - forecast, the sense in
+    /// which `fill` forecasts the relative motion. The other sense makes an exact forecast
+    /// look like one that missed by twice its mean.
+    #[test]
+    fn the_lift_learns_the_error_of_tip_minus_spot() {
+        let config = crate::config::RelativeConfig::default();
+        let geometry = Geometry::new([0.0; 3], &config);
+        let mut v = RelativeVerifier::new(
+            SigmaCalibration::new(f64::INFINITY, 1.0),
+            LiftLimits::new(&config),
+            8,
+        );
+        let (mut a, mut b) = (MotionHistory::new(8.0, 60.0), MotionHistory::new(8.0, 60.0));
+        // A sits 1 m lower (heave is positive down), B at rest: the tip is 1 m below the
+        // spot, relative z = +1 m, and the forecast said exactly that.
+        for i in 0..=8 {
+            let mut sample = at_rest(i, i as f64 * 0.125);
+            sample.dof[2] = 1.0;
+            a.push(&sample);
+            b.push(&at_rest(i, i as f64 * 0.125));
+        }
+        let mut exact = track(0.0, 1.0);
+        exact.mean[2][0] = 1.0;
+        exact.sigma[2][0] = 1.0;
+        v.push(&exact);
+        v.verify_until(1.0, &geometry, &a, &b);
+        assert_eq!((v.verified, v.lift.ensemble.len()), (1, 1));
+        // Put on a forecast of no relative motion with sigma 1, the learnt error (0) keeps a
+        // 0.5 m vertical limit; an error of -2 sigma (the wrong sense) would break it.
+        let (mut mean, mut sigma) = ([[0.0; MAX_STEPS]; 3], [[0.0; MAX_STEPS]; 3]);
+        sigma[2][0] = 1.0;
+        mean[2][0] = 0.0;
+        let (mut fail_before, mut usable) = (Vec::new(), Vec::new());
+        v.lift.ensemble.failures(
+            &mean,
+            &sigma,
+            &[10.0, 10.0, 0.5],
+            1,
+            &mut fail_before,
+            &mut usable,
+        );
+        assert!(usable[0]);
+        assert_eq!(fail_before[1], 0, "an exact forecast was learnt as a miss");
     }
 }
