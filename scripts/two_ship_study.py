@@ -9,8 +9,13 @@ Geometries (ship A, the crane ship, is the same record in all four):
 - close: B 15 m ahead, its landing spot at the crane tip's lever arm;
 - turned: B 40 m to starboard, bow +30 deg, a 100 m hull.
 
-Run from the repository root after `cargo build --release`; about a minute on 2 cores. Python
-standard library only.
+On a measured sea (`--elevation data/wafo/gfaks89.csv`, fetched by scripts/fetch_wafo.py) both
+ships are driven by the measured record (`simulate --elevation`, zero speed, waves from
+`--heading-deg`), B placed as in each geometry; the records are cut at their first time jump (a
+gap in the measured record), so the study runs on the first gap-free stretch.
+
+Run from the repository root after `cargo build --release`; about a minute on 2 cores for the
+simulated sea, a few minutes for Gullfaks. Python standard library only.
 """
 import argparse
 import json
@@ -45,13 +50,33 @@ def run(args):
     return out.stdout
 
 
-def relative(work, seed, index, sim, config):
-    sea = SEA + ["--seed", str(seed)]
-    a = os.path.join(work, f"a_seed{seed}.csv")
+def cut_at_first_jump(path):
+    """Keeps a motion CSV's rows up to its first time jump (above 1.5 sample intervals)."""
+    with open(path) as f:
+        lines = f.readlines()
+    times = [float(l.split(",", 1)[0]) for l in lines[1:3]]
+    dt = times[1] - times[0]
+    keep, last = 1, None
+    for line in lines[1:]:
+        t = float(line.split(",", 1)[0])
+        if last is not None and t - last > 1.5 * dt:
+            break
+        keep, last = keep + 1, t
+    if keep < len(lines):
+        with open(path, "w") as f:
+            f.writelines(lines[:keep])
+        print(f"two_ship_study: {os.path.basename(path)} cut at its first time jump, "
+              f"{last:.1f} s", file=sys.stderr)
+
+
+def relative(work, sea, tag, index, sim, config):
+    a = os.path.join(work, f"a_{tag}.csv")
     if not os.path.exists(a):
         run(["simulate"] + sea + ["--out", a])
-    b = os.path.join(work, f"b{index}_seed{seed}.csv")
+        cut_at_first_jump(a)
+    b = os.path.join(work, f"b{index}_{tag}.csv")
     run(["simulate"] + sea + sim + ["--out", b])
+    cut_at_first_jump(b)
     args = ["relative", "--crane-record", a, "--target-record", b, "--skip-s", SKIP_S, "--json"]
     if config:
         path = os.path.join(work, f"relative{index}.toml")
@@ -98,13 +123,28 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--work", default=os.path.join("target", "two-ship-study"))
     ap.add_argument("--seed", type=int, default=1, help="the sea's realisation (default 1)")
+    ap.add_argument("--elevation", help="drive both ships with this measured elevation CSV "
+                    "instead of the simulated paper sea")
+    ap.add_argument("--heading-deg", type=float, default=165.0,
+                    help="with --elevation: where the waves come from, relative to A's bow")
     args = ap.parse_args()
     work = args.work
     os.makedirs(work, exist_ok=True)
+    if args.elevation:
+        if not os.path.exists(args.elevation):
+            sys.exit(f"two_ship_study: {args.elevation} not found (python3 scripts/fetch_wafo.py "
+                     "fetches the measured records)")
+        sea = ["--elevation", args.elevation, "--heading-deg", str(args.heading_deg),
+               "--speed-kn", "0", "--rate", "8"]
+        stem = os.path.splitext(os.path.basename(args.elevation))[0]
+        tag, label = f"{stem}_{args.heading_deg:g}", f"{stem}, waves from {args.heading_deg:g} deg"
+    else:
+        sea = SEA + ["--seed", str(args.seed)]
+        tag, label = f"seed{args.seed}", f"seed {args.seed}"
     for i, (name, sim, config) in enumerate(GEOMETRIES):
-        report = relative(work, args.seed, i, sim, config)
+        report = relative(work, sea, tag, i, sim, config)
         leads = report["leads"]
-        print(f"## {name} (seed {args.seed})\n")
+        print(f"## {name} ({label})\n")
         print(f"{report['scored']} relative forecasts scored from {SKIP_S} s; sigma calibrated "
               f"from {report['calibrated_from_s']} s; {coverage_band(leads)} over every axis "
               f"and lead.\n")

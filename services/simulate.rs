@@ -30,6 +30,9 @@ the linear response is summed at --rate (band-limited interpolation). The first 
 output, reported in the log. At zero speed this is exact for that model; at speed the ship is
 taken to cross the long-crested field whose fixed-point record is the segment, each line met
 at its encounter frequency (an approximation; wave_m is then the elevation at the moving CG).
+With --vessel-x-m/--vessel-y-m/--vessel-heading-offset-deg the vessel is that far from the CG
+the record describes (the reference vessel): every line reaches it shifted by its wave number
+times the distance along its travel, from the direction seen from its own bow.
 scripts/fetch_wafo.py fetches two measured records (non-commercial licence, never commit them).
 
 Non-stationary records: --course-change-s T --new-heading-deg D [--turn-s R] turns the ship
@@ -158,14 +161,14 @@ pub struct Args {
         allow_negative_numbers = true
     )]
     pub ramp_s: f64,
-    /// Simulate a second vessel of the same sea (same seed, --heading-deg relative to the
-    /// reference vessel) this far forward of the reference vessel's centre of gravity [m],
-    /// keeping station with it.
+    /// Simulate a second vessel of the same sea (same seed, or the same measured record;
+    /// --heading-deg relative to the reference vessel) this far forward of the reference
+    /// vessel's centre of gravity [m], keeping station with it.
     #[arg(
         long = "vessel-x-m",
         default_value_t = 0.0,
         allow_negative_numbers = true,
-        conflicts_with_all = ["elevation", "course_change_s", "sea_change_s"]
+        conflicts_with_all = ["course_change_s", "sea_change_s"]
     )]
     pub vessel_x_m: f64,
     /// ... and this far to starboard of it [m].
@@ -173,7 +176,7 @@ pub struct Args {
         long = "vessel-y-m",
         default_value_t = 0.0,
         allow_negative_numbers = true,
-        conflicts_with_all = ["elevation", "course_change_s", "sea_change_s"]
+        conflicts_with_all = ["course_change_s", "sea_change_s"]
     )]
     pub vessel_y_m: f64,
     /// Heading of the simulated vessel: its bow turned this many degrees to starboard of the
@@ -182,7 +185,7 @@ pub struct Args {
         long = "vessel-heading-offset-deg",
         default_value_t = 0.0,
         allow_negative_numbers = true,
-        conflicts_with_all = ["elevation", "course_change_s", "sea_change_s"]
+        conflicts_with_all = ["course_change_s", "sea_change_s"]
     )]
     pub vessel_heading_offset_deg: f64,
 }
@@ -190,7 +193,11 @@ pub struct Args {
 pub fn run(args: Args) -> anyhow::Result<()> {
     let config = Config::try_from(args)?;
     match &config.record {
-        Record::Measured { elevation, edge_s } => run_measured(&config, elevation, *edge_s),
+        Record::Measured {
+            elevation,
+            edge_s,
+            station,
+        } => run_measured(&config, elevation, *edge_s, station),
         Record::Changing {
             duration_s,
             course,

@@ -251,6 +251,56 @@ fn a_measured_cosine_gives_the_rao_amplitude_and_phase_at_the_output_rate() {
 }
 
 #[test]
+fn a_second_vessel_on_a_measured_record_meets_its_waves_shifted_by_its_position() {
+    let dir = tempfile::tempdir().unwrap();
+    let elev = dir.path().join("e.csv");
+    let omega = TAU * 150.0 / 1200.0; // on the record's Fourier grid, period 8 s
+    write_elevation(&elev, 3000, |i| {
+        Some(1.3 * (omega * i as f64 * 0.4 - 0.4).cos())
+    });
+    let run_at = |name: &str, heading: &str, extra: &[&str]| {
+        let out = dir.path().join(name);
+        let mut args = vec![
+            "--elevation",
+            elev.to_str().unwrap(),
+            "--heading-deg",
+            heading,
+            "--speed-kn",
+            "0",
+            "--edge-s",
+            "0",
+            "--rate",
+            "4",
+            "--out",
+            out.to_str().unwrap(),
+        ];
+        args.extend_from_slice(extra);
+        let o = simulate(&args);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        channels(&out)
+    };
+    // Head waves travel aft: half a wavelength (deep water) ahead, every channel is reversed;
+    // abeam of them, nothing changes; a whole wavelength astern, nothing either.
+    let wavelength = TAU * 9.81 / (omega * omega);
+    let reference = run_at("a.csv", "180", &[]);
+    assert!(reference.iter().any(|r| r[2].abs() > 0.1), "no heave");
+    let half = (wavelength / 2.0).to_string();
+    let half = run_at("half.csv", "180", &["--vessel-x-m", &half]);
+    assert!(mismatch(&reference, &half, -1.0) < 1e-6);
+    assert!(mismatch(&reference, &half, 1.0) > 0.5);
+    let abeam = (0.37 * wavelength).to_string();
+    let abeam = run_at("abeam.csv", "180", &["--vessel-y-m", &abeam]);
+    assert!(mismatch(&reference, &abeam, 1.0) < 1e-6);
+    let astern = (-wavelength).to_string();
+    let astern = run_at("astern.csv", "180", &["--vessel-x-m", &astern]);
+    assert!(mismatch(&reference, &astern, 1.0) < 1e-6);
+    // At the gauge, a bow turned 30 deg to starboard meets the waves 30 deg further round.
+    let turned = run_at("turned.csv", "180", &["--vessel-heading-offset-deg", "30"]);
+    assert!(mismatch(&turned, &run_at("direct.csv", "150", &[]), 1.0) < 1e-9);
+    assert!(mismatch(&reference, &turned, 1.0) > 0.1);
+}
+
+#[test]
 fn a_gap_in_the_record_becomes_a_time_jump_in_the_motion() {
     let dir = tempfile::tempdir().unwrap();
     let (elev, out) = (dir.path().join("e.csv"), dir.path().join("m.csv"));

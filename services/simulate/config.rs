@@ -41,7 +41,12 @@ pub enum Record {
         sea: Option<SeaChange>,
     },
     /// The ship driven by a measured elevation record.
-    Measured { elevation: PathBuf, edge_s: f64 },
+    Measured {
+        elevation: PathBuf,
+        edge_s: f64,
+        /// Where the simulated vessel is relative to the record's CG.
+        station: Station,
+    },
 }
 
 /// Most rows one record may have (about 10 GB of CSV).
@@ -60,6 +65,7 @@ impl TryFrom<Args> for Config {
                     args.edge_s,
                     limits::MAX_SECONDS,
                 ))?,
+                station: station(&args)?,
             },
             None => {
                 let duration_s = checked(limits::positive(
@@ -132,21 +138,26 @@ fn changes(args: &Args, duration_s: f64) -> anyhow::Result<Record> {
             sea,
         }
     } else {
-        let station = Station {
-            x_m: args.vessel_x_m,
-            y_m: args.vessel_y_m,
-            heading_offset_deg: args.vessel_heading_offset_deg,
-        };
-        station.validate()?;
         Record::Stationary {
             duration_s,
-            station,
+            station: station(args)?,
         }
     })
 }
 
 /// The simulator configuration the arguments describe: the scenario with the options that
 /// override it.
+/// The simulated vessel's place relative to the reference vessel (or the record's CG).
+fn station(args: &Args) -> anyhow::Result<Station> {
+    let station = Station {
+        x_m: args.vessel_x_m,
+        y_m: args.vessel_y_m,
+        heading_offset_deg: args.vessel_heading_offset_deg,
+    };
+    station.validate()?;
+    Ok(station)
+}
+
 fn sim_config(args: &Args) -> anyhow::Result<SimConfig> {
     let scenario: Scenario = args.scenario.parse()?;
     let mut cfg = SimConfig::scenario(scenario);
@@ -228,9 +239,20 @@ mod tests {
             c.record,
             Record::Measured {
                 elevation: "e.csv".into(),
-                edge_s: 30.0
+                edge_s: 30.0,
+                station: Station::REFERENCE
             }
         );
+        let c = config(&[
+            "--out",
+            "m.csv",
+            "--elevation",
+            "e.csv",
+            "--vessel-y-m",
+            "40",
+        ])
+        .unwrap();
+        assert!(matches!(c.record, Record::Measured { station, .. } if station.y_m == 40.0));
     }
 
     #[test]

@@ -6,13 +6,18 @@ use anyhow::Context;
 use shipcast_series::motion_csv::MotionData;
 use shipcast_sim::build_rao;
 use shipcast_sim::measured::{split_segments, SegmentResponse};
-use shipcast_sim::Channel;
+use shipcast_sim::{Channel, Station};
 use std::fs::File;
 use std::path::Path;
 use std::time::Instant;
 
 /// Motion driven by a measured elevation record, segment by segment.
-pub(super) fn run_measured(config: &Config, path: &Path, edge_s: f64) -> anyhow::Result<()> {
+pub(super) fn run_measured(
+    config: &Config,
+    path: &Path,
+    edge_s: f64,
+    station: &Station,
+) -> anyhow::Result<()> {
     let started = Instant::now();
     let (cfg, rate_hz) = (&config.sim, config.rate_hz);
     let file = File::open(path).with_context(|| format!("cannot read {}", path.display()))?;
@@ -32,6 +37,16 @@ pub(super) fn run_measured(config: &Config, path: &Path, edge_s: f64) -> anyhow:
             "speed {} kn: each Fourier line of the record is met at its encounter frequency \
              (long-crested frozen-field approximation; wave_m is the elevation at the moving CG)",
             cfg.speed_kn
+        );
+    }
+    if *station != Station::REFERENCE {
+        tracing::info!(
+            "vessel at {} m forward, {} m starboard of the record's CG, heading {} deg to \
+             starboard of the reference vessel (waves from {} deg relative to the reference bow)",
+            station.x_m,
+            station.y_m,
+            station.heading_offset_deg,
+            cfg.heading_deg
         );
     }
     let input_rate = segments.first().map_or(0.0, |s| 1.0 / s.dt_s);
@@ -61,7 +76,8 @@ pub(super) fn run_measured(config: &Config, path: &Path, edge_s: f64) -> anyhow:
     let mut previous_end: Option<f64> = None;
     let (mut written, mut skipped) = (0usize, 0usize);
     for seg in &segments {
-        let Some(response) = SegmentResponse::new(seg, rao.as_ref(), beta, speed, edge_s)? else {
+        let Some(response) = SegmentResponse::new(seg, rao.as_ref(), beta, speed, edge_s, station)?
+        else {
             skipped += 1;
             tracing::warn!(
                 "segment {:.2}..{:.2} s ({} samples) is not longer than twice --edge-s {} s: skipped",

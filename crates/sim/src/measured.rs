@@ -25,7 +25,7 @@
 
 use super::motion::{sum_at, Coefficients, Phasors, CHANNELS, WAVE_CHANNEL};
 use super::rao::signed_encounter_omega;
-use super::{MotionPoint, Rao, SimError};
+use super::{MotionPoint, Rao, SimError, Station};
 use rustfft::num_complex::Complex;
 use std::f64::consts::{PI, TAU};
 
@@ -133,13 +133,18 @@ impl SegmentResponse {
     /// Fourier-analyses `segment` and applies the RAOs of waves from `beta` [rad] (pi = head
     /// seas) for a ship at `speed` [m/s]. `edge_s` is the taper-and-settle margin at each end;
     /// `None` when the segment is not longer than two margins (nothing would be written).
+    /// `station`: the ship whose motion is wanted, relative to the one at the gauge (each
+    /// Fourier line is a long-crested component, placed as [`Station::place`] places a
+    /// simulated one; [`Station::REFERENCE`] for the ship at the gauge).
     pub fn new(
         segment: &ElevationSegment,
         rao: &dyn Rao,
         beta: f64,
         speed: f64,
         edge_s: f64,
+        station: &Station,
     ) -> Result<Option<Self>, SimError> {
+        station.validate()?;
         if !(edge_s.is_finite() && edge_s >= 0.0) {
             return Err(SimError::Config(format!(
                 "the segment edge must be >= 0 s, got {edge_s}"
@@ -200,8 +205,9 @@ impl SegmentResponse {
             if signed < 0.0 {
                 c = c.conj();
             }
-            let wave = c * Complex::from_polar(1.0, -omega_e * segment.start_s);
-            let h = rao.response(omega, beta, speed);
+            let shift = station.phase_shift(omega, beta, speed);
+            let wave = c * Complex::from_polar(1.0, shift - omega_e * segment.start_s);
+            let h = rao.response(omega, station.direction(beta), speed);
             let mut coefficient = Coefficients {
                 omega_e,
                 re: [0.0; CHANNELS],
@@ -313,15 +319,29 @@ mod tests {
 
     /// Amplitude and phase of the response to a cosine, against the RAO itself.
     fn check_against_rao(seg: &ElevationSegment, omega: f64, edge: f64, tol: f64) {
+        check_at_station(seg, omega, edge, tol, &Station::REFERENCE);
+    }
+
+    /// The same for a ship at `station` (zero speed): the RAO at the direction seen from its
+    /// bow, the wave delayed by k times the distance along its travel (deep water).
+    fn check_at_station(
+        seg: &ElevationSegment,
+        omega: f64,
+        edge: f64,
+        tol: f64,
+        station: &Station,
+    ) {
         let rao = ClosedFormRao::new(Hull::dtmb5415());
         let beta = 165f64.to_radians();
-        let r = SegmentResponse::new(seg, &rao, beta, 0.0, edge)
+        let r = SegmentResponse::new(seg, &rao, beta, 0.0, edge, station)
             .unwrap()
             .unwrap();
-        let h = rao.response(omega, beta, 0.0);
+        let h = rao.response(omega, beta - station.heading_offset_deg.to_radians(), 0.0);
+        let delay =
+            omega * omega / crate::G * (station.x_m * beta.cos() + station.y_m * beta.sin());
         let mut worst = 0.0f64;
         for p in r.stream(8.0).unwrap() {
-            let wave = Complex::from_polar(0.7, omega * p.time_s + 0.3);
+            let wave = Complex::from_polar(0.7, omega * p.time_s + 0.3 - delay);
             for (j, hj) in h.iter().enumerate() {
                 let expected = (Complex::new(hj.re, hj.im) * wave).re;
                 let scale = 0.7 * hj.norm();
@@ -339,6 +359,31 @@ mod tests {
         let (dt, n) = (0.4, 2000);
         let omega = TAU * 96.0 / (n as f64 * dt); // 0.754 rad/s, period 8.3 s
         check_against_rao(&sinusoid(omega, dt, n, 100.0), omega, 0.0, 1e-9);
+    }
+
+    #[test]
+    fn a_second_ship_sees_the_cosine_at_its_own_place_and_heading() {
+        let (dt, n) = (0.4, 2000);
+        let omega = TAU * 96.0 / (n as f64 * dt);
+        let seg = sinusoid(omega, dt, n, 100.0);
+        // 40 m to starboard, bow 10 deg to starboard; 15 m ahead; both (the sea comes from
+        // 165 deg, so both offsets move the ship along the waves' travel).
+        for (x_m, y_m, heading_offset_deg) in
+            [(0.0, 40.0, 10.0), (15.0, 0.0, 0.0), (-30.0, 25.0, 30.0)]
+        {
+            let station = Station {
+                x_m,
+                y_m,
+                heading_offset_deg,
+            };
+            check_at_station(&seg, omega, 0.0, 1e-9, &station);
+        }
+        let far = Station {
+            y_m: f64::NAN,
+            ..Station::REFERENCE
+        };
+        let rao = ClosedFormRao::new(Hull::dtmb5415());
+        assert!(SegmentResponse::new(&seg, &rao, PI, 0.0, 0.0, &far).is_err());
     }
 
     #[test]
@@ -380,7 +425,7 @@ mod tests {
         assert_eq!(segments.len(), 1);
         assert_eq!(segments[0].dt_s, (time[n - 1] - time[0]) / (n - 1) as f64);
         let rao = ClosedFormRao::new(Hull::dtmb5415());
-        let r = SegmentResponse::new(&segments[0], &rao, PI, 0.0, 0.0)
+        let r = SegmentResponse::new(&segments[0], &rao, PI, 0.0, 0.0, &Station::REFERENCE)
             .unwrap()
             .unwrap();
         for i in [0, 1, n / 2, n - 2, n - 1] {
@@ -397,9 +442,11 @@ mod tests {
     fn a_segment_shorter_than_its_edges_writes_nothing() {
         let seg = sinusoid(0.6, 0.5, 400, 0.0); // 200 s
         let rao = ClosedFormRao::new(Hull::dtmb5415());
-        assert!(SegmentResponse::new(&seg, &rao, PI, 0.0, 100.0)
-            .unwrap()
-            .is_none());
-        assert!(SegmentResponse::new(&seg, &rao, PI, 0.0, -1.0).is_err());
+        assert!(
+            SegmentResponse::new(&seg, &rao, PI, 0.0, 100.0, &Station::REFERENCE)
+                .unwrap()
+                .is_none()
+        );
+        assert!(SegmentResponse::new(&seg, &rao, PI, 0.0, -1.0, &Station::REFERENCE).is_err());
     }
 }

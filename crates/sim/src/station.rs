@@ -71,20 +71,31 @@ impl Station {
     /// station: direction relative to the station's bow, phase at its position, the reference
     /// encounter frequency.
     pub fn place(&self, components: &[WaveComponent], speed: f64) -> Vec<WaveComponent> {
-        let offset = self.heading_offset_deg.to_radians();
         components
             .iter()
-            .map(|c| {
-                let k = c.omega * c.omega / G;
-                let along = self.x_m * c.beta.cos() + self.y_m * c.beta.sin();
-                let sign = signed_encounter_omega(c.omega, c.beta, speed).signum();
-                WaveComponent {
-                    beta: c.beta - offset,
-                    phase: c.phase - sign * k * along,
-                    ..*c
-                }
+            .map(|c| WaveComponent {
+                beta: self.direction(c.beta),
+                phase: c.phase + self.phase_shift(c.omega, c.beta, speed),
+                ..*c
             })
             .collect()
+    }
+
+    /// The direction [rad] relative to this station's bow of a component that comes from
+    /// `beta` relative to the reference bow.
+    pub fn direction(&self, beta: f64) -> f64 {
+        beta - self.heading_offset_deg.to_radians()
+    }
+
+    /// What to add to the phase [rad] of a component (frequency `omega`, from `beta` relative
+    /// to the reference bow, met at `speed`) written as a cos(|w_e| t + phase) at the
+    /// reference vessel, to have it at this station: -k times the distance along its travel,
+    /// the other sign for a component the ship overtakes.
+    pub fn phase_shift(&self, omega: f64, beta: f64, speed: f64) -> f64 {
+        let k = omega * omega / G;
+        let along = self.x_m * beta.cos() + self.y_m * beta.sin();
+        let sign = signed_encounter_omega(omega, beta, speed).signum();
+        -sign * k * along
     }
 }
 
