@@ -22,7 +22,8 @@ use shipcast_pipeline::engine::startup::initial_models;
 use shipcast_pipeline::limits;
 use shipcast_pipeline::observed::MotionHistory;
 use shipcast_pipeline::relative::calibrate::SigmaCalibration;
-use shipcast_pipeline::relative::study::{study, StudyReport};
+use shipcast_pipeline::relative::calls_csv::LiftCallsCsv;
+use shipcast_pipeline::relative::study::{study_calls, LiftCall, StudyReport};
 use shipcast_pipeline::relative::verify::{RelativeVerifier, MAX_PENDING};
 use shipcast_pipeline::relative::{advisory, Geometry, LiftDecider, LiftLimits, RelativeTrack};
 use shipcast_pipeline::transport::forecast_check::{ForecastGate, PublisherWatch};
@@ -56,6 +57,10 @@ pub struct Args {
     /// Study mode: the report as JSON instead of the table.
     #[arg(long)]
     pub json: bool,
+    /// Study mode: also write every scored lift call to this CSV, with its statements and the
+    /// forecast and true relative displacement at every step of its window (an audit trail).
+    #[arg(long, value_name = "FILE.csv", requires = "crane_record")]
+    pub calls_csv: Option<PathBuf>,
 }
 
 /// What `relative` does, every value checked: built from [`Args`] by [`Config::try_from`].
@@ -76,6 +81,7 @@ pub enum Mode {
         target_record: PathBuf,
         skip_s: f64,
         json: bool,
+        calls_csv: Option<PathBuf>,
     },
 }
 
@@ -96,6 +102,7 @@ impl TryFrom<Args> for Config {
                     target_record,
                     skip_s: args.skip_s,
                     json: args.json,
+                    calls_csv: args.calls_csv,
                 }
             }
             // clap requires both or neither.
@@ -115,7 +122,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             target_record,
             skip_s,
             json,
-        } => run_study(&pipeline, &crane_record, &target_record, skip_s, json),
+            calls_csv,
+        } => run_study(
+            &pipeline,
+            (&crane_record, &target_record),
+            skip_s,
+            json,
+            calls_csv.as_deref(),
+        ),
         Mode::Live { limit } => run_live(&pipeline, limit),
     }
 }
@@ -131,10 +145,10 @@ fn read_record(path: &Path) -> anyhow::Result<MotionData> {
 
 fn run_study(
     config: &PipelineConfig,
-    a: &Path,
-    b: &Path,
+    (a, b): (&Path, &Path),
     skip_s: f64,
     json: bool,
+    calls_csv: Option<&Path>,
 ) -> anyhow::Result<()> {
     let (crane, target) = (read_record(a)?, read_record(b)?);
     let span = |d: &MotionData| {
@@ -166,8 +180,38 @@ fn run_study(
         (crane.len() + target.len()) as u64,
         "{elapsed_precise} [{bar:30}] {pos}/{len} samples",
     );
-    let (report, _, _) = study(&crane, &target, config, models, skip_s, &|n| bar.inc(n))?;
+    let mut calls = match calls_csv {
+        Some(path) => {
+            let file = std::fs::File::create(path)
+                .with_context(|| format!("cannot write {}", path.display()))?;
+            Some(LiftCallsCsv::new(std::io::BufWriter::new(file)))
+        }
+        None => None,
+    };
+    let mut on_call = |call: &LiftCall| -> anyhow::Result<()> {
+        if let (Some(csv), Some(path)) = (calls.as_mut(), calls_csv) {
+            csv.write(call)
+                .with_context(|| format!("writing {}", path.display()))?;
+        }
+        Ok(())
+    };
+    let progress = |n| bar.inc(n);
+    let (report, _, _) = study_calls(
+        &crane,
+        &target,
+        config,
+        models,
+        skip_s,
+        &progress,
+        &mut on_call,
+    )?;
     bar.finish_and_clear();
+    if let (Some(csv), Some(path)) = (calls, calls_csv) {
+        let rows = csv
+            .finish()
+            .with_context(|| format!("writing {}", path.display()))?;
+        tracing::info!("wrote {rows} lift calls to {}", path.display());
+    }
     if report.scored == 0 {
         // A table of zeros would read as a perfect score.
         anyhow::bail!(
@@ -518,7 +562,8 @@ mod tests {
                 crane_record: "a.csv".into(),
                 target_record: "b.csv".into(),
                 skip_s: 60.0,
-                json: true
+                json: true,
+                calls_csv: None
             }
         );
         let c = crate::validated::<Args, Config>(&["--duration", "2"]).unwrap();

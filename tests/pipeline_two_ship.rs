@@ -191,6 +191,58 @@ fn the_two_ship_study_scores_the_relative_forecast_from_two_simulated_records() 
         assert!(f("error_correlation").abs() <= 1.0, "{l}");
     }
     assert_eq!(r["own"].as_array().unwrap().len(), 12);
+    // The audit trail: one row per scored lift call, consistent with the report. The Gaussian
+    // model states from the start here, so calls come before and after verified errors.
+    let early = path("early.toml");
+    std::fs::write(&early, "[relative]\ngo_needs_verified_errors = false\n").unwrap();
+    let calls = path("calls.csv");
+    let out = pipeline_support::run_ok(&[
+        "relative",
+        "--config",
+        &early,
+        "--crane-record",
+        &a,
+        "--target-record",
+        &b,
+        "--skip-s",
+        "300",
+        "--json",
+        "--calls-csv",
+        &calls,
+    ]);
+    let r: serde_json::Value = serde_json::from_str(&out).expect("one JSON report");
+    let lift = &r["lift"];
+    let text = std::fs::read_to_string(&calls).unwrap();
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().expect("a header").split(',').collect();
+    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+    assert_eq!(rows.len() as u64, lift["calls"].as_u64().unwrap());
+    let window = (header.len() - 6) / 9;
+    assert_eq!(window, 20, "MOT 10 s at 2 Hz: {header:?}");
+    let column = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    let (stated, uncorrected, held) = (column("stated"), column("uncorrected"), column("held"));
+    let mut go = 0;
+    let mut holds = 0;
+    for row in &rows {
+        assert_eq!(row.len(), header.len());
+        let p: f64 = row[stated].parse().unwrap();
+        go += usize::from(p >= lift["go_probability"].as_f64().unwrap());
+        // Whether the window held, from the row's own true displacements and the limits.
+        let kept = (1..=window).all(|k| {
+            ["x", "y", "z"].iter().all(|axis| {
+                let v: f64 = row[column(&format!("actual_{axis}_{k}"))].parse().unwrap();
+                v.abs() <= 1.0
+            })
+        });
+        assert_eq!(row[held], if kept { "1" } else { "0" });
+        holds += usize::from(kept);
+    }
+    assert_eq!(go as u64, lift["go_calls"].as_u64().unwrap());
+    let base_rate = holds as f64 / rows.len() as f64;
+    assert!((base_rate - lift["base_rate"].as_f64().unwrap()).abs() < 1e-12);
+    // The Gaussian model's calls before verified errors, the ensemble's after.
+    assert!(rows.iter().any(|r| r[uncorrected].is_empty()));
+    assert!(rows.iter().any(|r| !r[uncorrected].is_empty()));
     // The reference vessel against itself with the spot at the tip: no relative motion, no
     // relative error, and the two ships' errors perfectly correlated.
     let itself = path("itself.toml");

@@ -25,6 +25,7 @@
 //! origin: the older forecast's steps are shifted by the whole number of steps between them.
 
 pub mod calibrate;
+pub mod calls_csv;
 pub mod lift;
 pub mod study;
 pub mod verify;

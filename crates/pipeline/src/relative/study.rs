@@ -219,6 +219,28 @@ impl ObservedMotion for Truth<'_> {
     }
 }
 
+/// One scored lift call as it was decided and what then happened: the audit trail of
+/// `shipcast relative --calls-csv` (`super::calls_csv`).
+#[derive(Debug, Clone, Copy)]
+pub struct LiftCall<'a> {
+    /// The forecast's origin [s].
+    pub time_s: f64,
+    /// The probability as issued.
+    pub stated: f64,
+    /// The ensemble's statement before the correction by earlier ones (None: not from the
+    /// ensemble).
+    pub uncorrected: Option<f64>,
+    /// The Gaussian model's statement on the same forecast.
+    pub gaussian: Option<f64>,
+    pub held: bool,
+    pub ensemble_members: usize,
+    /// Steps in the window of MOT.
+    pub window: usize,
+    pub track: &'a RelativeTrack,
+    /// The true relative displacement (tip - spot, A's axes) at every step of the forecast.
+    pub actual: &'a [[f64; 3]],
+}
+
 /// Replays `crane` and `target` (records on one clock) with `config` and scores the relative
 /// forecasts issued at record time >= `skip_s`. `models` start each ship's engine (None: no
 /// skill until the first live fit).
@@ -229,6 +251,21 @@ pub fn study(
     models: (Option<ModelSet>, Option<ModelSet>),
     skip_s: f64,
     progress: &dyn Fn(u64),
+) -> anyhow::Result<(StudyReport, ReplayReport, ReplayReport)> {
+    study_calls(crane, target, config, models, skip_s, progress, &mut |_| {
+        Ok(())
+    })
+}
+
+/// [`study`], handing every scored lift call to `on_call` (an error from it ends the study).
+pub fn study_calls(
+    crane: &MotionData,
+    target: &MotionData,
+    config: &PipelineConfig,
+    models: (Option<ModelSet>, Option<ModelSet>),
+    skip_s: f64,
+    progress: &dyn Fn(u64),
+    on_call: &mut dyn FnMut(&LiftCall) -> anyhow::Result<()>,
 ) -> anyhow::Result<(StudyReport, ReplayReport, ReplayReport)> {
     let (report_a, fa) = replay(crane, &config.predictor, models.0, skip_s, true, progress)?;
     let (report_b, fb) = replay(target, &config.predictor, models.1, skip_s, true, progress)?;
@@ -250,7 +287,7 @@ pub fn study(
     let mut lift = LiftCalls::new(decider.limits());
     let mut lift_gaussian = LiftCalls::new(decider.limits());
     let mut lift_before_verified = LiftCalls::new(decider.limits());
-    let (mut tip, mut spot) = (Vec::new(), Vec::new());
+    let (mut tip, mut spot, mut actual) = (Vec::new(), Vec::new(), Vec::new());
     let (mut pairs, mut scored, mut unpaired) = (0u64, 0u64, 0u64);
     let mut calibrated_from_s = None;
     let mut j = 0usize;
@@ -287,17 +324,30 @@ pub fn study(
             score(&track, &tip, &spot, &lead_k, &mut sums);
             if let Some(p) = issued.probability_now {
                 let window = decider.limits().window_steps(track.dt_s);
-                let held = decider
-                    .limits()
-                    .window_holds(window, |k| std::array::from_fn(|a| tip[k][a] - spot[k][a]));
+                actual.clear();
+                let relative = tip.iter().zip(&spot);
+                actual.extend(relative.map(|(t, s)| std::array::from_fn(|a| t[a] - s[a])));
+                let held = decider.limits().window_holds(window, |k| actual[k]);
                 let t0 = track.alignment.time_s;
                 lift.record(t0, p, held);
                 if issued.ensemble_members == 0 {
                     lift_before_verified.record(t0, p, held);
                 }
-                if let Some(p) = decider.gaussian_probability(&track) {
+                let gaussian = decider.gaussian_probability(&track);
+                if let Some(p) = gaussian {
                     lift_gaussian.record(t0, p, held);
                 }
+                on_call(&LiftCall {
+                    time_s: t0,
+                    stated: p,
+                    uncorrected: track.lift_statement,
+                    gaussian,
+                    held,
+                    ensemble_members: issued.ensemble_members,
+                    window,
+                    track: &track,
+                    actual: &actual,
+                })?;
             }
         }
         verifier.push(&track);
