@@ -18,7 +18,7 @@
 
 use super::RelativeTrack;
 use crate::config::RelativeConfig;
-use crate::decision::ensemble::{share_within, ErrorEnsemble};
+use crate::decision::ensemble::{share_within, ErrorEnsemble, MIN_MEMBERS};
 use crate::decision::recalibrate::StatementRecord;
 use crate::decision::window::{chain_within, Lattice};
 use crate::decision::LATTICE_POINTS;
@@ -216,7 +216,12 @@ impl LiftDecider {
                 &mut self.fail_before,
                 &mut self.usable,
             );
-            let raw = share_within(&self.fail_before, &self.usable, 0, window);
+            // As many paths must cover the window as make the ensemble ready: a probability
+            // from a handful of long paths (the horizon grew) would be a guess.
+            let usable = self.usable.iter().filter(|&&u| u).count();
+            let raw = (usable >= MIN_MEMBERS.min(ensemble.capacity()))
+                .then(|| share_within(&self.fail_before, &self.usable, 0, window))
+                .flatten();
             track.lift_statement = raw;
             raw.map(|p| evidence.statements.correct(p))
         } else if limits.needs_verified_errors {
@@ -233,8 +238,9 @@ impl LiftDecider {
             go: probability_now.is_some_and(|p| p >= limits.go_probability),
             probability_now,
             next_exceedance_s,
+            // The paths the probability comes from: those as long as the window.
             ensemble_members: if from_ensemble && probability_now.is_some() {
-                ensemble.len()
+                self.usable.iter().filter(|&&u| u).count()
             } else {
                 0
             },

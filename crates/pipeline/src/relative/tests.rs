@@ -296,6 +296,23 @@ fn verified_errors_decide_the_lift_once_enough_exist() {
         d.probability_now.is_none() && d.awaiting_verified_errors && !d.go,
         "{d:?}"
     );
+    // Ten long paths among them are too few to state a probability from; once as many cover
+    // the window as make the ensemble ready, only those stand behind it.
+    for _ in 0..10 * 4 {
+        short.ensemble.offer(&ones, &zeros, 50);
+    }
+    let d = lift.decide(&mut calm, &short);
+    assert!(
+        d.probability_now.is_none() && d.awaiting_verified_errors,
+        "{d:?}"
+    );
+    for _ in 0..(MIN_MEMBERS - 10) * 4 {
+        short.ensemble.offer(&ones, &zeros, 50);
+    }
+    let d = lift.decide(&mut calm, &short);
+    assert_eq!(d.ensemble_members, MIN_MEMBERS, "{d:?}");
+    assert_eq!(short.ensemble.len(), 2 * MIN_MEMBERS);
+    assert!(d.probability_now.is_some() && !d.awaiting_verified_errors);
     // Relative heave 0.6 m with sigma 0.5 m (per axis, the independent sum of A's and B's):
     // what happened before puts the tip at mean + sigma, beyond the 1 m limit.
     let mut near = relative(
