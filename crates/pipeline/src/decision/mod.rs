@@ -256,6 +256,8 @@ pub struct Decider {
     ensemble: ErrorEnsemble,
     fail_before: Vec<u16>,
     usable: Vec<bool>,
+    /// How many members cover the loaded forecast.
+    usable_members: usize,
     from_ensemble: bool,
     u: Box<[[f64; MAX_STEPS]; NUM_QUANTITIES]>,
     z: Box<[[f64; MAX_STEPS]; NUM_QUANTITIES]>,
@@ -289,6 +291,7 @@ impl Decider {
             y: vec![0.0; MAX_STEPS],
             fail_before: vec![0; ensemble.capacity() * (MAX_STEPS + 1)],
             usable: vec![false; ensemble.capacity()],
+            usable_members: 0,
             ensemble,
             from_ensemble: false,
             u: Box::new([[f64::NAN; MAX_STEPS]; NUM_QUANTITIES]),
@@ -388,6 +391,12 @@ impl Decider {
                 &mut self.fail_before,
                 &mut self.usable,
             );
+            // Only paths as long as the forecast count, and as many as make the ensemble ready:
+            // after the horizon grew, a handful of long paths (or none, which would leave the
+            // Gaussian model deciding) is no basis for a go.
+            let usable = self.usable.iter().filter(|&&u| u).count();
+            self.from_ensemble = usable >= ensemble::MIN_MEMBERS.min(self.ensemble.capacity());
+            self.usable_members = usable;
         }
     }
 
@@ -538,7 +547,7 @@ impl Decider {
             next_exceedance_s: self.first_break().map(time),
             error_correlation: self.rho,
             ensemble_members: if self.from_ensemble {
-                self.ensemble.len()
+                self.usable_members
             } else {
                 0
             },

@@ -45,6 +45,15 @@ fn by_default_go_waits_for_verified_errors_and_then_comes_from_them() {
     let d = decider.decide(&quiet);
     assert_eq!(d.ensemble_members, ensemble::MIN_MEMBERS);
     assert!(!d.awaiting_verified_errors);
+    // A longer forecast (the horizon grew): no path covers it, so nothing is stated yet,
+    // neither from the ensemble nor, in its place, from the Gaussian model.
+    let longer = forecast(50, |_| 1.0, 0.1f64.to_radians() as f32);
+    let d = decider.decide(&longer);
+    assert!(
+        d.probability_now.is_none() && d.awaiting_verified_errors && !d.go,
+        "{d:?}"
+    );
+    let d = decider.decide(&quiet);
     let all = ensemble::MIN_MEMBERS as f64;
     assert_eq!(d.probability_now, Some((all + 1.0) / (all + 2.0)));
     assert!(d.go && d.next_window_s == Some(0.5), "{d:?}");
