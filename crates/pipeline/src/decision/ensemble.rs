@@ -100,7 +100,13 @@ impl<const Q: usize> ErrorEnsemble<Q> {
 
     /// Whether there are enough members to decide from.
     pub fn ready(&self) -> bool {
-        self.members.len() >= MIN_MEMBERS.min(self.capacity)
+        self.enough(self.members.len())
+    }
+
+    /// Whether `members` of them (those covering a forecast, from [`Self::failures`]) are
+    /// enough to decide from: as many as make the ensemble ready.
+    pub fn enough(&self, members: usize) -> bool {
+        members >= MIN_MEMBERS.min(self.capacity)
     }
 
     /// Offer the standardised errors of one verified forecast (`u[q][k]`, `steps` steps) and
@@ -187,7 +193,8 @@ impl<const Q: usize> ErrorEnsemble<Q> {
     /// quantity breaks its limit when the member's errors are put on `mean` and `sigma` (its
     /// residual on the errors' regression on the mean, on the current mean's place in it):
     /// `fail_before[i * (MAX_STEPS + 1) + k]` for member i, k = 0..=steps. Returns, per member,
-    /// whether it covers the forecast (`usable[i]`). Neither buffer is reallocated once sized.
+    /// whether it covers the forecast (`usable[i]`), and how many do. Neither buffer is
+    /// reallocated once sized.
     pub fn failures(
         &self,
         mean: &[[f64; MAX_STEPS]; Q],
@@ -196,7 +203,7 @@ impl<const Q: usize> ErrorEnsemble<Q> {
         steps: usize,
         fail_before: &mut Vec<u16>,
         usable: &mut Vec<bool>,
-    ) {
+    ) -> usize {
         let row = MAX_STEPS + 1;
         fail_before.resize(self.capacity * row, 0);
         usable.resize(self.capacity, false);
@@ -234,6 +241,7 @@ impl<const Q: usize> ErrorEnsemble<Q> {
         for u in usable.iter_mut().skip(self.members.len()) {
             *u = false;
         }
+        usable.iter().filter(|&&u| u).count()
     }
 }
 

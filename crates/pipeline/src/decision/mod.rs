@@ -383,7 +383,7 @@ impl Decider {
         }
         self.from_ensemble = self.ensemble.ready();
         if self.from_ensemble {
-            self.ensemble.failures(
+            let usable = self.ensemble.failures(
                 &t.mean,
                 &t.sigma,
                 &self.limits,
@@ -394,8 +394,7 @@ impl Decider {
             // Only paths as long as the forecast count, and as many as make the ensemble ready:
             // after the horizon grew, a handful of long paths (or none, which would leave the
             // Gaussian model deciding) is no basis for a go.
-            let usable = self.usable.iter().filter(|&&u| u).count();
-            self.from_ensemble = usable >= ensemble::MIN_MEMBERS.min(self.ensemble.capacity());
+            self.from_ensemble = self.ensemble.enough(usable);
             self.usable_members = usable;
         }
     }

@@ -18,7 +18,7 @@
 
 use super::RelativeTrack;
 use crate::config::RelativeConfig;
-use crate::decision::ensemble::{share_within, ErrorEnsemble, MIN_MEMBERS};
+use crate::decision::ensemble::{share_within, ErrorEnsemble};
 use crate::decision::recalibrate::StatementRecord;
 use crate::decision::window::{chain_within, Lattice};
 use crate::decision::LATTICE_POINTS;
@@ -204,11 +204,12 @@ impl LiftDecider {
         let window = limits.window_steps(track.dt_s);
         let ensemble = &evidence.ensemble;
         let from_ensemble = ensemble.ready();
+        let mut usable = 0;
         track.lift_statement = None;
         let probability_now = if window > steps {
             None
         } else if from_ensemble {
-            ensemble.failures(
+            usable = ensemble.failures(
                 &track.mean,
                 &track.sigma,
                 &std::array::from_fn(|axis| limits.limit(axis)),
@@ -218,8 +219,8 @@ impl LiftDecider {
             );
             // As many paths must cover the window as make the ensemble ready: a probability
             // from a handful of long paths (the horizon grew) would be a guess.
-            let usable = self.usable.iter().filter(|&&u| u).count();
-            let raw = (usable >= MIN_MEMBERS.min(ensemble.capacity()))
+            let raw = ensemble
+                .enough(usable)
                 .then(|| share_within(&self.fail_before, &self.usable, 0, window))
                 .flatten();
             track.lift_statement = raw;
@@ -240,7 +241,7 @@ impl LiftDecider {
             next_exceedance_s,
             // The paths the probability comes from: those as long as the window.
             ensemble_members: if from_ensemble && probability_now.is_some() {
-                self.usable.iter().filter(|&&u| u).count()
+                usable
             } else {
                 0
             },
