@@ -69,7 +69,7 @@ def cut_at_first_jump(path):
               f"{last:.1f} s", file=sys.stderr)
 
 
-def relative(work, sea, tag, index, sim, config):
+def relative(work, sea, tag, index, sim, config, raw_mean=False):
     a = os.path.join(work, f"a_{tag}.csv")
     if not os.path.exists(a):
         run(["simulate"] + sea + ["--out", a])
@@ -78,6 +78,8 @@ def relative(work, sea, tag, index, sim, config):
     run(["simulate"] + sea + sim + ["--out", b])
     cut_at_first_jump(b)
     args = ["relative", "--crane-record", a, "--target-record", b, "--skip-s", SKIP_S, "--json"]
+    if raw_mean:
+        config += "shrink_mean = false\n"
     if config:
         path = os.path.join(work, f"relative{index}.toml")
         with open(path, "w") as f:
@@ -127,6 +129,9 @@ def main():
                     "instead of the simulated paper sea")
     ap.add_argument("--heading-deg", type=float, default=165.0,
                     help="with --elevation: where the waves come from, relative to A's bow")
+    ap.add_argument("--raw-mean", action="store_true",
+                    help="issue the raw difference of the two forecasts as the relative mean "
+                    "(relative.shrink_mean = false), for comparison")
     args = ap.parse_args()
     work = args.work
     os.makedirs(work, exist_ok=True)
@@ -142,19 +147,19 @@ def main():
         sea = SEA + ["--seed", str(args.seed)]
         tag, label = f"seed{args.seed}", f"seed {args.seed}"
     for i, (name, sim, config) in enumerate(GEOMETRIES):
-        report = relative(work, sea, tag, i, sim, config)
+        report = relative(work, sea, tag, i, sim, config, args.raw_mean)
         leads = report["leads"]
         print(f"## {name} ({label})\n")
         print(f"{report['scored']} relative forecasts scored from {SKIP_S} s; sigma calibrated "
               f"from {report['calibrated_from_s']} s; {coverage_band(leads)} over every axis "
               f"and lead.\n")
         print(lift_line(report) + "\n")
-        print("| axis | lead | rel_rms | rel_std | tip_rms (A) | spot_rms (B) | err_corr | sigma "
+        print("| axis | lead | rel_rms | raw_rms | rel_std | tip_rms (A) | spot_rms (B) | err_corr | sigma "
               "| sigma_ind | cov1 | cov2 | cov1_ind | cov2_ind |")
-        print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+        print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
         for r in sorted(leads, key=lambda r: (r["lead_s"], r["axis"])):
             print(f"| {r['axis']} | {r['lead_s']:.0f} s | {f3(r['relative_rms'])} | "
-                  f"{f3(r['relative_zero_rms'])} | {f3(r['tip_rms'])} | {f3(r['spot_rms'])} | "
+                  f"{f3(r['relative_raw_rms'])} | {f3(r['relative_zero_rms'])} | {f3(r['tip_rms'])} | {f3(r['spot_rms'])} | "
                   f"{r['error_correlation']:+.2f} | {f3(r['mean_sigma'])} | "
                   f"{f3(r['mean_sigma_independent'])} | {f3(r['coverage_1sigma'])} | "
                   f"{f3(r['coverage_2sigma'])} | {f3(r['coverage_1sigma_independent'])} | "

@@ -21,7 +21,6 @@ use shipcast_pipeline::config::{CommonArgs, PipelineConfig};
 use shipcast_pipeline::engine::startup::initial_models;
 use shipcast_pipeline::limits;
 use shipcast_pipeline::observed::MotionHistory;
-use shipcast_pipeline::relative::calibrate::SigmaCalibration;
 use shipcast_pipeline::relative::calls_csv::LiftCallsCsv;
 use shipcast_pipeline::relative::study::{study_calls, LiftCall, StudyReport};
 use shipcast_pipeline::relative::verify::{RelativeVerifier, MAX_PENDING};
@@ -446,11 +445,7 @@ fn run_live(config: &PipelineConfig, limit: Option<Duration>) -> anyhow::Result<
     let rate_hz = config.producer.rate_hz;
     let mut crane_motion = FollowedMotion::new(&session, &crane_names, keep_s, rate_hz)?;
     let mut target_motion = FollowedMotion::new(&session, &target_names, keep_s, rate_hz)?;
-    let mut verifier = RelativeVerifier::new(
-        SigmaCalibration::new(r.calibration_halflife, r.calibration_min_verified),
-        *lift.limits(),
-        MAX_PENDING,
-    );
+    let mut verifier = RelativeVerifier::from_config(r, MAX_PENDING);
     let mut warned_no_motion = false;
     let mut track = Box::<RelativeTrack>::default();
     tracing::info!(
@@ -489,7 +484,7 @@ fn run_live(config: &PipelineConfig, limit: Option<Duration>) -> anyhow::Result<
             std::thread::sleep(Duration::from_millis(20));
             continue;
         }
-        if let Err(e) = track.fill(&geometry, a, b, &verifier.calibration) {
+        if let Err(e) = track.fill(&geometry, a, b, &verifier.calibration, &verifier.shrinkage) {
             misaligned += 1;
             tracing::warn!(misaligned, "relative: cannot combine the forecasts: {e}");
             continue;

@@ -208,7 +208,6 @@ fn the_lift_decision_and_its_verification_do_not_allocate_once_warm() {
     use shipcast_pipeline::config::RelativeConfig;
     use shipcast_pipeline::decision::ensemble;
     use shipcast_pipeline::observed::MotionHistory;
-    use shipcast_pipeline::relative::calibrate::SigmaCalibration;
     use shipcast_pipeline::relative::verify::{RelativeVerifier, MAX_PENDING};
     use shipcast_pipeline::relative::{Geometry, LiftDecider, LiftLimits, RelativeTrack};
     // Two ships heaving in one swell, A's crest 2 s ahead of B's, sampled at 8 Hz, each
@@ -221,9 +220,7 @@ fn the_lift_decision_and_its_verification_do_not_allocate_once_warm() {
     let geometry = Geometry::new([0.0, 15.0, -20.0], &config);
     let limits = LiftLimits::new(&config);
     let mut decider = LiftDecider::new(limits);
-    let calibration =
-        SigmaCalibration::new(config.calibration_halflife, config.calibration_min_verified);
-    let mut verifier = RelativeVerifier::new(calibration, limits, MAX_PENDING);
+    let mut verifier = RelativeVerifier::from_config(&config, MAX_PENDING);
     let (mut a, mut b) = (MotionHistory::new(8.0, 74.0), MotionHistory::new(8.0, 74.0));
     let mut track = Box::<RelativeTrack>::default();
     let full = ensemble::DEFAULT_CAPACITY * ensemble::DEFAULT_STRIDE + 60;
@@ -250,7 +247,13 @@ fn the_lift_decision_and_its_verification_do_not_allocate_once_warm() {
                 verifier.verify_until(ta.min(tb), &geometry, &a, &b);
             }
             track
-                .fill(&geometry, &fa, &fb, &verifier.calibration)
+                .fill(
+                    &geometry,
+                    &fa,
+                    &fb,
+                    &verifier.calibration,
+                    &verifier.shrinkage,
+                )
                 .expect("one clock, one step");
             let decision = decider.decide(&mut track, &verifier.lift);
             verifier.push(&track);

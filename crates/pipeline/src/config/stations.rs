@@ -113,8 +113,13 @@ pub struct RelativeConfig {
     pub error_correlation: f64,
     /// Half-life of the sigma calibration, in verified forecasts.
     pub calibration_halflife: f64,
-    /// Verified forecasts (weighted) behind a step before its sigma is calibrated.
+    /// Verified forecasts (weighted) behind a step before its sigma is calibrated and its mean
+    /// shrunk.
     pub calibration_min_verified: f64,
+    /// Shrink the relative mean per axis and step towards no relative motion by the
+    /// least-squares factor of verified forecasts (false: the raw difference of the two
+    /// ships' forecasts).
+    pub shrink_mean: bool,
     /// Publish the relative forecast on zenoh `.../<crane vessel>/advisory/relative`.
     pub publish: bool,
     /// Print one line every this many relative forecasts.
@@ -143,6 +148,7 @@ impl Default for RelativeConfig {
             error_correlation: 0.95,
             calibration_halflife: 1200.0,
             calibration_min_verified: 100.0,
+            shrink_mean: true,
             publish: true,
             print_every: 1,
         }

@@ -58,6 +58,11 @@ impl PairSums {
         Self(self.0.map(|v| v * f))
     }
 
+    /// The same evidence weighted by `f` (an exponential forgetting step).
+    pub fn scaled(self, f: f64) -> Self {
+        Self(self.0.map(|v| v * f))
+    }
+
     fn plus(self, o: [f64; 4]) -> Self {
         Self(std::array::from_fn(|i| self.0[i] + o[i]))
     }
@@ -74,11 +79,10 @@ impl PairSums {
     /// plain least-squares value, and a well-fitted model is left exactly as it is.
     pub fn beta(&self) -> f64 {
         let s = &self.0;
-        // NaN sums (never expected) count as no evidence.
-        if s[MM].is_nan() || s[MM] <= 0.0 || !s[MX].is_finite() || s[XX].is_nan() || s[XX] <= 0.0 {
+        let beta = self.least_squares_beta();
+        if beta == 0.0 {
             return 0.0;
         }
-        let beta = (s[MX] / s[MM]).clamp(0.0, 1.0);
         // Fraction of sum x^2 that beta * m removes: (2 beta MX - beta^2 MM) / XX.
         let explained = (2.0 * beta * s[MX] - beta * beta * s[MM]) / s[XX];
         // Fewer pairs (a new model, a changed sea) mean a noisier estimate of the fraction:
@@ -87,6 +91,16 @@ impl PairSums {
         let bar = MIN_EXPLAINED.max(2.0 / s[N].max(1.0).sqrt());
         let ramp = ((explained - bar) / (RAMP_WIDTHS * bar)).clamp(0.0, 1.0);
         beta * ramp
+    }
+
+    /// The least-squares factor of x on m, clamped to [0, 1], without [`Self::beta`]'s bar:
+    /// 0 for no evidence (or NaN sums, never expected).
+    pub fn least_squares_beta(&self) -> f64 {
+        let s = &self.0;
+        if s[MM].is_nan() || s[MM] <= 0.0 || !s[MX].is_finite() || s[XX].is_nan() || s[XX] <= 0.0 {
+            return 0.0;
+        }
+        (s[MX] / s[MM]).clamp(0.0, 1.0)
     }
 
     /// Mean squared error of `beta * m` (and of zero, at beta 0).

@@ -33,14 +33,26 @@ use shipcast_wire::payload::MAX_STEPS;
 /// worth of warning.
 const MAX_Z2: f64 = 100.0;
 
+/// The factor by which sums with a half-life of `halflife` verified forecasts forget at each
+/// new one (1, no forgetting, for an infinite or unusable half-life).
+pub fn decay_per_forecast(halflife: f64) -> f64 {
+    if halflife.is_finite() && halflife > 0.0 {
+        0.5f64.powf(1.0 / halflife)
+    } else {
+        1.0
+    }
+}
+
 /// Running, exponentially weighted sums of verified relative forecasts.
 #[derive(Debug, Clone)]
 pub struct SigmaCalibration {
     decay: f64,
     min_weight: f64,
     weight: [f64; MAX_STEPS],
-    /// Standardised squared relative errors, e_rel^2 / (var_A + var_B).
+    /// Standardised squared relative errors, e_rel^2 / (var_A + var_B), of the issued mean
+    /// and of the raw difference.
     standardised: [[f64; MAX_STEPS]; 3],
+    standardised_raw: [[f64; MAX_STEPS]; 3],
     /// Forecasts counted in `standardised` (those with a positive independent variance).
     counted: [[f64; MAX_STEPS]; 3],
     /// Products of the two ships' own point errors (A's tip, B's spot in A's axes).
@@ -54,16 +66,13 @@ impl SigmaCalibration {
     /// Sums that forget with a half-life of `halflife` verified forecasts and are used once
     /// `min_weight` verified forecasts stand behind a step.
     pub fn new(halflife: f64, min_weight: f64) -> Self {
-        let decay = if halflife.is_finite() && halflife > 0.0 {
-            0.5f64.powf(1.0 / halflife)
-        } else {
-            1.0
-        };
+        let decay = decay_per_forecast(halflife);
         Self {
             decay,
             min_weight: min_weight.max(1.0),
             weight: [0.0; MAX_STEPS],
             standardised: [[0.0; MAX_STEPS]; 3],
+            standardised_raw: [[0.0; MAX_STEPS]; 3],
             counted: [[0.0; MAX_STEPS]; 3],
             aa: [[0.0; MAX_STEPS]; 3],
             bb: [[0.0; MAX_STEPS]; 3],
@@ -73,7 +82,9 @@ impl SigmaCalibration {
     }
 
     /// Adds a verified forecast: `track` as it was issued, `actual_tip[k]` and `actual_spot[k]`
-    /// the observed displacements of the two points (A's axes) at its step k.
+    /// the observed displacements of the two points (A's axes) at its step k. The relative
+    /// error is that of the issued (shrunk) mean; the ships' own point errors those of their
+    /// point forecasts.
     pub fn observe(
         &mut self,
         track: &RelativeTrack,
@@ -88,12 +99,13 @@ impl SigmaCalibration {
             for axis in 0..3 {
                 let ea = actual_tip[k][axis] - track.tip.mean[axis][k];
                 let eb = actual_spot[k][axis] - track.spot.mean[axis][k];
-                let e = ea - eb;
+                let e = (actual_tip[k][axis] - actual_spot[k][axis]) - track.mean[axis][k];
                 let v = track.tip.var[axis][k] + track.spot.var[axis][k];
                 // A step without a positive variance has no standardised error to count.
                 let counts = v > 0.0 && v.is_finite();
-                let z2 = if counts { (e * e / v).min(MAX_Z2) } else { 0.0 };
-                self.standardised[axis][k] = d * self.standardised[axis][k] + z2;
+                let z2 = |e: f64| if counts { (e * e / v).min(MAX_Z2) } else { 0.0 };
+                self.standardised[axis][k] = d * self.standardised[axis][k] + z2(e);
+                self.standardised_raw[axis][k] = d * self.standardised_raw[axis][k] + z2(ea - eb);
                 self.counted[axis][k] = d * self.counted[axis][k] + f64::from(u8::from(counts));
                 self.aa[axis][k] = d * self.aa[axis][k] + ea * ea;
                 self.bb[axis][k] = d * self.bb[axis][k] + eb * eb;
@@ -111,6 +123,13 @@ impl SigmaCalibration {
     pub fn scale(&self, axis: usize, k: usize) -> Option<f64> {
         (k < MAX_STEPS && self.weight[k] >= self.min_weight && self.counted[axis][k] > 0.0)
             .then(|| (self.standardised[axis][k] / self.counted[axis][k]).sqrt())
+    }
+
+    /// Factor on the independent sigma of the raw difference (before the mean's shrinkage)
+    /// of `axis` at step `k`, once enough is verified.
+    pub fn scale_raw(&self, axis: usize, k: usize) -> Option<f64> {
+        (k < MAX_STEPS && self.weight[k] >= self.min_weight && self.counted[axis][k] > 0.0)
+            .then(|| (self.standardised_raw[axis][k] / self.counted[axis][k]).sqrt())
     }
 
     /// Correlation of the two ships' point errors on `axis` at step `k` (weighted, about zero

@@ -5,7 +5,9 @@
 //! One row per call: `time_s, stated, uncorrected, gaussian, held, ensemble_members`, then for
 //! each axis (x, y, z of the crane vessel) and each step k = 1..=W of the window of MOT:
 //! `mean_<axis>_<k>`, `sigma_<axis>_<k>`, `actual_<axis>_<k>` (the true relative
-//! displacement). A statement that was not made is an empty cell.
+//! displacement). The mean and sigma are those the lift decided on: the raw difference of the
+//! two forecasts and its sigma (`RelativeTrack::raw_mean`, `raw_sigma`). A statement that was
+//! not made is an empty cell.
 
 use super::study::LiftCall;
 use super::AXES;
@@ -75,7 +77,9 @@ impl<W: Write> LiftCallsCsv<W> {
                 write!(
                     self.out,
                     ",{},{},{}",
-                    call.track.mean[axis][k], call.track.sigma[axis][k], call.actual[k][axis]
+                    call.track.raw_mean[axis][k],
+                    call.track.raw_sigma[axis][k],
+                    call.actual[k][axis]
                 )?;
             }
         }
@@ -102,8 +106,8 @@ mod tests {
         t.dt_s = 0.5;
         for axis in 0..3 {
             for k in 0..3 {
-                t.mean[axis][k] = 0.1 * (axis * 10 + k) as f64;
-                t.sigma[axis][k] = 0.25;
+                t.raw_mean[axis][k] = 0.1 * (axis * 10 + k) as f64;
+                t.raw_sigma[axis][k] = 0.25;
             }
         }
         t
@@ -141,7 +145,7 @@ mod tests {
         // z at step 2: the track's mean (axis 2, step 1), sigma, and the record's -1.0.
         let at = |name: &str| row[header.iter().position(|h| *h == name).unwrap()];
         let mean: f64 = at("mean_z_2").parse().unwrap();
-        assert_eq!(mean, t.mean[2][1]);
+        assert_eq!(mean, t.raw_mean[2][1]);
         assert_eq!(at("sigma_z_2"), "0.25");
         assert_eq!(at("actual_z_2"), "-1");
         assert_eq!(at("actual_y_1"), "-0.5");

@@ -1,6 +1,12 @@
 //! The lift go/no-go on a relative forecast: the probability that the crane tip stays within
 //! its limits relative to the landing spot over a window of MOT from now.
 //!
+//! The lift decides on the raw difference of the two forecasts and its own calibrated sigma
+//! (`RelativeTrack::raw_mean`, `raw_sigma`), not on the issued mean shrunk towards no relative
+//! motion (`relative::shrink`): the ensemble's regression of the errors on the mean does that
+//! shrinking itself, and on the shrunk mean the one-hour paper-sea statements were over-stated
+//! in 4-6 more bins (docs/two_ships.md, "The relative mean").
+//!
 //! Two estimates, as for the deck (docs/decisions.md), and for the same reason:
 //! - **verified errors** (the default once they exist): the share of an ensemble of recent
 //!   verified relative error paths (`decision::ensemble`, three quantities: the relative x, y
@@ -134,7 +140,7 @@ impl LiftEvidence {
         let steps = track.steps().min(MAX_STEPS).min(actual.len());
         for (k, value) in actual.iter().enumerate().take(steps) {
             for (axis, &v) in value.iter().enumerate() {
-                let (mean, sigma) = (track.mean[axis][k], track.sigma[axis][k]);
+                let (mean, sigma) = (track.raw_mean[axis][k], track.raw_sigma[axis][k]);
                 self.u[axis][k] = (v - mean) / sigma;
                 self.z[axis][k] = mean / sigma;
             }
@@ -183,8 +189,8 @@ impl LiftDecider {
             (0..3)
                 .map(|axis| {
                     chain_within(
-                        &track.mean[axis][..window],
-                        &track.sigma[axis][..window],
+                        &track.raw_mean[axis][..window],
+                        &track.raw_sigma[axis][..window],
                         limits.limit(axis),
                         limits.error_correlation,
                         &self.lattice,
@@ -210,8 +216,8 @@ impl LiftDecider {
             None
         } else if from_ensemble {
             usable = ensemble.failures(
-                &track.mean,
-                &track.sigma,
+                &track.raw_mean,
+                &track.raw_sigma,
                 &std::array::from_fn(|axis| limits.limit(axis)),
                 window,
                 &mut self.fail_before,

@@ -19,6 +19,9 @@
 //!   axis and step by the ratio of the verified relative errors' mean square to the
 //!   independent variance, from forecasts whose whole horizon has passed (causal); until
 //!   enough are verified the independent sigma is used and the output says so.
+//! - Mean: the difference of the two forecasts over-predicts where the two points move nearly
+//!   together; [`shrink`] shrinks it per axis and step towards no relative motion by the
+//!   least-squares factor of verified forecasts, so that it is not worse than predicting none.
 //!
 //! The two forecasts must share a clock (`time_s`: the simulator's record time in the two-ship
 //! scenario, a common time base such as UTC for real ships). They are aligned on the later
@@ -27,6 +30,7 @@
 pub mod calibrate;
 pub mod calls_csv;
 pub mod lift;
+pub mod shrink;
 pub mod study;
 pub mod verify;
 
@@ -37,6 +41,7 @@ pub use lift::{LiftDecider, LiftDecision, LiftEvidence, LiftLimits};
 use serde::{Deserialize, Serialize};
 use shipcast_wire::payload::{Forecast, MAX_STEPS};
 use shipcast_wire::Dof;
+use shrink::MeanShrinkage;
 
 /// Axes of every per-axis array here: x forward, y starboard, z down (A's axes).
 pub const AXES: [&str; 3] = ["x", "y", "z"];
@@ -232,8 +237,13 @@ pub enum SigmaBasis {
 pub struct RelativeTrack {
     pub alignment: Alignment,
     pub dt_s: f64,
-    /// Relative displacement of the tip from the spot, from rest, per axis and step [m].
+    /// Relative displacement of the tip from the spot, from rest, per axis and step [m]: the
+    /// raw difference shrunk towards no relative motion ([`shrink`]).
     pub mean: [[f64; MAX_STEPS]; 3],
+    /// The raw difference of the two points' forecasts, tip - spot, and the sigma calibrated
+    /// on its errors: what the lift decides on ([`lift`]).
+    pub raw_mean: [[f64; MAX_STEPS]; 3],
+    pub raw_sigma: [[f64; MAX_STEPS]; 3],
     pub sigma: [[f64; MAX_STEPS]; 3],
     /// sqrt(var_A + var_B), what independence would give.
     pub sigma_independent: [[f64; MAX_STEPS]; 3],
@@ -257,6 +267,8 @@ impl Default for RelativeTrack {
             },
             dt_s: 0.0,
             mean: [[0.0; MAX_STEPS]; 3],
+            raw_mean: [[0.0; MAX_STEPS]; 3],
+            raw_sigma: [[0.0; MAX_STEPS]; 3],
             sigma: [[0.0; MAX_STEPS]; 3],
             sigma_independent: [[0.0; MAX_STEPS]; 3],
             basis: SigmaBasis::Independent,
@@ -273,13 +285,14 @@ impl RelativeTrack {
     }
 
     /// Combines `a` (the crane vessel's forecast) and `b` (the target's) for `geometry`,
-    /// with sigma scaled by `calibration`.
+    /// the mean shrunk by `shrinkage` and sigma scaled by `calibration`.
     pub fn fill(
         &mut self,
         geometry: &Geometry,
         a: &Forecast,
         b: &Forecast,
         calibration: &SigmaCalibration,
+        shrinkage: &MeanShrinkage,
     ) -> Result<(), AlignError> {
         let al = align(a, b)?;
         self.alignment = al;
@@ -295,7 +308,9 @@ impl RelativeTrack {
         let (mut scaled, mut total) = (0usize, 0usize);
         for axis in 0..3 {
             for k in 0..al.steps {
-                self.mean[axis][k] = self.tip.mean[axis][k] - self.spot.mean[axis][k];
+                let raw = self.tip.mean[axis][k] - self.spot.mean[axis][k];
+                self.raw_mean[axis][k] = raw;
+                self.mean[axis][k] = shrinkage.beta(axis, k) * raw;
                 let independent = (self.tip.var[axis][k] + self.spot.var[axis][k]).sqrt();
                 self.sigma_independent[axis][k] = independent;
                 total += 1;
@@ -306,6 +321,8 @@ impl RelativeTrack {
                     }
                     None => independent,
                 };
+                self.raw_sigma[axis][k] =
+                    calibration.scale_raw(axis, k).unwrap_or(1.0) * independent;
             }
         }
         self.basis = match scaled {

@@ -5,7 +5,6 @@
 //! motion of the two records, beside each ship's own point forecast (the tip on A, the spot on
 //! B) at the same leads.
 
-use super::calibrate::SigmaCalibration;
 use super::verify::{observed, RelativeVerifier, MAX_PENDING};
 use super::{Geometry, LiftDecider, LiftLimits, RelativeTrack, AXES};
 use crate::config::PipelineConfig;
@@ -31,6 +30,9 @@ pub struct LeadScore {
     /// predicting no relative motion scores).
     pub relative_rms: f64,
     pub relative_zero_rms: f64,
+    /// RMS error of the raw difference of the two point forecasts, before the mean's
+    /// shrinkage (`relative::shrink`; equal to `relative_rms` with `shrink_mean` off).
+    pub relative_raw_rms: f64,
     /// RMS error of each ship's own point forecast (A's tip, B's spot, A's axes) and the RMS of
     /// the point's motion.
     pub tip_rms: f64,
@@ -171,6 +173,7 @@ struct Sums {
     n: f64,
     rel: f64,
     rel_zero: f64,
+    rel_raw: f64,
     tip: f64,
     tip_zero: f64,
     spot: f64,
@@ -272,11 +275,7 @@ pub fn study_calls(
     let geometry = Geometry::new(config.crane.tip_m, &config.relative);
     let r = &config.relative;
     let mut decider = LiftDecider::new(LiftLimits::new(r));
-    let mut verifier = RelativeVerifier::new(
-        SigmaCalibration::new(r.calibration_halflife, r.calibration_min_verified),
-        *decider.limits(),
-        MAX_PENDING,
-    );
+    let mut verifier = RelativeVerifier::from_config(r, MAX_PENDING);
     let (ta, tb) = (Truth::new(crane), Truth::new(target));
     let dt = config.predictor.sample_rate_hz.recip();
     let lead_k: Vec<usize> = STUDY_LEADS_S
@@ -306,7 +305,10 @@ pub fn study_calls(
         // Verify what has fully passed by now: causal.
         verifier.verify_until(a.time_s, &geometry, &ta, &tb);
         let mut track = Box::<RelativeTrack>::default();
-        if track.fill(&geometry, a, b, &verifier.calibration).is_err() {
+        if track
+            .fill(&geometry, a, b, &verifier.calibration, &verifier.shrinkage)
+            .is_err()
+        {
             unpaired += 1;
             continue;
         }
@@ -386,6 +388,7 @@ fn score(
         for axis in 0..3 {
             let truth = tip[k][axis] - spot[k][axis];
             let e = truth - track.mean[axis][k];
+            let e_raw = truth - track.raw_mean[axis][k];
             let ea = tip[k][axis] - track.tip.mean[axis][k];
             let eb = spot[k][axis] - track.spot.mean[axis][k];
             let (s, si) = (track.sigma[axis][k], track.sigma_independent[axis][k]);
@@ -393,6 +396,7 @@ fn score(
             acc.n += 1.0;
             acc.rel += e * e;
             acc.rel_zero += truth * truth;
+            acc.rel_raw += e_raw * e_raw;
             acc.tip += ea * ea;
             acc.tip_zero += tip[k][axis].powi(2);
             acc.spot += eb * eb;
@@ -421,6 +425,7 @@ fn finish(sums: &[[Sums; 3]]) -> Vec<LeadScore> {
                 scored: s.n as u64,
                 relative_rms: rms(s.rel),
                 relative_zero_rms: rms(s.rel_zero),
+                relative_raw_rms: rms(s.rel_raw),
                 tip_rms: rms(s.tip),
                 tip_zero_rms: rms(s.tip_zero),
                 spot_rms: rms(s.spot),

@@ -9,7 +9,9 @@
 
 use super::calibrate::SigmaCalibration;
 use super::lift::{LiftEvidence, LiftLimits};
+use super::shrink::MeanShrinkage;
 use super::{point_displacement, Geometry, RelativeTrack};
+use crate::config::RelativeConfig;
 use crate::observed::ObservedMotion;
 use std::collections::VecDeque;
 
@@ -27,6 +29,8 @@ pub struct RelativeVerifier {
     tip: Vec<[f64; 3]>,
     spot: Vec<[f64; 3]>,
     pub calibration: SigmaCalibration,
+    /// The relative mean's shrinkage towards no relative motion.
+    pub shrinkage: MeanShrinkage,
     /// What the verified forecasts teach the lift decision.
     pub lift: LiftEvidence,
     /// The true relative displacement of the forecast being verified, per step.
@@ -37,9 +41,29 @@ pub struct RelativeVerifier {
 }
 
 impl RelativeVerifier {
+    /// The verifier of a configuration: its calibration's half-life and minimum, its lift
+    /// limits and mean shrinkage.
+    pub fn from_config(r: &RelativeConfig, max_pending: usize) -> Self {
+        Self::new(
+            SigmaCalibration::new(r.calibration_halflife, r.calibration_min_verified),
+            MeanShrinkage::new(
+                r.shrink_mean,
+                r.calibration_halflife,
+                r.calibration_min_verified,
+            ),
+            LiftLimits::new(r),
+            max_pending,
+        )
+    }
+
     /// At most `max_pending` forecasts wait; the oldest beyond that are dropped. `lift`: the
     /// limits whose windows the lift statements are judged by.
-    pub fn new(calibration: SigmaCalibration, lift: LiftLimits, max_pending: usize) -> Self {
+    pub fn new(
+        calibration: SigmaCalibration,
+        shrinkage: MeanShrinkage,
+        lift: LiftLimits,
+        max_pending: usize,
+    ) -> Self {
         let max_pending = max_pending.max(1);
         Self {
             pending: VecDeque::with_capacity(max_pending + 1),
@@ -48,6 +72,7 @@ impl RelativeVerifier {
             tip: Vec::with_capacity(shipcast_wire::payload::MAX_STEPS),
             spot: Vec::with_capacity(shipcast_wire::payload::MAX_STEPS),
             calibration,
+            shrinkage,
             lift: LiftEvidence::new(lift),
             actual: Vec::with_capacity(shipcast_wire::payload::MAX_STEPS),
             verified: 0,
@@ -111,6 +136,7 @@ impl RelativeVerifier {
                 let relative = self.tip.iter().zip(&self.spot);
                 self.actual
                     .extend(relative.map(|(t, s)| std::array::from_fn(|a| t[a] - s[a])));
+                self.shrinkage.observe(&old, &self.actual);
                 self.lift.learn(&old, &self.actual);
                 self.verified += 1;
             } else {
@@ -179,7 +205,12 @@ mod tests {
     fn forecasts_are_verified_once_both_ships_have_passed_them_and_an_origin_counts_once() {
         let geometry = Geometry::new([0.0; 3], &crate::config::RelativeConfig::default());
         let limits = LiftLimits::new(&crate::config::RelativeConfig::default());
-        let mut v = RelativeVerifier::new(SigmaCalibration::new(f64::INFINITY, 1.0), limits, 8);
+        let mut v = RelativeVerifier::new(
+            SigmaCalibration::new(f64::INFINITY, 1.0),
+            MeanShrinkage::new(false, f64::INFINITY, 1.0),
+            limits,
+            8,
+        );
         let (mut a, mut b) = (MotionHistory::new(8.0, 60.0), MotionHistory::new(8.0, 60.0));
         // The same origin twice (the second vessel's forecast came in): the later one stands.
         v.push(&track(1.0, 5.0));
@@ -227,6 +258,7 @@ mod tests {
         let geometry = Geometry::new([0.0; 3], &config);
         let mut v = RelativeVerifier::new(
             SigmaCalibration::new(f64::INFINITY, 1.0),
+            MeanShrinkage::new(false, f64::INFINITY, 1.0),
             LiftLimits::new(&config),
             8,
         );
@@ -240,8 +272,9 @@ mod tests {
             b.push(&at_rest(i, i as f64 * 0.125));
         }
         let mut exact = track(0.0, 1.0);
-        exact.mean[2][0] = 1.0;
-        exact.sigma[2][0] = 1.0;
+        // The lift learns in the frame it decides in: the raw difference and its sigma.
+        exact.raw_mean[2][0] = 1.0;
+        exact.raw_sigma[2][0] = 1.0;
         v.push(&exact);
         v.verify_until(1.0, &geometry, &a, &b);
         assert_eq!((v.verified, v.lift.ensemble.len()), (1, 1));
