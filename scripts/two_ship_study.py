@@ -101,6 +101,17 @@ def coverage_band(rows):
     return f"+-1 sigma {min(c1):.3f}-{max(c1):.3f}, +-2 sigma {min(c2):.3f}-{max(c2):.3f}"
 
 
+def point_coverage(rows, point):
+    """Coverage of one ship's own point sigma (independent DOF errors) per axis, over leads."""
+    parts = []
+    for axis in ("x", "y", "z"):
+        sel = [r for r in rows if r["axis"] == axis]
+        c1 = [r[f"{point}_coverage_1sigma"] for r in sel]
+        c2 = [r[f"{point}_coverage_2sigma"] for r in sel]
+        parts.append(f"{axis} {min(c1):.2f}-{max(c1):.2f} / {min(c2):.2f}-{max(c2):.2f}")
+    return ", ".join(parts)
+
+
 def bins_off(lift):
     """Reliability bins of at least 50 calls more than 5 points off, as text."""
     off = [f"{b['stated']:.3f} observed {b['observed']:.3f} ({b['count']} calls, "
@@ -154,6 +165,10 @@ def main():
               f"from {report['calibrated_from_s']} s; {coverage_band(leads)} over every axis "
               f"and lead.\n")
         print(lift_line(report) + "\n")
+        print("Each ship's own point sigma, linearised from its DOF sigmas taken as independent "
+              "(what `shipcast crane` prints for its tip), +-1 / +-2 sigma coverage over the "
+              f"leads: A's tip {point_coverage(leads, 'tip')}; B's spot "
+              f"{point_coverage(leads, 'spot')}.\n")
         print("| axis | lead | rel_rms | raw_rms | rel_std | tip_rms (A) | spot_rms (B) | err_corr | sigma "
               "| sigma_ind | cov1 | cov2 | cov1_ind | cov2_ind |")
         print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")

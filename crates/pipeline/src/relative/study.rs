@@ -39,6 +39,15 @@ pub struct LeadScore {
     pub tip_zero_rms: f64,
     pub spot_rms: f64,
     pub spot_zero_rms: f64,
+    /// Each ship's own point sigma (linearised from its DOF sigmas, the DOF errors taken as
+    /// independent: what the crane service publishes for its tip) and the fraction of the
+    /// point's errors within +-1 and +-2 of it.
+    pub tip_mean_sigma: f64,
+    pub tip_coverage_1sigma: f64,
+    pub tip_coverage_2sigma: f64,
+    pub spot_mean_sigma: f64,
+    pub spot_coverage_1sigma: f64,
+    pub spot_coverage_2sigma: f64,
     /// Correlation of the two ships' point errors.
     pub error_correlation: f64,
     pub mean_sigma: f64,
@@ -178,6 +187,9 @@ struct Sums {
     tip_zero: f64,
     spot: f64,
     spot_zero: f64,
+    /// Per point: sum of sigma, errors within +-1 and +-2 sigma.
+    tip_sigma: [f64; 3],
+    spot_sigma: [f64; 3],
     ab: f64,
     sigma: f64,
     sigma_ind: f64,
@@ -402,6 +414,15 @@ fn score(
             acc.spot += eb * eb;
             acc.spot_zero += spot[k][axis].powi(2);
             acc.ab += ea * eb;
+            for (e, var, cover) in [
+                (ea, track.tip.var[axis][k], &mut acc.tip_sigma),
+                (eb, track.spot.var[axis][k], &mut acc.spot_sigma),
+            ] {
+                let s = var.sqrt();
+                cover[0] += s;
+                cover[1] += f64::from(u8::from(e.abs() <= s));
+                cover[2] += f64::from(u8::from(e.abs() <= 2.0 * s));
+            }
             acc.sigma += s;
             acc.sigma_ind += si;
             let inside = |w: f64| f64::from(u8::from(e.abs() <= w));
@@ -430,6 +451,12 @@ fn finish(sums: &[[Sums; 3]]) -> Vec<LeadScore> {
                 tip_zero_rms: rms(s.tip_zero),
                 spot_rms: rms(s.spot),
                 spot_zero_rms: rms(s.spot_zero),
+                tip_mean_sigma: s.tip_sigma[0] / n,
+                tip_coverage_1sigma: s.tip_sigma[1] / n,
+                tip_coverage_2sigma: s.tip_sigma[2] / n,
+                spot_mean_sigma: s.spot_sigma[0] / n,
+                spot_coverage_1sigma: s.spot_sigma[1] / n,
+                spot_coverage_2sigma: s.spot_sigma[2] / n,
                 error_correlation: s.ab / (s.tip * s.spot).sqrt(),
                 mean_sigma: s.sigma / n,
                 mean_sigma_independent: s.sigma_ind / n,
