@@ -102,7 +102,8 @@ def coverage_band(rows):
 
 
 def point_coverage(rows, point):
-    """Coverage of one ship's own point sigma (independent DOF errors) per axis, over leads."""
+    """Coverage of one ship's own point sigma per axis, over leads (`point`: tip, spot, or
+    tip_calibrated, the tip's sigma as `shipcast crane` scales it)."""
     parts = []
     for axis in ("x", "y", "z"):
         sel = [r for r in rows if r["axis"] == axis]
@@ -168,7 +169,8 @@ def main():
         print("Each ship's own point sigma, linearised from its DOF sigmas taken as independent "
               "(what `shipcast crane` prints for its tip), +-1 / +-2 sigma coverage over the "
               f"leads: A's tip {point_coverage(leads, 'tip')}; B's spot "
-              f"{point_coverage(leads, 'spot')}.\n")
+              f"{point_coverage(leads, 'spot')}. A's tip sigma scaled by its verified forecasts, "
+              f"as `shipcast crane` issues it: {point_coverage(leads, 'tip_calibrated')}.\n")
         print("| axis | lead | rel_rms | raw_rms | rel_std | tip_rms (A) | spot_rms (B) | err_corr | sigma "
               "| sigma_ind | cov1 | cov2 | cov1_ind | cov2_ind |")
         print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")

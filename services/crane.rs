@@ -2,13 +2,23 @@
 //! only, ring channel) and prints the crane-tip motion forecast for a configurable tip position.
 //! Only forecasts from the live predictor, with increasing seq and sound content, are used
 //! (`ForecastGate`); every rejection is counted and logged on one line.
+//!
+//! It also follows the ship's motion as the predictor republishes it (`.../motion`), verifies
+//! each tip forecast once its horizon has passed, and scales the tip's sigma by the verified
+//! errors (`crane::verify`): the sigma linearised from the DOF sigmas takes their errors as
+//! independent, which the sea does not honour. Until enough are verified the line says
+//! "sigma independent DOF errors".
 
+use crate::followed_motion::FollowedMotion;
 use shipcast_pipeline::config::{CommonArgs, PipelineConfig, MAX_LEVER_M};
+use shipcast_pipeline::crane::verify::{TipVerifier, MAX_PENDING};
 use shipcast_pipeline::crane::{summary, tip_track};
 use shipcast_pipeline::deck::ShipPoint;
+use shipcast_pipeline::sigma_scale::SigmaScale;
 use shipcast_pipeline::transport::forecast_check::{ForecastGate, PublisherWatch};
 use shipcast_pipeline::transport::zenoh::{self as zn, LatestSubscriber, LivelinessWatch};
 use shipcast_pipeline::transport::{shutdown, Names};
+use shipcast_wire::payload::MAX_STEPS;
 use std::io::Write;
 use std::time::Duration;
 
@@ -94,18 +104,35 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let publishers = PublisherWatch::new(&session, &names.forecast())?;
     let mut gate = ForecastGate::new(1.0 / config.predictor.sample_rate_hz);
     let tip = ShipPoint::new(config.crane.tip_m);
+    // The ship's motion for as long as a forecast waits for its last step, and some more.
+    let keep_s = MAX_STEPS as f64 / config.predictor.sample_rate_hz + 10.0;
+    let mut motion =
+        FollowedMotion::new("crane", &session, &names, keep_s, config.producer.rate_hz)?;
+    let c = &config.crane;
+    let mut verifier = TipVerifier::new(
+        tip,
+        SigmaScale::new(c.calibration_halflife, c.calibration_min_verified),
+        MAX_PENDING,
+    );
     tracing::info!(tip_m = ?config.crane.tip_m, "crane: following {} over zenoh", names.forecast());
     let mut count = 0u64;
     let mut track = Vec::new();
     let stdout = std::io::stdout();
     while !limit.reached() {
+        if motion.poll()? {
+            verifier.drop_pending();
+        }
+        if let Some(until) = motion.history.newest_s() {
+            verifier.verify_until(until, &motion.history);
+        }
         match alive.poll() {
             Some(true) => tracing::info!("crane: predictor alive"),
             Some(false) => tracing::warn!("crane: predictor gone"),
             None => {}
         }
         publishers.update(&mut gate.live);
-        let Some(received) = forecasts.recv_with_source(Duration::from_millis(200))? else {
+        // Short, so that the motion is polled often enough for its queue.
+        let Some(received) = forecasts.recv_with_source(Duration::from_millis(20))? else {
             continue;
         };
         // A token may arrive just after the first forecast of its publisher.
@@ -120,7 +147,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 continue;
             }
         };
-        tip_track(&tip, &forecast, &mut track);
+        tip_track(&tip, &forecast, &verifier, &mut track);
+        verifier.push(&forecast);
         if count.is_multiple_of(config.crane.print_every) {
             let _ = writeln!(stdout.lock(), "{}", summary(&forecast, &track));
         }
@@ -128,11 +156,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     let r = gate.stream.rejected;
     tracing::info!(
-        "crane: stopped after {count} forecasts, {} rejected ({} source, {} seq, {} payload)",
+        "crane: stopped after {count} forecasts ({} verified, {} unverifiable), {} rejected ({} source, {} seq, {} payload), {} motion samples rejected",
+        verifier.verified,
+        verifier.unverifiable(),
         r.total(),
         r.source,
         r.seq,
-        r.payload
+        r.payload,
+        motion.gate.rejected
     );
     Ok(())
 }

@@ -10,6 +10,7 @@ mod crane;
 mod deck;
 mod display;
 mod eval;
+mod followed_motion;
 mod logging;
 mod paper;
 mod predictor;

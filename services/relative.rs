@@ -15,18 +15,17 @@
 //! engine, the relative forecast scored against the records' true relative motion beside each
 //! ship's own forecast, with the sigma calibrated causally from verified relative errors.
 
+use crate::followed_motion::FollowedMotion;
 use crate::progress;
 use anyhow::Context;
 use shipcast_pipeline::config::{CommonArgs, PipelineConfig};
 use shipcast_pipeline::engine::startup::initial_models;
 use shipcast_pipeline::limits;
-use shipcast_pipeline::observed::MotionHistory;
 use shipcast_pipeline::relative::calls_csv::LiftCallsCsv;
 use shipcast_pipeline::relative::study::{study_calls, LiftCall, StudyReport};
 use shipcast_pipeline::relative::verify::{RelativeVerifier, MAX_PENDING};
 use shipcast_pipeline::relative::{advisory, Geometry, LiftDecider, LiftLimits, RelativeTrack};
 use shipcast_pipeline::transport::forecast_check::{ForecastGate, PublisherWatch};
-use shipcast_pipeline::transport::motion_gate::{Admitted, MotionGate};
 use shipcast_pipeline::transport::zenoh::{self as zn, JsonPublisher, LatestSubscriber};
 use shipcast_pipeline::transport::{shutdown, Names};
 use shipcast_series::motion_csv::MotionData;
@@ -360,63 +359,6 @@ impl Followed {
     }
 }
 
-/// One vessel's observed motion over zenoh (`.../motion`, from its predictor), checked.
-struct FollowedMotion {
-    key: String,
-    subscriber: LatestSubscriber,
-    publishers: PublisherWatch,
-    gate: MotionGate,
-    history: MotionHistory,
-}
-
-impl FollowedMotion {
-    /// Samples received between two polls (every 20 ms) that the subscriber can hold: 8 s at
-    /// 8 Hz, so a poll delayed by a decision loses none.
-    const QUEUE: usize = 64;
-
-    fn new(
-        session: &zenoh::Session,
-        names: &Names,
-        keep_s: f64,
-        rate_hz: f64,
-    ) -> anyhow::Result<Self> {
-        let key = names.motion();
-        Ok(Self {
-            subscriber: LatestSubscriber::keeping(session, &key, Self::QUEUE)?,
-            publishers: PublisherWatch::new(session, &key)?,
-            gate: MotionGate::new(),
-            history: MotionHistory::new(rate_hz, keep_s),
-            key,
-        })
-    }
-
-    /// Takes what arrived; true if the vessel's record started afresh (a new producer run or
-    /// a new predictor), so forecasts waiting on the old record's clock cannot be verified.
-    fn poll(&mut self) -> anyhow::Result<bool> {
-        let mut restarted = false;
-        self.publishers.update(&mut self.gate.live);
-        while let Some(received) = self.subscriber.try_recv_with_source()? {
-            self.publishers.update(&mut self.gate.live);
-            match self.gate.check(&received, &mut self.history) {
-                Ok(Admitted::Continues) => {}
-                Ok(Admitted::Restarted) => {
-                    restarted = true;
-                    tracing::info!(
-                        "relative: the motion on {} started a new record (producer or predictor restarted)",
-                        self.key
-                    );
-                }
-                Err(e) => tracing::warn!(
-                    rejected = self.gate.rejected,
-                    "relative: motion sample on {} rejected: {e}",
-                    self.key
-                ),
-            }
-        }
-        Ok(restarted)
-    }
-}
-
 fn run_live(config: &PipelineConfig, limit: Option<Duration>) -> anyhow::Result<()> {
     let r = &config.relative;
     let limit = shutdown::RunLimit::new(limit);
@@ -443,8 +385,10 @@ fn run_live(config: &PipelineConfig, limit: Option<Duration>) -> anyhow::Result<
     // passed; until enough are verified the sigma is the independent one (`sigma_basis`).
     let keep_s = MAX_STEPS as f64 * dt + 10.0;
     let rate_hz = config.producer.rate_hz;
-    let mut crane_motion = FollowedMotion::new(&session, &crane_names, keep_s, rate_hz)?;
-    let mut target_motion = FollowedMotion::new(&session, &target_names, keep_s, rate_hz)?;
+    let mut crane_motion =
+        FollowedMotion::new("relative", &session, &crane_names, keep_s, rate_hz)?;
+    let mut target_motion =
+        FollowedMotion::new("relative", &session, &target_names, keep_s, rate_hz)?;
     let mut verifier = RelativeVerifier::from_config(r, MAX_PENDING);
     let mut warned_no_motion = false;
     let mut track = Box::<RelativeTrack>::default();
@@ -524,7 +468,7 @@ fn run_live(config: &PipelineConfig, limit: Option<Duration>) -> anyhow::Result<
     tracing::info!(
         "relative: stopped after {count} relative forecasts ({} verified, {} unverifiable); rejected {} forecasts and {} motion samples from {}, {} and {} from {}, {misaligned} pairs not combinable",
         verifier.verified,
-        verifier.unverifiable,
+        verifier.unverifiable(),
         ra.total(),
         crane_motion.gate.rejected,
         crane.name,

@@ -264,7 +264,7 @@ fn the_lift_decision_and_its_verification_do_not_allocate_once_warm() {
             assert_eq!(decision.ensemble_members, ensemble::DEFAULT_CAPACITY);
         }
     }
-    assert_eq!(verifier.unverifiable, 0);
+    assert_eq!(verifier.unverifiable(), 0);
     assert!(verifier.lift.statements.calls() > 0.0);
     assert_eq!(allocations, 0);
 }

@@ -280,3 +280,31 @@ fn retrained_models_are_swapped_in_without_a_missed_forecast() {
         "sigma not re-measured"
     );
 }
+
+/// The crane follows the ship's motion, verifies each tip forecast once its horizon has
+/// passed, and scales the tip's sigma by what happened: its lines start with the sigma of
+/// independent DOF errors and turn calibrated; its closing line counts the verified ones.
+#[test]
+fn the_crane_verifies_its_tip_forecasts_and_scales_its_sigma_by_them() {
+    let p = TestPipeline::new(
+        "cranecal",
+        "[producer]\nspeed = 20.0\nbackfill_s = 0.0\n[crane]\ncalibration_min_verified = 5.0\n",
+    );
+    let mut predictor = p.spawn("predictor", &[]);
+    predictor.wait_for("(iceoryx2 and zenoh)");
+    let mut crane = p.spawn("crane", &[]);
+    let mut producer = p.spawn("producer", &["--wait-subscriber-s", "30"]);
+    crane.wait_for("| sigma independent DOF errors");
+    crane.wait_for("| sigma calibrated");
+    crane.terminate();
+    let stopped = crane.wait_for("crane: stopped after");
+    let verified: u64 = stopped
+        .split(" forecasts (")
+        .nth(1)
+        .and_then(|s| s.split(' ').next())
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("no verified count in: {stopped}"));
+    assert!(verified >= 5, "{stopped}");
+    producer.terminate();
+    predictor.terminate();
+}

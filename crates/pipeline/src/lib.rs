@@ -23,5 +23,7 @@ pub mod engine;
 pub mod limits;
 pub mod observed;
 pub mod pacing;
+pub mod pending;
 pub mod relative;
+pub mod sigma_scale;
 pub mod transport;

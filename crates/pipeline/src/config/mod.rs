@@ -353,6 +353,16 @@ impl PipelineConfig {
             }
         }
         limits::count("crane.print_every", self.crane.print_every, 1, u64::MAX)?;
+        limits::positive(
+            "crane.calibration_halflife",
+            self.crane.calibration_halflife,
+            1e9,
+        )?;
+        limits::positive(
+            "crane.calibration_min_verified",
+            self.crane.calibration_min_verified,
+            1e9,
+        )?;
         if !(d.go_probability > 0.0 && d.go_probability < 1.0) {
             return Err(format!(
                 "deck.go_probability must be between 0 and 1, got {}",

@@ -67,6 +67,10 @@ pub struct CraneConfig {
     pub tip_m: [f64; 3],
     /// Print one line every this many forecasts.
     pub print_every: u64,
+    /// Half-life, in verified tip forecasts, of the scale on the tip's sigma (`crane::verify`).
+    pub calibration_halflife: f64,
+    /// Verified tip forecasts (weighted) behind a step before its sigma is scaled.
+    pub calibration_min_verified: f64,
 }
 
 impl Default for CraneConfig {
@@ -75,6 +79,9 @@ impl Default for CraneConfig {
             // An alongside transfer rig: amidships, 15 m outboard to starboard, 20 m up.
             tip_m: [10.0, 15.0, -20.0],
             print_every: 1,
+            // As the relative sigma's: 10 minutes of forecasts at 2 Hz.
+            calibration_halflife: 1200.0,
+            calibration_min_verified: 100.0,
         }
     }
 }

@@ -8,7 +8,7 @@
 //! verified forecasts' e_rel^2 / (var_A + var_B), exponentially weighted over them (half-life in
 //! forecasts): the scale that makes the standardised relative error's mean square 1.
 //!
-//! Why the mean of the ratios and not the ratio of the sums (sum of e_rel^2 over sum of var_A +
+//! The scale is [`crate::sigma_scale::SigmaScale`]'s. Why the mean of the ratios and not the ratio of the sums (sum of e_rel^2 over sum of var_A +
 //! var_B, what this was until 2026-12-05): the two ships' sigmas move with their own live
 //! errors (for example while a change detector has widened one of them), and the relative
 //! error of two strongly correlated points need not follow. The ratio of sums is then set by
@@ -22,39 +22,18 @@
 //! for the report.
 
 use super::RelativeTrack;
+pub use crate::sigma_scale::decay_per_forecast;
+use crate::sigma_scale::SigmaScale;
 use shipcast_wire::payload::MAX_STEPS;
-
-/// Largest standardised squared error one forecast adds (|e_rel| at 10 sigma). A mean of
-/// ratios is at the mercy of its largest terms: on the two-sine records of `relative::tests`,
-/// whose first forecasts (the start-up model's, before the first fit) are far off, the
-/// uncapped mean held the relative sigma at 0.37 against a relative RMS error of 0.006 (0.029
-/// with the cap). A Gaussian error passes 10 sigma once in 10^23 forecasts, so on the four
-/// geometries' records the cap changes nothing, and 100 is still a hundred honest forecasts'
-/// worth of warning.
-const MAX_Z2: f64 = 100.0;
-
-/// The factor by which sums with a half-life of `halflife` verified forecasts forget at each
-/// new one (1, no forgetting, for an infinite or unusable half-life).
-pub fn decay_per_forecast(halflife: f64) -> f64 {
-    if halflife.is_finite() && halflife > 0.0 {
-        0.5f64.powf(1.0 / halflife)
-    } else {
-        1.0
-    }
-}
 
 /// Running, exponentially weighted sums of verified relative forecasts.
 #[derive(Debug, Clone)]
 pub struct SigmaCalibration {
-    decay: f64,
-    min_weight: f64,
-    weight: [f64; MAX_STEPS],
     /// Standardised squared relative errors, e_rel^2 / (var_A + var_B), of the issued mean
     /// and of the raw difference.
-    standardised: [[f64; MAX_STEPS]; 3],
-    standardised_raw: [[f64; MAX_STEPS]; 3],
-    /// Forecasts counted in `standardised` (those with a positive independent variance).
-    counted: [[f64; MAX_STEPS]; 3],
+    issued: SigmaScale,
+    raw: SigmaScale,
+    decay: f64,
     /// Products of the two ships' own point errors (A's tip, B's spot in A's axes).
     aa: [[f64; MAX_STEPS]; 3],
     bb: [[f64; MAX_STEPS]; 3],
@@ -66,14 +45,10 @@ impl SigmaCalibration {
     /// Sums that forget with a half-life of `halflife` verified forecasts and are used once
     /// `min_weight` verified forecasts stand behind a step.
     pub fn new(halflife: f64, min_weight: f64) -> Self {
-        let decay = decay_per_forecast(halflife);
         Self {
-            decay,
-            min_weight: min_weight.max(1.0),
-            weight: [0.0; MAX_STEPS],
-            standardised: [[0.0; MAX_STEPS]; 3],
-            standardised_raw: [[0.0; MAX_STEPS]; 3],
-            counted: [[0.0; MAX_STEPS]; 3],
+            issued: SigmaScale::new(halflife, min_weight),
+            raw: SigmaScale::new(halflife, min_weight),
+            decay: decay_per_forecast(halflife),
             aa: [[0.0; MAX_STEPS]; 3],
             bb: [[0.0; MAX_STEPS]; 3],
             ab: [[0.0; MAX_STEPS]; 3],
@@ -93,20 +68,25 @@ impl SigmaCalibration {
     ) {
         let steps = track.steps().min(actual_tip.len()).min(actual_spot.len());
         self.verified += 1;
+        let own = |axis: usize, k: usize| {
+            (
+                actual_tip[k][axis] - track.tip.mean[axis][k],
+                actual_spot[k][axis] - track.spot.mean[axis][k],
+            )
+        };
+        let var = |axis: usize, k: usize| track.tip.var[axis][k] + track.spot.var[axis][k];
+        self.issued.observe(steps, |axis, k| {
+            let truth = actual_tip[k][axis] - actual_spot[k][axis];
+            (truth - track.mean[axis][k], var(axis, k))
+        });
+        self.raw.observe(steps, |axis, k| {
+            let (ea, eb) = own(axis, k);
+            (ea - eb, var(axis, k))
+        });
         let d = self.decay;
-        for k in 0..steps {
-            self.weight[k] = d * self.weight[k] + 1.0;
+        for k in 0..steps.min(MAX_STEPS) {
             for axis in 0..3 {
-                let ea = actual_tip[k][axis] - track.tip.mean[axis][k];
-                let eb = actual_spot[k][axis] - track.spot.mean[axis][k];
-                let e = (actual_tip[k][axis] - actual_spot[k][axis]) - track.mean[axis][k];
-                let v = track.tip.var[axis][k] + track.spot.var[axis][k];
-                // A step without a positive variance has no standardised error to count.
-                let counts = v > 0.0 && v.is_finite();
-                let z2 = |e: f64| if counts { (e * e / v).min(MAX_Z2) } else { 0.0 };
-                self.standardised[axis][k] = d * self.standardised[axis][k] + z2(e);
-                self.standardised_raw[axis][k] = d * self.standardised_raw[axis][k] + z2(ea - eb);
-                self.counted[axis][k] = d * self.counted[axis][k] + f64::from(u8::from(counts));
+                let (ea, eb) = own(axis, k);
                 self.aa[axis][k] = d * self.aa[axis][k] + ea * ea;
                 self.bb[axis][k] = d * self.bb[axis][k] + eb * eb;
                 self.ab[axis][k] = d * self.ab[axis][k] + ea * eb;
@@ -121,23 +101,20 @@ impl SigmaCalibration {
 
     /// Factor on the independent sigma of `axis` at step `k`, once enough is verified.
     pub fn scale(&self, axis: usize, k: usize) -> Option<f64> {
-        (k < MAX_STEPS && self.weight[k] >= self.min_weight && self.counted[axis][k] > 0.0)
-            .then(|| (self.standardised[axis][k] / self.counted[axis][k]).sqrt())
+        self.issued.scale(axis, k)
     }
 
     /// Factor on the independent sigma of the raw difference (before the mean's shrinkage)
     /// of `axis` at step `k`, once enough is verified.
     pub fn scale_raw(&self, axis: usize, k: usize) -> Option<f64> {
-        (k < MAX_STEPS && self.weight[k] >= self.min_weight && self.counted[axis][k] > 0.0)
-            .then(|| (self.standardised_raw[axis][k] / self.counted[axis][k]).sqrt())
+        self.raw.scale(axis, k)
     }
 
     /// Correlation of the two ships' point errors on `axis` at step `k` (weighted, about zero
     /// mean), once enough is verified.
     pub fn correlation(&self, axis: usize, k: usize) -> Option<f64> {
         let den = (self.aa[axis][k] * self.bb[axis][k]).sqrt();
-        (k < MAX_STEPS && self.weight[k] >= self.min_weight && den > 0.0)
-            .then(|| self.ab[axis][k] / den)
+        (self.issued.ready(k) && den > 0.0).then(|| self.ab[axis][k] / den)
     }
 }
 

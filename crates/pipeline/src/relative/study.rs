@@ -8,11 +8,13 @@
 use super::verify::{observed, RelativeVerifier, MAX_PENDING};
 use super::{Geometry, LiftDecider, LiftLimits, RelativeTrack, AXES};
 use crate::config::PipelineConfig;
+use crate::crane::verify::TipVerifier;
 use crate::decision::reliability::{rate, Reliability, ReliabilityBin};
 use crate::decision::score::curve_thresholds;
 use crate::engine::models::ModelSet;
 use crate::engine::replay::{replay, ReplayReport};
 use crate::observed::{matches, ObservedMotion};
+use crate::sigma_scale::SigmaScale;
 use serde::Serialize;
 use shipcast_series::motion_csv::MotionData;
 use shipcast_wire::Dof;
@@ -48,6 +50,11 @@ pub struct LeadScore {
     pub spot_mean_sigma: f64,
     pub spot_coverage_1sigma: f64,
     pub spot_coverage_2sigma: f64,
+    /// A's tip sigma as `shipcast crane` issues it: scaled by its verified tip forecasts
+    /// (`crane::verify`, `[crane]` calibration settings), and its coverage.
+    pub tip_calibrated_mean_sigma: f64,
+    pub tip_calibrated_coverage_1sigma: f64,
+    pub tip_calibrated_coverage_2sigma: f64,
     /// Correlation of the two ships' point errors.
     pub error_correlation: f64,
     pub mean_sigma: f64,
@@ -190,6 +197,7 @@ struct Sums {
     /// Per point: sum of sigma, errors within +-1 and +-2 sigma.
     tip_sigma: [f64; 3],
     spot_sigma: [f64; 3],
+    tip_calibrated: [f64; 3],
     ab: f64,
     sigma: f64,
     sigma_ind: f64,
@@ -288,6 +296,12 @@ pub fn study_calls(
     let r = &config.relative;
     let mut decider = LiftDecider::new(LiftLimits::new(r));
     let mut verifier = RelativeVerifier::from_config(r, MAX_PENDING);
+    let c = &config.crane;
+    let mut tip_verifier = TipVerifier::new(
+        geometry.tip,
+        SigmaScale::new(c.calibration_halflife, c.calibration_min_verified),
+        crate::crane::verify::MAX_PENDING,
+    );
     let (ta, tb) = (Truth::new(crane), Truth::new(target));
     let dt = config.predictor.sample_rate_hz.recip();
     let lead_k: Vec<usize> = STUDY_LEADS_S
@@ -303,6 +317,9 @@ pub fn study_calls(
     let mut calibrated_from_s = None;
     let mut j = 0usize;
     for a in &fa {
+        // A's tip alone, as `shipcast crane` verifies it: every forecast of A, paired or not.
+        tip_verifier.verify_until(a.time_s, &ta);
+        tip_verifier.push(a);
         // B's forecast issued at the same record time (both engines run on one clock).
         while j < fb.len() && fb[j].time_s < a.time_s - 0.25 * dt {
             j += 1;
@@ -335,7 +352,7 @@ pub fn study_calls(
             && observed(&track, &geometry, &ta, &tb, &mut tip, &mut spot)
         {
             scored += 1;
-            score(&track, &tip, &spot, &lead_k, &mut sums);
+            score(&track, &tip, &spot, &tip_verifier, &lead_k, &mut sums);
             if let Some(p) = issued.probability_now {
                 let window = decider.limits().window_steps(track.dt_s);
                 actual.clear();
@@ -390,6 +407,7 @@ fn score(
     track: &RelativeTrack,
     tip: &[[f64; 3]],
     spot: &[[f64; 3]],
+    tip_verifier: &TipVerifier,
     lead_k: &[usize],
     sums: &mut [[Sums; 3]],
 ) {
@@ -423,6 +441,14 @@ fn score(
                 cover[1] += f64::from(u8::from(e.abs() <= s));
                 cover[2] += f64::from(u8::from(e.abs() <= 2.0 * s));
             }
+            // The tip's steps are A's from its origin on (skip_a 0 when A's forecast is the
+            // later one, as in the study, where both engines share one clock).
+            let (tip_sigma, _) =
+                tip_verifier.sigma(axis, k + track.alignment.skip_a, track.tip.var[axis][k]);
+            let cover = &mut acc.tip_calibrated;
+            cover[0] += tip_sigma;
+            cover[1] += f64::from(u8::from(ea.abs() <= tip_sigma));
+            cover[2] += f64::from(u8::from(ea.abs() <= 2.0 * tip_sigma));
             acc.sigma += s;
             acc.sigma_ind += si;
             let inside = |w: f64| f64::from(u8::from(e.abs() <= w));
@@ -457,6 +483,9 @@ fn finish(sums: &[[Sums; 3]]) -> Vec<LeadScore> {
                 spot_mean_sigma: s.spot_sigma[0] / n,
                 spot_coverage_1sigma: s.spot_sigma[1] / n,
                 spot_coverage_2sigma: s.spot_sigma[2] / n,
+                tip_calibrated_mean_sigma: s.tip_calibrated[0] / n,
+                tip_calibrated_coverage_1sigma: s.tip_calibrated[1] / n,
+                tip_calibrated_coverage_2sigma: s.tip_calibrated[2] / n,
                 error_correlation: s.ab / (s.tip * s.spot).sqrt(),
                 mean_sigma: s.sigma / n,
                 mean_sigma_independent: s.sigma_ind / n,

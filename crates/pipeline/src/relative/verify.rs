@@ -13,7 +13,7 @@ use super::shrink::MeanShrinkage;
 use super::{point_displacement, Geometry, RelativeTrack};
 use crate::config::RelativeConfig;
 use crate::observed::ObservedMotion;
-use std::collections::VecDeque;
+use crate::pending::PendingQueue;
 
 /// Relative forecasts that may wait for their outcome: one per forecast value over the
 /// longest horizon, four times over (forecasts arrive at most once per value).
@@ -22,10 +22,8 @@ pub const MAX_PENDING: usize = 4 * shipcast_wire::payload::MAX_STEPS;
 /// Relative forecasts waiting for their outcome, and the calibration they feed.
 #[derive(Debug)]
 pub struct RelativeVerifier {
-    pending: VecDeque<Box<RelativeTrack>>,
-    /// Boxes of verified tracks, reused for the next ones (no allocation once warm).
-    spare: Vec<Box<RelativeTrack>>,
-    max_pending: usize,
+    /// Boxes of verified tracks are reused for the next ones (no allocation once warm).
+    pending: PendingQueue<RelativeTrack>,
     tip: Vec<[f64; 3]>,
     spot: Vec<[f64; 3]>,
     pub calibration: SigmaCalibration,
@@ -36,8 +34,8 @@ pub struct RelativeVerifier {
     /// The true relative displacement of the forecast being verified, per step.
     actual: Vec<[f64; 3]>,
     pub verified: u64,
-    /// Dropped: a step without an observed sample, or too many waiting.
-    pub unverifiable: u64,
+    /// Dropped for a step without an observed sample.
+    unobserved: u64,
 }
 
 impl RelativeVerifier {
@@ -64,11 +62,8 @@ impl RelativeVerifier {
         lift: LiftLimits,
         max_pending: usize,
     ) -> Self {
-        let max_pending = max_pending.max(1);
         Self {
-            pending: VecDeque::with_capacity(max_pending + 1),
-            spare: Vec::with_capacity(max_pending + 1),
-            max_pending,
+            pending: PendingQueue::new(max_pending),
             tip: Vec::with_capacity(shipcast_wire::payload::MAX_STEPS),
             spot: Vec::with_capacity(shipcast_wire::payload::MAX_STEPS),
             calibration,
@@ -76,7 +71,7 @@ impl RelativeVerifier {
             lift: LiftEvidence::new(lift),
             actual: Vec::with_capacity(shipcast_wire::payload::MAX_STEPS),
             verified: 0,
-            unverifiable: 0,
+            unobserved: 0,
         }
     }
 
@@ -86,26 +81,24 @@ impl RelativeVerifier {
     pub fn push(&mut self, track: &RelativeTrack) {
         if let Some(last) = self.pending.back_mut() {
             if (last.alignment.time_s - track.alignment.time_s).abs() <= 1e-9 {
-                (**last).clone_from(track);
+                last.clone_from(track);
                 return;
             }
         }
-        let mut slot = self.spare.pop().unwrap_or_default();
+        let mut slot = self.pending.slot();
         (*slot).clone_from(track);
-        self.pending.push_back(slot);
-        while self.pending.len() > self.max_pending {
-            if let Some(old) = self.pending.pop_front() {
-                self.unverifiable += 1;
-                self.spare.push(old);
-            }
-        }
+        self.pending.push(slot);
     }
 
     /// Drops every waiting forecast as unverifiable: a ship's motion started a new run (its
     /// record time restarted), so no outcome on the old run's clock will come.
     pub fn drop_pending(&mut self) {
-        self.unverifiable += self.pending.len() as u64;
-        self.spare.extend(self.pending.drain(..));
+        self.pending.drop_all();
+    }
+
+    /// Forecasts dropped: a step without an observed sample, too many waiting, or a restart.
+    pub fn unverifiable(&self) -> u64 {
+        self.unobserved + self.pending.dropped
     }
 
     /// Forecasts waiting.
@@ -140,9 +133,9 @@ impl RelativeVerifier {
                 self.lift.learn(&old, &self.actual);
                 self.verified += 1;
             } else {
-                self.unverifiable += 1;
+                self.unobserved += 1;
             }
-            self.spare.push(old);
+            self.pending.recycle(old);
         }
     }
 }
@@ -219,7 +212,7 @@ mod tests {
         assert_eq!(v.pending(), 2);
         // Nothing observed yet: nothing verified.
         v.verify_until(f64::NEG_INFINITY, &geometry, &a, &b);
-        assert_eq!((v.verified, v.unverifiable), (0, 0));
+        assert_eq!((v.verified, v.unverifiable()), (0, 0));
         // Both ships still at rest when the steps come due (1.5 s and 2.0 s): errors of
         // zero. A's motion has passed 2.0 s, B's only 1.5 s: the second waits.
         for i in 0..=16 {
@@ -238,15 +231,15 @@ mod tests {
         // B misses the sample at 2.0 s: that forecast cannot be verified and is dropped.
         b.push(&at_rest(18, 2.25));
         v.verify_until(2.25, &geometry, &a, &b);
-        assert_eq!((v.verified, v.unverifiable, v.pending()), (1, 1, 0));
+        assert_eq!((v.verified, v.unverifiable(), v.pending()), (1, 1, 0));
         // Beyond `max_pending` the oldest is dropped.
         for i in 0..10 {
             v.push(&track(10.0 + i as f64, 0.0));
         }
-        assert_eq!((v.pending(), v.unverifiable), (8, 3));
+        assert_eq!((v.pending(), v.unverifiable()), (8, 3));
         // A ship's producer started again: what waits was issued on the old run's clock.
         v.drop_pending();
-        assert_eq!((v.pending(), v.unverifiable), (0, 11));
+        assert_eq!((v.pending(), v.unverifiable()), (0, 11));
     }
 
     /// Regression guard: the error the lift learns is (tip - spot) - forecast, the sense in

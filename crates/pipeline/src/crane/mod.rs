@@ -1,10 +1,13 @@
 //! Crane-tip motion forecast: where the tip of a crane (a point fixed on the ship) will be over
 //! the forecast horizon, for the operator transferring cargo between ships.
 
+pub mod verify;
+
 use crate::deck::ShipPoint;
 use glam::DVec3;
 use serde::{Deserialize, Serialize};
 use shipcast_wire::payload::Forecast;
+use verify::TipVerifier;
 
 /// Predicted tip displacement at one step (ship axes: x forward, y starboard, z down).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -13,25 +16,38 @@ pub struct TipStep {
     pub ahead_s: f64,
     /// Displacement from the tip's rest position [m].
     pub displacement_m: [f64; 3],
-    /// Linearised standard deviation of the vertical displacement [m].
+    /// Standard deviation of the vertical displacement [m]: linearised from the DOF sigmas,
+    /// scaled by the verified tip forecasts once enough exist ([`verify`]).
     pub vertical_sigma_m: f64,
+    /// Whether `vertical_sigma_m` is scaled by verified forecasts (else the DOF errors are
+    /// taken as independent).
+    pub sigma_calibrated: bool,
 }
 
 /// The tip displacement at every step of a forecast, written into `out` (cleared first, so a
-/// reused vector does not allocate once it has grown to the horizon).
-pub fn tip_track(tip: &ShipPoint, forecast: &Forecast, out: &mut Vec<TipStep>) {
+/// reused vector does not allocate once it has grown to the horizon), its vertical sigma scaled
+/// by `verified` where enough tip forecasts have been verified.
+pub fn tip_track(
+    tip: &ShipPoint,
+    forecast: &Forecast,
+    verified: &TipVerifier,
+    out: &mut Vec<TipStep>,
+) {
     out.clear();
     for k in 0..forecast.valid_steps() {
         let dof: [f64; 6] = std::array::from_fn(|d| forecast.mean[d][k] as f64);
         let d: DVec3 = tip.displacement(dof);
+        let independent = tip.vertical_sigma(
+            forecast.sigma[2][k] as f64,
+            forecast.sigma[3][k] as f64,
+            forecast.sigma[4][k] as f64,
+        );
+        let (vertical_sigma_m, sigma_calibrated) = verified.sigma(2, k, independent * independent);
         out.push(TipStep {
             ahead_s: (k + 1) as f64 * forecast.dt_s,
             displacement_m: d.to_array(),
-            vertical_sigma_m: tip.vertical_sigma(
-                forecast.sigma[2][k] as f64,
-                forecast.sigma[3][k] as f64,
-                forecast.sigma[4][k] as f64,
-            ),
+            vertical_sigma_m,
+            sigma_calibrated,
         });
     }
 }
@@ -59,8 +75,15 @@ pub fn summary(forecast: &Forecast, track: &[TipStep]) -> String {
         .iter()
         .map(|s| s.displacement_m[2].abs())
         .fold(0.0, f64::max);
+    let basis = if track.iter().all(|s| s.sigma_calibrated) {
+        "calibrated"
+    } else if track.iter().any(|s| s.sigma_calibrated) {
+        "partly calibrated"
+    } else {
+        "independent DOF errors"
+    };
     line.push_str(&format!(
-        " | max horizontal {max_h:.2} m, vertical {max_v:.2} m"
+        " | max horizontal {max_h:.2} m, vertical {max_v:.2} m | sigma {basis}"
     ));
     line
 }
@@ -68,6 +91,7 @@ pub fn summary(forecast: &Forecast, track: &[TipStep]) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::sigma_scale::SigmaScale;
 
     #[test]
     fn tip_track_follows_roll_and_is_summarised() {
@@ -83,7 +107,8 @@ mod tests {
             f.sigma[2][k] = 0.1;
         }
         let mut track = Vec::new();
-        tip_track(&tip, &f, &mut track);
+        let fresh = TipVerifier::new(tip, SigmaScale::new(600.0, 50.0), verify::MAX_PENDING);
+        tip_track(&tip, &f, &fresh, &mut track);
         assert_eq!(track.len(), 40);
         assert_eq!(track[9].ahead_s, 5.0);
         // Roll phi moves a point (y, z) to (y cos - z sin, y sin + z cos).
@@ -92,10 +117,39 @@ mod tests {
         let expect_z = 15.0 * phi.sin() - 20.0 * phi.cos() + 20.0;
         assert!((track[9].displacement_m[2] - expect_z).abs() < 1e-6);
         assert!((track[0].vertical_sigma_m - 0.1).abs() < 1e-6);
+        assert!(!track[0].sigma_calibrated);
         let line = summary(&f, &track);
         assert!(
             line.contains("+5s up") && line.contains("+20s up"),
             "{line}"
         );
+        assert!(line.ends_with("sigma independent DOF errors"), "{line}");
+        // Verified forecasts whose vertical errors were twice the claimed sigma double it.
+        let mut verified = TipVerifier::new(tip, SigmaScale::new(600.0, 50.0), 4);
+        let mut history = crate::observed::MotionHistory::new(2.0, 60.0);
+        for i in 0..60u64 {
+            let t = i as f64 * 0.5;
+            let mut still = Forecast {
+                time_s: t,
+                dt_s: 0.5,
+                steps: 1,
+                ..Forecast::default()
+            };
+            still.sigma[2][0] = 0.1;
+            verified.push(&still);
+            let mut dof = [0.0; 6];
+            dof[2] = if i % 2 == 0 { 0.2 } else { -0.2 };
+            history.push(&shipcast_wire::payload::MotionSample {
+                seq: i + 1,
+                stamp_ns: 0,
+                time_s: t + 0.5,
+                dof,
+            });
+            verified.verify_until(t + 0.5, &history);
+        }
+        tip_track(&tip, &f, &verified, &mut track);
+        assert!((track[0].vertical_sigma_m - 0.2).abs() < 1e-6);
+        assert!(track[0].sigma_calibrated && !track[1].sigma_calibrated);
+        assert!(summary(&f, &track).ends_with("sigma partly calibrated"));
     }
 }
