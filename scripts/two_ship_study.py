@@ -167,7 +167,7 @@ def main():
               f"and lead.\n")
         print(lift_line(report) + "\n")
         print("Each ship's own point sigma, linearised from its DOF sigmas taken as independent "
-              "(what `shipcast crane` prints for its tip), +-1 / +-2 sigma coverage over the "
+              "(what `shipcast crane` prints for its tip until enough tip forecasts are verified), +-1 / +-2 sigma coverage over the "
               f"leads: A's tip {point_coverage(leads, 'tip')}; B's spot "
               f"{point_coverage(leads, 'spot')}. A's tip sigma scaled by its verified forecasts, "
               f"as `shipcast crane` issues it: {point_coverage(leads, 'tip_calibrated')}.\n")

@@ -116,6 +116,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     );
     tracing::info!(tip_m = ?config.crane.tip_m, "crane: following {} over zenoh", names.forecast());
     let mut count = 0u64;
+    let mut warned_no_motion = false;
     let mut track = Vec::new();
     let stdout = std::io::stdout();
     while !limit.reached() {
@@ -149,6 +150,18 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         };
         tip_track(&tip, &forecast, &verifier, &mut track);
         verifier.push(&forecast);
+        // Forecasts of two full horizons and still no motion: say why the sigma stays the
+        // independent one, once.
+        if !warned_no_motion
+            && motion.history.is_empty()
+            && count >= 4 * forecast.valid_steps() as u64
+        {
+            warned_no_motion = true;
+            tracing::warn!(
+                "crane: no motion received on {} (a predictor older than this one publishes none): the tip's sigma stays that of independent DOF errors",
+                motion.key
+            );
+        }
         if count.is_multiple_of(config.crane.print_every) {
             let _ = writeln!(stdout.lock(), "{}", summary(&forecast, &track));
         }

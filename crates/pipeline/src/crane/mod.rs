@@ -4,6 +4,7 @@
 pub mod verify;
 
 use crate::deck::ShipPoint;
+use crate::relative::point_variance;
 use glam::DVec3;
 use serde::{Deserialize, Serialize};
 use shipcast_wire::payload::Forecast;
@@ -16,17 +17,17 @@ pub struct TipStep {
     pub ahead_s: f64,
     /// Displacement from the tip's rest position [m].
     pub displacement_m: [f64; 3],
-    /// Standard deviation of the vertical displacement [m]: linearised from the DOF sigmas,
+    /// Standard deviation of the displacement per axis [m]: linearised from the DOF sigmas,
     /// scaled by the verified tip forecasts once enough exist ([`verify`]).
-    pub vertical_sigma_m: f64,
-    /// Whether `vertical_sigma_m` is scaled by verified forecasts (else the DOF errors are
-    /// taken as independent).
+    pub sigma_m: [f64; 3],
+    /// Whether every axis's sigma (with a variance to scale) is scaled by verified forecasts
+    /// (else, on some axis, the DOF errors are taken as independent).
     pub sigma_calibrated: bool,
 }
 
 /// The tip displacement at every step of a forecast, written into `out` (cleared first, so a
-/// reused vector does not allocate once it has grown to the horizon), its vertical sigma scaled
-/// by `verified` where enough tip forecasts have been verified.
+/// reused vector does not allocate once it has grown to the horizon), its sigma scaled by
+/// `verified` where enough tip forecasts have been verified.
 pub fn tip_track(
     tip: &ShipPoint,
     forecast: &Forecast,
@@ -37,16 +38,19 @@ pub fn tip_track(
     for k in 0..forecast.valid_steps() {
         let dof: [f64; 6] = std::array::from_fn(|d| forecast.mean[d][k] as f64);
         let d: DVec3 = tip.displacement(dof);
-        let independent = tip.vertical_sigma(
-            forecast.sigma[2][k] as f64,
-            forecast.sigma[3][k] as f64,
-            forecast.sigma[4][k] as f64,
-        );
-        let (vertical_sigma_m, sigma_calibrated) = verified.sigma(2, k, independent * independent);
+        let sigma: [f64; 6] = std::array::from_fn(|d| forecast.sigma[d][k] as f64);
+        let var = point_variance(tip, sigma);
+        let mut sigma_calibrated = true;
+        let sigma_m = std::array::from_fn(|axis| {
+            let (s, calibrated) = verified.sigma(axis, k, var[axis]);
+            // An axis the DOF sigmas give no variance has nothing to scale.
+            sigma_calibrated &= calibrated || var[axis] <= 0.0;
+            s
+        });
         out.push(TipStep {
             ahead_s: (k + 1) as f64 * forecast.dt_s,
             displacement_m: d.to_array(),
-            vertical_sigma_m,
+            sigma_m,
             sigma_calibrated,
         });
     }
@@ -63,7 +67,7 @@ pub fn summary(forecast: &Forecast, track: &[TipStep]) -> String {
         if let Some(s) = track.iter().find(|s| s.ahead_s >= target - 1e-9) {
             line.push_str(&format!(
                 " +{:.0}s up {:+.2}±{:.2} m",
-                s.ahead_s, -s.displacement_m[2], s.vertical_sigma_m
+                s.ahead_s, -s.displacement_m[2], s.sigma_m[2]
             ));
         }
     }
@@ -116,7 +120,7 @@ mod tests {
         let phi = phi as f64;
         let expect_z = 15.0 * phi.sin() - 20.0 * phi.cos() + 20.0;
         assert!((track[9].displacement_m[2] - expect_z).abs() < 1e-6);
-        assert!((track[0].vertical_sigma_m - 0.1).abs() < 1e-6);
+        assert!((track[0].sigma_m[2] - 0.1).abs() < 1e-6);
         assert!(!track[0].sigma_calibrated);
         let line = summary(&f, &track);
         assert!(
@@ -148,7 +152,7 @@ mod tests {
             verified.verify_until(t + 0.5, &history);
         }
         tip_track(&tip, &f, &verified, &mut track);
-        assert!((track[0].vertical_sigma_m - 0.2).abs() < 1e-6);
+        assert!((track[0].sigma_m[2] - 0.2).abs() < 1e-6);
         assert!(track[0].sigma_calibrated && !track[1].sigma_calibrated);
         assert!(summary(&f, &track).ends_with("sigma partly calibrated"));
     }

@@ -21,6 +21,7 @@
 //! independent sigma stands. The correlation of the two ships' errors is estimated alongside,
 //! for the report.
 
+use super::shrink::MeanShrinkage;
 use super::RelativeTrack;
 pub use crate::sigma_scale::decay_per_forecast;
 use crate::sigma_scale::SigmaScale;
@@ -58,13 +59,17 @@ impl SigmaCalibration {
 
     /// Adds a verified forecast: `track` as it was issued, `actual_tip[k]` and `actual_spot[k]`
     /// the observed displacements of the two points (A's axes) at its step k. The relative
-    /// error is that of the issued (shrunk) mean; the ships' own point errors those of their
-    /// point forecasts.
+    /// error is that of the raw difference shrunk by `shrinkage` as it stands now (before this
+    /// forecast teaches it), not by the factor the forecast was issued with: when the
+    /// shrinkage first applies, after `min_weight` verified forecasts, a sigma scored on the
+    /// unshrunk means issued until then would stay too wide for about a half-life. The ships'
+    /// own point errors are those of their point forecasts.
     pub fn observe(
         &mut self,
         track: &RelativeTrack,
         actual_tip: &[[f64; 3]],
         actual_spot: &[[f64; 3]],
+        shrinkage: &MeanShrinkage,
     ) {
         let steps = track.steps().min(actual_tip.len()).min(actual_spot.len());
         self.verified += 1;
@@ -77,7 +82,8 @@ impl SigmaCalibration {
         let var = |axis: usize, k: usize| track.tip.var[axis][k] + track.spot.var[axis][k];
         self.issued.observe(steps, |axis, k| {
             let truth = actual_tip[k][axis] - actual_spot[k][axis];
-            (truth - track.mean[axis][k], var(axis, k))
+            let mean = shrinkage.beta(axis, k) * track.raw_mean[axis][k];
+            (truth - mean, var(axis, k))
         });
         self.raw.observe(steps, |axis, k| {
             let (ea, eb) = own(axis, k);
@@ -121,6 +127,11 @@ impl SigmaCalibration {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// No shrinkage: the relative error is that of the raw difference.
+    fn raw() -> MeanShrinkage {
+        MeanShrinkage::new(false, f64::INFINITY, 1.0)
+    }
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
 
@@ -151,7 +162,7 @@ mod tests {
         };
         for _ in 0..n {
             let (tip, spot) = draw(&mut rng);
-            cal.observe(&track, &tip, &spot);
+            cal.observe(&track, &tip, &spot, &raw());
         }
         let independent = (sa * sa + sb * sb).sqrt();
         let calibrated = cal.scale(2, 0).unwrap() * independent;
@@ -204,7 +215,7 @@ mod tests {
         let track = |i: usize| if i.is_multiple_of(2) { &narrow } else { &wide };
         let error = |rng: &mut ChaCha8Rng| [[0.0, 0.0, 0.1 * normal(rng)]];
         for i in 0..40_000 {
-            cal.observe(track(i), &error(&mut rng), &[[0.0; 3]]);
+            cal.observe(track(i), &error(&mut rng), &[[0.0; 3]], &raw());
         }
         let scale = cal.scale(2, 0).unwrap();
         let mut mean_square = 0.0;
@@ -224,22 +235,22 @@ mod tests {
         track.alignment.steps = 1;
         track.tip.var[2][0] = 1.0;
         for i in 0..19 {
-            cal.observe(&track, &[[0.0, 0.0, 3.0]], &[[0.0; 3]]);
+            cal.observe(&track, &[[0.0, 0.0, 3.0]], &[[0.0; 3]], &raw());
             assert_eq!(cal.scale(2, 0), None, "after {i}");
         }
         // With a half-life of 10 the weight tends to 1 / (1 - 0.5^0.1) = 14.9 < 20: never.
         for _ in 0..200 {
-            cal.observe(&track, &[[0.0, 0.0, 3.0]], &[[0.0; 3]]);
+            cal.observe(&track, &[[0.0, 0.0, 3.0]], &[[0.0; 3]], &raw());
         }
         assert_eq!(cal.scale(2, 0), None);
         let mut cal = SigmaCalibration::new(10.0, 5.0);
         for _ in 0..100 {
-            cal.observe(&track, &[[0.0, 0.0, 3.0]], &[[0.0; 3]]);
+            cal.observe(&track, &[[0.0, 0.0, 3.0]], &[[0.0; 3]], &raw());
         }
         assert!((cal.scale(2, 0).unwrap() - 3.0).abs() < 1e-9);
         // Errors of 1 from now on: after 10 half-lives the old ones weigh 1/1024.
         for _ in 0..100 {
-            cal.observe(&track, &[[0.0, 0.0, 1.0]], &[[0.0; 3]]);
+            cal.observe(&track, &[[0.0, 0.0, 1.0]], &[[0.0; 3]], &raw());
         }
         let s = cal.scale(2, 0).unwrap();
         assert!(s > 1.0 && s < 1.01, "{s}");

@@ -41,9 +41,9 @@ pub struct LeadScore {
     pub tip_zero_rms: f64,
     pub spot_rms: f64,
     pub spot_zero_rms: f64,
-    /// Each ship's own point sigma (linearised from its DOF sigmas, the DOF errors taken as
-    /// independent: what the crane service publishes for its tip) and the fraction of the
-    /// point's errors within +-1 and +-2 of it.
+    /// Each ship's own point sigma linearised from its DOF sigmas, the DOF errors taken as
+    /// independent (what `shipcast crane` prints for its tip before enough tip forecasts are
+    /// verified), and the fraction of the point's errors within +-1 and +-2 of it.
     pub tip_mean_sigma: f64,
     pub tip_coverage_1sigma: f64,
     pub tip_coverage_2sigma: f64,

@@ -211,16 +211,23 @@ fn record(seconds: f64, shift: f64) -> MotionData {
     }
 }
 
-#[test]
-fn the_study_scores_the_relative_forecast_against_the_records() {
+/// A study configuration for short records (first fit at 120 s, sigma calibrated after 20
+/// verified forecasts) with the tip and the spot at the same lever arm and B at the same
+/// heading: two identical records have no relative motion.
+fn same_point_config() -> PipelineConfig {
     let mut config = PipelineConfig::default();
     config.predictor.first_fit_s = 120.0;
     config.relative.calibration_min_verified = 20.0;
-    // The tip and the spot at the same lever arm, B at the same heading: two identical records
-    // have no relative motion, and the relative forecast is exactly zero.
     config.crane.tip_m = [10.0, 5.0, -6.0];
     config.relative.landing_spot_m = [10.0, 5.0, -6.0];
     config.relative.target_heading_offset_deg = 0.0;
+    config
+}
+
+#[test]
+fn the_study_scores_the_relative_forecast_against_the_records() {
+    // Two identical records: the relative forecast is exactly zero.
+    let config = same_point_config();
     let a = record(900.0, 0.0);
     let (same, own_a, _) = study(&a, &a, &config, (None, None), 300.0, &|_| {}).unwrap();
     assert!(same.scored > 500, "{}", same.scored);
@@ -300,6 +307,38 @@ fn the_study_scores_the_relative_forecast_against_the_records() {
         (r.calls, r.go_calls, r.brier)
     );
     assert_eq!(shrunk.lift_gaussian.brier, opposite.lift_gaussian.brier);
+    for (s, r) in shrunk.leads.iter().zip(&opposite.leads) {
+        assert_eq!(s.relative_raw_rms, r.relative_rms, "{s:?}");
+    }
+}
+
+/// Where the relative motion is unpredictable noise between two ships that move together, the
+/// raw difference of their forecasts only adds the difference of their errors and is worse
+/// than predicting no relative motion; the shrunk mean is not.
+#[test]
+fn a_difference_worse_than_no_relative_motion_is_shrunk_towards_none() {
+    use rand::SeedableRng;
+    use rand_distr::{Distribution, Normal};
+    let config = same_point_config();
+    let a = record(900.0, 0.0);
+    // B heaves as A does plus white noise of 0.1 m: the relative motion is the noise alone.
+    let mut b = a.clone();
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(21);
+    let noise = Normal::new(0.0, 0.1).unwrap();
+    for v in &mut b.columns[0].values {
+        *v += noise.sample(&mut rng);
+    }
+    let (report, _, _) = study(&a, &b, &config, (None, None), 300.0, &|_| {}).unwrap();
+    let z: Vec<_> = report.leads.iter().filter(|l| l.axis == "z").collect();
+    assert_eq!(z.len(), STUDY_LEADS_S.len());
+    for l in z {
+        assert!(l.relative_raw_rms > l.relative_zero_rms, "{l:?}");
+        // At least half of the raw difference's excess over no relative motion is removed,
+        // and what is issued is within 2 % of no relative motion.
+        let excess = l.relative_raw_rms - l.relative_zero_rms;
+        assert!(l.relative_rms < l.relative_raw_rms - 0.5 * excess, "{l:?}");
+        assert!(l.relative_rms <= 1.02 * l.relative_zero_rms, "{l:?}");
+    }
 }
 
 #[test]

@@ -124,7 +124,8 @@ impl RelativeVerifier {
                 break;
             };
             if observed(&old, geometry, a, b, &mut self.tip, &mut self.spot) {
-                self.calibration.observe(&old, &self.tip, &self.spot);
+                self.calibration
+                    .observe(&old, &self.tip, &self.spot, &self.shrinkage);
                 self.actual.clear();
                 let relative = self.tip.iter().zip(&self.spot);
                 self.actual
