@@ -152,15 +152,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         verifier.push(&forecast);
         // Forecasts of two full horizons and still no motion: say why the sigma stays the
         // independent one, once.
-        if !warned_no_motion
-            && motion.history.is_empty()
-            && count >= 4 * forecast.valid_steps() as u64
-        {
-            warned_no_motion = true;
-            tracing::warn!(
-                "crane: no motion received on {} (a predictor older than this one publishes none): the tip's sigma stays that of independent DOF errors",
-                motion.key
-            );
+        if !warned_no_motion && count >= 4 * forecast.valid_steps() as u64 {
+            warned_no_motion =
+                motion.warn_if_silent("the tip's sigma stays that of independent DOF errors");
         }
         if count.is_multiple_of(config.crane.print_every) {
             let _ = writeln!(stdout.lock(), "{}", summary(&forecast, &track));

@@ -12,7 +12,7 @@ use shipcast_pipeline::transport::Names;
 pub struct FollowedMotion {
     /// The service that follows it, for its log lines.
     service: &'static str,
-    pub key: String,
+    key: String,
     subscriber: LatestSubscriber,
     publishers: PublisherWatch,
     pub gate: MotionGate,
@@ -40,6 +40,20 @@ impl FollowedMotion {
             history: MotionHistory::new(rate_hz, keep_s),
             key,
         })
+    }
+
+    /// Warns, and returns true, if no sample has arrived: the following service's `consequence`
+    /// (what stays unverified) is named in the warning.
+    pub fn warn_if_silent(&self, consequence: &str) -> bool {
+        let silent = self.history.is_empty();
+        if silent {
+            tracing::warn!(
+                "{}: no motion received on {} (a predictor older than this one publishes none): {consequence}",
+                self.service,
+                self.key
+            );
+        }
+        silent
     }
 
     /// Takes what arrived; true if the vessel's record started afresh (a new producer run or

@@ -439,13 +439,8 @@ fn run_live(config: &PipelineConfig, limit: Option<Duration>) -> anyhow::Result<
         // sigma stays independent, once.
         if !warned_no_motion && count >= 4 * track.steps() as u64 {
             for m in [&crane_motion, &target_motion] {
-                if m.history.is_empty() {
-                    warned_no_motion = true;
-                    tracing::warn!(
-                        "relative: no motion received on {} (a predictor older than this one publishes none): the relative sigma stays the independent one",
-                        m.key
-                    );
-                }
+                warned_no_motion |=
+                    m.warn_if_silent("the relative sigma stays the independent one");
             }
         }
         let adv = advisory(

@@ -13,7 +13,8 @@ pub struct PendingQueue<T> {
     queue: VecDeque<Box<T>>,
     spare: Vec<Box<T>>,
     max: usize,
-    /// Items dropped: beyond `max`, or all at once by [`Self::drop_all`].
+    /// Items dropped: beyond `max`, discarded ([`Self::discard`]), or all at once by
+    /// [`Self::drop_all`].
     pub dropped: u64,
 }
 
@@ -53,12 +54,28 @@ impl<T: Default> PendingQueue<T> {
         self.queue.back_mut().map(|b| &mut **b)
     }
 
-    /// The oldest item; hand its box back with [`Self::recycle`].
-    pub fn pop_front(&mut self) -> Option<Box<T>> {
-        self.queue.pop_front()
+    /// The oldest item if it is due: its last step, `end_s(item)`, at or before `until_s`.
+    /// Hand its box back with [`Self::recycle`] once used, or [`Self::discard`] if it could
+    /// not be.
+    pub fn pop_due(&mut self, until_s: f64, end_s: impl Fn(&T) -> f64) -> Option<Box<T>> {
+        let due = self
+            .queue
+            .front()
+            .is_some_and(|t| end_s(t) <= until_s + 1e-9);
+        if due {
+            self.queue.pop_front()
+        } else {
+            None
+        }
     }
 
     pub fn recycle(&mut self, item: Box<T>) {
+        self.spare.push(item);
+    }
+
+    /// Recycles an item that could not be used, counting it as dropped.
+    pub fn discard(&mut self, item: Box<T>) {
+        self.dropped += 1;
         self.spare.push(item);
     }
 
@@ -90,12 +107,21 @@ mod tests {
             q.push(slot);
         }
         assert_eq!((q.len(), q.dropped, q.front()), (2, 3, Some(&3)));
-        let first = q.pop_front().unwrap();
+        // Items "end" at their value: 3 is due at 3.0, 4 is not yet.
+        assert!(q.pop_due(2.5, |&v| f64::from(v)).is_none());
+        let first = q.pop_due(3.0, |&v| f64::from(v)).unwrap();
+        assert!(q.pop_due(3.0, |&v| f64::from(v)).is_none());
         let at = &*first as *const u32;
         q.recycle(first);
         // The box handed back is the next slot.
         assert_eq!(&*q.slot() as *const u32, at);
+        let second = q.pop_due(4.0, |&v| f64::from(v)).unwrap();
+        q.discard(second);
+        assert_eq!((q.len(), q.dropped), (0, 4));
+        let mut slot = q.slot();
+        *slot = 5;
+        q.push(slot);
         q.drop_all();
-        assert_eq!((q.len(), q.dropped, q.is_empty()), (0, 4, true));
+        assert_eq!((q.len(), q.dropped, q.is_empty()), (0, 5, true));
     }
 }

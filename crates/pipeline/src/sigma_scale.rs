@@ -73,6 +73,11 @@ impl SigmaScale {
         }
     }
 
+    /// The factor by which the sums forget at each verified forecast.
+    pub fn decay(&self) -> f64 {
+        self.decay
+    }
+
     /// Whether step `k` has `min_weight` verified forecasts behind it.
     pub fn ready(&self, k: usize) -> bool {
         k < MAX_STEPS && self.weight[k] >= self.min_weight

@@ -38,8 +38,6 @@ pub struct TipVerifier {
     pending: PendingQueue<Pending>,
     pub scale: SigmaScale,
     pub verified: u64,
-    /// Dropped for a step without an observed sample.
-    unobserved: u64,
 }
 
 impl TipVerifier {
@@ -51,7 +49,6 @@ impl TipVerifier {
             pending: PendingQueue::new(max_pending),
             scale,
             verified: 0,
-            unobserved: 0,
         }
     }
 
@@ -72,7 +69,7 @@ impl TipVerifier {
 
     /// Forecasts dropped: a step without an observed sample, too many waiting, or a restart.
     pub fn unverifiable(&self) -> u64 {
-        self.unobserved + self.pending.dropped
+        self.pending.dropped
     }
 
     /// Forecasts waiting.
@@ -83,14 +80,8 @@ impl TipVerifier {
     /// Verifies, in issue order, every waiting forecast whose last step is at or before
     /// `observed_until_s` (the newest observed sample's record time).
     pub fn verify_until(&mut self, observed_until_s: f64, motion: &impl ObservedMotion) {
-        while let Some(old) = self.pending.front() {
-            let end = old.time_s + old.track.steps as f64 * old.dt_s;
-            if end > observed_until_s + 1e-9 {
-                break;
-            }
-            let Some(old) = self.pending.pop_front() else {
-                break;
-            };
+        let end_s = |p: &Pending| p.time_s + p.track.steps as f64 * p.dt_s;
+        while let Some(old) = self.pending.pop_due(observed_until_s, end_s) {
             let steps = old.track.steps.min(MAX_STEPS);
             let mut actual = [[0.0; 3]; MAX_STEPS];
             let complete = (0..steps).all(|k| {
@@ -106,10 +97,10 @@ impl TipVerifier {
                     (actual[k][axis] - track.mean[axis][k], track.var[axis][k])
                 });
                 self.verified += 1;
+                self.pending.recycle(old);
             } else {
-                self.unobserved += 1;
+                self.pending.discard(old);
             }
-            self.pending.recycle(old);
         }
     }
 

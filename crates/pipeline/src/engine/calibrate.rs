@@ -54,8 +54,7 @@ impl PairSums {
         if self.0[N] <= n || self.0[N] == 0.0 {
             return self;
         }
-        let f = n / self.0[N];
-        Self(self.0.map(|v| v * f))
+        self.scaled(n / self.0[N])
     }
 
     /// The same evidence weighted by `f` (an exponential forgetting step).

@@ -8,22 +8,18 @@
 //! verified forecasts' e_rel^2 / (var_A + var_B), exponentially weighted over them (half-life in
 //! forecasts): the scale that makes the standardised relative error's mean square 1.
 //!
-//! The scale is [`crate::sigma_scale::SigmaScale`]'s. Why the mean of the ratios and not the ratio of the sums (sum of e_rel^2 over sum of var_A +
-//! var_B, what this was until 2026-12-05): the two ships' sigmas move with their own live
-//! errors (for example while a change detector has widened one of them), and the relative
-//! error of two strongly correlated points need not follow. The ratio of sums is then set by
-//! the forecasts whose independent sigma is widest, and the others get a sigma too narrow: with
-//! B 15 m ahead, +-1 sigma covered 51-52 % of the relative errors across at 5 s (83-84 % within
-//! +-2 sigma) on seeds 1 and 2; with the mean of the ratios 63-70 % (93-97 %) at every lead and axis of
-//! the four geometries of `scripts/two_ship_study.py`. Only forecasts whose
-//! every step has been observed are verified (the caller feeds them in time order: causal).
-//! Until a step has `min_weight` of verified forecasts behind it, `scale` is None and the
-//! independent sigma stands. The correlation of the two ships' errors is estimated alongside,
-//! for the report.
+//! The scale is [`crate::sigma_scale::SigmaScale`]'s, whose doc says why it is the mean of the
+//! ratios and not the ratio of the sums (what this was until 2026-12-05). Here that mattered
+//! with B 15 m ahead: the ratio of sums left +-1 sigma covering 51-52 % of the relative errors
+//! across at 5 s (83-84 % within +-2 sigma) on seeds 1 and 2; the mean of the ratios 63-70 %
+//! (93-97 %) at every lead and axis of the four geometries of `scripts/two_ship_study.py`. Only
+//! forecasts whose every step has been observed are verified (the caller feeds them in time
+//! order: causal). Until a step has `min_weight` of verified forecasts behind it, `scale` is
+//! None and the independent sigma stands. The correlation of the two ships' errors is
+//! estimated alongside, for the report.
 
 use super::shrink::MeanShrinkage;
 use super::RelativeTrack;
-pub use crate::sigma_scale::decay_per_forecast;
 use crate::sigma_scale::SigmaScale;
 use shipcast_wire::payload::MAX_STEPS;
 
@@ -34,7 +30,6 @@ pub struct SigmaCalibration {
     /// and of the raw difference.
     issued: SigmaScale,
     raw: SigmaScale,
-    decay: f64,
     /// Products of the two ships' own point errors (A's tip, B's spot in A's axes).
     aa: [[f64; MAX_STEPS]; 3],
     bb: [[f64; MAX_STEPS]; 3],
@@ -49,7 +44,6 @@ impl SigmaCalibration {
         Self {
             issued: SigmaScale::new(halflife, min_weight),
             raw: SigmaScale::new(halflife, min_weight),
-            decay: decay_per_forecast(halflife),
             aa: [[0.0; MAX_STEPS]; 3],
             bb: [[0.0; MAX_STEPS]; 3],
             ab: [[0.0; MAX_STEPS]; 3],
@@ -89,7 +83,8 @@ impl SigmaCalibration {
             let (ea, eb) = own(axis, k);
             (ea - eb, var(axis, k))
         });
-        let d = self.decay;
+        // The correlation's sums forget as the scales' do.
+        let d = self.issued.decay();
         for k in 0..steps.min(MAX_STEPS) {
             for axis in 0..3 {
                 let (ea, eb) = own(axis, k);

@@ -23,9 +23,9 @@
 //! up to 6 % of error at 20-25 s (z 0.657 m against the raw difference's 0.622 m, seed 1,
 //! default geometry), where the plain least-squares factor costs nothing.
 
-use super::calibrate::decay_per_forecast;
 use super::RelativeTrack;
 use crate::engine::calibrate::PairSums;
+use crate::sigma_scale::decay_per_forecast;
 use shipcast_wire::payload::MAX_STEPS;
 
 /// Exponentially weighted (raw mean, true relative displacement) sums per axis and step.

@@ -34,8 +34,6 @@ pub struct RelativeVerifier {
     /// The true relative displacement of the forecast being verified, per step.
     actual: Vec<[f64; 3]>,
     pub verified: u64,
-    /// Dropped for a step without an observed sample.
-    unobserved: u64,
 }
 
 impl RelativeVerifier {
@@ -71,7 +69,6 @@ impl RelativeVerifier {
             lift: LiftEvidence::new(lift),
             actual: Vec::with_capacity(shipcast_wire::payload::MAX_STEPS),
             verified: 0,
-            unobserved: 0,
         }
     }
 
@@ -98,7 +95,7 @@ impl RelativeVerifier {
 
     /// Forecasts dropped: a step without an observed sample, too many waiting, or a restart.
     pub fn unverifiable(&self) -> u64 {
-        self.unobserved + self.pending.dropped
+        self.pending.dropped
     }
 
     /// Forecasts waiting.
@@ -115,14 +112,8 @@ impl RelativeVerifier {
         a: &impl ObservedMotion,
         b: &impl ObservedMotion,
     ) {
-        while let Some(old) = self.pending.front() {
-            let end = old.alignment.time_s + old.steps() as f64 * old.dt_s;
-            if end > observed_until_s + 1e-9 {
-                break;
-            }
-            let Some(old) = self.pending.pop_front() else {
-                break;
-            };
+        let end_s = |t: &RelativeTrack| t.alignment.time_s + t.steps() as f64 * t.dt_s;
+        while let Some(old) = self.pending.pop_due(observed_until_s, end_s) {
             if observed(&old, geometry, a, b, &mut self.tip, &mut self.spot) {
                 self.calibration
                     .observe(&old, &self.tip, &self.spot, &self.shrinkage);
@@ -133,10 +124,10 @@ impl RelativeVerifier {
                 self.shrinkage.observe(&old, &self.actual);
                 self.lift.learn(&old, &self.actual);
                 self.verified += 1;
+                self.pending.recycle(old);
             } else {
-                self.unobserved += 1;
+                self.pending.discard(old);
             }
-            self.pending.recycle(old);
         }
     }
 }
