@@ -417,7 +417,7 @@ impl Decider {
     /// the verified statements of that length (when it comes from the ensemble).
     pub fn corrected(&self, len: usize, raw: f64) -> f64 {
         match self.record(len) {
-            Some(r) if self.from_ensemble => r.correct(raw),
+            Some(r) if self.from_ensemble => r.correct(raw, self.go_probability),
             _ => raw,
         }
     }

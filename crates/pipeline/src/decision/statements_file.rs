@@ -247,7 +247,7 @@ mod tests {
         assert_eq!(records.len(), 2);
         assert_eq!(records[0].0, 20);
         for p in [0.2, 0.8] {
-            assert_eq!(records[0].1.correct(p), a.correct(p));
+            assert_eq!(records[0].1.correct(p, 0.95), a.correct(p, 0.95));
         }
         assert_eq!(records[1].1.calls(), 1.0);
         assert!(!dir.path().join("statements.json.tmp").exists());

@@ -230,7 +230,7 @@ impl LiftDecider {
                 .then(|| share_within(&self.fail_before, &self.usable, 0, window))
                 .flatten();
             track.lift_statement = raw;
-            raw.map(|p| evidence.statements.correct(p))
+            raw.map(|p| evidence.statements.correct(p, limits.go_probability))
         } else if limits.needs_verified_errors {
             None
         } else {

@@ -473,7 +473,7 @@ fn verification_records_a_lift_statement_against_whether_its_window_held() {
     evidence.learn(&t, &calm);
     assert_eq!(evidence.statements.calls(), 1.0);
     let up = 0.7 + 0.3 / (1.0 + SHRINK_CALLS);
-    assert!((evidence.statements.correct(0.7) - up).abs() < 1e-12);
+    assert!((evidence.statements.correct(0.7, limits.go_probability) - up).abs() < 1e-12);
     // Stated 0.7 and the last step of the window went 1.2 m: broken. After it, nothing
     // counts.
     let mut rough = calm.clone();
@@ -481,10 +481,14 @@ fn verification_records_a_lift_statement_against_whether_its_window_held() {
     rough[window][2] = 5.0;
     evidence.learn(&t, &rough);
     let mean_miss = (1.0 - 1.4) / (2.0 + SHRINK_CALLS);
-    assert!((evidence.statements.correct(0.7) - (0.7 + mean_miss)).abs() < 1e-12);
+    assert!(
+        (evidence.statements.correct(0.7, limits.go_probability) - (0.7 + mean_miss)).abs() < 1e-12
+    );
     let mut late = calm;
     late[window][2] = 5.0;
     evidence.learn(&t, &late);
     let mean_miss = (2.0 - 2.1) / (3.0 + SHRINK_CALLS);
-    assert!((evidence.statements.correct(0.7) - (0.7 + mean_miss)).abs() < 1e-12);
+    assert!(
+        (evidence.statements.correct(0.7, limits.go_probability) - (0.7 + mean_miss)).abs() < 1e-12
+    );
 }
