@@ -13,7 +13,7 @@
 //! had been. So a correction never makes a go: a statement is raised at most to just below
 //! the go threshold (`go_probability - RAISE_MARGIN`), and one already there only lowered. A
 //! go still needs the ensemble's own statement to reach the threshold. (Until 2026-12-05 the
-//! bound was 0.8 whatever the threshold, and on the measured sea the lift's calls stated 0.8
+//! bound was 0.8 whatever the threshold, and on the measured sea the lift's calls stated 0.83
 //! that held 93 % of the time stayed there.)
 //!
 //! Allocation-free after construction: a fixed histogram of `RESOLUTION` bins.
