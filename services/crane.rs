@@ -14,6 +14,7 @@ use shipcast_pipeline::config::{CommonArgs, PipelineConfig, MAX_LEVER_M};
 use shipcast_pipeline::crane::verify::{TipVerifier, MAX_PENDING};
 use shipcast_pipeline::crane::{summary, tip_track};
 use shipcast_pipeline::deck::ShipPoint;
+use shipcast_pipeline::relative::PointTrack;
 use shipcast_pipeline::sigma_scale::SigmaScale;
 use shipcast_pipeline::transport::forecast_check::{ForecastGate, PublisherWatch};
 use shipcast_pipeline::transport::zenoh::{self as zn, LatestSubscriber, LivelinessWatch};
@@ -118,6 +119,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let mut count = 0u64;
     let mut warned_no_motion = false;
     let mut track = Vec::new();
+    let mut point = Box::<PointTrack>::default();
     let stdout = std::io::stdout();
     while !limit.reached() {
         if motion.poll()? {
@@ -148,8 +150,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 continue;
             }
         };
-        tip_track(&tip, &forecast, &verifier, &mut track);
-        verifier.push(&forecast);
+        // The tip's track once, for the console line and for verification.
+        point.fill(&tip, 0.0, &forecast, 0, forecast.valid_steps());
+        tip_track(&point, forecast.dt_s, &verifier, &mut track);
+        verifier.push_track(forecast.time_s, forecast.dt_s, &point);
         // Forecasts of two full horizons and still no motion: say why the sigma stays the
         // independent one, once.
         if !warned_no_motion && count >= 4 * forecast.valid_steps() as u64 {

@@ -3,9 +3,7 @@
 
 pub mod verify;
 
-use crate::deck::ShipPoint;
-use crate::relative::point_variance;
-use glam::DVec3;
+use crate::relative::PointTrack;
 use serde::{Deserialize, Serialize};
 use shipcast_wire::payload::Forecast;
 use verify::TipVerifier;
@@ -25,31 +23,24 @@ pub struct TipStep {
     pub sigma_calibrated: bool,
 }
 
-/// The tip displacement at every step of a forecast, written into `out` (cleared first, so a
-/// reused vector does not allocate once it has grown to the horizon), its sigma scaled by
-/// `verified` where enough tip forecasts have been verified.
-pub fn tip_track(
-    tip: &ShipPoint,
-    forecast: &Forecast,
-    verified: &TipVerifier,
-    out: &mut Vec<TipStep>,
-) {
+/// The tip displacement at every step of `point` (the tip's track of a forecast with step
+/// `dt_s`), written into `out` (cleared first, so a reused vector does not allocate once it has
+/// grown to the horizon), its sigma scaled by `verified` where enough tip forecasts have been
+/// verified.
+pub fn tip_track(point: &PointTrack, dt_s: f64, verified: &TipVerifier, out: &mut Vec<TipStep>) {
     out.clear();
-    for k in 0..forecast.valid_steps() {
-        let dof: [f64; 6] = std::array::from_fn(|d| forecast.mean[d][k] as f64);
-        let d: DVec3 = tip.displacement(dof);
-        let sigma: [f64; 6] = std::array::from_fn(|d| forecast.sigma[d][k] as f64);
-        let var = point_variance(tip, sigma);
+    for k in 0..point.steps {
         let mut sigma_calibrated = true;
         let sigma_m = std::array::from_fn(|axis| {
-            let (s, calibrated) = verified.sigma(axis, k, var[axis]);
+            let var = point.var[axis][k];
+            let (s, calibrated) = verified.sigma(axis, k, var);
             // An axis the DOF sigmas give no variance has nothing to scale.
-            sigma_calibrated &= calibrated || var[axis] <= 0.0;
+            sigma_calibrated &= calibrated || var <= 0.0;
             s
         });
         out.push(TipStep {
-            ahead_s: (k + 1) as f64 * forecast.dt_s,
-            displacement_m: d.to_array(),
+            ahead_s: (k + 1) as f64 * dt_s,
+            displacement_m: std::array::from_fn(|axis| point.mean[axis][k]),
             sigma_m,
             sigma_calibrated,
         });
@@ -95,6 +86,7 @@ pub fn summary(forecast: &Forecast, track: &[TipStep]) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::deck::ShipPoint;
     use crate::sigma_scale::SigmaScale;
 
     #[test]
@@ -111,8 +103,10 @@ mod tests {
             f.sigma[2][k] = 0.1;
         }
         let mut track = Vec::new();
+        let mut point = PointTrack::default();
+        point.fill(&tip, 0.0, &f, 0, f.valid_steps());
         let fresh = TipVerifier::new(tip, SigmaScale::new(600.0, 50.0), verify::MAX_PENDING);
-        tip_track(&tip, &f, &fresh, &mut track);
+        tip_track(&point, f.dt_s, &fresh, &mut track);
         assert_eq!(track.len(), 40);
         assert_eq!(track[9].ahead_s, 5.0);
         // Roll phi moves a point (y, z) to (y cos - z sin, y sin + z cos).
@@ -151,7 +145,7 @@ mod tests {
             });
             verified.verify_until(t + 0.5, &history);
         }
-        tip_track(&tip, &f, &verified, &mut track);
+        tip_track(&point, f.dt_s, &verified, &mut track);
         assert!((track[0].sigma_m[2] - 0.2).abs() < 1e-6);
         assert!(track[0].sigma_calibrated && !track[1].sigma_calibrated);
         assert!(summary(&f, &track).ends_with("sigma partly calibrated"));

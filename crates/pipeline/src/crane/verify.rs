@@ -55,10 +55,23 @@ impl TipVerifier {
     /// Keeps the tip's track of `forecast` until its outcome is known.
     pub fn push(&mut self, forecast: &Forecast) {
         let mut slot = self.pending.slot();
-        slot.time_s = forecast.time_s;
-        slot.dt_s = forecast.dt_s;
         slot.track
             .fill(&self.tip, 0.0, forecast, 0, forecast.valid_steps());
+        self.queue(slot, forecast.time_s, forecast.dt_s);
+    }
+
+    /// Keeps `track`, the tip's track of the forecast issued at `time_s` with step `dt_s`
+    /// (already computed by the caller, as `shipcast crane` does for its console line), until
+    /// its outcome is known.
+    pub fn push_track(&mut self, time_s: f64, dt_s: f64, track: &PointTrack) {
+        let mut slot = self.pending.slot();
+        slot.track.clone_from(track);
+        self.queue(slot, time_s, dt_s);
+    }
+
+    fn queue(&mut self, mut slot: Box<Pending>, time_s: f64, dt_s: f64) {
+        slot.time_s = time_s;
+        slot.dt_s = dt_s;
         self.pending.push(slot);
     }
 
