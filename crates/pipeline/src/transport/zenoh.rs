@@ -136,14 +136,42 @@ impl ZenohSettings {
     }
 }
 
-/// A TCP endpoint on 127.0.0.1 with a port that is free now (the OS picks it; it is released
-/// before zenoh binds it), e.g. `tcp/127.0.0.1:40123`.
+/// A TCP endpoint on 127.0.0.1 with a port that is free now (it is released before zenoh binds
+/// it), e.g. `tcp/127.0.0.1:24123`.
+///
+/// The port is drawn at random from below the kernel's ephemeral range. A port the OS hands
+/// out for `bind(0)` lies inside that range, where any outgoing connection made in between
+/// (a test beside this one, a zenoh session dialling out) can take it before zenoh binds it:
+/// that happened in CI ("Address already in use"). Below the range only another explicit
+/// bind can, and a random draw makes that unlikely.
 pub fn free_loopback_endpoint() -> Result<String, ZenohError> {
+    let ceiling = ephemeral_port_floor().min(u16::MAX as u32) as u16;
+    const FLOOR: u16 = 10_000;
+    const TRIES: usize = 64;
+    if ceiling > FLOOR + 1000 {
+        for _ in 0..TRIES {
+            let port = rand::random_range(FLOOR..ceiling);
+            if std::net::TcpListener::bind(("127.0.0.1", port)).is_ok() {
+                return Ok(format!("tcp/127.0.0.1:{port}"));
+            }
+        }
+    }
+    // No room below the ephemeral range, or all draws busy: let the OS pick.
     let port = std::net::TcpListener::bind("127.0.0.1:0")
         .and_then(|l| l.local_addr())
         .map_err(err("find a free TCP port on 127.0.0.1"))?
         .port();
     Ok(format!("tcp/127.0.0.1:{port}"))
+}
+
+/// The lowest port the kernel hands out for outgoing connections and `bind(0)`: Linux's
+/// `ip_local_port_range`, else the IANA dynamic range's start (49152), which most other
+/// systems use.
+fn ephemeral_port_floor() -> u32 {
+    std::fs::read_to_string("/proc/sys/net/ipv4/ip_local_port_range")
+        .ok()
+        .and_then(|text| text.split_whitespace().next()?.parse().ok())
+        .unwrap_or(49_152)
 }
 
 /// The zenoh configuration entries (key path, JSON value) of `settings`.
@@ -550,6 +578,26 @@ impl LivelinessWatch {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Regression: a port from `bind(0)` lies in the ephemeral range, where an outgoing
+    /// connection could take it before the predictor bound it (CI failed once this way).
+    #[test]
+    fn free_loopback_ports_lie_below_the_ephemeral_range_and_are_bindable() {
+        let floor = ephemeral_port_floor();
+        let mut ports = std::collections::BTreeSet::new();
+        for _ in 0..20 {
+            let endpoint = free_loopback_endpoint().unwrap();
+            let port: u16 = endpoint
+                .strip_prefix("tcp/127.0.0.1:")
+                .and_then(|p| p.parse().ok())
+                .unwrap_or_else(|| panic!("not a loopback TCP endpoint: {endpoint}"));
+            assert!(u32::from(port) < floor, "{port} not below {floor}");
+            assert!(std::net::TcpListener::bind(("127.0.0.1", port)).is_ok());
+            ports.insert(port);
+        }
+        // Drawn at random, not one fixed port handed to every caller.
+        assert!(ports.len() > 10, "{ports:?}");
+    }
 
     /// Regression: a missing, empty or garbage certificate was found by zenoh only when a
     /// link was made; a client retried for a minute and then reported a timeout.
