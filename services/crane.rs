@@ -112,7 +112,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let c = &config.crane;
     let mut verifier = TipVerifier::new(
         tip,
-        SigmaScale::new(c.calibration_halflife, c.calibration_min_verified),
+        SigmaScale::adaptive(c.calibration_halflife, c.calibration_min_verified),
         MAX_PENDING,
     );
     tracing::info!(tip_m = ?config.crane.tip_m, "crane: following {} over zenoh", names.forecast());

@@ -67,9 +67,10 @@ pub struct CraneConfig {
     pub tip_m: [f64; 3],
     /// Print one line every this many forecasts.
     pub print_every: u64,
-    /// Half-life, in verified tip forecasts, of the scale on the tip's sigma (`crane::verify`).
+    /// Half-life, in verified tip forecasts, of the scale on the tip's sigma (`crane::verify`);
+    /// shorter while fewer than four times as many are verified (`SigmaScale::adaptive`).
     pub calibration_halflife: f64,
-    /// Verified tip forecasts (weighted) behind a step before its sigma is scaled.
+    /// Verified tip forecasts behind a step before its sigma is scaled.
     pub calibration_min_verified: f64,
 }
 
@@ -118,10 +119,12 @@ pub struct RelativeConfig {
     pub go_needs_verified_errors: bool,
     /// Step-to-step correlation of the standardised relative errors (AR(1) in lead).
     pub error_correlation: f64,
-    /// Half-life of the sigma calibration, in verified forecasts.
+    /// Half-life of the sigma calibration and the mean's shrinkage, in verified forecasts (the
+    /// issued sigma's shorter while fewer than four times as many are verified:
+    /// `SigmaScale::adaptive`).
     pub calibration_halflife: f64,
-    /// Verified forecasts (weighted) behind a step before its sigma is calibrated and its mean
-    /// shrunk.
+    /// Verified forecasts behind a step before its sigma is calibrated and its mean shrunk
+    /// (weighted by the half-life for the shrinkage and the lift's raw sigma).
     pub calibration_min_verified: f64,
     /// Shrink the relative mean per axis and step towards no relative motion by the
     /// least-squares factor of verified forecasts (false: the raw difference of the two

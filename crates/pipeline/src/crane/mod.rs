@@ -105,7 +105,7 @@ mod tests {
         let mut track = Vec::new();
         let mut point = PointTrack::default();
         point.fill(&tip, 0.0, &f, 0, f.valid_steps());
-        let fresh = TipVerifier::new(tip, SigmaScale::new(600.0, 50.0), verify::MAX_PENDING);
+        let fresh = TipVerifier::new(tip, SigmaScale::adaptive(600.0, 50.0), verify::MAX_PENDING);
         tip_track(&point, f.dt_s, &fresh, &mut track);
         assert_eq!(track.len(), 40);
         assert_eq!(track[9].ahead_s, 5.0);
@@ -123,7 +123,7 @@ mod tests {
         );
         assert!(line.ends_with("sigma independent DOF errors"), "{line}");
         // Verified forecasts whose vertical errors were twice the claimed sigma double it.
-        let mut verified = TipVerifier::new(tip, SigmaScale::new(600.0, 50.0), 4);
+        let mut verified = TipVerifier::new(tip, SigmaScale::adaptive(600.0, 50.0), 4);
         let mut history = crate::observed::MotionHistory::new(2.0, 60.0);
         for i in 0..60u64 {
             let t = i as f64 * 0.5;

@@ -42,7 +42,7 @@ impl SigmaCalibration {
     /// `min_weight` verified forecasts stand behind a step.
     pub fn new(halflife: f64, min_weight: f64) -> Self {
         Self {
-            issued: SigmaScale::new(halflife, min_weight),
+            issued: SigmaScale::adaptive(halflife, min_weight),
             raw: SigmaScale::new(halflife, min_weight),
             aa: [[0.0; MAX_STEPS]; 3],
             bb: [[0.0; MAX_STEPS]; 3],
@@ -233,11 +233,16 @@ mod tests {
             cal.observe(&track, &[[0.0, 0.0, 3.0]], &[[0.0; 3]], &raw());
             assert_eq!(cal.scale(2, 0), None, "after {i}");
         }
-        // With a half-life of 10 the weight tends to 1 / (1 - 0.5^0.1) = 14.9 < 20: never.
+        // The issued sigma's scale counts the forecasts behind a step (its memory is short
+        // at first by design): ready at the 20th.
+        cal.observe(&track, &[[0.0, 0.0, 3.0]], &[[0.0; 3]], &raw());
+        assert!((cal.scale(2, 0).unwrap() - 3.0).abs() < 1e-9);
+        // The raw difference's plain sums weigh them: with a half-life of 10 the weight tends
+        // to 1 / (1 - 0.5^0.1) = 14.9 < 20, never enough.
         for _ in 0..200 {
             cal.observe(&track, &[[0.0, 0.0, 3.0]], &[[0.0; 3]], &raw());
         }
-        assert_eq!(cal.scale(2, 0), None);
+        assert_eq!(cal.scale_raw(2, 0), None);
         let mut cal = SigmaCalibration::new(10.0, 5.0);
         for _ in 0..100 {
             cal.observe(&track, &[[0.0, 0.0, 3.0]], &[[0.0; 3]], &raw());
@@ -250,5 +255,7 @@ mod tests {
         let s = cal.scale(2, 0).unwrap();
         assert!(s > 1.0 && s < 1.01, "{s}");
         assert_eq!(cal.verified(), 200);
+        let s = cal.scale_raw(2, 0).unwrap();
+        assert!(s > 1.0 && s < 1.01, "{s}");
     }
 }

@@ -299,7 +299,7 @@ pub fn study_calls(
     let c = &config.crane;
     let mut tip_verifier = TipVerifier::new(
         geometry.tip,
-        SigmaScale::new(c.calibration_halflife, c.calibration_min_verified),
+        SigmaScale::adaptive(c.calibration_halflife, c.calibration_min_verified),
         crate::crane::verify::MAX_PENDING,
     );
     let (ta, tb) = (Truth::new(crane), Truth::new(target));

@@ -3,7 +3,7 @@
 
 use super::calibrate::SigmaCalibration;
 use super::shrink::MeanShrinkage;
-use super::study::{study, STUDY_LEADS_S};
+use super::study::{study, StudyReport, STUDY_LEADS_S};
 use super::*;
 use crate::config::PipelineConfig;
 use shipcast_series::motion_csv::{Column, MotionData};
@@ -317,18 +317,7 @@ fn the_study_scores_the_relative_forecast_against_the_records() {
 /// than predicting no relative motion; the shrunk mean is not.
 #[test]
 fn a_difference_worse_than_no_relative_motion_is_shrunk_towards_none() {
-    use rand::SeedableRng;
-    use rand_distr::{Distribution, Normal};
-    let config = same_point_config();
-    let a = record(900.0, 0.0);
-    // B heaves as A does plus white noise of 0.1 m: the relative motion is the noise alone.
-    let mut b = a.clone();
-    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(21);
-    let noise = Normal::new(0.0, 0.1).unwrap();
-    for v in &mut b.columns[0].values {
-        *v += noise.sample(&mut rng);
-    }
-    let (report, _, _) = study(&a, &b, &config, (None, None), 300.0, &|_| {}).unwrap();
+    let report = noise_pair_study();
     let z: Vec<_> = report.leads.iter().filter(|l| l.axis == "z").collect();
     assert_eq!(z.len(), STUDY_LEADS_S.len());
     for l in z {
@@ -338,6 +327,41 @@ fn a_difference_worse_than_no_relative_motion_is_shrunk_towards_none() {
         let excess = l.relative_raw_rms - l.relative_zero_rms;
         assert!(l.relative_rms < l.relative_raw_rms - 0.5 * excess, "{l:?}");
         assert!(l.relative_rms <= 1.02 * l.relative_zero_rms, "{l:?}");
+    }
+}
+
+/// The study of a pair that moves together but for white noise: B heaves as A does plus 0.1 m
+/// of it, so the relative motion is the noise alone. 900 s, scored from 300 s.
+fn noise_pair_study() -> StudyReport {
+    use rand::SeedableRng;
+    use rand_distr::{Distribution, Normal};
+    let config = same_point_config();
+    let a = record(900.0, 0.0);
+    let mut b = a.clone();
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(21);
+    let noise = Normal::new(0.0, 0.1).unwrap();
+    for v in &mut b.columns[0].values {
+        *v += noise.sample(&mut rng);
+    }
+    study(&a, &b, &config, (None, None), 300.0, &|_| {})
+        .unwrap()
+        .0
+}
+
+/// Regression: in the pair's first quarter hour B's own heave sigma falls from the motion's
+/// std towards its error while the relative error (the noise) stays 0.1 m. The calibration's
+/// ten-minute memory kept the ratio of the no-skill minutes, and the relative sigma covered
+/// 57-60 % of the errors within +-1 sigma and 86-88 % within +-2 sigma at every lead.
+/// `SigmaScale::adaptive`'s memory grows with its evidence (65-68 % and 93-95 % now).
+#[test]
+fn a_relative_sigma_learnt_in_the_no_skill_minutes_is_not_kept_too_narrow() {
+    let report = noise_pair_study();
+    for l in report.leads.iter().filter(|l| l.axis == "z") {
+        assert!(l.scored > 1000, "{l:?}");
+        assert!(l.coverage_1sigma >= 0.64, "{l:?}");
+        assert!(l.coverage_2sigma >= 0.92, "{l:?}");
+        // Not by a sigma inflated past the errors either.
+        assert!(l.mean_sigma < 1.1 * l.relative_rms, "{l:?}");
     }
 }
 
