@@ -14,6 +14,7 @@ pub mod zenoh;
 pub mod zenoh_refusals;
 pub mod zenoh_router;
 pub mod zenoh_security;
+pub mod zenoh_tls_files;
 
 pub use clock::monotonic_ns;
 pub use counters::{Counters, SeqCheck, SeqTracker};
