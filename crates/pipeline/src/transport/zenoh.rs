@@ -139,24 +139,22 @@ impl ZenohSettings {
 /// A TCP endpoint on 127.0.0.1 with a port that is free now (it is released before zenoh binds
 /// it), e.g. `tcp/127.0.0.1:24123`.
 ///
-/// The port is drawn at random from below the kernel's ephemeral range. A port the OS hands
+/// The port is drawn at random from outside the kernel's ephemeral range. A port the OS hands
 /// out for `bind(0)` lies inside that range, where any outgoing connection made in between
 /// (a test beside this one, a zenoh session dialling out) can take it before zenoh binds it:
-/// that happened in CI ("Address already in use"). Below the range only another explicit
-/// bind can, and a random draw makes that unlikely.
+/// that happened in CI ("Address already in use"). Outside the range only another explicit
+/// bind can, and a random draw makes that unlikely. Where the range leaves no room (1024-65535),
+/// the OS picks, as before.
 pub fn free_loopback_endpoint() -> Result<String, ZenohError> {
-    let ceiling = ephemeral_port_floor().min(u16::MAX as u32) as u16;
-    const FLOOR: u16 = 10_000;
     const TRIES: usize = 64;
-    if ceiling > FLOOR + 1000 {
+    if let Some(band) = ports_outside_ephemeral_range() {
         for _ in 0..TRIES {
-            let port = rand::random_range(FLOOR..ceiling);
+            let port = rand::random_range(band.clone());
             if std::net::TcpListener::bind(("127.0.0.1", port)).is_ok() {
                 return Ok(format!("tcp/127.0.0.1:{port}"));
             }
         }
     }
-    // No room below the ephemeral range, or all draws busy: let the OS pick.
     let port = std::net::TcpListener::bind("127.0.0.1:0")
         .and_then(|l| l.local_addr())
         .map_err(err("find a free TCP port on 127.0.0.1"))?
@@ -164,14 +162,35 @@ pub fn free_loopback_endpoint() -> Result<String, ZenohError> {
     Ok(format!("tcp/127.0.0.1:{port}"))
 }
 
-/// The lowest port the kernel hands out for outgoing connections and `bind(0)`: Linux's
-/// `ip_local_port_range`, else the IANA dynamic range's start (49152), which most other
-/// systems use.
-fn ephemeral_port_floor() -> u32 {
-    std::fs::read_to_string("/proc/sys/net/ipv4/ip_local_port_range")
+/// Ports to draw from outside the ephemeral range: below it from 10000 (1024 if it starts
+/// lower), else above it, whichever holds at least 1000 ports first; None if neither does.
+fn ports_outside_ephemeral_range() -> Option<std::ops::RangeInclusive<u16>> {
+    const ROOM: u32 = 1000;
+    let (lo, hi) = ephemeral_port_range();
+    let start = if lo >= 10_000 + ROOM { 10_000 } else { 1024 };
+    if lo >= start + ROOM {
+        return Some(start as u16..=(lo - 1) as u16);
+    }
+    (hi + ROOM <= u32::from(u16::MAX)).then(|| (hi + 1) as u16..=u16::MAX)
+}
+
+/// The ports the kernel hands out for outgoing connections and `bind(0)`, inclusive: Linux's
+/// `ip_local_port_range`; where it cannot be read, Linux's default (32768-60999) on Linux and
+/// the IANA dynamic range (49152-65535), which most other systems use, elsewhere.
+fn ephemeral_port_range() -> (u32, u32) {
+    let default = if cfg!(target_os = "linux") {
+        (32_768, 60_999)
+    } else {
+        (49_152, 65_535)
+    };
+    let read = std::fs::read_to_string("/proc/sys/net/ipv4/ip_local_port_range")
         .ok()
-        .and_then(|text| text.split_whitespace().next()?.parse().ok())
-        .unwrap_or(49_152)
+        .and_then(|text| {
+            let mut bounds = text.split_whitespace().map(|b| b.parse::<u32>().ok());
+            Some((bounds.next()??, bounds.next()??))
+        })
+        .filter(|&(lo, hi)| 0 < lo && lo <= hi && hi <= u32::from(u16::MAX));
+    read.unwrap_or(default)
 }
 
 /// The zenoh configuration entries (key path, JSON value) of `settings`.
@@ -520,8 +539,9 @@ mod tests {
     /// Regression: a port from `bind(0)` lies in the ephemeral range, where an outgoing
     /// connection could take it before the predictor bound it (CI failed once this way).
     #[test]
-    fn free_loopback_ports_lie_below_the_ephemeral_range_and_are_bindable() {
-        let floor = ephemeral_port_floor();
+    fn free_loopback_ports_lie_outside_the_ephemeral_range_and_are_bindable() {
+        let (lo, hi) = ephemeral_port_range();
+        let band = ports_outside_ephemeral_range();
         let mut ports = std::collections::BTreeSet::new();
         for _ in 0..20 {
             let endpoint = free_loopback_endpoint().unwrap();
@@ -529,12 +549,25 @@ mod tests {
                 .strip_prefix("tcp/127.0.0.1:")
                 .and_then(|p| p.parse().ok())
                 .unwrap_or_else(|| panic!("not a loopback TCP endpoint: {endpoint}"));
-            assert!(u32::from(port) < floor, "{port} not below {floor}");
+            // Where the range leaves no room the OS picks (inside it, as bind(0) does).
+            let outside = u32::from(port) < lo || u32::from(port) > hi;
+            assert_eq!(outside, band.is_some(), "{port} against {lo}-{hi}");
             assert!(std::net::TcpListener::bind(("127.0.0.1", port)).is_ok());
             ports.insert(port);
         }
         // Drawn at random, not one fixed port handed to every caller.
         assert!(ports.len() > 10, "{ports:?}");
+    }
+
+    #[test]
+    fn the_band_outside_the_ephemeral_range_holds_room() {
+        let (lo, hi) = ephemeral_port_range();
+        assert!(0 < lo && lo <= hi && hi <= 65_535, "{lo}-{hi}");
+        if let Some(band) = ports_outside_ephemeral_range() {
+            let (a, b) = (u32::from(*band.start()), u32::from(*band.end()));
+            assert!(b - a + 1 >= 1000 && a >= 1024, "{band:?}");
+            assert!(b < lo || a > hi, "{band:?} against {lo}-{hi}");
+        }
     }
 
     use std::time::Instant;
