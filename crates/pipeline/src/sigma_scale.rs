@@ -45,7 +45,8 @@ pub const GUARD_RATIO: f64 = 1.5;
 
 /// An adaptive scale's memory grows with its evidence: its half-life is a quarter of the
 /// forecasts verified so far (at least half of `min_weight`) until it reaches the configured
-/// one, after 4 half-lives (40 minutes at the default 1200).
+/// one, after 4 half-lives (40 minutes at the default 1200). An infinite half-life does not
+/// grow: it never forgets from the start.
 pub const MEMORY_GROWTH: f64 = 4.0;
 
 /// Running, exponentially weighted standardised squares per axis (x, y, z) and step.
@@ -61,10 +62,12 @@ pub const MEMORY_GROWTH: f64 = 4.0;
 /// errors within +-1 sigma and 86-88 % within +-2 sigma from 300 s to 900 s.
 /// - **A memory that grows with the evidence** ([`MEMORY_GROWTH`]): the first minutes weigh
 ///   less as more come in. 65-68 % and 93-95 % there.
-/// - **A one-sided guard**: a second set of sums with an eighth of the memory, whose mean the
-///   scale follows where it exceeds the long one's by [`GUARD_RATIO`]: an abrupt change of
-///   regime is followed within a guard's memory. It never narrows the scale: a sigma too wide
-///   is left to the long memory, the safe side.
+/// - **A one-sided guard**: a second set of sums with an eighth of the configured half-life
+///   (or the grown one, while that is shorter: in the first minutes, when the memory is short
+///   anyway, the guard adds nothing), whose mean the scale follows where it exceeds the long
+///   one's by [`GUARD_RATIO`]: an abrupt change of regime later on is followed within a
+///   guard's memory. It never narrows the scale: a sigma too wide is left to the long memory,
+///   the safe side.
 #[derive(Debug, Clone)]
 pub struct SigmaScale {
     min_weight: f64,
@@ -231,9 +234,9 @@ mod tests {
         }
     }
 
-    /// Regression: errors a tenth of sigma for 2000 forecasts (no-skill sigmas at start-up),
-    /// then as large as sigma. The long memory alone is still at 0.41 after 300 forecasts of
-    /// the new regime; the guard has the scale near 1.
+    /// Errors a tenth of sigma for 6000 forecasts (the memory grown to its full 1200), then as
+    /// large as sigma. The long memory alone is still at 0.41 after 300 forecasts of the new
+    /// regime; the guard's (two of its half-lives) has the scale at about 0.87.
     #[test]
     fn a_scale_learnt_in_another_regime_does_not_stay_too_narrow() {
         let mut rng = ChaCha8Rng::seed_from_u64(5);
@@ -245,6 +248,32 @@ mod tests {
         assert!((0.8..1.2).contains(&s), "{s}");
         let long = (scale.long.squares[2][0] / scale.long.counted[2][0]).sqrt();
         assert!(long < 0.5, "{long}");
+    }
+
+    /// The memory grows with the evidence: its half-life is a quarter of the forecasts seen,
+    /// never below half of `min_weight` nor above the configured one; plain sums and an
+    /// infinite half-life do not grow.
+    #[test]
+    fn an_adaptive_memory_grows_with_the_forecasts_verified() {
+        let halflife_after = |scale: &mut SigmaScale, n: usize| {
+            feed(scale, n, || 1.0);
+            0.5f64.ln() / scale.decay().ln()
+        };
+        let mut scale = SigmaScale::adaptive(1200.0, 100.0);
+        assert!((halflife_after(&mut scale, 10) - 50.0).abs() < 1e-6);
+        assert!((halflife_after(&mut scale, 790) - 200.0).abs() < 1e-6);
+        assert!((halflife_after(&mut scale, 4000) - 1200.0).abs() < 1e-6);
+        let mut plain = SigmaScale::new(1200.0, 100.0);
+        assert!((halflife_after(&mut plain, 800) - 1200.0).abs() < 1e-6);
+        let mut never = SigmaScale::adaptive(f64::INFINITY, 100.0);
+        feed(&mut never, 800, || 1.0);
+        assert_eq!(never.decay(), 1.0);
+        // Counted, not weighted: ready at the 100th forecast although its memory is 50.
+        let mut early = SigmaScale::adaptive(1200.0, 100.0);
+        feed(&mut early, 99, || 1.0);
+        assert_eq!(early.scale(2, 0), None);
+        feed(&mut early, 1, || 1.0);
+        assert_eq!(early.scale(2, 0), Some(1.0));
     }
 
     /// The other way, errors shrinking, the guard leaves the wide long-memory scale alone.

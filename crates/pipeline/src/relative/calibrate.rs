@@ -39,7 +39,9 @@ pub struct SigmaCalibration {
 
 impl SigmaCalibration {
     /// Sums that forget with a half-life of `halflife` verified forecasts and are used once
-    /// `min_weight` verified forecasts stand behind a step.
+    /// `min_weight` verified forecasts stand behind a step: the issued sigma's adaptive (its
+    /// memory grows with the evidence, with a guard: `SigmaScale::adaptive`), the raw
+    /// difference's (the lift's) plain, which kept every lift figure as it was.
     pub fn new(halflife: f64, min_weight: f64) -> Self {
         Self {
             issued: SigmaScale::adaptive(halflife, min_weight),
@@ -83,7 +85,7 @@ impl SigmaCalibration {
             let (ea, eb) = own(axis, k);
             (ea - eb, var(axis, k))
         });
-        // The correlation's sums forget as the scales' do.
+        // The correlation's sums forget as the issued sigma's scale does.
         let d = self.issued.decay();
         for k in 0..steps.min(MAX_STEPS) {
             for axis in 0..3 {
