@@ -4,31 +4,28 @@
 
 mod pipeline_support;
 
-use pipeline_support::{run_ok_on_a_free_port, BIN};
+use pipeline_support::{run_ok, TestPipeline, BIN};
 use std::process::Command;
 
 #[test]
 fn run_shows_forecasts_and_advisory_and_stops_after_duration() {
     // Only the instance and endpoint come from the test pipeline: the rest is the default
     // configuration a fresh clone runs with.
-    let (p, stdout) = run_ok_on_a_free_port("run", |p| {
-        [
-            "run",
-            "--instance",
-            &p.instance,
-            "--zenoh-listen",
-            &p.endpoint,
-            "--duration",
-            "15",
-            "--log-dir",
-            p.dir.path().to_str().unwrap(),
-            "--display",
-            "127.0.0.1:0",
-        ]
-        .map(String::from)
-        .to_vec()
-    });
-    let dir = &p.dir;
+    let p = TestPipeline::new("run", "");
+    let dir = tempfile::tempdir().unwrap();
+    let stdout = run_ok(&[
+        "run",
+        "--instance",
+        &p.instance,
+        "--zenoh-listen",
+        &p.endpoint,
+        "--duration",
+        "15",
+        "--log-dir",
+        dir.path().to_str().unwrap(),
+        "--display",
+        "127.0.0.1:0",
+    ]);
     // The live view names the display's page, on the free port chosen for it.
     assert!(stdout.contains("display http://127.0.0.1:"), "{stdout}");
     assert!(!stdout.contains("display http://127.0.0.1:0/"), "{stdout}");
@@ -78,6 +75,7 @@ fn unknown_config_key_is_a_one_line_error_naming_it() {
 /// `producer.input` file) made `shipcast run` fail with "producer exited early (exit status: 0)".
 #[test]
 fn run_ends_cleanly_when_the_producer_finishes_its_record() {
+    let p = TestPipeline::new("run-end", "");
     let dir = tempfile::tempdir().unwrap();
     let config = dir.path().join("short.toml");
     std::fs::write(
@@ -85,24 +83,20 @@ fn run_ends_cleanly_when_the_producer_finishes_its_record() {
         "[producer]\nrecord_s = 20.0\nspeed = 20.0\nbackfill_s = 0.0\n",
     )
     .unwrap();
-    let (_, stdout) = run_ok_on_a_free_port("run-end", |p| {
-        [
-            "run",
-            "--config",
-            config.to_str().unwrap(),
-            "--instance",
-            &p.instance,
-            "--zenoh-listen",
-            &p.endpoint,
-            "--duration",
-            "300",
-            "--log-dir",
-            p.dir.path().to_str().unwrap(),
-            "--no-display",
-        ]
-        .map(String::from)
-        .to_vec()
-    });
+    let stdout = run_ok(&[
+        "run",
+        "--config",
+        config.to_str().unwrap(),
+        "--instance",
+        &p.instance,
+        "--zenoh-listen",
+        &p.endpoint,
+        "--duration",
+        "300",
+        "--log-dir",
+        dir.path().to_str().unwrap(),
+        "--no-display",
+    ]);
     assert!(
         stdout.contains("the record ended (the producer finished); all services stopped"),
         "{stdout}"

@@ -350,38 +350,6 @@ pub fn run_ok(args: &[&str]) -> String {
     stdout
 }
 
-/// Runs `shipcast` with the arguments `args_for` gives for a fresh [`TestPipeline`] (tagged
-/// `tag`) to its end; returns that pipeline and the run's stdout. The pipeline's port was free
-/// when it was picked, not necessarily when a service binds it: an outgoing connection of a
-/// test running beside it can take it in between (it did once in CI). A run that fails only
-/// for that ("Address already in use") is run again on a new port and a new pipeline, three
-/// runs at most; any other failure fails at once.
-pub fn run_ok_on_a_free_port(
-    tag: &str,
-    args_for: impl Fn(&TestPipeline) -> Vec<String>,
-) -> (TestPipeline, String) {
-    const RUNS: usize = 3;
-    for run in 1..=RUNS {
-        let p = TestPipeline::new(tag, "");
-        let args = args_for(&p);
-        let out = Command::new(BIN)
-            .args(&args)
-            .output()
-            .expect("run shipcast");
-        let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
-        if out.status.success() {
-            return (p, stdout);
-        }
-        let stderr = String::from_utf8_lossy(&out.stderr);
-        let port_taken = format!("{stdout}{stderr}").contains("Address already in use");
-        assert!(
-            port_taken && run < RUNS,
-            "shipcast {args:?} failed:\n{stdout}\n{stderr}"
-        );
-    }
-    unreachable!("every run returns or fails its assertion")
-}
-
 /// Receive forecasts on `sub` until `n` arrived, or none came for [`PATIENCE`] (a hang guard
 /// that a long, slowly paced record never trips); the caller asserts on what came.
 pub fn collect_forecasts(
