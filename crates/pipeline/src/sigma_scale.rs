@@ -75,10 +75,9 @@ pub struct SigmaScale {
     halflife: f64,
     /// Verified forecasts observed.
     observed: f64,
-    adaptive: bool,
     long: ScaleSums,
-    /// The guard's sums, an eighth of the memory; fed only by an adaptive scale.
-    guard: ScaleSums,
+    /// The guard's sums, an eighth of the memory: an adaptive scale's only.
+    guard: Option<ScaleSums>,
 }
 
 /// Exponentially weighted sums with one memory.
@@ -139,9 +138,8 @@ impl SigmaScale {
             min_weight: min_weight.max(1.0),
             halflife,
             observed: 0.0,
-            adaptive: false,
             long: ScaleSums::new(halflife),
-            guard: ScaleSums::new(halflife),
+            guard: None,
         }
     }
 
@@ -150,7 +148,7 @@ impl SigmaScale {
     /// half-life never forgets, and then the guard is the scale itself.
     pub fn adaptive(halflife: f64, min_weight: f64) -> Self {
         Self {
-            adaptive: true,
+            guard: Some(ScaleSums::new(halflife * GUARD_MEMORY_FRACTION)),
             ..Self::new(halflife, min_weight)
         }
     }
@@ -160,11 +158,11 @@ impl SigmaScale {
     /// with a non-finite error) has no standardised error to count.
     pub fn observe(&mut self, steps: usize, mut error: impl FnMut(usize, usize) -> (f64, f64)) {
         self.observed += 1.0;
-        if self.adaptive && self.halflife.is_finite() {
+        if let Some(guard) = self.guard.as_mut().filter(|_| self.halflife.is_finite()) {
             let grown = (self.observed / MEMORY_GROWTH).max(0.5 * self.min_weight);
             let long = self.halflife.min(grown);
             self.long.decay = decay_per_forecast(long);
-            self.guard.decay = decay_per_forecast(long.min(self.halflife * GUARD_MEMORY_FRACTION));
+            guard.decay = decay_per_forecast(long.min(self.halflife * GUARD_MEMORY_FRACTION));
         }
         for k in 0..steps.min(MAX_STEPS) {
             let z2 = std::array::from_fn(|axis| {
@@ -172,8 +170,8 @@ impl SigmaScale {
                 (v > 0.0 && v.is_finite() && e.is_finite()).then(|| (e * e / v).min(MAX_Z2))
             });
             self.long.add(k, z2);
-            if self.adaptive {
-                self.guard.add(k, z2);
+            if let Some(guard) = &mut self.guard {
+                guard.add(k, z2);
             }
         }
     }
@@ -186,7 +184,7 @@ impl SigmaScale {
     /// Whether step `k` has `min_weight` verified forecasts behind it (weighted for plain
     /// sums; counted for adaptive ones, whose early memory is short by design).
     pub fn ready(&self, k: usize) -> bool {
-        let behind = if self.adaptive {
+        let behind = if self.guard.is_some() {
             self.long.seen.get(k)
         } else {
             self.long.weight.get(k)
@@ -202,12 +200,12 @@ impl SigmaScale {
             return None;
         }
         let long = self.long.mean(axis, k)?;
-        let guard_ready =
-            self.guard.weight[k] >= self.min_weight.min(0.5 * self.guard.full_weight());
-        let guard = match self.guard.mean(axis, k) {
-            Some(g) if self.adaptive && guard_ready => g,
-            _ => 0.0,
-        };
+        let guard = self
+            .guard
+            .as_ref()
+            .filter(|g| g.weight[k] >= self.min_weight.min(0.5 * g.full_weight()))
+            .and_then(|g| g.mean(axis, k))
+            .unwrap_or(0.0);
         Some(
             if guard > GUARD_RATIO * long {
                 guard
