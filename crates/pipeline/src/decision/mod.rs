@@ -433,6 +433,10 @@ impl Decider {
 
     /// A verified call: the window of `len` steps from the first was stated (uncorrected) to
     /// hold with `p_raw`, and did (`held`) or did not.
+    ///
+    /// A window length not yet recorded when [`MAX_RECORDS`] are (a statements file that
+    /// runs with other MOTs filled) takes the place of the record with the fewest calls,
+    /// with a warning: the lengths in use now must keep learning, and a deck decides for one.
     pub fn add_outcome(&mut self, len: usize, p_raw: f64, held: bool) {
         if let Some((_, r)) = self.records.iter_mut().find(|(n, _)| *n == len) {
             r.add(p_raw, held);
@@ -440,6 +444,19 @@ impl Decider {
             let mut r = StatementRecord::default();
             r.add(p_raw, held);
             self.records.push((len, r));
+        } else if let Some((n, r)) = self
+            .records
+            .iter_mut()
+            .min_by(|(_, a), (_, b)| a.calls().total_cmp(&b.calls()))
+        {
+            tracing::warn!(
+                "deck statements: {MAX_RECORDS} window lengths are recorded already; the \
+                 window of {n} steps ({} calls) gives way to the window of {len} steps in use now",
+                r.calls()
+            );
+            *n = len;
+            r.clear();
+            r.add(p_raw, held);
         }
     }
 

@@ -72,6 +72,11 @@ impl StatementRecord {
         b[2] += f64::from(u8::from(held));
     }
 
+    /// Forget every call (keeping the storage).
+    pub fn clear(&mut self) {
+        self.bins.fill([0.0; 3]);
+    }
+
     /// Calls recorded.
     pub fn calls(&self) -> f64 {
         self.bins.iter().map(|b| b[0]).sum()

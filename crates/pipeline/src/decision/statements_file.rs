@@ -253,6 +253,39 @@ mod tests {
         assert!(!dir.path().join("statements.json.tmp").exists());
     }
 
+    /// Regression: a file already holding MAX_RECORDS other window lengths (a deck run with
+    /// eight other MOTs before) made the deck drop every outcome of its own window, silently.
+    #[test]
+    fn a_full_file_still_learns_the_window_in_use_and_gives_up_the_least_used_one() {
+        let mut decider = Decider::new(&crate::config::DeckConfig::default());
+        let records: Vec<(usize, StatementRecord)> = (1..=MAX_RECORDS)
+            .map(|n| (n, record(&vec![(0.5, true); n])))
+            .collect();
+        decider.adopt_statements(records);
+        let in_use = MAX_RECORDS + 12;
+        for _ in 0..3 {
+            decider.add_outcome(in_use, 0.7, false);
+        }
+        let kept: Vec<(usize, f64)> = decider
+            .statement_records()
+            .map(|(n, r)| (n, r.calls()))
+            .collect();
+        assert_eq!(kept.len(), MAX_RECORDS);
+        assert!(kept.contains(&(in_use, 3.0)), "{kept:?}");
+        // The window of 1 step had the fewest calls (one); every other one is kept whole.
+        assert!(!kept.iter().any(|&(n, _)| n == 1), "{kept:?}");
+        for n in 2..=MAX_RECORDS {
+            assert!(kept.contains(&(n, n as f64)), "{kept:?}");
+        }
+        // What it learnt is what a fresh record of those calls says.
+        let fresh = record(&[(0.7, false); 3]);
+        let (_, r) = decider
+            .statement_records()
+            .find(|(n, _)| *n == in_use)
+            .unwrap();
+        assert_eq!(r.correct(0.7, 0.95), fresh.correct(0.7, 0.95));
+    }
+
     #[test]
     fn a_write_that_cannot_be_made_is_an_error_naming_the_file_and_leaves_nothing() {
         let dir = tempfile::tempdir().unwrap();
