@@ -2,6 +2,7 @@
 //! Every service is thin wiring over the `shipcast` library.
 
 use clap::{Parser, Subcommand};
+use std::io::Write;
 use std::process::ExitCode;
 
 mod bench;
@@ -147,8 +148,10 @@ fn main() -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            // One line, no backtrace: the chain of causes joined by ": ".
-            eprintln!("error: {e:#}");
+            // One line, no backtrace: the chain of causes joined by ": ". Written, not
+            // eprintln!: with stderr closed (`2>&1 | head` done reading) that would panic,
+            // and the exit status would be a panic's instead of the error's.
+            let _ = writeln!(std::io::stderr(), "error: {e:#}");
             ExitCode::from(2)
         }
     }

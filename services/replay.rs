@@ -9,6 +9,7 @@ use shipcast_pipeline::engine::replay::{replay_scored, ReplayReport};
 use shipcast_pipeline::engine::startup::initial_models;
 use shipcast_pipeline::limits;
 use shipcast_series::motion_csv::MotionData;
+use shipcast_wire::Dof;
 use std::io::Write;
 use std::path::PathBuf;
 
@@ -58,7 +59,7 @@ impl TryFrom<Args> for Config {
         crate::checked(limits::non_negative(
             "--skip-s",
             args.skip_s,
-            limits::MAX_SECONDS,
+            limits::MAX_RECORD_TIME_S,
         ))?;
         let mut pipeline = PipelineConfig::load_unvalidated(args.config.as_deref())?;
         if args.model.is_some() {
@@ -73,6 +74,10 @@ impl TryFrom<Args> for Config {
         })
     }
 }
+
+/// The DOFs the deck point's decisions are made from: its vertical displacement and velocity
+/// (heave, roll and pitch at the point's lever arms) and the roll and pitch limits.
+const DECK_DOFS: [Dof; 3] = [Dof::Heave, Dof::Roll, Dof::Pitch];
 
 pub fn run(args: Args) -> anyhow::Result<()> {
     let Config {
@@ -98,6 +103,28 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             input.display()
         );
     }
+    // Before the start-up model's training: a record the engine cannot take is refused at once.
+    shipcast_pipeline::engine::replay::record_rate(&data.time, config.predictor.sample_rate_hz)
+        .with_context(|| input.display().to_string())?;
+    // The deck's decisions need the deck point's vertical motion and its roll and pitch: with
+    // any of those columns absent (or misspelt) they would be scored on zeros, a calm deck
+    // that never was.
+    let present = data.dofs();
+    let deck_missing: Vec<&str> = DECK_DOFS
+        .iter()
+        .filter(|d| !present.contains(d))
+        .map(|d| d.csv_column())
+        .collect();
+    let deck = if deck_missing.is_empty() {
+        Some(&config.deck)
+    } else {
+        tracing::warn!(
+            "replay: {} has no {} column: the deck's decisions are not scored",
+            input.display(),
+            deck_missing.join(", ")
+        );
+        None
+    };
     let models = initial_models(&config)?;
     let bar = progress::styled(
         data.len() as u64,
@@ -109,7 +136,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         models,
         skip_s,
         false,
-        Some(&config.deck),
+        deck,
         &|n| bar.inc(n),
     )?;
     bar.finish_and_clear();

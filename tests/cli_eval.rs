@@ -387,23 +387,35 @@ fn replay_refuses_a_corrupted_model_file_in_one_line() {
     let input = sea_csv(dir.path(), "sea.csv", 2.0, 500);
     let model = dir.path().join("model.json");
     train_order_40_horizon_6(&input, &model, "mca");
-    let mut json: serde_json::Value =
-        serde_json::from_slice(&std::fs::read(&model).unwrap()).unwrap();
-    let matrix = &mut json["dofs"][2]["predictor"]["model"]["prediction"];
-    // 6 x 33 instead of 6 x 34: consistent in itself, one past value short.
-    matrix["cols"] = 33.into();
-    matrix["coef"].as_array_mut().unwrap().truncate(6 * 33);
-    let bad = write(dir.path(), "bad.json", &json.to_string());
-    let output = shipcast(&[
-        "replay",
-        "--input",
-        input.to_str().unwrap(),
-        "--model",
-        bad.to_str().unwrap(),
-    ]);
+    // Replay with the model file edited by `edit`.
+    let replay_edited = |name: &str, edit: &dyn Fn(&mut serde_json::Value)| {
+        let mut json: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(&model).unwrap()).unwrap();
+        edit(&mut json);
+        let bad = write(dir.path(), name, &json.to_string());
+        shipcast(&[
+            "replay",
+            "--input",
+            input.to_str().unwrap(),
+            "--model",
+            bad.to_str().unwrap(),
+        ])
+    };
+    let output = replay_edited("bad.json", &|json| {
+        let matrix = &mut json["dofs"][2]["predictor"]["model"]["prediction"];
+        // 6 x 33 instead of 6 x 34: consistent in itself, one past value short.
+        matrix["cols"] = 33.into();
+        matrix["coef"].as_array_mut().unwrap().truncate(6 * 33);
+    });
     assert_one_line_error(
         &output,
         "MCA model.prediction is 6 x 33; horizon 6 and order 40 need 6 x 34",
+    );
+    // A rate edited to 1e-300 was printed in 300 plain digits.
+    let output = replay_edited("rate.json", &|json| json["sample_rate"] = 1e-300.into());
+    assert_one_line_error(
+        &output,
+        "model forecasts at 1e-300 Hz, the predictor runs at 2 Hz",
     );
 }
 
@@ -524,4 +536,56 @@ fn replay_counts_and_reports_the_samples_missing_from_a_record() {
         stderr.contains(&format!("replay: {removed} samples missing from")),
         "{stderr}"
     );
+}
+
+/// Regression: an 8 Hz record whose time stamps were rounded to 2 decimals (steps of 0.12 and
+/// 0.13 s) was refused as "config: input rate 7.692308 Hz is not an integer multiple", blaming
+/// the configuration for the record's stamps.
+#[test]
+fn replay_of_a_record_with_rounded_time_stamps_says_so_of_the_record() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut text = String::from("time_s,heave_m\n");
+    for i in 0..2000 {
+        let t = i as f64 / 8.0;
+        text.push_str(&format!("{t:.2},{}\n", (0.7 * t).sin()));
+    }
+    let input = write(dir.path(), "rounded.csv", &text);
+    let output = shipcast(&["replay", "--input", input.to_str().unwrap()]);
+    assert_one_line_error(&output, "time stamps rounded or jittered");
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(stderr.contains("typical time step is 0.13 s"), "{stderr}");
+    assert!(!stderr.contains("config"), "{stderr}");
+}
+
+/// Regression: a record without roll or pitch had its deck decisions scored on zeros (a calm
+/// deck: hundreds of go calls, none false) without a word.
+#[test]
+fn replay_of_a_record_without_roll_and_pitch_scores_no_deck_decision() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut text = String::from("time_s,heave_m\n");
+    for i in 0..2400 {
+        let t = i as f64 / 2.0;
+        text.push_str(&format!(
+            "{t},{}\n",
+            (0.7 * t).sin() + 0.4 * (1.1 * t + 1.0).sin()
+        ));
+    }
+    let input = write(dir.path(), "heave_only.csv", &text);
+    let output = shipcast(&[
+        "replay",
+        "--input",
+        input.to_str().unwrap(),
+        "--skip-s",
+        "0",
+        "--json",
+    ]);
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(output.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("has no roll_rad, pitch_rad column: the deck's decisions are not scored"),
+        "{stderr}"
+    );
+    let out = String::from_utf8_lossy(&output.stdout);
+    assert!(out.contains("\"dof\":\"heave\""), "{out}");
+    assert!(!out.contains("decisions"), "{out}");
 }

@@ -10,6 +10,10 @@ use std::time::Duration;
 /// Longest wall-clock or record time any command accepts [s]: one year.
 pub const MAX_SECONDS: f64 = 365.0 * 86_400.0;
 
+/// Largest record time stamp a command takes as a time in the record (`--skip-s`) [s]: a
+/// record may be stamped in Unix epoch seconds (1.7e9 today), so this is far beyond a year.
+pub const MAX_RECORD_TIME_S: f64 = 1e12;
+
 /// Highest sample, send or forecast rate any command accepts [Hz].
 pub const MAX_RATE_HZ: f64 = 100_000.0;
 
@@ -29,7 +33,7 @@ pub const MAX_CORES: usize = libc::CPU_SETSIZE as usize;
 
 /// `v` as a message shows it: in exponent form when plain digits would be long (`1e300`, not
 /// 301 digits), so a refused value keeps the message on one short line.
-fn shown(v: f64) -> String {
+pub fn shown(v: f64) -> String {
     let plain = v.to_string();
     if plain.len() > 12 && v.is_finite() {
         format!("{v:e}")

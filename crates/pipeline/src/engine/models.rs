@@ -385,7 +385,7 @@ pub fn load(path: &Path, sample_rate_hz: f64) -> anyhow::Result<ModelSet> {
         anyhow::bail!(
             "{}: model forecasts at {} Hz, the predictor runs at {sample_rate_hz} Hz",
             path.display(),
-            file.sample_rate
+            crate::limits::shown(file.sample_rate)
         );
     }
     let mut predictors = Vec::with_capacity(NUM_DOF);

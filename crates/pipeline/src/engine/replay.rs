@@ -99,6 +99,40 @@ pub fn replay(
     replay_scored(data, config, models, skip_s, keep_forecasts, None, progress)
 }
 
+/// The sample rate of a record with time stamps `time` (one over its median step, to a
+/// micro-hertz), checked to feed an engine forecasting at `forecast_hz`: an integer multiple.
+/// The error speaks of the record, not of a configuration, and says when its steps are not
+/// even regular (stamps rounded to fewer digits than the rate needs).
+pub fn record_rate(time: &[f64], forecast_hz: f64) -> anyhow::Result<f64> {
+    let rate = shipcast_series::median_rate(time)?;
+    let rate = (rate * 1e6).round() / 1e6;
+    if crate::config::decimation_factor(rate, forecast_hz).is_err() {
+        anyhow::bail!("{}", rate_mismatch(time, rate, forecast_hz));
+    }
+    Ok(rate)
+}
+
+fn rate_mismatch(time: &[f64], rate: f64, forecast_hz: f64) -> String {
+    // To a microsecond: the step as the stamps give it (0.13, not 0.1299999948).
+    let median = (1e6 / rate).round() / 1e6;
+    let steps = time.len().saturating_sub(1);
+    let off = time
+        .windows(2)
+        .filter(|p| ((p[1] - p[0] - median) / median).abs() > 0.01)
+        .count();
+    let irregular = if off * 10 > steps {
+        format!(
+            "; {off} of its {steps} time steps differ from it by more than 1 % (time stamps rounded or jittered?)"
+        )
+    } else {
+        String::new()
+    };
+    format!(
+        "the record's typical time step is {median} s ({rate} Hz), not an integer fraction of the forecast step {} s ([predictor] sample_rate_hz = {forecast_hz}){irregular}",
+        1.0 / forecast_hz
+    )
+}
+
 /// [`replay`], also scoring the deck decisions of `deck` (for the MOTs of
 /// [`DECISION_MOTS_S`]) against the record.
 pub fn replay_scored(
@@ -119,8 +153,7 @@ pub fn replay_scored(
         _ => None,
     };
     let mut actual = Box::<Forecast>::default();
-    let rate = shipcast_series::median_rate(&data.time)?;
-    let rate = (rate * 1e6).round() / 1e6;
+    let rate = record_rate(&data.time, config.sample_rate_hz)?;
     let mut engine = Engine::new(
         config.clone(),
         rate,
