@@ -44,14 +44,10 @@ pub struct Args {
     /// Study mode: the target vessel's motion record, on the same clock.
     #[arg(long, value_name = "B.csv", requires = "crane_record")]
     pub target_record: Option<PathBuf>,
-    /// Study mode: score only relative forecasts issued at record time >= S.
-    #[arg(
-        long,
-        default_value_t = 1200.0,
-        value_name = "S",
-        allow_negative_numbers = true
-    )]
-    pub skip_s: f64,
+    /// Study mode: score only relative forecasts issued at record time >= S [default: 1200 s
+    /// after the later record's first sample, whatever its clock: 0, or epoch seconds].
+    #[arg(long, value_name = "S", allow_negative_numbers = true)]
+    pub skip_s: Option<f64>,
     /// Study mode: the report as JSON instead of the table.
     #[arg(long)]
     pub json: bool,
@@ -60,6 +56,9 @@ pub struct Args {
     #[arg(long, value_name = "FILE.csv", requires = "crane_record")]
     pub calls_csv: Option<PathBuf>,
 }
+
+/// Study mode's default warm-up before scoring [s]: the engines' first fits and calibration.
+pub const DEFAULT_SKIP_S: f64 = 1200.0;
 
 /// What `relative` does, every value checked: built from [`Args`] by [`Config::try_from`].
 #[derive(Debug, Clone)]
@@ -72,12 +71,13 @@ pub struct Config {
 pub enum Mode {
     /// Follow both vessels' forecasts over zenoh, until the wall-clock limit (`--duration`).
     Live { limit: Option<Duration> },
-    /// Replay both records; score relative forecasts issued at record time >= `skip_s`
+    /// Replay both records; score relative forecasts issued at record time >= `skip_s` (None:
+    /// [`DEFAULT_SKIP_S`] after the later record's first sample)
     /// (non-negative and finite).
     Study {
         crane_record: PathBuf,
         target_record: PathBuf,
-        skip_s: f64,
+        skip_s: Option<f64>,
         json: bool,
         calls_csv: Option<PathBuf>,
     },
@@ -90,11 +90,13 @@ impl TryFrom<Args> for Config {
         let pipeline = args.common.load()?;
         let mode = match (args.crane_record, args.target_record) {
             (Some(crane_record), Some(target_record)) => {
-                crate::checked(limits::non_negative(
-                    "--skip-s",
-                    args.skip_s,
-                    limits::MAX_SECONDS,
-                ))?;
+                if let Some(skip_s) = args.skip_s {
+                    crate::checked(limits::non_negative(
+                        "--skip-s",
+                        skip_s,
+                        limits::MAX_RECORD_TIME_S,
+                    ))?;
+                }
                 Mode::Study {
                     crane_record,
                     target_record,
@@ -144,7 +146,7 @@ fn read_record(path: &Path) -> anyhow::Result<MotionData> {
 fn run_study(
     config: &PipelineConfig,
     (a, b): (&Path, &Path),
-    skip_s: f64,
+    skip_s: Option<f64>,
     json: bool,
     calls_csv: Option<&Path>,
 ) -> anyhow::Result<()> {
@@ -163,6 +165,7 @@ fn run_study(
             b.display()
         );
     }
+    let skip_s = skip_s.unwrap_or(a0.max(b0) + DEFAULT_SKIP_S);
     if skip_s >= a1 {
         anyhow::bail!(
             "--skip-s {skip_s} s skips the whole record (it ends at {a1:.1} s in {})",
@@ -495,7 +498,7 @@ mod tests {
             Mode::Study {
                 crane_record: "a.csv".into(),
                 target_record: "b.csv".into(),
-                skip_s: 60.0,
+                skip_s: Some(60.0),
                 json: true,
                 calls_csv: None
             }
@@ -516,5 +519,25 @@ mod tests {
             "-5",
         ]);
         assert!(e.starts_with("--skip-s"), "{e}");
+        // Regression: epoch-stamped records could not be skipped into (the bound was a year),
+        // and without --skip-s the default is taken from the records' own start when read.
+        let c = crate::validated::<Args, Config>(&[
+            "--crane-record",
+            "a.csv",
+            "--target-record",
+            "b.csv",
+            "--skip-s",
+            "1764860600",
+        ])
+        .unwrap();
+        assert!(matches!(c.mode, Mode::Study { skip_s: Some(s), .. } if s == 1764860600.0));
+        let c = crate::validated::<Args, Config>(&[
+            "--crane-record",
+            "a.csv",
+            "--target-record",
+            "b.csv",
+        ])
+        .unwrap();
+        assert!(matches!(c.mode, Mode::Study { skip_s: None, .. }));
     }
 }

@@ -177,6 +177,7 @@ fn the_two_ship_study_scores_the_relative_forecast_from_two_simulated_records() 
     let plain = path("plain.toml");
     std::fs::write(&plain, "").unwrap();
     let r = study(&plain, &b);
+    let plain_scored = r["scored"].clone();
     assert_eq!(r["unpaired"], 0);
     assert!(r["scored"].as_u64().unwrap() > 500, "{r}");
     let leads = r["leads"].as_array().unwrap();
@@ -271,4 +272,43 @@ fn the_two_ship_study_scores_the_relative_forecast_from_two_simulated_records() 
         e.contains("skips the whole record") && e.lines().count() == 1,
         "{e}"
     );
+    // Regression: records stamped in epoch seconds. --skip-s is record time, so it must reach
+    // past a year (it was refused there), and the default warm-up counts from the records'
+    // start (a fixed 1200 s of record time scored an epoch record's warm-up too).
+    const EPOCH: f64 = 1_700_000_000.0;
+    let shifted = |from: &str, to: &str| {
+        let text = std::fs::read_to_string(from).unwrap();
+        let mut lines = text.lines();
+        let mut out = format!("{}\n", lines.next().unwrap());
+        for line in lines {
+            let (t, rest) = line.split_once(',').unwrap();
+            let t: f64 = t.parse().unwrap();
+            out.push_str(&format!("{},{rest}\n", t + EPOCH));
+        }
+        std::fs::write(to, out).unwrap();
+    };
+    let (ea, eb) = (path("a_epoch.csv"), path("b_epoch.csv"));
+    shifted(&a, &ea);
+    shifted(&b, &eb);
+    let epoch_skip = format!("{}", EPOCH + 300.0);
+    let out = pipeline_support::run_ok(&[
+        "relative",
+        "--crane-record",
+        &ea,
+        "--target-record",
+        &eb,
+        "--skip-s",
+        &epoch_skip,
+        "--json",
+    ]);
+    let epoch: serde_json::Value = serde_json::from_str(&out).expect("one JSON report");
+    assert_eq!(epoch["scored"], plain_scored, "{epoch}");
+    // 900 s of record: the default warm-up of 1200 s from its start skips all of it.
+    let out = std::process::Command::new(pipeline_support::BIN)
+        .args(["relative", "--crane-record", &ea, "--target-record", &eb])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    let e = String::from_utf8_lossy(&out.stderr);
+    assert!(e.contains("skips the whole record"), "{e}");
 }
