@@ -32,6 +32,9 @@ pub(super) fn run_measured(
     let segments = split_segments(&data.time, wave).with_context(|| path.display().to_string())?;
     let rao = build_rao(&cfg.rao)?;
     let (beta, speed) = (cfg.heading_deg.to_radians(), cfg.speed_mps());
+    if let Some(why) = rao.coverage_gap(station.direction(beta).to_degrees(), speed) {
+        tracing::warn!("RAO table: {why}");
+    }
     if speed > 0.0 {
         tracing::info!(
             "speed {} kn: each Fourier line of the record is met at its encounter frequency \
@@ -72,6 +75,20 @@ pub(super) fn run_measured(
             super::config::MAX_ROWS
         );
     }
+    // Every row sums one term per Fourier line of its segment (half its samples), so the
+    // work grows with the record's length squared: hours of record at a high rate take
+    // minutes, and would look like a hang without the bar (and, off a terminal, the estimate).
+    let terms: f64 = segments
+        .iter()
+        .map(|s| s.values.len() as f64 * s.dt_s * rate_hz * (s.values.len() / 2) as f64)
+        .sum();
+    if terms > 1e10 {
+        tracing::info!(
+            "{rows:.0} rows summing {:.1e} Fourier terms in all: about a minute per 1e10 terms",
+            terms
+        );
+    }
+    let bar = crate::progress::styled(rows as u64, "{elapsed_precise} [{bar:30}] {pos}/{len} rows");
     let mut out = RecordOut::create(&config.out)?;
     let mut previous_end: Option<f64> = None;
     let (mut written, mut skipped) = (0usize, 0usize);
@@ -104,6 +121,9 @@ pub(super) fn run_measured(
             first_t.get_or_insert(p.time_s);
             last_t = p.time_s;
             out.write(&p)?;
+            if out.rows % 4096 == 0 {
+                bar.set_position(out.rows);
+            }
         }
         if out.rows > rows_before {
             written += 1;
@@ -119,6 +139,7 @@ pub(super) fn run_measured(
             );
         }
     }
+    bar.finish_and_clear();
     if written == 0 {
         anyhow::bail!(
             "{}: no segment is longer than twice --edge-s {} s ({} segments, {} skipped)",

@@ -110,6 +110,9 @@ impl ShipMotion {
             None => Components::default_for(config.spreading),
         };
         let speed = config.speed_mps();
+        if let Some(why) = rao.coverage_gap(config.heading_deg, speed) {
+            tracing::warn!("RAO table: {why}");
+        }
         let components = draw_components(
             &spectrum,
             config.spreading,

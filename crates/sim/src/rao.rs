@@ -52,6 +52,13 @@ pub trait Rao: Send + Sync + std::fmt::Debug {
     /// Responses to a wave component of frequency `omega` [rad/s] and direction `beta` [rad]
     /// (pi = head seas) for a ship at speed `speed` [m/s], in the convention of this module.
     fn response(&self, omega: f64, beta: f64, speed: f64) -> Response;
+
+    /// Why this source cannot answer for waves from `beta_deg` (180 = head seas) at `speed`
+    /// [m/s] without standing in the nearest value it has (None: it can). A closed form
+    /// covers everything; a table only its own grid.
+    fn coverage_gap(&self, _beta_deg: f64, _speed: f64) -> Option<String> {
+        None
+    }
 }
 
 /// Signed encounter frequency w - w^2 U cos(beta) / g; negative when following waves are

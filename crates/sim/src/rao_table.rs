@@ -26,6 +26,15 @@ const COLUMNS: [&str; 6] = [
     "phase_rad",
 ];
 
+/// Widest gap between tabulated headings that a heading inside it is interpolated across
+/// without a warning [deg]: seakeeping tables step 10-30 deg; across 90 deg head and beam seas
+/// would be mixed.
+pub const MAX_HEADING_GAP_DEG: f64 = 90.0;
+
+/// How far outside the tabulated speeds a speed may lie before the edge speed standing in is
+/// reported [m/s] (0.1 kn: rounding of the knots given on the command line).
+const SPEED_SLACK_MPS: f64 = 0.05;
+
 /// A full grid of complex RAOs.
 #[derive(Clone, Debug)]
 pub struct RaoTable {
@@ -232,6 +241,55 @@ impl RaoTable {
         lerp(&at_h(h0), &at_h(h1), th)
     }
 
+    /// Why the table cannot answer for `speed` [m/s] and `heading_deg` without standing in
+    /// the nearest tabulated values: a speed outside its speeds (the edge speed's RAOs are
+    /// used), or a heading between tabulated ones more than [`MAX_HEADING_GAP_DEG`] apart, or
+    /// off the only one (interpolating across such a gap mixes, say, head and beam seas).
+    pub fn coverage_gap(&self, speed: f64, heading_deg: f64) -> Option<String> {
+        let (lo, hi) = (self.speeds[0], self.speeds[self.speeds.len() - 1]);
+        let speed_gap = (speed < lo - SPEED_SLACK_MPS || speed > hi + SPEED_SLACK_MPS).then(|| {
+            format!(
+                "a speed of {speed:.2} m/s lies outside the table's {lo:.2}..{hi:.2} m/s: the RAOs of the nearest tabulated speed stand in"
+            )
+        });
+        match (speed_gap, self.heading_gap(heading_deg)) {
+            (Some(s), Some(h)) => Some(format!("{s}; {h}")),
+            (s, h) => s.or(h),
+        }
+    }
+
+    fn heading_gap(&self, heading_deg: f64) -> Option<String> {
+        let h = heading_deg.rem_euclid(360.0);
+        let hs = &self.headings_deg;
+        let apart = |a: f64, b: f64| {
+            let d = (a - b).rem_euclid(360.0);
+            d.min(360.0 - d)
+        };
+        if hs.iter().any(|&x| apart(x, h) < 1e-6) {
+            return None;
+        }
+        let last = hs.len() - 1;
+        let (from, to, gap) = if hs.len() == 1 {
+            (hs[0], hs[0], 360.0)
+        } else if h < hs[0] || h > hs[last] {
+            (hs[last], hs[0], hs[0] + 360.0 - hs[last])
+        } else {
+            let i = hs.partition_point(|&e| e <= h);
+            (hs[i - 1], hs[i], hs[i] - hs[i - 1])
+        };
+        (gap > MAX_HEADING_GAP_DEG).then(|| {
+            if hs.len() == 1 {
+                format!(
+                    "waves from {h:.0} deg: the table holds only {from:.0} deg, whose RAOs stand in"
+                )
+            } else {
+                format!(
+                    "waves from {h:.0} deg lie between the table's headings {from:.0} and {to:.0} deg, {gap:.0} deg apart: interpolated across that gap"
+                )
+            }
+        })
+    }
+
     /// Complex RAOs at any speed [m/s], heading [deg] (180 = head seas) and wave frequency.
     pub fn at(&self, speed: f64, heading_deg: f64, omega: f64) -> Response {
         let (s0, s1, ts) = bracket(&self.speeds, speed);
@@ -295,6 +353,13 @@ impl Rao for ScaledRaoTable {
         }
         h
     }
+
+    fn coverage_gap(&self, beta_deg: f64, speed: f64) -> Option<String> {
+        // Froude scaling: the table's speed of this hull's `speed` (the message gives the
+        // table's speeds, so a scaled table says so).
+        self.table
+            .coverage_gap(speed / self.lambda.sqrt(), beta_deg)
+    }
 }
 
 #[cfg(test)]
@@ -333,6 +398,50 @@ mod tests {
         assert!((heave(0.0, -90.0, 0.5) - 1.0).abs() < 1e-12);
         // Clamped outside the frequency and speed ranges.
         assert!((heave(5.0, 0.0, 9.0) - 3.5).abs() < 1e-12);
+    }
+
+    /// Regression: a table cut to one speed or one heading was used far outside it without a
+    /// word (60 kn on a 0 kn table; beam seas from a head-seas-only table gave no roll).
+    #[test]
+    fn what_the_table_does_not_cover_is_named() {
+        let t = RaoTable::from_reader(tiny().as_bytes(), "tiny").unwrap();
+        // Inside: on a heading node, between the speeds, a hair past the top speed.
+        for (speed, heading) in [(1.0, 180.0), (0.0, 0.0), (2.04, -180.0), (1.0, 360.0)] {
+            assert_eq!(t.coverage_gap(speed, heading), None, "{speed} {heading}");
+        }
+        let e = t.coverage_gap(31.0, 180.0).unwrap();
+        assert!(
+            e.contains("31.00 m/s") && e.contains("0.00..2.00 m/s"),
+            "{e}"
+        );
+        assert!(t.coverage_gap(-1.0, 180.0).is_some());
+        // Headings 0 and 180 only: 90 and 270 lie in gaps of 180 deg.
+        for h in [90.0, 270.0, -45.0] {
+            let e = t.coverage_gap(1.0, h).unwrap();
+            assert!(e.contains("180 deg apart"), "{e}");
+        }
+        // A table of one heading covers that heading alone.
+        let one: String = tiny()
+            .lines()
+            .filter(|l| l.starts_with("speed") || l.split(',').nth(1) == Some("180"))
+            .map(|l| format!("{l}\n"))
+            .collect();
+        let t1 = RaoTable::from_reader(one.as_bytes(), "one").unwrap();
+        assert_eq!(t1.headings_deg(), &[180.0]);
+        assert_eq!(t1.coverage_gap(1.0, 180.0), None);
+        let e = t1.coverage_gap(1.0, 90.0).unwrap();
+        assert!(e.contains("only 180 deg"), "{e}");
+        // Both at once are both named.
+        let e = t1.coverage_gap(9.0, 90.0).unwrap();
+        assert!(e.contains("9.00 m/s") && e.contains("only 180 deg"), "{e}");
+        // A Froude-scaled table reports the table's speeds: 4 m/s on a quarter-length hull is
+        // 8 m/s on the table's, outside 0..2.
+        let scaled = ScaledRaoTable::new(std::sync::Arc::new(t), 100.0, 25.0).unwrap();
+        assert!(scaled.coverage_gap(180.0, 0.5).is_none());
+        assert!(scaled
+            .coverage_gap(180.0, 4.0)
+            .unwrap()
+            .contains("8.00 m/s"));
     }
 
     #[test]
