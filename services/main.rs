@@ -59,7 +59,7 @@ enum Command {
     Relative(relative::Args),
     /// Live display: a web page of every vessel's forecasts, advisories and skill.
     Display(display::Args),
-    /// Benchmarks of the running system (latency).
+    /// Benchmarks of the running system (latency, fleet).
     Bench(bench::Args),
     /// Make a secure setup: a new CA, certificates, shipcast.toml and station zenoh configs.
     Certs(certs::Args),

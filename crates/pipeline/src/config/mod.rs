@@ -417,7 +417,8 @@ pub struct CommonArgs {
     /// zenoh endpoint to connect to (repeatable; replaces the configured ones).
     #[arg(long, value_name = "ENDPOINT")]
     pub zenoh_connect: Vec<String>,
-    /// Pacing of the producer: 1 = real time, 0 = as fast as possible.
+    /// Pacing of the producer: 1 = real time, 0 = as fast as possible (producer and run;
+    /// the other services take their pace from what they receive).
     #[arg(long, value_name = "F")]
     pub speed: Option<f64>,
     /// Stop after this many seconds of wall-clock time.
