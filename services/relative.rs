@@ -143,6 +143,25 @@ fn read_record(path: &Path) -> anyhow::Result<MotionData> {
     Ok(data)
 }
 
+/// Why two records' samples do not fall on one time grid (None: they do, or a rate cannot be
+/// told, which the replay itself then reports). Regression: B stamped half a sample after A
+/// replayed both records and then reported only that no pair could be scored.
+fn off_grid(a: &[f64], b: &[f64]) -> Option<String> {
+    let step = |t: &[f64]| shipcast_series::median_rate(t).ok().map(|r| 1.0 / r);
+    let (sa, sb) = (step(a)?, step(b)?);
+    let (a0, b0) = (*a.first()?, *b.first()?);
+    // Off the other's grid by more than 1 % of its step, seen from each side (one record may
+    // be sampled at a multiple of the other's rate).
+    let off = |d: f64, s: f64| {
+        let r = d.rem_euclid(s);
+        r.min(s - r)
+    };
+    let (from_a, from_b) = (off(b0 - a0, sa), off(a0 - b0, sb));
+    (from_a > 0.01 * sa && from_b > 0.01 * sb).then(|| {
+        format!("the target's stamps lie {from_a:.4} s off the crane vessel's grid of {sa} s")
+    })
+}
+
 fn run_study(
     config: &PipelineConfig,
     (a, b): (&Path, &Path),
@@ -161,6 +180,13 @@ fn run_study(
     if a1.min(b1) <= a0.max(b0) {
         anyhow::bail!(
             "the records do not overlap in time: {} spans {a0:.1}..{a1:.1} s, {} {b0:.1}..{b1:.1} s",
+            a.display(),
+            b.display()
+        );
+    }
+    if let Some(why) = off_grid(&crane.time, &target.time) {
+        anyhow::bail!(
+            "the records are not sampled at the same instants: {why} ({} and {}); the true relative motion needs both at once",
             a.display(),
             b.display()
         );

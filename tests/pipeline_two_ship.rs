@@ -276,20 +276,20 @@ fn the_two_ship_study_scores_the_relative_forecast_from_two_simulated_records() 
     // past a year (it was refused there), and the default warm-up counts from the records'
     // start (a fixed 1200 s of record time scored an epoch record's warm-up too).
     const EPOCH: f64 = 1_700_000_000.0;
-    let shifted = |from: &str, to: &str| {
+    let shifted = |from: &str, to: &str, by: f64| {
         let text = std::fs::read_to_string(from).unwrap();
         let mut lines = text.lines();
         let mut out = format!("{}\n", lines.next().unwrap());
         for line in lines {
             let (t, rest) = line.split_once(',').unwrap();
             let t: f64 = t.parse().unwrap();
-            out.push_str(&format!("{},{rest}\n", t + EPOCH));
+            out.push_str(&format!("{},{rest}\n", t + by));
         }
         std::fs::write(to, out).unwrap();
     };
     let (ea, eb) = (path("a_epoch.csv"), path("b_epoch.csv"));
-    shifted(&a, &ea);
-    shifted(&b, &eb);
+    shifted(&a, &ea, EPOCH);
+    shifted(&b, &eb, EPOCH);
     let epoch_skip = format!("{}", EPOCH + 300.0);
     let out = pipeline_support::run_ok(&[
         "relative",
@@ -311,4 +311,21 @@ fn the_two_ship_study_scores_the_relative_forecast_from_two_simulated_records() 
     assert_eq!(out.status.code(), Some(2));
     let e = String::from_utf8_lossy(&out.stderr);
     assert!(e.contains("skips the whole record"), "{e}");
+    // Regression: B stamped half a sample (1/16 s at 8 Hz) after A replayed both and then said
+    // only that no pair could be scored. One clear line before any replay now.
+    let half = path("b_half.csv");
+    shifted(&b, &half, 0.0625);
+    let out = std::process::Command::new(pipeline_support::BIN)
+        .args(["relative", "--crane-record", &a, "--target-record", &half])
+        .args(["--skip-s", "300"])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    let e = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        e.contains("not sampled at the same instants")
+            && e.contains("0.0625 s off")
+            && e.lines().count() == 1,
+        "{e}"
+    );
 }
