@@ -158,7 +158,9 @@ fn off_grid(a: &[f64], b: &[f64]) -> Option<String> {
     };
     let (from_a, from_b) = (off(b0 - a0, sa), off(a0 - b0, sb));
     (from_a > 0.01 * sa && from_b > 0.01 * sb).then(|| {
-        format!("the target's stamps lie {from_a:.4} s off the crane vessel's grid of {sa} s")
+        // To a microsecond: the step as the stamps give it (0.1, not 0.0999999046).
+        let step = (sa * 1e6).round() / 1e6;
+        format!("the target's stamps lie {from_a:.4} s off the crane vessel's grid of {step} s")
     })
 }
 
@@ -191,10 +193,17 @@ fn run_study(
             b.display()
         );
     }
+    let given = skip_s.is_some();
     let skip_s = skip_s.unwrap_or(a0.max(b0) + DEFAULT_SKIP_S);
     if skip_s >= a1 {
+        if given {
+            anyhow::bail!(
+                "--skip-s {skip_s} s skips the whole record (it ends at {a1:.1} s in {})",
+                a.display()
+            );
+        }
         anyhow::bail!(
-            "--skip-s {skip_s} s skips the whole record (it ends at {a1:.1} s in {})",
+            "the default warm-up of {DEFAULT_SKIP_S} s after the later record's first sample (to {skip_s} s) skips the whole record (it ends at {a1:.1} s in {}): give a smaller --skip-s",
             a.display()
         );
     }

@@ -589,3 +589,37 @@ fn replay_of_a_record_without_roll_and_pitch_scores_no_deck_decision() {
     assert!(out.contains("\"dof\":\"heave\""), "{out}");
     assert!(!out.contains("decisions"), "{out}");
 }
+
+/// Regression: a 10 Hz record stamped in epoch seconds was refused, its median step reading
+/// 0.0999999 s (stamps near 1.7e9 s are quantised to 2.4e-7 s) and its rate 10.00001 Hz.
+#[test]
+fn replay_takes_a_10_hz_record_stamped_in_epoch_seconds() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut text = String::from("time_s,heave_m\n");
+    for i in 0..6000 {
+        let t = i as f64 / 10.0;
+        text.push_str(&format!(
+            "{},{}\n",
+            1.7e9 + t,
+            (0.7 * t).sin() + 0.4 * (1.1 * t + 1.0).sin()
+        ));
+    }
+    let input = write(dir.path(), "epoch_10hz.csv", &text);
+    let output = shipcast(&[
+        "replay",
+        "--input",
+        input.to_str().unwrap(),
+        "--skip-s",
+        "1700000060",
+        "--json",
+    ]);
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(output.status.success(), "{stderr}");
+    let out = String::from_utf8_lossy(&output.stdout);
+    let heave: serde_json::Value = out
+        .lines()
+        .map(|l| serde_json::from_str::<serde_json::Value>(l).unwrap())
+        .find(|v| v["dof"] == "heave")
+        .expect("a heave line");
+    assert!(heave["scored"].as_u64().unwrap() > 500, "{heave}");
+}

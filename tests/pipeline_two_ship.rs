@@ -303,14 +303,18 @@ fn the_two_ship_study_scores_the_relative_forecast_from_two_simulated_records() 
     ]);
     let epoch: serde_json::Value = serde_json::from_str(&out).expect("one JSON report");
     assert_eq!(epoch["scored"], plain_scored, "{epoch}");
-    // 900 s of record: the default warm-up of 1200 s from its start skips all of it.
+    // 900 s of record: the default warm-up of 1200 s from its start skips all of it, and the
+    // message says it was the default, not a --skip-s the user never gave.
     let out = std::process::Command::new(pipeline_support::BIN)
         .args(["relative", "--crane-record", &ea, "--target-record", &eb])
         .output()
         .unwrap();
     assert_eq!(out.status.code(), Some(2));
     let e = String::from_utf8_lossy(&out.stderr);
-    assert!(e.contains("skips the whole record"), "{e}");
+    assert!(
+        e.contains("the default warm-up of 1200 s") && e.contains("skips the whole record"),
+        "{e}"
+    );
     // Regression: B stamped half a sample (1/16 s at 8 Hz) after A replayed both and then said
     // only that no pair could be scored. One clear line before any replay now.
     let half = path("b_half.csv");

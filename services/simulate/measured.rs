@@ -32,7 +32,7 @@ pub(super) fn run_measured(
     let segments = split_segments(&data.time, wave).with_context(|| path.display().to_string())?;
     let rao = build_rao(&cfg.rao)?;
     let (beta, speed) = (cfg.heading_deg.to_radians(), cfg.speed_mps());
-    if let Some(why) = rao.coverage_gap(station.direction(beta).to_degrees(), speed) {
+    if let Some(why) = rao.coverage_gap(speed, station.direction(beta).to_degrees()) {
         tracing::warn!("RAO table: {why}");
     }
     if speed > 0.0 {

@@ -110,7 +110,11 @@ impl ShipMotion {
             None => Components::default_for(config.spreading),
         };
         let speed = config.speed_mps();
-        if let Some(why) = rao.coverage_gap(config.heading_deg, speed) {
+        // The heading this vessel meets: a second vessel's is turned by its station.
+        let met_deg = station
+            .direction(config.heading_deg.to_radians())
+            .to_degrees();
+        if let Some(why) = rao.coverage_gap(speed, met_deg) {
             tracing::warn!("RAO table: {why}");
         }
         let components = draw_components(

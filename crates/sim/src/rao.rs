@@ -53,10 +53,11 @@ pub trait Rao: Send + Sync + std::fmt::Debug {
     /// (pi = head seas) for a ship at speed `speed` [m/s], in the convention of this module.
     fn response(&self, omega: f64, beta: f64, speed: f64) -> Response;
 
-    /// Why this source cannot answer for waves from `beta_deg` (180 = head seas) at `speed`
-    /// [m/s] without standing in the nearest value it has (None: it can). A closed form
-    /// covers everything; a table only its own grid.
-    fn coverage_gap(&self, _beta_deg: f64, _speed: f64) -> Option<String> {
+    /// Why this source cannot answer for a ship at `speed` [m/s] meeting waves from
+    /// `beta_deg` (180 = head seas) without standing in the nearest value it has (None: it
+    /// can). A closed form covers everything; a table only its own grid. (The arguments in
+    /// the order of [`crate::rao_table::RaoTable::at`].)
+    fn coverage_gap(&self, _speed: f64, _beta_deg: f64) -> Option<String> {
         None
     }
 }

@@ -354,11 +354,15 @@ impl Rao for ScaledRaoTable {
         h
     }
 
-    fn coverage_gap(&self, beta_deg: f64, speed: f64) -> Option<String> {
-        // Froude scaling: the table's speed of this hull's `speed` (the message gives the
-        // table's speeds, so a scaled table says so).
-        self.table
-            .coverage_gap(speed / self.lambda.sqrt(), beta_deg)
+    fn coverage_gap(&self, speed: f64, beta_deg: f64) -> Option<String> {
+        // Froude scaling: the table's speed of this hull's `speed`, and the message says so.
+        let at_table = speed / self.lambda.sqrt();
+        let why = self.table.coverage_gap(at_table, beta_deg)?;
+        Some(if self.lambda == 1.0 {
+            why
+        } else {
+            format!("{why} (speeds at the table's scale: this hull's {speed:.2} m/s Froude-scaled)")
+        })
     }
 }
 
@@ -437,11 +441,12 @@ mod tests {
         // A Froude-scaled table reports the table's speeds: 4 m/s on a quarter-length hull is
         // 8 m/s on the table's, outside 0..2.
         let scaled = ScaledRaoTable::new(std::sync::Arc::new(t), 100.0, 25.0).unwrap();
-        assert!(scaled.coverage_gap(180.0, 0.5).is_none());
-        assert!(scaled
-            .coverage_gap(180.0, 4.0)
-            .unwrap()
-            .contains("8.00 m/s"));
+        assert!(scaled.coverage_gap(0.5, 180.0).is_none());
+        let e = scaled.coverage_gap(4.0, 180.0).unwrap();
+        assert!(
+            e.contains("8.00 m/s") && e.contains("this hull's 4.00 m/s"),
+            "{e}"
+        );
     }
 
     #[test]

@@ -267,6 +267,8 @@ pub struct Decider {
     /// The last decision's window length and uncorrected probability now, if it came from
     /// the ensemble (what its outcome is recorded against).
     raw_now: Option<(usize, f64)>,
+    /// Window lengths that have had an outcome in this run (never evicted for another).
+    in_use: Vec<usize>,
 }
 
 /// Window lengths whose statements are recorded (a deck decides for one MOT; replay scores two).
@@ -297,6 +299,7 @@ impl Decider {
             u: Box::new([[f64::NAN; MAX_STEPS]; NUM_QUANTITIES]),
             z: Box::new([[f64::NAN; MAX_STEPS]; NUM_QUANTITIES]),
             records: Vec::with_capacity(MAX_RECORDS),
+            in_use: Vec::with_capacity(MAX_RECORDS),
             raw_now: None,
         }
     }
@@ -435,9 +438,13 @@ impl Decider {
     /// hold with `p_raw`, and did (`held`) or did not.
     ///
     /// A window length not yet recorded when [`MAX_RECORDS`] are (a statements file that
-    /// runs with other MOTs filled) takes the place of the record with the fewest calls,
-    /// with a warning: the lengths in use now must keep learning, and a deck decides for one.
+    /// runs with other MOTs filled) takes the place of the record with the fewest calls among
+    /// those no outcome of this run has reached, with a warning: the lengths in use now must
+    /// keep learning (a deck decides for one, replay scores two), and never evict each other.
     pub fn add_outcome(&mut self, len: usize, p_raw: f64, held: bool) {
+        if !self.in_use.contains(&len) && self.in_use.len() < MAX_RECORDS {
+            self.in_use.push(len);
+        }
         if let Some((_, r)) = self.records.iter_mut().find(|(n, _)| *n == len) {
             r.add(p_raw, held);
         } else if self.records.len() < MAX_RECORDS {
@@ -447,17 +454,21 @@ impl Decider {
         } else if let Some((n, r)) = self
             .records
             .iter_mut()
+            .filter(|(n, _)| !self.in_use.contains(n))
             .min_by(|(_, a), (_, b)| a.calls().total_cmp(&b.calls()))
         {
             tracing::warn!(
                 "deck statements: {MAX_RECORDS} window lengths are recorded already; the \
-                 window of {n} steps ({} calls) gives way to the window of {len} steps in use now",
+                 window of {n} steps ({} verified calls from earlier runs) gives way to the \
+                 window of {len} steps in use now",
                 r.calls()
             );
             *n = len;
             r.clear();
             r.add(p_raw, held);
         }
+        // Else every recorded length is in use this run: only more than MAX_RECORDS window
+        // lengths deciding at once get here, which no station does.
     }
 
     /// The verified statements per window length (steps), as a statements file keeps them.

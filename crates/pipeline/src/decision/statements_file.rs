@@ -277,8 +277,22 @@ mod tests {
         for n in 2..=MAX_RECORDS {
             assert!(kept.contains(&(n, n as f64)), "{kept:?}");
         }
+        // A second length in use (replay scores two MOTs) takes the least used of the
+        // others, and the two never evict each other again, however they alternate.
+        let second = in_use + 40;
+        for _ in 0..50 {
+            decider.add_outcome(second, 0.2, true);
+            decider.add_outcome(in_use, 0.7, false);
+        }
+        let kept: Vec<(usize, f64)> = decider
+            .statement_records()
+            .map(|(n, r)| (n, r.calls()))
+            .collect();
+        assert!(kept.contains(&(in_use, 53.0)), "{kept:?}");
+        assert!(kept.contains(&(second, 50.0)), "{kept:?}");
+        assert!(!kept.iter().any(|&(n, _)| n == 2), "{kept:?}");
         // What it learnt is what a fresh record of those calls says.
-        let fresh = record(&[(0.7, false); 3]);
+        let fresh = record(&[(0.7, false); 53]);
         let (_, r) = decider
             .statement_records()
             .find(|(n, _)| *n == in_use)

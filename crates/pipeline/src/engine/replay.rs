@@ -99,13 +99,25 @@ pub fn replay(
     replay_scored(data, config, models, skip_s, keep_forecasts, None, progress)
 }
 
-/// The sample rate of a record with time stamps `time` (one over its median step, to a
-/// micro-hertz), checked to feed an engine forecasting at `forecast_hz`: an integer multiple.
-/// The error speaks of the record, not of a configuration, and says when its steps are not
-/// even regular (stamps rounded to fewer digits than the rate needs).
+/// How close a record's rate must come to an integer multiple of the forecast rate to be
+/// taken as that multiple (relative): stamps in epoch seconds (1.7e9 s) are quantised to
+/// 2.4e-7 s, so a 10 Hz record's median step may read 0.0999999 s.
+const RATE_SNAP: f64 = 1e-5;
+
+/// The sample rate of a record with time stamps `time` (one over its median step, snapped to
+/// the integer multiple of `forecast_hz` it lies within [`RATE_SNAP`] of), checked to feed an
+/// engine forecasting at `forecast_hz`. The error speaks of the record, not of a
+/// configuration, and says when its steps are not even regular (stamps rounded to fewer
+/// digits than the rate needs).
 pub fn record_rate(time: &[f64], forecast_hz: f64) -> anyhow::Result<f64> {
-    let rate = shipcast_series::median_rate(time)?;
-    let rate = (rate * 1e6).round() / 1e6;
+    let measured = shipcast_series::median_rate(time)?;
+    let multiple = (measured / forecast_hz).round();
+    let rate =
+        if multiple >= 1.0 && ((measured - multiple * forecast_hz) / measured).abs() < RATE_SNAP {
+            multiple * forecast_hz
+        } else {
+            (measured * 1e6).round() / 1e6
+        };
     if crate::config::decimation_factor(rate, forecast_hz).is_err() {
         anyhow::bail!("{}", rate_mismatch(time, rate, forecast_hz));
     }
@@ -127,6 +139,13 @@ fn rate_mismatch(time: &[f64], rate: f64, forecast_hz: f64) -> String {
     } else {
         String::new()
     };
+    let multiple = rate / forecast_hz;
+    if multiple.round() > crate::config::MAX_DECIMATION as f64 {
+        return format!(
+            "the record's typical time step is {median} s ({rate} Hz), {multiple:.0} times the forecast rate {forecast_hz} Hz: at most {} ([predictor] sample_rate_hz, or resample the record)",
+            crate::config::MAX_DECIMATION
+        );
+    }
     format!(
         "the record's typical time step is {median} s ({rate} Hz), not an integer fraction of the forecast step {} s ([predictor] sample_rate_hz = {forecast_hz}){irregular}",
         1.0 / forecast_hz
