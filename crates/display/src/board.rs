@@ -100,6 +100,11 @@ pub struct AdvisoryView {
     #[serde(default)]
     pub max_pitch_deg: Option<f64>,
     pub decision: DecisionView,
+    /// Set by the board, never read from the wire: seconds since this advisory arrived, once
+    /// that is longer than the stale limit (its station stopped publishing: the page shows
+    /// the station as stale, not its last decision).
+    #[serde(default, skip_deserializing)]
+    pub stale_s: Option<f64>,
 }
 
 /// The live skill of one DOF: NRMSE against predicting zero at 5, 10 and 20 s (None where the
@@ -203,7 +208,10 @@ pub enum Refused {
 struct Vessel {
     forecast: Option<ForecastView>,
     forecast_at: Option<Instant>,
-    advisories: BTreeMap<String, AdvisoryView>,
+    /// The zenoh id of the session that sent the shown forecast (its attachment).
+    publisher: Option<String>,
+    /// Each station's last advisory and when it arrived.
+    advisories: BTreeMap<String, (AdvisoryView, Instant)>,
     skill: Vec<SkillView>,
     rejected: u64,
 }
@@ -282,9 +290,24 @@ impl Board {
     /// Put a forecast (already through the content checks) on the board. Its seq must follow
     /// the shown one, except after the vessel went stale (a restarted predictor counts from 0).
     pub fn forecast(&self, vessel: &str, f: &Forecast, now: Instant) -> Result<(), Refused> {
+        self.forecast_from(vessel, f, None, now)
+    }
+
+    /// [`Board::forecast`] from the session `publisher` (the id its put carries): seq must
+    /// follow the shown one within one publisher's stream only. Regression: a predictor
+    /// restarted within the stale limit had its forecasts refused (seq from 0 again) while
+    /// the dead one's last forecast stayed on the page as live.
+    pub fn forecast_from(
+        &self,
+        vessel: &str,
+        f: &Forecast,
+        publisher: Option<&str>,
+        now: Instant,
+    ) -> Result<(), Refused> {
         self.with_vessel(vessel, Some(now), |v| {
             let live = !self.is_stale(v.forecast_at, now);
-            if let (true, Some(shown)) = (live, &v.forecast) {
+            let same_stream = v.publisher.as_deref() == publisher;
+            if let (true, true, Some(shown)) = (live, same_stream, &v.forecast) {
                 if f.seq <= shown.seq {
                     v.rejected += 1;
                     return Err(Refused::Seq {
@@ -295,6 +318,7 @@ impl Board {
             }
             v.forecast = Some(ForecastView::of(f));
             v.forecast_at = Some(now);
+            v.publisher = publisher.map(str::to_string);
             Ok(())
         })
         .unwrap_or(Err(Refused::BeyondBounds))
@@ -314,12 +338,15 @@ impl Board {
         }
     }
 
-    pub fn advisory(&self, vessel: &str, station: &str, advisory: AdvisoryView) {
+    /// Put a station's advisory on the board, received at `now`. Regression: a dead deck's
+    /// last advisory (a GO among them) was shown as current for as long as the vessel's
+    /// forecasts kept coming; now it is marked stale once older than the stale limit.
+    pub fn advisory(&self, vessel: &str, station: &str, advisory: AdvisoryView, now: Instant) {
         let kept = self.with_vessel(vessel, None, |v| {
             if !v.advisories.contains_key(station) && v.advisories.len() >= MAX_STATIONS {
                 return false;
             }
-            v.advisories.insert(station.to_string(), advisory);
+            v.advisories.insert(station.to_string(), (advisory, now));
             true
         });
         if kept == Some(false) {
@@ -357,9 +384,19 @@ impl Board {
                     advisories: if stale {
                         BTreeMap::new()
                     } else {
-                        v.advisories.clone()
+                        v.advisories
+                            .iter()
+                            .map(|(station, (a, at))| {
+                                let mut a = a.clone();
+                                a.stale_s = self
+                                    .is_stale(Some(*at), now)
+                                    .then(|| now.saturating_duration_since(*at).as_secs_f64());
+                                (station.clone(), a)
+                            })
+                            .collect()
                     },
-                    skill: v.skill.clone(),
+                    // A stale vessel's skill is its dead predictor's: withheld like its forecast.
+                    skill: if stale { Vec::new() } else { v.skill.clone() },
                     rejected: v.rejected,
                 }
             })
@@ -490,7 +527,7 @@ mod tests {
         let json = serde_json::to_vec(&advisor.advise(&calm_forecast(50))).unwrap();
         for i in 0..=MAX_STATIONS {
             let a: AdvisoryView = serde_json::from_slice(&json).unwrap();
-            b.advisory("v1", &format!("s{i}"), a);
+            b.advisory("v1", &format!("s{i}"), a, t0);
         }
         let s = b.snapshot(t0);
         let v1 = s.vessels.iter().find(|v| v.vessel == "v1").unwrap();
@@ -518,7 +555,7 @@ mod tests {
             .advise(&calm_forecast(50)),
         )
         .unwrap();
-        b.advisory("never", "deck", serde_json::from_slice(&json).unwrap());
+        b.advisory("never", "deck", serde_json::from_slice(&json).unwrap(), t0);
         // While all the others are live, the one that never sent a forecast makes room.
         b.forecast("real", &forecast(1, 1.0, 0.0), t0).unwrap();
         let names = |t| -> Vec<String> {
@@ -611,6 +648,30 @@ mod tests {
         assert!(serde_json::from_value::<AdvisoryView>(old).is_err());
     }
 
+    /// Regression: a predictor restarted within the stale limit counts seq from 0 again; its
+    /// forecasts were refused and the dead one's last forecast stayed on the page as live.
+    #[test]
+    fn a_new_publisher_starts_its_own_seq_and_one_stream_must_move_forward() {
+        let b = board();
+        let t0 = Instant::now();
+        b.forecast_from("a", &forecast(49, 1.0, 0.0), Some("old"), t0)
+            .unwrap();
+        let t1 = t0 + Duration::from_secs(1);
+        assert!(b
+            .forecast_from("a", &forecast(48, 1.5, 0.0), Some("old"), t1)
+            .is_err());
+        b.forecast_from("a", &forecast(0, 2.0, 0.0), Some("new"), t1)
+            .unwrap();
+        let s = b.snapshot(t1);
+        assert_eq!(s.vessels[0].forecast.as_ref().unwrap().seq, 0);
+        // Within the new stream seq must move forward again.
+        assert!(b
+            .forecast_from("a", &forecast(0, 2.5, 0.0), Some("new"), t1)
+            .is_err());
+        b.forecast_from("a", &forecast(1, 2.5, 0.0), Some("new"), t1)
+            .unwrap();
+    }
+
     #[test]
     fn a_vessel_without_forecasts_for_longer_than_the_limit_is_stale_and_shows_none() {
         let b = board();
@@ -634,9 +695,12 @@ mod tests {
                     ensemble_members: Some(300),
                     awaiting_verified_errors: false,
                 },
+                stale_s: None,
             },
+            t0,
         );
         let just_in_time = b.snapshot(t0 + Duration::from_secs(3));
+        assert_eq!(just_in_time.vessels[0].advisories["deck"].stale_s, None);
         assert!(!just_in_time.vessels[0].stale);
         assert_eq!(just_in_time.vessels[0].advisories.len(), 1);
         let late = b.snapshot(t0 + Duration::from_millis(3001));
@@ -647,7 +711,19 @@ mod tests {
         // After a gap a restarted predictor's seq 0 is accepted again.
         let later = t0 + Duration::from_secs(10);
         b.forecast("a", &forecast(0, 2.0, 0.0), later).unwrap();
-        assert!(!b.snapshot(later).vessels[0].stale);
+        let back = b.snapshot(later);
+        assert!(!back.vessels[0].stale);
+        // Regression: the deck that died with it came back as current with its old GO. Its
+        // advisory is 10 s old: shown, but marked stale with its age.
+        let deck = &back.vessels[0].advisories["deck"];
+        assert!(deck.decision.go);
+        assert!((deck.stale_s.unwrap() - 10.0).abs() < 1e-9, "{deck:?}");
+        // And while forecasts keep coming but the deck is silent, the same.
+        b.forecast("a", &forecast(1, 2.5, 0.0), later + Duration::from_secs(1))
+            .unwrap();
+        let s = b.snapshot(later + Duration::from_secs(1));
+        assert!(!s.vessels[0].stale);
+        assert!(s.vessels[0].advisories["deck"].stale_s.unwrap() > 10.0);
     }
 
     #[test]
@@ -659,8 +735,10 @@ mod tests {
                 {"dof":"surge","nrmse_zero":[0.5],"skill_horizon_s":1.0}]}"#,
         )
         .unwrap();
+        let t0 = Instant::now();
+        b.forecast("a", &forecast(1, 1.0, 0.0), t0).unwrap();
         assert!(b.verification("a", &report));
-        let s = b.snapshot(Instant::now());
+        let s = b.snapshot(t0);
         let skill = &s.vessels[0].skill;
         assert_eq!(skill.len(), 1, "only heave, roll and pitch are shown");
         // 5 s at 2 Hz is step 10 (index 9); 10 and 20 s lie beyond this report's steps.
@@ -671,7 +749,10 @@ mod tests {
             dofs: vec![],
         };
         assert!(!b.verification("a", &bad));
-        assert_eq!(b.snapshot(Instant::now()).vessels[0].rejected, 1);
+        assert_eq!(b.snapshot(t0).vessels[0].rejected, 1);
+        // A stale vessel's skill is its silent predictor's: withheld with its forecast.
+        let stale = b.snapshot(t0 + Duration::from_secs(4));
+        assert!(stale.vessels[0].stale && stale.vessels[0].skill.is_empty());
     }
 
     #[test]

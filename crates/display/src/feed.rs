@@ -68,7 +68,12 @@ fn on_sample(board: &Board, prefix: &str, expected_dt_s: f64, sample: &Sample) {
     match topic {
         Topic::Forecast { vessel } => match parse_forecast(&bytes, expected_dt_s) {
             Ok(f) => {
-                if let Err(e) = board.forecast(vessel, &f, Instant::now()) {
+                let publisher = sample
+                    .attachment()
+                    .and_then(|a| a.try_to_string().ok().map(|t| t.into_owned()));
+                if let Err(e) =
+                    board.forecast_from(vessel, &f, publisher.as_deref(), Instant::now())
+                {
                     tracing::debug!("display: {vessel}: {e}");
                 }
             }
@@ -88,7 +93,7 @@ fn on_sample(board: &Board, prefix: &str, expected_dt_s: f64, sample: &Sample) {
         },
         Topic::Advisory { vessel, station } => {
             match serde_json::from_slice::<AdvisoryView>(&bytes) {
-                Ok(a) => board.advisory(vessel, station, a),
+                Ok(a) => board.advisory(vessel, station, a, Instant::now()),
                 Err(e) => {
                     board.reject(vessel);
                     tracing::debug!("display: {vessel}/{station}: refused advisory: {e}");
