@@ -334,7 +334,10 @@ fn stale_timeout(config: &PipelineConfig) -> Duration {
     } else {
         100.0
     };
-    Duration::from_secs_f64(config.predictor.stale_after_s / speed).max(MIN_STALE_WALL)
+    // Capped: a pacing of 1e-20 (accepted, if absurd) made this overflow the conversion,
+    // a panic at start-up instead of a producer that is "never" stale.
+    let secs = (config.predictor.stale_after_s / speed).min(limits::MAX_SECONDS);
+    Duration::from_secs_f64(secs).max(MIN_STALE_WALL)
 }
 
 #[cfg(test)]
@@ -343,6 +346,19 @@ mod tests {
 
     fn refused(argv: &[&str]) -> String {
         crate::refused::<Args, Config>(argv)
+    }
+
+    /// Regression: `--speed 1e-20` panicked at start ("cannot convert float seconds to
+    /// Duration") instead of running with a stale limit of at most a year.
+    #[test]
+    fn a_tiny_pacing_gives_a_capped_stale_limit_not_a_panic() {
+        let c = crate::validated::<Args, Config>(&["--speed", "1e-20"]).unwrap();
+        assert_eq!(
+            stale_timeout(&c.pipeline),
+            Duration::from_secs_f64(limits::MAX_SECONDS)
+        );
+        let c = crate::validated::<Args, Config>(&["--speed", "0"]).unwrap();
+        assert!(stale_timeout(&c.pipeline) >= MIN_STALE_WALL);
     }
 
     #[test]
