@@ -182,6 +182,9 @@ struct View {
     lift: Option<Option<RelativeAdvisory>>,
     status: Option<serde_json::Value>,
     verification: Option<serde_json::Value>,
+    /// When each of the above last arrived (forecast, advisory, lift, status, verification):
+    /// what has not been heard of for [`VIEW_STALE_AFTER`] is shown as STALE, not as current.
+    heard: Heard,
     /// Forecasts rejected (by reason) and status or verification documents rejected.
     rejected: (
         shipcast_pipeline::transport::forecast_check::RejectionCounts,
@@ -189,12 +192,35 @@ struct View {
     ),
 }
 
+/// Wall time without news after which the live view shows an item as STALE (the display's
+/// default `--stale-after-s`): every service publishes several times a second or every second.
+const VIEW_STALE_AFTER: Duration = Duration::from_secs(3);
+
+#[derive(Default)]
+struct Heard {
+    forecast: Option<Instant>,
+    advisory: Option<Instant>,
+    lift: Option<Instant>,
+    status: Option<Instant>,
+    verification: Option<Instant>,
+}
+
+/// Seconds since `at` when that is longer than [`VIEW_STALE_AFTER`].
+fn silent_for(at: Option<Instant>, now: Instant) -> Option<f64> {
+    let age = now.saturating_duration_since(at?);
+    (age > VIEW_STALE_AFTER).then_some(age.as_secs_f64())
+}
+
 impl View {
-    fn lines(&self, header: &str) -> Vec<String> {
+    /// The view at `now`. Regression: with the predictor stopped (SIGSTOP) the view went on
+    /// printing its last forecast, the last deck advisory and "live" as current.
+    fn lines(&self, header: &str, now: Instant) -> Vec<String> {
         let mut lines = vec![header.to_string()];
-        lines.push(match &self.status {
-            None => "predictor  starting (training on simulated history)".into(),
-            Some(s) => {
+        let heard = &self.heard;
+        lines.push(match (&self.status, silent_for(heard.status, now)) {
+            (None, _) => "predictor  starting (training on simulated history)".into(),
+            (Some(_), Some(age)) => format!("predictor  STALE: no status for {age:.0} s"),
+            (Some(s), None) => {
                 let c = &s["counters"];
                 format!(
                     "predictor  model v{}  forecasts {}  history {}/{}  received {} lost {} rejected {}  {}",
@@ -218,8 +244,13 @@ impl View {
             .as_ref()
             .and_then(|s| s["delay_s"].as_f64())
             .unwrap_or(0.0);
+        let forecast_silent = silent_for(heard.forecast, now);
         lines.push(match &self.forecast {
             None => "forecast   none yet (the history fills first)".into(),
+            Some(_) if forecast_silent.is_some() => format!(
+                "forecast   STALE: none for {:.0} s",
+                forecast_silent.unwrap_or_default()
+            ),
             Some(f) if f.valid_steps() == 0 => "forecast   empty (0 steps)".into(),
             Some(f) => {
                 let at = |d: usize, lead_s: f64| {
@@ -247,15 +278,22 @@ impl View {
                 line
             }
         });
-        lines.extend(self.skill_lines(delay_s));
-        lines.push(match &self.advisory {
-            None => "deck       no advisory yet".into(),
-            Some(a) => a.summary(),
+        match silent_for(heard.verification, now) {
+            Some(age) => lines.push(format!("skill      STALE: no verification for {age:.0} s")),
+            None => lines.extend(self.skill_lines(delay_s)),
+        }
+        lines.push(match (&self.advisory, silent_for(heard.advisory, now)) {
+            (None, _) => "deck       no advisory yet".into(),
+            (Some(_), Some(age)) => format!("deck       STALE: no advisory for {age:.0} s"),
+            (Some(a), None) => a.summary(),
         });
-        match &self.lift {
-            None => {}
-            Some(None) => lines.push("lift       no relative forecast yet".into()),
-            Some(Some(a)) => lines.push(a.summary()),
+        match (&self.lift, silent_for(heard.lift, now)) {
+            (None, _) => {}
+            (Some(None), _) => lines.push("lift       no relative forecast yet".into()),
+            (Some(Some(_)), Some(age)) => {
+                lines.push(format!("lift       STALE: no advisory for {age:.0} s"))
+            }
+            (Some(Some(a)), None) => lines.push(a.summary()),
         }
         let (f, other) = self.rejected;
         lines.push(format!(
@@ -500,7 +538,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             // A token may arrive just after the first forecast of its publisher.
             forecast_publishers.update(&mut gate.live);
             match gate.check(&received) {
-                Ok(f) => view.forecast = Some(f),
+                Ok(f) => {
+                    view.forecast = Some(f);
+                    view.heard.forecast = Some(Instant::now());
+                }
                 Err(e) => tracing::warn!(
                     rejected = gate.stream.rejected.total(),
                     "run: forecast rejected: {e}"
@@ -509,12 +550,15 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }
         if let Some(a) = advisories.latest_as::<Advisory>()? {
             view.advisory = Some(a);
+            view.heard.advisory = Some(Instant::now());
         }
         if let Some(v) = status.latest()? {
             view.status = Some(v);
+            view.heard.status = Some(Instant::now());
         }
         if let Some(v) = verification.latest()? {
             view.verification = Some(v);
+            view.heard.verification = Some(Instant::now());
         }
         if let Some(l) = lift
             .as_mut()
@@ -523,6 +567,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             .flatten()
         {
             view.lift = Some(Some(l));
+            view.heard.lift = Some(Instant::now());
         }
         view.rejected = (
             gate.stream.rejected,
@@ -541,7 +586,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 limit.elapsed().as_secs_f64(),
                 logs.display()
             );
-            let lines = view.lines(&header);
+            let lines = view.lines(&header, Instant::now());
             let mut out = std::io::stdout().lock();
             if tty && drawn > 0 {
                 // Redraw the block in place.
@@ -661,5 +706,40 @@ mod config_tests {
             crate::refused::<Args, Config>(&argv);
             assert!(!logs.exists(), "{bad:?} left {}", logs.display());
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn what_has_not_been_heard_of_for_the_stale_limit_is_shown_stale() {
+        let now = Instant::now();
+        let ten_ago = now.checked_sub(Duration::from_secs(10));
+        let status = serde_json::json!({"model_version": 2, "forecasts": 5, "history": 50,
+            "order": 50, "counters": {"received": 9, "lost": 0}, "stale": false});
+        let mut view = View {
+            forecast: Some(Forecast::default()),
+            status: Some(status),
+            ..View::default()
+        };
+        view.heard.forecast = ten_ago;
+        view.heard.status = ten_ago;
+        let lines = view.lines("header", now);
+        assert!(
+            lines.contains(&"forecast   STALE: none for 10 s".to_string()),
+            "{lines:?}"
+        );
+        assert!(
+            lines.contains(&"predictor  STALE: no status for 10 s".to_string()),
+            "{lines:?}"
+        );
+        // Heard just now: shown as it is.
+        view.heard.forecast = Some(now);
+        view.heard.status = Some(now);
+        let lines = view.lines("header", now);
+        assert!(!lines.iter().any(|l| l.contains("STALE")), "{lines:?}");
+        assert!(lines.iter().any(|l| l.contains("model v2")), "{lines:?}");
     }
 }
