@@ -516,18 +516,17 @@ fn run_live(config: &PipelineConfig, limit: Option<Duration>) -> anyhow::Result<
 mod tests {
     use super::*;
 
+    /// Study mode's arguments: both records, then `extra`.
+    fn study_args<'a>(extra: &[&'a str]) -> Vec<&'a str> {
+        let mut args = vec!["--crane-record", "a.csv", "--target-record", "b.csv"];
+        args.extend_from_slice(extra);
+        args
+    }
+
     #[test]
     fn both_records_make_a_study_and_skip_s_is_checked_only_there() {
-        let c = crate::validated::<Args, Config>(&[
-            "--crane-record",
-            "a.csv",
-            "--target-record",
-            "b.csv",
-            "--skip-s",
-            "60",
-            "--json",
-        ])
-        .unwrap();
+        let c =
+            crate::validated::<Args, Config>(&study_args(&["--skip-s", "60", "--json"])).unwrap();
         assert_eq!(
             c.mode,
             Mode::Study {
@@ -545,34 +544,13 @@ mod tests {
                 limit: Some(Duration::from_secs(2))
             }
         );
-        let e = crate::refused::<Args, Config>(&[
-            "--crane-record",
-            "a.csv",
-            "--target-record",
-            "b.csv",
-            "--skip-s",
-            "-5",
-        ]);
+        let e = crate::refused::<Args, Config>(&study_args(&["--skip-s", "-5"]));
         assert!(e.starts_with("--skip-s"), "{e}");
         // Regression: epoch-stamped records could not be skipped into (the bound was a year),
         // and without --skip-s the default is taken from the records' own start when read.
-        let c = crate::validated::<Args, Config>(&[
-            "--crane-record",
-            "a.csv",
-            "--target-record",
-            "b.csv",
-            "--skip-s",
-            "1764860600",
-        ])
-        .unwrap();
+        let c = crate::validated::<Args, Config>(&study_args(&["--skip-s", "1764860600"])).unwrap();
         assert!(matches!(c.mode, Mode::Study { skip_s: Some(s), .. } if s == 1764860600.0));
-        let c = crate::validated::<Args, Config>(&[
-            "--crane-record",
-            "a.csv",
-            "--target-record",
-            "b.csv",
-        ])
-        .unwrap();
+        let c = crate::validated::<Args, Config>(&study_args(&[])).unwrap();
         assert!(matches!(c.mode, Mode::Study { skip_s: None, .. }));
     }
 }

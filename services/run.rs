@@ -244,15 +244,11 @@ impl View {
             .as_ref()
             .and_then(|s| s["delay_s"].as_f64())
             .unwrap_or(0.0);
-        let forecast_silent = silent_for(heard.forecast, now);
-        lines.push(match &self.forecast {
-            None => "forecast   none yet (the history fills first)".into(),
-            Some(_) if forecast_silent.is_some() => format!(
-                "forecast   STALE: none for {:.0} s",
-                forecast_silent.unwrap_or_default()
-            ),
-            Some(f) if f.valid_steps() == 0 => "forecast   empty (0 steps)".into(),
-            Some(f) => {
+        lines.push(match (&self.forecast, silent_for(heard.forecast, now)) {
+            (None, _) => "forecast   none yet (the history fills first)".into(),
+            (Some(_), Some(age)) => format!("forecast   STALE: none for {age:.0} s"),
+            (Some(f), None) if f.valid_steps() == 0 => "forecast   empty (0 steps)".into(),
+            (Some(f), None) => {
                 let at = |d: usize, lead_s: f64| {
                     let k = (((lead_s + delay_s) / f.dt_s).round() as usize)
                         .clamp(1, f.valid_steps())

@@ -538,18 +538,31 @@ fn replay_counts_and_reports_the_samples_missing_from_a_record() {
     );
 }
 
+/// A record of heave alone, `rows` at `rate` Hz, two sinusoids; `stamp` writes the time
+/// column from the record time t (rounded, shifted to epoch seconds, ...).
+fn heave_csv(
+    dir: &Path,
+    name: &str,
+    rate: f64,
+    rows: usize,
+    stamp: impl Fn(f64) -> String,
+) -> PathBuf {
+    let mut text = String::from("time_s,heave_m\n");
+    for i in 0..rows {
+        let t = i as f64 / rate;
+        let heave = (0.7 * t).sin() + 0.4 * (1.1 * t + 1.0).sin();
+        text.push_str(&format!("{},{heave}\n", stamp(t)));
+    }
+    write(dir, name, &text)
+}
+
 /// Regression: an 8 Hz record whose time stamps were rounded to 2 decimals (steps of 0.12 and
 /// 0.13 s) was refused as "config: input rate 7.692308 Hz is not an integer multiple", blaming
 /// the configuration for the record's stamps.
 #[test]
 fn replay_of_a_record_with_rounded_time_stamps_says_so_of_the_record() {
     let dir = tempfile::tempdir().unwrap();
-    let mut text = String::from("time_s,heave_m\n");
-    for i in 0..2000 {
-        let t = i as f64 / 8.0;
-        text.push_str(&format!("{t:.2},{}\n", (0.7 * t).sin()));
-    }
-    let input = write(dir.path(), "rounded.csv", &text);
+    let input = heave_csv(dir.path(), "rounded.csv", 8.0, 2000, |t| format!("{t:.2}"));
     let output = shipcast(&["replay", "--input", input.to_str().unwrap()]);
     assert_one_line_error(&output, "time stamps rounded or jittered");
     let stderr = String::from_utf8_lossy(&output.stderr);
@@ -562,15 +575,7 @@ fn replay_of_a_record_with_rounded_time_stamps_says_so_of_the_record() {
 #[test]
 fn replay_of_a_record_without_roll_and_pitch_scores_no_deck_decision() {
     let dir = tempfile::tempdir().unwrap();
-    let mut text = String::from("time_s,heave_m\n");
-    for i in 0..2400 {
-        let t = i as f64 / 2.0;
-        text.push_str(&format!(
-            "{t},{}\n",
-            (0.7 * t).sin() + 0.4 * (1.1 * t + 1.0).sin()
-        ));
-    }
-    let input = write(dir.path(), "heave_only.csv", &text);
+    let input = heave_csv(dir.path(), "heave_only.csv", 2.0, 2400, |t| t.to_string());
     let output = shipcast(&[
         "replay",
         "--input",
@@ -595,16 +600,9 @@ fn replay_of_a_record_without_roll_and_pitch_scores_no_deck_decision() {
 #[test]
 fn replay_takes_a_10_hz_record_stamped_in_epoch_seconds() {
     let dir = tempfile::tempdir().unwrap();
-    let mut text = String::from("time_s,heave_m\n");
-    for i in 0..6000 {
-        let t = i as f64 / 10.0;
-        text.push_str(&format!(
-            "{},{}\n",
-            1.7e9 + t,
-            (0.7 * t).sin() + 0.4 * (1.1 * t + 1.0).sin()
-        ));
-    }
-    let input = write(dir.path(), "epoch_10hz.csv", &text);
+    let input = heave_csv(dir.path(), "epoch_10hz.csv", 10.0, 6000, |t| {
+        (1.7e9 + t).to_string()
+    });
     let output = shipcast(&[
         "replay",
         "--input",

@@ -260,14 +260,18 @@ fn the_two_ship_study_scores_the_relative_forecast_from_two_simulated_records() 
             "{l}"
         );
     }
+    // `relative` on records `a` and `b` with `extra` arguments, refused: its stderr.
+    let refused = |a: &str, b: &str, extra: &[&str]| -> String {
+        let out = std::process::Command::new(pipeline_support::BIN)
+            .args(["relative", "--crane-record", a, "--target-record", b])
+            .args(extra)
+            .output()
+            .unwrap();
+        assert_eq!(out.status.code(), Some(2));
+        String::from_utf8_lossy(&out.stderr).into_owned()
+    };
     // Skipping the whole record is one clear line.
-    let out = std::process::Command::new(pipeline_support::BIN)
-        .args(["relative", "--crane-record", &a, "--target-record", &b])
-        .args(["--skip-s", "5000"])
-        .output()
-        .unwrap();
-    assert_eq!(out.status.code(), Some(2));
-    let e = String::from_utf8_lossy(&out.stderr);
+    let e = refused(&a, &b, &["--skip-s", "5000"]);
     assert!(
         e.contains("skips the whole record") && e.lines().count() == 1,
         "{e}"
@@ -305,12 +309,7 @@ fn the_two_ship_study_scores_the_relative_forecast_from_two_simulated_records() 
     assert_eq!(epoch["scored"], plain_scored, "{epoch}");
     // 900 s of record: the default warm-up of 1200 s from its start skips all of it, and the
     // message says it was the default, not a --skip-s the user never gave.
-    let out = std::process::Command::new(pipeline_support::BIN)
-        .args(["relative", "--crane-record", &ea, "--target-record", &eb])
-        .output()
-        .unwrap();
-    assert_eq!(out.status.code(), Some(2));
-    let e = String::from_utf8_lossy(&out.stderr);
+    let e = refused(&ea, &eb, &[]);
     assert!(
         e.contains("the default warm-up of 1200 s") && e.contains("skips the whole record"),
         "{e}"
@@ -319,13 +318,7 @@ fn the_two_ship_study_scores_the_relative_forecast_from_two_simulated_records() 
     // only that no pair could be scored. One clear line before any replay now.
     let half = path("b_half.csv");
     shifted(&b, &half, 0.0625);
-    let out = std::process::Command::new(pipeline_support::BIN)
-        .args(["relative", "--crane-record", &a, "--target-record", &half])
-        .args(["--skip-s", "300"])
-        .output()
-        .unwrap();
-    assert_eq!(out.status.code(), Some(2));
-    let e = String::from_utf8_lossy(&out.stderr);
+    let e = refused(&a, &half, &["--skip-s", "300"]);
     assert!(
         e.contains("not sampled at the same instants")
             && e.contains("0.0625 s off")
