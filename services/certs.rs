@@ -307,6 +307,8 @@ fn single_vessel(
             key_exprs: vec![vessel_keys],
             publishers: vec![pipeline.clone()],
             subscribers: setup.stations.clone(),
+            // The display (of `run`, or a station's) subscribes to every vessel at once.
+            interest_key_exprs: vec![fleet_keys(names)],
             ..AccessRules::default()
         }),
         ..ZenohConfig::default()

@@ -9,8 +9,8 @@
 
 mod pipeline_support;
 
-use pipeline_support::{TestPipeline, PATIENCE};
-use std::io::{Read, Write};
+use pipeline_support::{http_get, TestPipeline, PATIENCE};
+use std::io::Write;
 use std::net::TcpStream;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
@@ -44,39 +44,6 @@ fn chromium() -> PathBuf {
 fn free_port() -> u16 {
     let listener = std::net::TcpListener::bind("127.0.0.1:0").expect("bind a free port");
     listener.local_addr().expect("local address").port()
-}
-
-/// One plain HTTP GET on loopback; the body, or None when the server gave none (yet). Reads
-/// `Content-Length` bytes when given (Chromium's DevTools server keeps the connection open),
-/// else to the end.
-fn http_get(port: u16, path: &str) -> Option<String> {
-    let mut s = TcpStream::connect(("127.0.0.1", port)).ok()?;
-    s.set_read_timeout(Some(Duration::from_secs(5))).ok()?;
-    write!(
-        s,
-        "GET {path} HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\nConnection: close\r\n\r\n"
-    )
-    .ok()?;
-    let mut response = Vec::new();
-    let mut buf = [0u8; 4096];
-    loop {
-        let n = s.read(&mut buf).ok()?;
-        response.extend_from_slice(&buf[..n]);
-        let text = String::from_utf8_lossy(&response);
-        if let Some((head, body)) = text.split_once("\r\n\r\n") {
-            let length = head.lines().find_map(|l| {
-                let (name, value) = l.split_once(':')?;
-                name.eq_ignore_ascii_case("content-length")
-                    .then(|| value.trim().parse::<usize>().ok())
-                    .flatten()
-            });
-            if length.is_some_and(|len| body.len() >= len) || n == 0 {
-                return Some(body.to_string());
-            }
-        } else if n == 0 {
-            return None;
-        }
-    }
 }
 
 /// A headless Chromium with one page, driven over its DevTools protocol; killed on drop.

@@ -9,6 +9,7 @@ mod pipeline_support;
 use pipeline_support::{
     fake_forecast_json, run_ok, wait_crane_lines, Proc, TestPipeline, FAKE_SEQ, PATIENCE,
 };
+use shipcast_pipeline::pacing::poll_until;
 use shipcast_wire::payload::Forecast;
 use std::path::{Path, PathBuf};
 use std::time::Duration;
@@ -89,6 +90,7 @@ fn certs_writes_loadable_configs_and_a_new_ca_each_time() {
     assert_eq!(access.publishers, ["ddg51-pipeline"]);
     assert_eq!(access.subscribers, ["crane"]);
     assert_eq!(access.key_exprs, ["tcerts/shipcast/ddg51/**"]);
+    assert_eq!(access.interest_key_exprs, ["tcerts/shipcast/*/**"]);
     let tls = config.zenoh.tls.as_ref().expect("tls");
     assert!(Path::new(&tls.root_ca).is_absolute() && Path::new(&tls.root_ca).exists());
     // The station's files load: zenoh's own parser for the JSON5, ours for the TOML.
@@ -310,6 +312,52 @@ fn run_uses_the_generated_config_as_it_is() {
     // from a publisher whose token is gone, and is rightly rejected. Nothing else is.
     for line in crane.lines().filter(|l| l.contains("crane: rejected")) {
         assert!(line.contains("not the live predictor (none)"), "{line}");
+    }
+}
+
+/// The port a display logged it serves on (`display: http://127.0.0.1:PORT/ ...`).
+fn display_port(display: &Proc) -> u16 {
+    let line = display.wait_for("display: http://127.0.0.1:");
+    line.split("display: http://127.0.0.1:")
+        .nth(1)
+        .and_then(|rest| rest.split('/').next())
+        .and_then(|port| port.parse().ok())
+        .unwrap_or_else(|| panic!("no port in {line}"))
+}
+
+/// Regression: under `shipcast certs`' access rules the display (with the pipeline's identity
+/// in `run`, or a station's) showed no vessel: its subscription to every vessel
+/// (`I/shipcast/*/forecast`) does not lie within the vessel's keys, and zenoh denied it without
+/// a word. Now the rules admit that interest (`interest_key_exprs`) and the page shows the
+/// vessel's forecasts, which still flow only from the pipeline.
+#[test]
+fn the_display_shows_the_vessel_through_the_access_rules() {
+    let s = SecureSetup::new("securedisplay");
+    let predictor = s.spawn("predictor", "shipcast.toml", &[]);
+    predictor.wait_for("(iceoryx2 and zenoh)");
+    let _producer = s.spawn("producer", "shipcast.toml", &["--wait-subscriber-s", "30"]);
+    let listen = ["--listen", "127.0.0.1:0"];
+    let displays = [
+        s.spawn("display", "shipcast.toml", &listen),
+        s.spawn("display", "crane.toml", &listen),
+    ];
+    for display in &displays {
+        let port = display_port(display);
+        let shown = poll_until(PATIENCE, Duration::from_millis(100), || {
+            let body = pipeline_support::http_get(port, "/snapshot.json")?;
+            let snapshot: serde_json::Value = serde_json::from_str(&body).ok()?;
+            let vessel = &snapshot["vessels"][0];
+            (vessel["vessel"] == "ddg51" && vessel["forecast"]["seq"].as_u64().is_some())
+                .then_some(snapshot)
+        });
+        let snapshot = shown.unwrap_or_else(|| {
+            panic!(
+                "the display shows no forecast of ddg51; stderr:\n{}",
+                display.stderr().join("\n")
+            )
+        });
+        assert_eq!(snapshot["vessels"].as_array().map(Vec::len), Some(1));
+        assert_eq!(snapshot["vessels"][0]["rejected"], 0, "{snapshot}");
     }
 }
 

@@ -7,7 +7,7 @@
 use shipcast_pipeline::child::ChildProcess;
 use shipcast_pipeline::pacing::poll_until;
 use shipcast_wire::payload::Forecast;
-use std::io::{BufRead, BufReader};
+use std::io::{BufRead, BufReader, Read, Write};
 use std::path::PathBuf;
 use std::process::{Command, Stdio};
 use std::sync::{Arc, Mutex};
@@ -395,4 +395,37 @@ pub fn wait_crane_lines(crane: &Proc, from: usize, n: usize) {
         "crane stopped printing forecasts; stderr:\n{}",
         crane.stderr().join("\n")
     );
+}
+
+/// One plain HTTP GET on loopback; the body, or None when the server gave none (yet). Reads
+/// `Content-Length` bytes when given (Chromium's DevTools server keeps the connection open),
+/// else to the end.
+pub fn http_get(port: u16, path: &str) -> Option<String> {
+    let mut s = std::net::TcpStream::connect(("127.0.0.1", port)).ok()?;
+    s.set_read_timeout(Some(Duration::from_secs(5))).ok()?;
+    write!(
+        s,
+        "GET {path} HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\nConnection: close\r\n\r\n"
+    )
+    .ok()?;
+    let mut response = Vec::new();
+    let mut buf = [0u8; 4096];
+    loop {
+        let n = s.read(&mut buf).ok()?;
+        response.extend_from_slice(&buf[..n]);
+        let text = String::from_utf8_lossy(&response);
+        if let Some((head, body)) = text.split_once("\r\n\r\n") {
+            let length = head.lines().find_map(|l| {
+                let (name, value) = l.split_once(':')?;
+                name.eq_ignore_ascii_case("content-length")
+                    .then(|| value.trim().parse::<usize>().ok())
+                    .flatten()
+            });
+            if length.is_some_and(|len| body.len() >= len) || n == 0 {
+                return Some(body.to_string());
+            }
+        } else if n == 0 {
+            return None;
+        }
+    }
 }

@@ -1,16 +1,20 @@
 //! The zenoh subscriptions that fill the board: one key expression per kind of message covers
 //! every vessel (`[instance/]shipcast/*/forecast`, `.../verification`, `.../advisory/*`).
 //!
+//! A message is shown only if it comes from the one live publisher of its key (the liveliness
+//! tokens followed in [`LiveSources`]), like the deck and the crane check their forecasts.
+//!
 //! Callbacks run on zenoh's threads and only parse, check and assign under the board's lock,
 //! so the display never holds up zenoh, and a page that reads slowly never reaches back here.
 
 use crate::board::{AdvisoryView, Board, VerificationIn};
+use crate::sources::{parse_token, LiveSources};
 use shipcast_pipeline::transport::forecast_check::check_content;
 use shipcast_wire::payload::Forecast;
 use std::sync::Arc;
 use std::time::Instant;
 use zenoh::pubsub::Subscriber;
-use zenoh::sample::Sample;
+use zenoh::sample::{Sample, SampleKind};
 use zenoh::{Session, Wait};
 
 /// Why the feed could not start.
@@ -59,18 +63,39 @@ pub fn parse_forecast(bytes: &[u8], expected_dt_s: f64) -> Result<Forecast, Stri
     Ok(forecast)
 }
 
-fn on_sample(board: &Board, prefix: &str, expected_dt_s: f64, sample: &Sample) {
+/// The vessel a topic belongs to.
+fn vessel_of<'a>(topic: &Topic<'a>) -> &'a str {
+    match topic {
+        Topic::Forecast { vessel }
+        | Topic::Verification { vessel }
+        | Topic::Advisory { vessel, .. } => vessel,
+    }
+}
+
+fn on_sample(
+    board: &Board,
+    sources: &LiveSources,
+    prefix: &str,
+    expected_dt_s: f64,
+    sample: &Sample,
+) {
     let key = sample.key_expr().as_str();
     let Some(topic) = topic(prefix, key) else {
         return;
     };
+    let publisher = sample
+        .attachment()
+        .and_then(|a| a.try_to_string().ok().map(|t| t.into_owned()));
+    if let Err(e) = sources.admits(key, publisher.as_deref()) {
+        let vessel = vessel_of(&topic);
+        board.reject(vessel);
+        tracing::debug!("display: {key}: refused: {e}");
+        return;
+    }
     let bytes = sample.payload().to_bytes();
     match topic {
         Topic::Forecast { vessel } => match parse_forecast(&bytes, expected_dt_s) {
             Ok(f) => {
-                let publisher = sample
-                    .attachment()
-                    .and_then(|a| a.try_to_string().ok().map(|t| t.into_owned()));
                 if let Err(e) =
                     board.forecast_from(vessel, &f, publisher.as_deref(), Instant::now())
                 {
@@ -103,21 +128,56 @@ fn on_sample(board: &Board, prefix: &str, expected_dt_s: f64, sample: &Sample) {
     }
 }
 
+/// Follow one publisher token appearing or vanishing, for keys the display reads.
+fn on_token(sources: &LiveSources, prefix: &str, sample: &Sample) {
+    let Some((key, zid)) = parse_token(sample.key_expr().as_str()) else {
+        return;
+    };
+    if topic(prefix, key).is_none() {
+        return;
+    }
+    match sample.kind() {
+        SampleKind::Put => {
+            if !sources.appeared(key, zid) {
+                tracing::debug!("display: {key}: publisher token not followed (too many keys)");
+            }
+        }
+        SampleKind::Delete => sources.vanished(key, zid),
+    }
+}
+
 /// Subscribe to every vessel's forecasts, verification and advisories under `prefix`
-/// (`Names::fleet_prefix`).
+/// (`Names::fleet_prefix`), and to their publishers' liveliness tokens.
 pub fn start(
     session: &Session,
     prefix: &str,
     board: Arc<Board>,
     expected_dt_s: f64,
 ) -> Result<Feed, FeedError> {
+    let sources = Arc::new(LiveSources::default());
     let mut subscribers = Vec::new();
+    // The tokens first, with those already alive: a message is checked against them.
+    for tail in ["forecast", "verification", "advisory/*"] {
+        let key = format!("{prefix}*/{tail}/publisher/*");
+        let (sources, prefix) = (sources.clone(), prefix.to_string());
+        let subscriber = session
+            .liveliness()
+            .declare_subscriber(key.clone())
+            .history(true)
+            .callback(move |sample| on_token(&sources, &prefix, &sample))
+            .wait()
+            .map_err(|e| FeedError {
+                key,
+                reason: e.to_string(),
+            })?;
+        subscribers.push(subscriber);
+    }
     for tail in ["forecast", "verification", "advisory/*"] {
         let key = format!("{prefix}*/{tail}");
-        let (board, prefix) = (board.clone(), prefix.to_string());
+        let (board, sources, prefix) = (board.clone(), sources.clone(), prefix.to_string());
         let subscriber = session
             .declare_subscriber(key.clone())
-            .callback(move |sample| on_sample(&board, &prefix, expected_dt_s, &sample))
+            .callback(move |sample| on_sample(&board, &sources, &prefix, expected_dt_s, &sample))
             .wait()
             .map_err(|e| FeedError {
                 key,
@@ -173,14 +233,12 @@ mod tests {
         }
     }
 
-    #[test]
-    fn a_forecast_message_must_be_sound_json_with_the_expected_step() {
+    fn forecast_json(seq: u64) -> Vec<u8> {
         let mut f = Forecast {
-            seq: 3,
+            seq,
             time_s: 10.0,
             dt_s: 0.5,
             steps: 2,
-            model_version: 1,
             ..Forecast::default()
         };
         for d in 0..6 {
@@ -188,6 +246,99 @@ mod tests {
         }
         let mut json = Vec::new();
         f.write_json(&mut json).unwrap();
+        json
+    }
+
+    /// Regression: the display showed whatever any peer put on a vessel's key; now only the
+    /// key's live publisher (its liveliness token) reaches the page, as for the deck.
+    #[test]
+    fn the_page_shows_only_the_live_publisher_of_a_vessels_key() {
+        use shipcast_pipeline::transport::naming::unique_instance;
+        use shipcast_pipeline::transport::zenoh::{
+            free_loopback_endpoint, open, JsonPublisher, ZenohSettings,
+        };
+        use std::time::Duration;
+
+        let endpoint = free_loopback_endpoint().unwrap();
+        let display = open(&ZenohSettings::listen_on(&endpoint)).unwrap();
+        let vessel_side = open(&ZenohSettings::connect_to(&endpoint)).unwrap();
+        let intruder = open(&ZenohSettings::connect_to(&endpoint)).unwrap();
+        let prefix = format!("{}/shipcast/", unique_instance("feed"));
+        let key = format!("{prefix}v1/forecast");
+        let board = Arc::new(Board::new(
+            crate::board::Limits {
+                roll_deg: 5.0,
+                pitch_deg: 3.0,
+            },
+            Duration::from_secs(60),
+        ));
+        let _feed = start(&display, &prefix, board.clone(), 0.5).unwrap();
+        let shown = |board: &Board| {
+            let s = board.snapshot(Instant::now());
+            let v = s.vessels.first();
+            (
+                v.and_then(|v| v.forecast.as_ref().map(|f| f.seq)),
+                v.map_or(0, |v| v.rejected),
+            )
+        };
+        let wait_until = |what: &str, ok: &dyn Fn((Option<u64>, u64)) -> bool| {
+            let deadline = Instant::now() + Duration::from_secs(20);
+            while !ok(shown(&board)) {
+                assert!(Instant::now() < deadline, "{what}: {:?}", shown(&board));
+                std::thread::sleep(Duration::from_millis(20));
+            }
+        };
+
+        let predictor = JsonPublisher::new(&vessel_side, &key).unwrap();
+        // Until the display has the token and the subscription, puts may be refused or lost:
+        // repeat with rising seq until one is shown.
+        let mut seq = 10;
+        let deadline = Instant::now() + Duration::from_secs(20);
+        while shown(&board).0.is_none() {
+            assert!(Instant::now() < deadline, "no forecast shown");
+            predictor.put(&forecast_json(seq)).unwrap();
+            seq += 1;
+            std::thread::sleep(Duration::from_millis(50));
+        }
+        let rejected_before = shown(&board).1;
+
+        // Naive injection: a put with no publisher id, and one that names the intruder itself.
+        let forged = forecast_json(999_999);
+        intruder.put(&key, forged.clone()).wait().unwrap();
+        intruder
+            .put(&key, forged.clone())
+            .attachment(intruder.zid().to_string())
+            .wait()
+            .unwrap();
+        wait_until("both forgeries refused", &|(_, r)| r >= rejected_before + 2);
+        predictor.put(&forecast_json(seq)).unwrap();
+        wait_until("the next real forecast shown", &|(s, _)| s == Some(seq));
+        assert_eq!(shown(&board).1, rejected_before + 2);
+
+        // The predictor's session stops publishing (its token goes): what it still puts under
+        // its id is no longer shown.
+        let predictor_id = vessel_side.zid().to_string();
+        drop(predictor);
+        let rejected_before = shown(&board).1;
+        let deadline = Instant::now() + Duration::from_secs(20);
+        while shown(&board).1 == rejected_before {
+            assert!(
+                Instant::now() < deadline,
+                "a put after the token went was shown"
+            );
+            vessel_side
+                .put(&key, forecast_json(seq + 100))
+                .attachment(predictor_id.clone())
+                .wait()
+                .unwrap();
+            std::thread::sleep(Duration::from_millis(50));
+        }
+        assert_eq!(shown(&board).0, Some(seq));
+    }
+
+    #[test]
+    fn a_forecast_message_must_be_sound_json_with_the_expected_step() {
+        let json = forecast_json(3);
         assert_eq!(parse_forecast(&json, 0.5).unwrap().seq, 3);
         assert!(parse_forecast(&json, 1.0).is_err(), "wrong step accepted");
         assert!(parse_forecast(b"{\"seq\":1}", 0.5).is_err());

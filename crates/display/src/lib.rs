@@ -5,7 +5,9 @@
 //! - [`board`]: what the page shows, per vessel: the newest accepted forecast of heave, roll and
 //!   pitch with sigma, the deck advisory, the live skill, and whether the vessel went stale.
 //! - [`feed`]: the zenoh subscriptions that fill the board (every vessel under one key
-//!   expression); a forecast must pass the receive checks before it is shown.
+//!   expression); a message must come from its key's live publisher and a forecast must pass
+//!   the receive checks before it is shown.
+//! - [`sources`]: which publisher is alive on each key, from the publishers' liveliness tokens.
 //! - [`server`]: the HTTP server (axum): the page and a server-sent-event stream of board
 //!   snapshots. Each client is sent the newest snapshot at a fixed pace; a client that reads
 //!   slowly or never skips snapshots and holds nothing up.
@@ -19,5 +21,6 @@ pub mod board;
 pub mod connections;
 pub mod feed;
 pub mod server;
+pub mod sources;
 mod tally;
 mod write_timeout;

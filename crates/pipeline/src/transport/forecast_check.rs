@@ -94,12 +94,36 @@ impl LivePublishers {
         self.zids.remove(zid);
     }
 
+    /// True when no publisher of the key is alive.
+    pub fn is_empty(&self) -> bool {
+        self.zids.is_empty()
+    }
+
     /// The one live publisher, or why there is not exactly one.
     fn the_one(&self) -> Result<&str, usize> {
         let mut it = self.zids.iter();
         match (it.next(), it.next()) {
             (Some(z), None) => Ok(z),
             _ => Err(self.zids.len()),
+        }
+    }
+
+    /// Ok if `publisher` (the id a payload carried, if any) is the one live publisher.
+    pub fn admits(&self, publisher: Option<&str>) -> Result<(), Rejection> {
+        let Some(publisher) = publisher else {
+            return Err(Rejection::NoPublisherId);
+        };
+        match self.the_one() {
+            Ok(z) if z == publisher => Ok(()),
+            Ok(z) => Err(Rejection::NotLivePublisher {
+                got: publisher.to_string(),
+                live: z.to_string(),
+            }),
+            Err(0) => Err(Rejection::NotLivePublisher {
+                got: publisher.to_string(),
+                live: "none".into(),
+            }),
+            Err(n) => Err(Rejection::SeveralPublishers(n)),
         }
     }
 }
@@ -196,21 +220,9 @@ pub fn check_source<'a>(
     live: &LivePublishers,
     received: &'a Received,
 ) -> Result<&'a String, Rejection> {
-    let Some(publisher) = received.publisher.as_ref() else {
-        return Err(Rejection::NoPublisherId);
-    };
-    match live.the_one() {
-        Ok(z) if z == publisher => Ok(publisher),
-        Ok(z) => Err(Rejection::NotLivePublisher {
-            got: publisher.clone(),
-            live: z.to_string(),
-        }),
-        Err(0) => Err(Rejection::NotLivePublisher {
-            got: publisher.clone(),
-            live: "none".into(),
-        }),
-        Err(n) => Err(Rejection::SeveralPublishers(n)),
-    }
+    live.admits(received.publisher.as_deref())?;
+    // admits refuses a payload without an id, so there is one here.
+    received.publisher.as_ref().ok_or(Rejection::NoPublisherId)
 }
 
 /// The iceoryx2 publisher port a consumer follows. The sender is the port that iceoryx2 itself

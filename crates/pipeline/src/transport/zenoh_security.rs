@@ -49,10 +49,10 @@ pub struct AccessRules {
     pub publishers: Vec<String>,
     /// Certificate common names that may only subscribe, query and watch liveliness.
     pub subscribers: Vec<String>,
-    /// Wider key expressions on which subscribers may declare their interest (subscribe,
-    /// query, watch liveliness), e.g. a fleet router's `shipcast/*/**` at a vessel: zenoh
-    /// checks that a declaration's key lies within a rule's, and data still flows only on
-    /// `key_exprs`.
+    /// Wider key expressions on which subscribers and publishers may declare their interest
+    /// (subscribe, query, watch liveliness), e.g. `shipcast/*/**`: a fleet router's
+    /// subscriptions at a vessel, the display's (`shipcast/*/forecast`) anywhere. zenoh checks
+    /// that a declaration's key lies within a rule's, and data still flows only on `key_exprs`.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub interest_key_exprs: Vec<String>,
     /// The vessels of a fleet, at its router: each pipeline identity may publish only on its
@@ -115,9 +115,20 @@ impl AccessRules {
         let mut policies = Vec::new();
         if !self.publishers.is_empty() {
             rules.push(rule("publish", &ALL_MESSAGES, &["ingress", "egress"]));
+            let mut publisher_rules = vec!["publish"];
+            // The display runs with the pipeline's identity and subscribes to every vessel.
+            if !self.interest_key_exprs.is_empty() {
+                rules.push(rule_on(
+                    "publish-interest",
+                    &SUBSCRIBER_INGRESS,
+                    &["ingress"],
+                    &self.interest_key_exprs,
+                ));
+                publisher_rules.push("publish-interest");
+            }
             subjects.push(json!({"id": "publishers", "cert_common_names": self.publishers}));
             policies.push(
-                json!({"id": "publishers", "rules": ["publish"], "subjects": ["publishers"]}),
+                json!({"id": "publishers", "rules": publisher_rules, "subjects": ["publishers"]}),
             );
         }
         if !self.subscribers.is_empty() {
@@ -287,6 +298,56 @@ mod tests {
                 && r["messages"].as_array().unwrap().iter().any(|m| m == "put");
             assert!(!puts_in, "{r}");
         }
+    }
+
+    #[test]
+    fn wider_interest_admits_declarations_of_publishers_and_subscribers_never_puts() {
+        let rules = AccessRules {
+            key_exprs: vec!["i/shipcast/ddg51/**".into()],
+            publishers: vec!["ddg51-pipeline".into()],
+            subscribers: vec!["crane".into()],
+            interest_key_exprs: vec!["i/shipcast/*/**".into()],
+            ..AccessRules::default()
+        };
+        let json = rules.to_zenoh_json();
+        let mut config = zenoh::Config::default();
+        config
+            .insert_json5("access_control", &json.to_string())
+            .expect("zenoh accepts the rules");
+        let wide: Vec<&serde_json::Value> = json["rules"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .filter(|r| {
+                r["key_exprs"]
+                    .as_array()
+                    .unwrap()
+                    .iter()
+                    .any(|k| k == "i/shipcast/*/**")
+            })
+            .collect();
+        // One rule for each kind of subject, and on the wide keys nothing but declarations.
+        assert_eq!(wide.len(), 2, "{json}");
+        for r in wide {
+            assert_eq!(r["flows"], serde_json::json!(["ingress"]), "{r}");
+            let messages = r["messages"].as_array().unwrap();
+            assert!(
+                messages
+                    .iter()
+                    .all(|m| SUBSCRIBER_INGRESS.contains(&m.as_str().unwrap())),
+                "{r}"
+            );
+        }
+        let publishers = json["policies"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|p| p["id"] == "publishers")
+            .unwrap();
+        assert_eq!(
+            publishers["rules"],
+            serde_json::json!(["publish", "publish-interest"])
+        );
     }
 
     #[test]

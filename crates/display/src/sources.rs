@@ -1,0 +1,132 @@
+//! Which publisher is alive on each key the display reads, from the liveliness tokens that
+//! shipcast's publishers hold (`publisher_token(key, zid)` = `<key>/publisher/<zid>`).
+//!
+//! The deck, the crane and `run`'s view accept a forecast only from the one live publisher of
+//! its key; the display does the same for every vessel under its wildcard, so a peer that
+//! merely puts on a vessel's key (no token, or a token beside the real one) reaches the page
+//! only as a rejection count. Like the consumers' check, this stops accidents and naive
+//! injection; on an open network a determined sender can imitate a publisher, and the router's
+//! access control stops the rest (docs/security.md).
+
+use shipcast_pipeline::transport::forecast_check::{LivePublishers, Rejection};
+use std::collections::HashMap;
+use std::sync::Mutex;
+
+/// The most keys whose publishers are followed: every key the board can show (64 vessels,
+/// each a forecast, a verification report and 16 stations), so tokens on made-up keys cannot
+/// grow the map without bound.
+pub const MAX_KEYS: usize = crate::board::MAX_VESSELS * (2 + crate::board::MAX_STATIONS);
+
+/// The live publishers of every followed key.
+#[derive(Debug, Default)]
+pub struct LiveSources {
+    keys: Mutex<HashMap<String, LivePublishers>>,
+}
+
+/// A token key split into the key it covers and the publisher's id.
+pub fn parse_token(token: &str) -> Option<(&str, &str)> {
+    let (key, zid) = token.rsplit_once("/publisher/")?;
+    (!key.is_empty() && !zid.is_empty() && !zid.contains('/')).then_some((key, zid))
+}
+
+impl LiveSources {
+    /// Publisher `zid` of `key` appeared. False if the key was not followed because the map
+    /// is full.
+    pub fn appeared(&self, key: &str, zid: &str) -> bool {
+        let mut keys = self.keys.lock().unwrap_or_else(|p| p.into_inner());
+        if let Some(live) = keys.get_mut(key) {
+            live.appeared(zid);
+            return true;
+        }
+        if keys.len() >= MAX_KEYS {
+            return false;
+        }
+        let mut live = LivePublishers::default();
+        live.appeared(zid);
+        keys.insert(key.to_string(), live);
+        true
+    }
+
+    /// Publisher `zid` of `key` vanished; a key left with no publisher is forgotten.
+    pub fn vanished(&self, key: &str, zid: &str) {
+        let mut keys = self.keys.lock().unwrap_or_else(|p| p.into_inner());
+        if let Some(live) = keys.get_mut(key) {
+            live.vanished(zid);
+            if live.is_empty() {
+                keys.remove(key);
+            }
+        }
+    }
+
+    /// Ok if `publisher` (the id a message on `key` carried) is the key's one live publisher.
+    pub fn admits(&self, key: &str, publisher: Option<&str>) -> Result<(), Rejection> {
+        let keys = self.keys.lock().unwrap_or_else(|p| p.into_inner());
+        match keys.get(key) {
+            Some(live) => live.admits(publisher),
+            None => LivePublishers::default().admits(publisher),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_token_names_its_key_and_publisher() {
+        assert_eq!(
+            parse_token("t1/shipcast/a/advisory/deck/publisher/abc"),
+            Some(("t1/shipcast/a/advisory/deck", "abc"))
+        );
+        for bad in [
+            "shipcast/a/forecast",
+            "shipcast/a/forecast/publisher/",
+            "/publisher/abc",
+            "shipcast/a/forecast/publisher/abc/def",
+        ] {
+            assert_eq!(parse_token(bad), None, "{bad}");
+        }
+    }
+
+    #[test]
+    fn only_the_one_live_publisher_of_a_key_is_admitted() {
+        let s = LiveSources::default();
+        let key = "shipcast/a/forecast";
+        assert_eq!(
+            s.admits(key, Some("p1")),
+            Err(Rejection::NotLivePublisher {
+                got: "p1".into(),
+                live: "none".into()
+            })
+        );
+        assert!(s.appeared(key, "p1"));
+        assert_eq!(s.admits(key, Some("p1")), Ok(()));
+        assert_eq!(s.admits(key, None), Err(Rejection::NoPublisherId));
+        assert!(s.admits("shipcast/b/forecast", Some("p1")).is_err());
+        // A second token beside the real one: neither can be told apart, both are refused.
+        assert!(s.appeared(key, "intruder"));
+        assert_eq!(
+            s.admits(key, Some("p1")),
+            Err(Rejection::SeveralPublishers(2))
+        );
+        s.vanished(key, "intruder");
+        assert_eq!(s.admits(key, Some("p1")), Ok(()));
+        s.vanished(key, "p1");
+        assert!(s.admits(key, Some("p1")).is_err());
+    }
+
+    #[test]
+    fn tokens_on_made_up_keys_stop_at_the_bound_and_free_it_when_they_go() {
+        let s = LiveSources::default();
+        for i in 0..MAX_KEYS {
+            assert!(s.appeared(&format!("shipcast/v{i}/forecast"), "z"));
+        }
+        assert!(!s.appeared("shipcast/late/forecast", "z"));
+        assert!(s.admits("shipcast/late/forecast", Some("z")).is_err());
+        // A known key still follows its publishers on a full map.
+        assert!(s.appeared("shipcast/v0/forecast", "y"));
+        s.vanished("shipcast/v1/forecast", "z");
+        assert!(s.appeared("shipcast/late/forecast", "z"));
+        assert_eq!(s.admits("shipcast/late/forecast", Some("z")), Ok(()));
+    }
+}
