@@ -10,6 +10,7 @@ use shipcast_bench::plan::parse_cores;
 use shipcast_bench::report_builder::{forecast_json_bytes, FORECAST_BYTES, MOTION_BYTES};
 use shipcast_bench::{Mode, ModeSelect, Plan};
 use shipcast_pipeline::limits;
+use std::io::Write;
 use std::path::PathBuf;
 
 #[derive(clap::Args, Debug)]
@@ -229,14 +230,18 @@ fn run_fleet(a: FleetConfig) -> anyhow::Result<()> {
     let dir = std::env::temp_dir().join(format!("shipcast-fleet-{}", std::process::id()));
     std::fs::create_dir_all(&dir).with_context(|| format!("create {}", dir.display()))?;
     let mut rows = Vec::new();
-    eprintln!(
+    // Progress lines to stderr, written (not eprintln!) so a closed stderr does not panic.
+    let mut err = std::io::stderr();
+    let _ = writeln!(
+        err,
         "fleet: vessels at {} Hz -> shipcast router -> 1 shore subscriber, {} s each, loopback TCP",
         a.rate_hz, a.seconds
     );
-    eprintln!("vessels  bytes     sent  received  lost   p50 us   p99 us   max us  router CPU %  restart s");
+    let _ = writeln!(err, "vessels  bytes     sent  received  lost   p50 us   p99 us   max us  router CPU %  restart s");
     for &n in &a.vessels {
         let r = shipcast_bench::fleet::run(&exe, &dir, n, a.seconds, a.rate_hz, a.restart)?;
-        eprintln!(
+        let _ = writeln!(
+            err,
             "{:>7}  {:>5}  {:>7}  {:>8}  {:>4}  {:>7.0}  {:>7.0}  {:>7.0}  {:>12.1}  {}",
             r.vessels,
             r.payload_bytes,
@@ -254,7 +259,12 @@ fn run_fleet(a: FleetConfig) -> anyhow::Result<()> {
         rows.push(r);
     }
     if a.json {
-        println!("{}", serde_json::to_string_pretty(&rows)?);
+        writeln!(
+            std::io::stdout(),
+            "{}",
+            serde_json::to_string_pretty(&rows)?
+        )
+        .context("write the JSON to stdout")?;
     }
     // The router logs are kept only when a run failed (the error names nothing else to read).
     let _ = std::fs::remove_dir_all(&dir);
@@ -269,14 +279,28 @@ fn run_latency(a: LatencyConfig) -> anyhow::Result<()> {
     let targets = report.targets(MOTION_BYTES, FORECAST_BYTES, forecast_json_bytes());
     if a.json {
         // The table goes to stderr too, so one run gives both the JSON and the readable form.
-        eprint!("{}\n{}\n{}", report.header(), report.table(), targets);
-        println!("{}", report.json().context("encode JSON")?);
+        let _ = write!(
+            std::io::stderr(),
+            "{}\n{}\n{}",
+            report.header(),
+            report.table(),
+            targets
+        );
+        let json = report.json().context("encode JSON")?;
+        writeln!(std::io::stdout(), "{json}").context("write the JSON to stdout")?;
     } else {
-        print!("{}\n{}\n{}", report.header(), report.table(), targets);
+        write!(
+            std::io::stdout(),
+            "{}\n{}\n{}",
+            report.header(),
+            report.table(),
+            targets
+        )
+        .context("write the report to stdout")?;
     }
     if let Some(svg) = &a.svg {
         report.write_svg(svg)?;
-        eprintln!("wrote {}", svg.display());
+        let _ = writeln!(std::io::stderr(), "wrote {}", svg.display());
     }
     Ok(())
 }

@@ -438,7 +438,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if let Some(t) = &target {
         write_config(t, &target_path)?;
         let r = &config.relative;
-        println!(
+        // Written, not println!: a closed stdout (`run | head -1`) must not panic.
+        let _ = writeln!(
+            std::io::stdout(),
             "two ships in one sea (scenario {:?}, seed {}): {} with the crane (tip {:?} m), {} at \
              {} m forward, {} m starboard, heading {:+} deg (landing spot {:?} m); each runs \
              producer and predictor, `relative` publishes {}",
@@ -601,7 +603,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let _ = std::fs::remove_file(&config_path);
     let _ = std::fs::remove_file(&target_path);
     let reason = outcome?;
-    println!(
+    let _ = writeln!(
+        std::io::stdout(),
         "shipcast run: {reason}; all services stopped (logs in {})",
         logs.display()
     );
