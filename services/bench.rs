@@ -227,8 +227,7 @@ const MAX_FLEET_RATE_HZ: f64 = 1_000.0;
 
 fn run_fleet(a: FleetConfig) -> anyhow::Result<()> {
     let exe = own_executable()?;
-    let dir = std::env::temp_dir().join(format!("shipcast-fleet-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).with_context(|| format!("create {}", dir.display()))?;
+    let dir = crate::private_files::new_private_temp_dir("shipcast-fleet")?;
     let mut rows = Vec::new();
     // Progress lines to stderr, written (not eprintln!) so a closed stderr does not panic.
     let mut err = std::io::stderr();

@@ -398,27 +398,9 @@ fn consumer_toml(names: &Names, zenoh: &ZenohConfig) -> anyhow::Result<String> {
 }
 
 /// Write `name` into `dir`; secrets (private keys, files embedding one) readable by the owner
-/// only.
-///
-/// Whatever is at the path is removed first and the file is created anew (`create_new`, which
-/// never follows a symlink): the mode of `open` applies only to a file it creates, so a key
-/// written over an existing world-readable file kept that file's mode, and a symlink planted
-/// at the key's name had the key written wherever it pointed.
+/// only, never through a symlink planted at the name.
 fn write(dir: &Path, name: &str, text: &str, secret: bool) -> anyhow::Result<()> {
-    use std::os::unix::fs::OpenOptionsExt;
-    let path = dir.join(name);
-    if path.symlink_metadata().is_ok() {
-        std::fs::remove_file(&path).with_context(|| format!("replace {}", path.display()))?;
-    }
-    let mut file = std::fs::OpenOptions::new()
-        .write(true)
-        .create_new(true)
-        .mode(if secret { 0o600 } else { 0o644 })
-        .open(&path)
-        .with_context(|| format!("write {}", path.display()))?;
-    file.write_all(text.as_bytes())
-        .with_context(|| format!("write {}", path.display()))?;
-    Ok(())
+    crate::private_files::write_new(dir, name, text, secret).map(|_| ())
 }
 
 #[cfg(test)]

@@ -15,6 +15,7 @@ mod followed_motion;
 mod logging;
 mod paper;
 mod predictor;
+mod private_files;
 mod producer;
 mod progress;
 mod relative;

@@ -114,7 +114,7 @@ impl Children {
         logs: &Path,
     ) -> anyhow::Result<()> {
         let exe = std::env::current_exe().context("locating the shipcast executable")?;
-        let log = std::fs::File::create(logs.join(format!("{name}.log")))
+        let log = crate::private_files::create_new(&logs.join(format!("{name}.log")), false)
             .with_context(|| format!("creating the log of {name} in {}", logs.display()))?;
         let mut cmd = Command::new(exe);
         cmd.arg(command)
@@ -372,8 +372,14 @@ fn two_ship_configs(config: &mut PipelineConfig) -> anyhow::Result<PipelineConfi
     Ok(target)
 }
 
+/// The configuration handed to the children: readable by the owner only (it may hold a
+/// password or an inline private key), never written through a symlink.
 fn write_config(config: &PipelineConfig, path: &Path) -> anyhow::Result<()> {
-    std::fs::write(path, config.to_toml()?).with_context(|| format!("writing {}", path.display()))
+    let (Some(dir), Some(name)) = (path.parent(), path.file_name().and_then(|n| n.to_str()))
+    else {
+        anyhow::bail!("writing {}: not a file path", path.display());
+    };
+    crate::private_files::write_new(dir, name, &config.to_toml()?, true).map(|_| ())
 }
 
 /// What `run` starts, every value checked: built from [`Args`] by [`Config::try_from`] (the
@@ -403,12 +409,16 @@ impl TryFrom<Args> for Config {
         };
         let limit = args.common.duration()?;
         // Created last: a refused flag must not leave an empty directory behind.
+        // The default is a new directory only this user can enter: a fixed name under the
+        // shared temp dir could be made in advance by another user, with symlinks in it.
         let log_dir = match args.log_dir {
-            Some(d) => d,
-            None => std::env::temp_dir().join(format!("shipcast-run-{}", std::process::id())),
+            Some(d) => {
+                std::fs::create_dir_all(&d)
+                    .with_context(|| format!("creating {}", d.display()))?;
+                d
+            }
+            None => crate::private_files::new_private_temp_dir("shipcast-run")?,
         };
-        std::fs::create_dir_all(&log_dir)
-            .with_context(|| format!("creating {}", log_dir.display()))?;
         Ok(Config {
             two_ship: args.two_ship || pipeline.relative.two_ship,
             pipeline,
