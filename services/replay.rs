@@ -189,6 +189,10 @@ fn table(r: &ReplayReport) -> String {
         r.input.rejected_nonfinite + r.input.rejected_order,
         r.counts.model_failures
     ));
+    s.push_str(&format!(
+        "leads from the forecast's time_s; its newest sample is {} s later\n",
+        limits::shown(r.delay_s)
+    ));
     s.push_str("dof     lead  rms      nrmse  persist  sigma    cov1   cov2\n");
     for d in &r.dofs {
         for lead in TABLE_LEADS {

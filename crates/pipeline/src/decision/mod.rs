@@ -175,6 +175,32 @@ impl Tracks {
             self.sigma[3][k] = var.max(0.0).sqrt() / span;
         }
     }
+
+    /// Central differences for the deck velocity at the first and last step of recorded values
+    /// (filled by [`Self::fill`]), from the recorded DOF values one step before the first
+    /// (`before`, at the forecast's `time_s`) and one after the last (`after`), where given.
+    /// A one-sided difference at an end is the velocity half a step away from that step's
+    /// time, so whether a limit held there would be judged on another instant than inside
+    /// the window. Only for judging what happened: a forecast's own tracks, and the errors
+    /// taken against them, keep the one-sided ends both share.
+    pub fn central_ends(
+        &mut self,
+        point: &ShipPoint,
+        before: Option<&[f64; 6]>,
+        after: Option<&[f64; 6]>,
+    ) {
+        let steps = self.steps;
+        if steps < 2 || self.dt_s.is_nan() || self.dt_s <= 0.0 {
+            return;
+        }
+        let z = |dof: &[f64; 6]| -point.displacement(*dof).z;
+        if let Some(b) = before {
+            self.mean[3][0] = (self.mean[2][1] - z(b)) / (2.0 * self.dt_s);
+        }
+        if let Some(a) = after {
+            self.mean[3][steps - 1] = (z(a) - self.mean[2][steps - 2]) / (2.0 * self.dt_s);
+        }
+    }
 }
 
 /// The standardised errors u = (actual - mean) / sigma of a forecast's tracks against what
@@ -332,6 +358,20 @@ impl Decider {
         out.fill(&self.point, actual, 0.0);
     }
 
+    /// `judged`: a copy of `actual` (tracks from [`Self::fill_tracks`]) with central velocity
+    /// differences at its ends ([`Tracks::central_ends`]): what happened, as the limits are
+    /// judged on it.
+    pub fn judged_tracks(
+        &self,
+        actual: &Tracks,
+        before: Option<&[f64; 6]>,
+        after: Option<&[f64; 6]>,
+        judged: &mut Tracks,
+    ) {
+        judged.clone_from(actual);
+        judged.central_ends(&self.point, before, after);
+    }
+
     pub fn ensemble(&self) -> &ErrorEnsemble {
         &self.ensemble
     }
@@ -419,8 +459,14 @@ impl Decider {
     /// `raw`, a probability of a window of `len` steps of the loaded forecast, corrected by
     /// the verified statements of that length (when it comes from the ensemble).
     pub fn corrected(&self, len: usize, raw: f64) -> f64 {
+        self.corrected_for(len, raw, self.go_probability)
+    }
+
+    /// [`Self::corrected`] as a deck configured with go threshold `go_probability` would
+    /// correct it (never raised to that threshold): replay's curve of thresholds.
+    pub fn corrected_for(&self, len: usize, raw: f64, go_probability: f64) -> f64 {
         match self.record(len) {
-            Some(r) if self.from_ensemble => r.correct(raw, self.go_probability),
+            Some(r) if self.from_ensemble => r.correct(raw, go_probability),
             _ => raw,
         }
     }

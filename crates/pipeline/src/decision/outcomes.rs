@@ -45,6 +45,9 @@ pub struct Outcomes {
     waiting_capacity: usize,
     actual: Box<Forecast>,
     actual_tracks: Box<Tracks>,
+    /// `actual_tracks` with central velocity differences at its ends: what a window's
+    /// outcome is judged on.
+    judged_tracks: Box<Tracks>,
     pub counts: OutcomeCounts,
 }
 
@@ -72,6 +75,7 @@ impl Outcomes {
             waiting_capacity,
             actual: Box::default(),
             actual_tracks: Box::default(),
+            judged_tracks: Box::default(),
             counts: OutcomeCounts::default(),
         }
     }
@@ -127,7 +131,22 @@ impl Outcomes {
                 decider.fill_tracks(&self.actual, &mut self.actual_tracks);
                 decider.verify(&w.predicted, &self.actual_tracks);
                 if let Some((n, p)) = w.raw_now {
-                    let held = decider.window_held(&self.actual_tracks, n);
+                    // At the precision of the steps' values (f32), for the differences.
+                    let record_at = |t: f64| {
+                        self.samples
+                            .dof_at(t)
+                            .map(|dof| dof.map(|v| f64::from(v as f32)))
+                    };
+                    let dt = w.predicted.dt_s;
+                    let before = record_at(w.time_s);
+                    let after = record_at(w.time_s + (w.predicted.steps + 1) as f64 * dt);
+                    decider.judged_tracks(
+                        &self.actual_tracks,
+                        before.as_ref(),
+                        after.as_ref(),
+                        &mut self.judged_tracks,
+                    );
+                    let held = decider.window_held(&self.judged_tracks, n);
                     decider.add_outcome(n, p, held);
                 }
                 self.counts.verified += 1;

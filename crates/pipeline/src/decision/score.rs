@@ -7,7 +7,12 @@
 //! - a quiet period is a maximal run of record steps (on the forecast grid) in which every limit
 //!   holds, of at least MOT; it is hit when some forecast issued at least `LEAD_S` before it
 //!   began announced a go window (its first window with p at or above the threshold) lying
-//!   inside it;
+//!   inside it. A forecast is issued with its newest sample, `delay_s` after its `time_s`;
+//! - each point of the curve of thresholds is what a deck configured with that threshold
+//!   would have said: its statements corrected as that deck corrects them (never raised to
+//!   its threshold);
+//! - whether a limit held is judged on the record with central differences for the deck
+//!   velocity at every step (`Tracks::central_ends`);
 //! - the error correlation is estimated causally: a forecast's errors join the estimate only
 //!   once its whole horizon has happened.
 
@@ -110,7 +115,7 @@ struct Threshold {
     value: f64,
     go: u64,
     false_go: u64,
-    /// Announced window start (grid index) -> earliest issue time [s].
+    /// Announced window start (grid index) -> earliest issue time (newest sample) [s].
     announced: BTreeMap<i64, f64>,
 }
 
@@ -126,6 +131,16 @@ struct PerMot {
     /// Per false go at the configured threshold: worst |actual| / limit over the window, the
     /// first exceeded step, and the quantity that broke worst there.
     false_go: Vec<(f64, usize, usize)>,
+}
+
+/// What happened over one forecast's horizon, from the record.
+pub struct Happened<'a> {
+    /// The record's values at the forecast's steps, in `mean` (same steps and dt).
+    pub at_steps: &'a Forecast,
+    /// The record's values at the forecast's `time_s` and one step past its horizon, where
+    /// the record has them (the deck velocity's central difference at the end steps).
+    pub before: Option<[f64; 6]>,
+    pub after: Option<[f64; 6]>,
 }
 
 struct Pending {
@@ -148,16 +163,23 @@ pub struct DecisionScorer {
     correlation: ErrorCorrelation,
     pending: VecDeque<Pending>,
     actual: Box<Tracks>,
+    /// `actual` with central velocity differences at its ends: what the limits are judged on.
+    judged: Box<Tracks>,
     /// Record grid index -> every limit held at that step.
     grid: BTreeMap<i64, bool>,
+    /// From a forecast's `time_s` to its issue (its newest sample) [s].
+    issue_delay_s: f64,
     dt_s: f64,
-    first_s: f64,
+    /// Issue time of the first scored forecast [s].
+    first_issued_s: f64,
     last_s: f64,
-    horizon_s: f64,
+    horizon_steps: usize,
 }
 
 impl DecisionScorer {
-    pub fn new(station: &str, config: &DeckConfig, mots: &[f64]) -> Self {
+    /// Scores for `mots`, of forecasts issued `issue_delay_s` after their `time_s` (the
+    /// engine's decimation delay).
+    pub fn new(station: &str, config: &DeckConfig, mots: &[f64], issue_delay_s: f64) -> Self {
         let per_mot = mots
             .iter()
             .map(|&mot| {
@@ -187,11 +209,17 @@ impl DecisionScorer {
             correlation: ErrorCorrelation::new(config.error_correlation),
             pending: VecDeque::new(),
             actual: Box::default(),
+            judged: Box::default(),
             grid: BTreeMap::new(),
+            issue_delay_s: if issue_delay_s.is_finite() {
+                issue_delay_s.max(0.0)
+            } else {
+                0.0
+            },
             dt_s: f64::NAN,
-            first_s: f64::NAN,
+            first_issued_s: f64::NAN,
             last_s: f64::NAN,
-            horizon_s: 0.0,
+            horizon_steps: 0,
         }
     }
 
@@ -205,9 +233,10 @@ impl DecisionScorer {
         &mut self.decider
     }
 
-    /// Score one forecast; `actual` holds the record's values at the forecast's steps in its
-    /// `mean` (same steps and dt).
-    pub fn observe(&mut self, forecast: &Forecast, actual: &Forecast) {
+    /// Score one forecast against what `happened`. Every forecast is observed, so that the
+    /// decider learns from it as the live deck would; only `counted` ones are scored (replay's
+    /// `--skip-s`).
+    pub fn observe(&mut self, forecast: &Forecast, happened: &Happened, counted: bool) {
         let t0 = forecast.time_s;
         let dt = forecast.dt_s;
         if dt.is_nan() || dt <= 0.0 || !t0.is_finite() {
@@ -232,7 +261,13 @@ impl DecisionScorer {
         decider.set_error_correlation(self.correlation.rho());
         decider.set_error_matrices(&self.correlation, forecast.valid_steps());
         decider.load(forecast);
-        decider.fill_tracks(actual, &mut self.actual);
+        decider.fill_tracks(happened.at_steps, &mut self.actual);
+        decider.judged_tracks(
+            &self.actual,
+            happened.before.as_ref(),
+            happened.after.as_ref(),
+            &mut self.judged,
+        );
         let steps = decider.tracks().steps.min(self.actual.steps);
         // Whether every limit held at each step, and the standardised errors.
         let mut ok = [false; MAX_STEPS];
@@ -241,20 +276,22 @@ impl DecisionScorer {
         let mut z = Box::new([[f64::NAN; MAX_STEPS]; NUM_QUANTITIES]);
         standardised_means(decider.tracks(), &mut z);
         for (k, held) in ok.iter_mut().enumerate().take(steps) {
-            *held = decider.step_held(&self.actual, k);
+            *held = decider.step_held(&self.judged, k);
         }
-
-        // Interior steps only: the end steps' velocity is a one-sided difference.
-        for (k, &held) in ok.iter().enumerate().take(steps.saturating_sub(1)).skip(1) {
-            let g = ((t0 + (k + 1) as f64 * dt) / dt).round() as i64;
-            self.grid.entry(g).or_insert(held);
+        let issued = t0 + self.issue_delay_s;
+        if counted {
+            // Interior steps only: an end step's velocity is one-sided where the record ends.
+            for (k, &held) in ok.iter().enumerate().take(steps.saturating_sub(1)).skip(1) {
+                let g = ((t0 + (k + 1) as f64 * dt) / dt).round() as i64;
+                self.grid.entry(g).or_insert(held);
+            }
+            if self.first_issued_s.is_nan() {
+                self.first_issued_s = issued;
+                self.dt_s = dt;
+            }
+            self.last_s = t0;
+            self.horizon_steps = steps;
         }
-        if self.first_s.is_nan() {
-            self.first_s = t0;
-            self.dt_s = dt;
-        }
-        self.last_s = t0;
-        self.horizon_s = steps as f64 * dt;
         let mut calls = Vec::with_capacity(self.per_mot.len());
         // A go (now or announced) only where the live decider could say one.
         let may_go = decider.may_go();
@@ -272,27 +309,35 @@ impl DecisionScorer {
             if decider.uses_ensemble() {
                 calls.push((n, raw, held));
             }
+            if !counted {
+                continue;
+            }
             m.reliability.record(t0, p, held);
             if may_go && !held && p >= m.thresholds[m.default_index].value {
                 m.false_go
-                    .push(window_excess(decider.limits(), &self.actual, n));
+                    .push(window_excess(decider.limits(), &self.judged, n));
             }
+            // Uncorrected: each threshold's deck corrects them its own way.
             m.candidates.clear();
             for s in (0..=steps - n).filter(|_| may_go) {
                 if decider.mean_holds(s, n) {
-                    m.candidates.push((s, decider.window_probability(s, n)));
+                    m.candidates.push((s, decider.raw_window_probability(s, n)));
                 }
             }
             for (j, th) in m.thresholds.iter_mut().enumerate() {
-                if may_go && p >= th.value {
+                if may_go && decider.corrected_for(n, raw, th.value) >= th.value {
                     th.go += 1;
                     th.false_go += u64::from(!held);
                 }
-                let Some(&(s, _)) = m.candidates.iter().find(|c| c.1 >= th.value) else {
+                let Some(&(s, _)) = m
+                    .candidates
+                    .iter()
+                    .find(|c| decider.corrected_for(n, c.1, th.value) >= th.value)
+                else {
                     continue;
                 };
                 let g = ((t0 + (s + 1) as f64 * dt) / dt).round() as i64;
-                th.announced.entry(g).or_insert(t0);
+                th.announced.entry(g).or_insert(issued);
                 if j == m.default_index && s > 0 {
                     m.announced_go += 1;
                     m.announced_false += u64::from(!holds(s));
@@ -331,15 +376,18 @@ impl DecisionScorer {
             .map(|m| {
                 // No forecast seen (dt unknown): no window, and nothing below uses n.
                 let n = i64::try_from(window_steps(m.mot_s, dt)).unwrap_or(0);
-                // Periods a forecast could have announced LEAD_S ahead within its horizon.
+                // Periods a forecast could have announced LEAD_S ahead within its horizon
+                // (none when a window of MOT does not fit the horizon: no hit rate).
+                let fits = n as usize <= self.horizon_steps;
+                let horizon_s = self.horizon_steps as f64 * dt;
                 let periods: Vec<(i64, i64)> = runs
                     .iter()
                     .copied()
                     .filter(|&(a, b)| {
                         let start = a as f64 * dt;
-                        b - a + 1 >= n
-                            && start - LEAD_S >= self.first_s
-                            && start <= self.last_s + self.horizon_s - (n as f64) * dt
+                        fits && b - a + 1 >= n
+                            && start - LEAD_S >= self.first_issued_s
+                            && start <= self.last_s + horizon_s - (n as f64) * dt
                     })
                     .collect();
                 let hit_with_lead = |th: &Threshold, lead_s: f64| {
@@ -348,7 +396,7 @@ impl DecisionScorer {
                         .filter(|&&(a, b)| {
                             th.announced
                                 .range(a..=b + 1 - n)
-                                .any(|(_, &t0)| t0 <= a as f64 * dt - lead_s + 1e-9)
+                                .any(|(_, &issued)| issued <= a as f64 * dt - lead_s + 1e-9)
                         })
                         .count() as u64;
                     rate(hits, periods.len() as u64)
@@ -473,14 +521,56 @@ mod tests {
     }
 
     fn score(config: &DeckConfig, forecast: impl Fn(f64) -> f64) -> Vec<DecisionReport> {
-        let mut scorer = DecisionScorer::new("deck", config, &[10.0, 30.0]);
+        score_issued(config, forecast, 0.0)
+    }
+
+    /// [`score`] of forecasts issued `delay_s` after their `time_s`.
+    fn score_issued(
+        config: &DeckConfig,
+        forecast: impl Fn(f64) -> f64,
+        delay_s: f64,
+    ) -> Vec<DecisionReport> {
+        let mut scorer = DecisionScorer::new("deck", config, &[10.0, 30.0], delay_s);
         let mut t0 = 0.0;
         while t0 < 1000.0 {
             let f = roll_forecast(t0, &forecast, 0.01);
-            scorer.observe(&f, &roll_forecast(t0, quiet_then_rough, 0.0));
+            let truth = roll_forecast(t0, quiet_then_rough, 0.0);
+            let happened = Happened {
+                at_steps: &truth,
+                before: None,
+                after: None,
+            };
+            scorer.observe(&f, &happened, true);
             t0 += 0.5;
         }
         scorer.finish()
+    }
+
+    /// Regression: the 5 s of the hit rate were counted from a forecast's `time_s`, which lies
+    /// the decimation delay before its newest sample, i.e. before it could be issued. A
+    /// period first announced by a go issued less than 5 s before it began is a miss.
+    #[test]
+    fn the_lead_of_an_announcement_counts_from_its_issue() {
+        let config = DeckConfig {
+            point_m: [0.0; 3],
+            ..DeckConfig::default()
+        };
+        // A 10 s window (20 steps) fits the 20 s horizon when it begins at most 10.5 s after
+        // the forecast's time_s: the first forecast to announce a period comes 10.5 s before
+        // it begins. Issued 6 s after its time_s, that is 4.5 s ahead: a miss at 5 s, a hit
+        // at 3 s, as on time.
+        let on_time = &score(&config, quiet_then_rough)[0];
+        let late = &score_issued(&config, quiet_then_rough, 6.0)[0];
+        assert_eq!(late.quiet_periods, on_time.quiet_periods);
+        assert!(on_time.hit_rate > 0.5, "{on_time:?}");
+        assert_eq!(late.hit_rate, 0.0, "{late:?}");
+        let by_lead = |r: &DecisionReport| {
+            let i = r.curve.iter().position(|c| c.threshold == r.go_probability);
+            r.curve[i.unwrap()].hit_rate_by_lead
+        };
+        let three_s = HIT_LEADS_S.iter().position(|&l| l == 3.0).unwrap();
+        assert_eq!(by_lead(late)[three_s], by_lead(on_time)[three_s]);
+        assert_eq!(by_lead(on_time)[three_s], on_time.hit_rate);
     }
 
     #[test]
@@ -581,9 +671,10 @@ mod tests {
             assert!((b.stated - 11.0 / 40.0).abs() < 0.1, "{b:?}");
             assert!((b.observed - b.stated).abs() < 0.1, "{b:?}");
         }
-        // MOT 30 s does not fit a 20 s horizon: no calls.
+        // MOT 30 s does not fit a 20 s horizon: no calls, no quiet period to hit.
         assert_eq!(r[1].calls, 0);
         assert!(r[1].false_go_rate.is_nan());
+        assert!(r[1].hit_rate.is_nan());
         // By default go needs verified errors: the blind forecast never says go.
         let config = DeckConfig {
             go_needs_verified_errors: true,

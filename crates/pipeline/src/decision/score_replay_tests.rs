@@ -138,29 +138,34 @@ fn replay_scores_decisions_for_both_mots() {
         ..DeckConfig::default()
     };
     let config = PredictorServiceConfig::default();
-    let (report, _) =
-        replay_scored(&data, &config, None, 200.0, false, Some(&deck), &|_| {}).unwrap();
+    let (report, forecasts) =
+        replay_scored(&data, &config, None, 200.0, true, Some(&deck), &|_| {}).unwrap();
     let [mot10, mot30] = &report.decisions[..] else {
         panic!("{:?}", report.decisions);
     };
     assert_eq!((mot10.mot_s, mot30.mot_s), (10.0, 30.0));
     // Calls begin once verified errors back a probability: the MIN_MEMBERS-th kept member
-    // of the forecasts scored from 200 s on (one in DEFAULT_STRIDE, 0.5 s apart) is
-    // verified when its 25 s horizon has happened. They run, 2 a second, to the last
-    // forecast whose horizon lies in the 1000 s record (975 s).
-    let ready = 200.0
+    // of the forecasts (one in DEFAULT_STRIDE, 0.5 s apart, from the first one on: the deck
+    // learns before --skip-s too, as the live deck would have) is verified when its 25 s
+    // horizon has happened; they are scored from 200 s on. They run, 2 a second, to the
+    // last forecast whose horizon lies in the 1000 s record (975 s).
+    let first = forecasts.first().map(|f| f.time_s).unwrap();
+    let ready = first
         + ((crate::decision::ensemble::MIN_MEMBERS - 1) * crate::decision::ensemble::DEFAULT_STRIDE)
             as f64
             * 0.5
         + 25.5;
+    assert!(ready > 200.0, "{ready}");
     let expected = 2.0 * (975.0 - ready);
     assert!(
         (mot10.calls as f64 - expected).abs() <= 10.0,
         "{} calls, {expected} expected",
         mot10.calls
     );
-    // The default 25 s horizon holds no 30 s window.
+    // The default 25 s horizon holds no 30 s window: no call, and no hit rate either.
     assert_eq!(mot30.calls, 0);
+    assert_eq!(mot30.quiet_periods, 0);
+    assert!(mot30.hit_rate.is_nan(), "{mot30:?}");
     let counted: u64 = mot10.reliability.iter().map(|b| b.count).sum();
     assert_eq!(counted, mot10.calls);
     for b in mot10.reliability.iter().filter(|b| b.count > 0) {
@@ -172,4 +177,25 @@ fn replay_scores_decisions_for_both_mots() {
     let (plain, _) =
         crate::engine::replay::replay(&data, &config, None, 200.0, false, &|_| {}).unwrap();
     assert!(plain.decisions.is_empty());
+}
+
+/// Regression: with `--skip-s`, the deck's error ensemble and corrections started from nothing
+/// at the skip, unlike the deck the service would have run; the first ~6 minutes after it
+/// had no call. Now the deck learns from the whole record and only the scoring starts late:
+/// every forecast scored after a skip beyond the ensemble's start-up is a call.
+#[test]
+fn a_skipped_stretch_still_teaches_the_deck() {
+    let data = ar2_heave(2 * 1200, 7);
+    let deck = DeckConfig {
+        point_m: [0.0; 3],
+        vertical_displacement_limit_m: 1.0,
+        vertical_velocity_limit_mps: 10.0,
+        ..DeckConfig::default()
+    };
+    let config = PredictorServiceConfig::default();
+    let (report, _) =
+        replay_scored(&data, &config, None, 700.0, false, Some(&deck), &|_| {}).unwrap();
+    let mot10 = &report.decisions[0];
+    assert!(report.dofs[0].scored > 500, "{:?}", report.dofs[0].scored);
+    assert_eq!(mot10.calls, report.dofs[0].scored, "{mot10:?}");
 }

@@ -160,3 +160,73 @@ fn deck_velocity_sigma_uses_the_step_correlation() {
     t.fill(&point, &f, 0.5);
     assert!((t.sigma[3][5] - 0.1 * (2.0f64 - 2.0 * 0.25).sqrt()).abs() < 1e-7);
 }
+
+/// Regression: whether a limit held over a window was judged on a one-sided difference for
+/// the deck velocity at its first step, the velocity half a step later. With the recorded
+/// values on either side, both end steps take the central difference: exact for a quadratic.
+#[test]
+fn the_velocity_at_the_end_steps_of_what_happened_is_a_central_difference() {
+    // Heave h = t^2 at t = 0.5, 1.0, ..., 5.0 (dt 0.5); the deck point's vertical is -h, so
+    // its velocity is -2t.
+    let mut f = forecast(10, |_| 0.0, 0.0);
+    for k in 0..10 {
+        let t = 0.5 * (k + 1) as f64;
+        f.mean[HEAVE][k] = (t * t) as f32;
+    }
+    let point = ShipPoint::new([0.0; 3]);
+    let mut t = Tracks::default();
+    t.fill(&point, &f, 0.0);
+    // One-sided at the ends: the velocity 0.25 s into the step or before it.
+    assert!((t.mean[3][0] - -1.5).abs() < 1e-6, "{}", t.mean[3][0]);
+    assert!((t.mean[3][9] - -9.5).abs() < 1e-6, "{}", t.mean[3][9]);
+    let heave_at = |t: f64| {
+        let mut dof = [0.0; 6];
+        dof[HEAVE] = t * t;
+        dof
+    };
+    t.central_ends(&point, Some(&heave_at(0.0)), Some(&heave_at(5.5)));
+    assert!((t.mean[3][0] - -1.0).abs() < 1e-6, "{}", t.mean[3][0]);
+    assert!((t.mean[3][9] - -10.0).abs() < 1e-6, "{}", t.mean[3][9]);
+    // Interior steps were central already, and stay as they were.
+    assert!((t.mean[3][4] - -5.0).abs() < 1e-6, "{}", t.mean[3][4]);
+    // Without the neighbours, the ends stay one-sided.
+    t.fill(&point, &f, 0.0);
+    t.central_ends(&point, None, None);
+    assert!((t.mean[3][0] - -1.5).abs() < 1e-6);
+}
+
+/// Replay's curve of thresholds asks what a deck with each threshold would have stated: the
+/// correction of a statement never raises it to that deck's threshold, whichever it is.
+#[test]
+fn a_statement_is_corrected_below_the_threshold_it_is_compared_with() {
+    let config = DeckConfig {
+        go_needs_verified_errors: true,
+        ..config(5.0)
+    };
+    let mut decider = Decider::new(&config);
+    let mut u = [[0.0; MAX_STEPS]; NUM_QUANTITIES];
+    u[0] = [3.0; MAX_STEPS];
+    for _ in 0..ensemble::MIN_MEMBERS * ensemble::DEFAULT_STRIDE {
+        decider.add_verified(&u, &[[0.0; MAX_STEPS]; NUM_QUANTITIES], 40);
+    }
+    let n = window_steps(5.0, 0.5);
+    // Windows stated at 0.5 that always held: the correction pulls 0.5 far up.
+    for _ in 0..2000 {
+        decider.add_outcome(n, 0.5, true);
+    }
+    decider.decide(&forecast(40, |_| 1.0, 0.1f64.to_radians() as f32));
+    assert!(decider.uses_ensemble());
+    let at_default = decider.corrected(n, 0.5);
+    assert!(
+        at_default > 0.9 && at_default < config.go_probability,
+        "{at_default}"
+    );
+    for threshold in [0.6, 0.7, 0.9] {
+        let p = decider.corrected_for(n, 0.5, threshold);
+        assert!(p > 0.5 && p < threshold, "{threshold}: {p}");
+    }
+    assert_eq!(
+        decider.corrected_for(n, 0.5, config.go_probability),
+        at_default
+    );
+}

@@ -10,7 +10,7 @@
 use super::retrain::Retrainer;
 use super::{Engine, EngineCounts};
 use crate::config::{DeckConfig, PredictorServiceConfig};
-use crate::decision::score::{DecisionReport, DecisionScorer};
+use crate::decision::score::{DecisionReport, DecisionScorer, Happened};
 use crate::decision::statements_file::StatementsKeeper;
 use crate::engine::models::ModelSet;
 use crate::transport::counters::Counters;
@@ -54,6 +54,9 @@ pub const TRACE_LEAD_S: f64 = 10.0;
 pub struct ReplayReport {
     pub input_rate_hz: f64,
     pub dt_s: f64,
+    /// From a forecast's `time_s` to its newest sample (the decimation filter's delay) [s]:
+    /// step k lies k * dt_s - delay_s after the newest sample.
+    pub delay_s: f64,
     pub counts: EngineCounts,
     /// The record's samples as the engine took them: received, missing (gaps in time; runs
     /// of up to `MAX_FILL` bridged by holding the last value, longer ones restart the
@@ -164,13 +167,6 @@ pub fn replay_scored(
     progress: &dyn Fn(u64),
 ) -> anyhow::Result<(ReplayReport, Vec<Forecast>)> {
     let dt = 1.0 / config.sample_rate_hz;
-    let mut scorer = deck.map(|d| DecisionScorer::new("deck", d, &DECISION_MOTS_S));
-    // A deck that keeps its statements across runs starts from them here too, and leaves
-    // this run's behind (docs/decisions.md).
-    let mut keeper = match (deck.and_then(|d| d.statements_file.as_deref()), &mut scorer) {
-        (Some(path), Some(scorer)) => Some(StatementsKeeper::open(path, dt, scorer.decider_mut())?),
-        _ => None,
-    };
     let mut actual = Box::<Forecast>::default();
     let rate = record_rate(&data.time, config.sample_rate_hz)?;
     let mut engine = Engine::new(
@@ -183,6 +179,13 @@ pub fn replay_scored(
     let columns: Vec<Option<&[f64]>> = Dof::ALL.iter().map(|&d| data.dof(d).ok()).collect();
     let step_in = 1.0 / rate;
     let delay = engine.delay_s();
+    let mut scorer = deck.map(|d| DecisionScorer::new("deck", d, &DECISION_MOTS_S, delay));
+    // A deck that keeps its statements across runs starts from them here too, and leaves
+    // this run's behind (docs/decisions.md).
+    let mut keeper = match (deck.and_then(|d| d.statements_file.as_deref()), &mut scorer) {
+        (Some(path), Some(scorer)) => Some(StatementsKeeper::open(path, dt, scorer.decider_mut())?),
+        _ => None,
+    };
     let mut sums = vec![[StepSums::default(); MAX_STEPS]; NUM_DOF];
     let mut max_abs = [0.0f64; NUM_DOF];
     let trace_k = ((TRACE_LEAD_S / dt).round() as usize).max(1) - 1;
@@ -212,7 +215,9 @@ pub fn replay_scored(
         if keep_forecasts {
             kept.push(*f);
         }
-        if f.time_s < skip_s {
+        // Before `skip_s` a forecast is not scored, but the deck still learns from it.
+        let counted = f.time_s >= skip_s;
+        if !counted && scorer.is_none() {
             continue;
         }
         let steps = f.steps as usize;
@@ -229,7 +234,6 @@ pub fn replay_scored(
         }
         // The newest sample the forecast used is persistence's forecast.
         let last = sample_at(&data.time, f.time_s + delay, step_in).unwrap_or(i);
-        scored += 1;
         if let Some(scorer) = scorer.as_mut() {
             actual.time_s = f.time_s;
             actual.dt_s = f.dt_s;
@@ -239,8 +243,23 @@ pub fn replay_scored(
                     actual.mean[d][k] = column.map_or(0.0, |c| c[j] as f32);
                 }
             }
-            scorer.observe(f, &actual);
+            // At the precision of the steps' values (f32), for the velocity's differences.
+            let record_at = |t: f64| {
+                sample_at(&data.time, t, step_in).map(|j| {
+                    std::array::from_fn(|d| columns[d].map_or(0.0, |c| f64::from(c[j] as f32)))
+                })
+            };
+            let happened = Happened {
+                at_steps: &actual,
+                before: record_at(f.time_s),
+                after: record_at(f.time_s + (steps + 1) as f64 * dt),
+            };
+            scorer.observe(f, &happened, counted);
         }
+        if !counted {
+            continue;
+        }
+        scored += 1;
         for &dof in &present {
             let d = dof.index();
             let Some(col) = columns[d] else { continue };
@@ -314,6 +333,7 @@ pub fn replay_scored(
         ReplayReport {
             input_rate_hz: rate,
             dt_s: dt,
+            delay_s: delay,
             counts,
             input,
             dofs,

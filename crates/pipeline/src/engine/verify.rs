@@ -14,6 +14,7 @@ const PP: usize = 3;
 const IN1: usize = 4;
 const IN2: usize = 5;
 const SS: usize = 6;
+const SX: usize = 7;
 
 /// One issued forecast, kept until its last step has been scored.
 #[derive(Debug, Clone)]
@@ -99,7 +100,7 @@ impl ForecastLog {
 /// Rolling scores of the delivered forecasts.
 #[derive(Debug, Clone)]
 pub struct Verifier {
-    sums: RollingSums<7>,
+    sums: RollingSums<8>,
 }
 
 impl Verifier {
@@ -127,6 +128,7 @@ impl Verifier {
                 f64::from(u8::from(a <= sigma)),
                 f64::from(u8::from(a <= 2.0 * sigma)),
                 sigma * sigma,
+                x,
             ],
         );
     }
@@ -160,6 +162,10 @@ impl Verifier {
                 let frac = |a: f64| if n > 0.0 { a / n } else { f64::NAN };
                 s.coverage_1sigma.push(frac(v[IN1]));
                 s.coverage_2sigma.push(frac(v[IN2]));
+                // About the window's mean: a list or trim is motion the forecast need not
+                // find, and would make a forecast look skilful for longer.
+                let mean = frac(v[SX]);
+                s.std.push(frac(v[XX] - n * mean * mean).max(0.0).sqrt());
             }
             if s.scored.iter().all(|&n| n == 0) {
                 continue;
@@ -171,7 +177,7 @@ impl Verifier {
                 .zip(&s.persistence_rms)
                 .map(|(a, b)| a / b)
                 .collect();
-            s.skill_horizon_s = skill_horizon(&s.rms, &s.zero_rms, dt_s);
+            s.skill_horizon_s = skill_horizon(&s.rms, &s.std, dt_s);
             dofs.push(s);
         }
         VerificationReport {
@@ -182,10 +188,11 @@ impl Verifier {
     }
 }
 
-/// Lead [s] up to which the error stays below 70 % of the motion's RMS: the first step that
-/// reaches it ends the trustworthy horizon (0 if step 1 already does; the whole horizon if none).
-pub fn skill_horizon(rms: &[f64], zero_rms: &[f64], dt_s: f64) -> f64 {
-    for (k, (e, z)) in rms.iter().zip(zero_rms).enumerate() {
+/// Lead [s] up to which the error stays below 70 % of the motion's std (per step, over the
+/// window): the first step that reaches it ends the trustworthy horizon (0 if step 1 already
+/// does; the whole horizon if none).
+pub fn skill_horizon(rms: &[f64], std: &[f64], dt_s: f64) -> f64 {
+    for (k, (e, z)) in rms.iter().zip(std).enumerate() {
         // A NaN error (nothing scored) ends the horizon too.
         if e.is_nan() || *e >= 0.7 * z {
             return k as f64 * dt_s;
@@ -216,7 +223,9 @@ pub struct DofVerification {
     pub mean_sigma: Vec<f64>,
     pub coverage_1sigma: Vec<f64>,
     pub coverage_2sigma: Vec<f64>,
-    /// Lead at which the live error reaches 70 % of the motion's RMS.
+    /// The motion's standard deviation about its mean over the window, at each step's values.
+    pub std: Vec<f64>,
+    /// Lead at which the live error reaches 70 % of the motion's std.
     pub skill_horizon_s: f64,
 }
 
@@ -256,6 +265,31 @@ mod tests {
         assert_eq!(d.coverage_2sigma[0], 1.0);
         assert!((d.rms[0] - (1.25f64).sqrt()).abs() < 1e-12);
         assert_eq!(d.mean_sigma[0], 1.0);
+        // The values 0.5 and 1.5 (forecast 0): mean 1, std 0.5.
+        assert!((d.std[0] - 0.5).abs() < 1e-12, "{}", d.std[0]);
+    }
+
+    /// Regression: the skill horizon compared the error with the motion's RMS about zero, so
+    /// a list (a constant the forecast carries) lengthened it without any gain in skill.
+    #[test]
+    fn a_list_does_not_lengthen_the_skill_horizon() {
+        let horizon_with_list = |list: f64| {
+            let mut v = Verifier::new(10_000);
+            // A sine of amplitude 1 (std 0.71) about `list`, forecast with an error growing
+            // with the step: 0.1, 0.3, 0.5, 0.7 at steps 1 to 4.
+            for i in 0..2000 {
+                let x = list + (i as f64 * 0.37).sin();
+                for k in 0..4 {
+                    let e = 0.1 + 0.2 * k as f64;
+                    v.observe(0, k, x - e, 1.0, x, x);
+                }
+                v.tick();
+            }
+            v.report(4, 0.5, 1000.0).dofs[0].skill_horizon_s
+        };
+        // 70 % of the std 0.707 is 0.495: step 3's error 0.5 ends the horizon at 1.0 s.
+        assert_eq!(horizon_with_list(0.0), 1.0);
+        assert_eq!(horizon_with_list(3.0), 1.0);
     }
 
     #[test]
