@@ -180,7 +180,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             };
             last_forecast = Instant::now();
             waiting_reported = false;
-            let advisory = advisor.advise(&forecast);
+            // The motion at the forecast's time_s: the deck velocity's first step is then a
+            // central difference, like the outcome it is verified against.
+            let origin = outcomes.recorded_at(forecast.time_s);
+            let advisory = advisor.advise_from(&forecast, origin.as_ref());
             outcomes.push_decision(&forecast, advisor.decider());
             local.send(
                 &advisory

@@ -181,6 +181,12 @@ impl DeckAdvisor {
     }
 
     pub fn advise(&mut self, forecast: &Forecast) -> Advisory {
+        self.advise_from(forecast, None)
+    }
+
+    /// [`Self::advise`], deciding with the recorded values at the forecast's `time_s`
+    /// (`origin`, when the deck has them: [`Decider::decide_from`]).
+    pub fn advise_from(&mut self, forecast: &Forecast, origin: Option<&[f64; 6]>) -> Advisory {
         let steps = vertical_track(&self.point, forecast, &mut self.z_up, &mut self.z_sigma);
         let dt = forecast.dt_s;
         let mut advisory = Advisory {
@@ -191,7 +197,7 @@ impl DeckAdvisor {
             max_pitch_deg: 0.0,
             max_vertical_velocity_mps: 0.0,
             windows: Vec::new(),
-            decision: self.decider.decide(forecast),
+            decision: self.decider.decide_from(forecast, origin),
         };
         let mut open: Option<(usize, f64)> = None;
         for k in 0..=steps {

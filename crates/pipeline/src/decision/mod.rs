@@ -176,13 +176,15 @@ impl Tracks {
         }
     }
 
-    /// Central differences for the deck velocity at the first and last step of recorded values
-    /// (filled by [`Self::fill`]), from the recorded DOF values one step before the first
-    /// (`before`, at the forecast's `time_s`) and one after the last (`after`), where given.
-    /// A one-sided difference at an end is the velocity half a step away from that step's
-    /// time, so whether a limit held there would be judged on another instant than inside
-    /// the window. Only for judging what happened: a forecast's own tracks, and the errors
-    /// taken against them, keep the one-sided ends both share.
+    /// Central differences for the deck velocity at the first and last step (filled by
+    /// [`Self::fill`]), from the recorded DOF values one step before the first (`before`, at
+    /// the forecast's `time_s`, known when it is issued) and one after the last (`after`),
+    /// where given. A one-sided difference at an end is the velocity half a step away from
+    /// that step's time, so a limit there would be checked at another instant than the step's.
+    /// A forecast's tracks take `before` (a recorded value: no error of its own, so the first
+    /// step's velocity sigma is the second step's displacement sigma over 2 dt), and the
+    /// recorded tracks its errors are taken against take the same; whether a limit held is
+    /// judged with `after` too.
     pub fn central_ends(
         &mut self,
         point: &ShipPoint,
@@ -196,6 +198,7 @@ impl Tracks {
         let z = |dof: &[f64; 6]| -point.displacement(*dof).z;
         if let Some(b) = before {
             self.mean[3][0] = (self.mean[2][1] - z(b)) / (2.0 * self.dt_s);
+            self.sigma[3][0] = self.sigma[2][1] / (2.0 * self.dt_s);
         }
         if let Some(a) = after {
             self.mean[3][steps - 1] = (z(a) - self.mean[2][steps - 2]) / (2.0 * self.dt_s);
@@ -295,6 +298,8 @@ pub struct Decider {
     raw_now: Option<(usize, f64)>,
     /// Window lengths that have had an outcome in this run (never evicted for another).
     in_use: Vec<usize>,
+    /// The recorded values at the loaded forecast's `time_s`, if it was loaded with them.
+    origin: Option<[f64; 6]>,
 }
 
 /// Window lengths whose statements are recorded (a deck decides for one MOT; replay scores two).
@@ -327,6 +332,7 @@ impl Decider {
             records: Vec::with_capacity(MAX_RECORDS),
             in_use: Vec::with_capacity(MAX_RECORDS),
             raw_now: None,
+            origin: None,
         }
     }
 
@@ -354,22 +360,32 @@ impl Decider {
 
     /// The tracks of the recorded values in `actual.mean` (its sigma unused), as this
     /// decider's forecast tracks are made.
+    /// The origin the loaded forecast was loaded with ([`Self::load_from`]).
+    pub fn origin(&self) -> Option<[f64; 6]> {
+        self.origin
+    }
+
     pub fn fill_tracks(&self, actual: &Forecast, out: &mut Tracks) {
         out.fill(&self.point, actual, 0.0);
     }
 
-    /// `judged`: a copy of `actual` (tracks from [`Self::fill_tracks`]) with central velocity
-    /// differences at its ends ([`Tracks::central_ends`]): what happened, as the limits are
-    /// judged on it.
-    pub fn judged_tracks(
+    /// What happened over a forecast's horizon, as [`Self::fill_tracks`], with the recorded
+    /// values at its `time_s` (`before`) and one step past its horizon (`after`), where known:
+    /// `actual`, the tracks its errors are taken against (central at the first step, as the
+    /// forecast's own tracks loaded with the same `before`), and `judged`, central at both
+    /// ends, on which whether every limit held is judged ([`Tracks::central_ends`]).
+    pub fn fill_happened(
         &self,
-        actual: &Tracks,
+        recorded: &Forecast,
         before: Option<&[f64; 6]>,
         after: Option<&[f64; 6]>,
+        actual: &mut Tracks,
         judged: &mut Tracks,
     ) {
+        actual.fill(&self.point, recorded, 0.0);
+        actual.central_ends(&self.point, before, None);
         judged.clone_from(actual);
-        judged.central_ends(&self.point, before, after);
+        judged.central_ends(&self.point, None, after);
     }
 
     pub fn ensemble(&self) -> &ErrorEnsemble {
@@ -417,7 +433,16 @@ impl Decider {
 
     /// Load a forecast: its tracks and where their means break a limit.
     pub fn load(&mut self, forecast: &Forecast) {
+        self.load_from(forecast, None);
+    }
+
+    /// [`Self::load`] with the recorded DOF values at the forecast's `time_s` (`origin`), when
+    /// the caller has them: the deck velocity at the first step is then a central difference
+    /// like every other step's, not the velocity half a step later ([`Tracks::central_ends`]).
+    pub fn load_from(&mut self, forecast: &Forecast, origin: Option<&[f64; 6]>) {
         self.tracks.fill(&self.point, forecast, self.rho[2]);
+        self.tracks.central_ends(&self.point, origin, None);
+        self.origin = origin.copied();
         let t = &self.tracks;
         for k in 0..t.steps {
             let breaks = (0..NUM_QUANTITIES)
@@ -605,7 +630,12 @@ impl Decider {
 
     /// The decision for a forecast.
     pub fn decide(&mut self, forecast: &Forecast) -> Decision {
-        self.load(forecast);
+        self.decide_from(forecast, None)
+    }
+
+    /// [`Self::decide`] on the forecast loaded with its `origin` ([`Self::load_from`]).
+    pub fn decide_from(&mut self, forecast: &Forecast, origin: Option<&[f64; 6]>) -> Decision {
+        self.load_from(forecast, origin);
         let dt = self.tracks.dt_s;
         let steps = self.tracks.steps;
         let n = self.window_steps(dt);

@@ -17,6 +17,8 @@ use std::collections::VecDeque;
 /// carry its steps and dt).
 struct Waiting {
     time_s: f64,
+    /// The recorded values at `time_s` the forecast was loaded with, if any.
+    origin: Option<[f64; 6]>,
     predicted: Tracks,
     /// The decision's window length and uncorrected probability now, if from the ensemble.
     raw_now: Option<(usize, f64)>,
@@ -63,6 +65,7 @@ impl Outcomes {
             .map(|_| {
                 Box::new(Waiting {
                     time_s: f64::NAN,
+                    origin: None,
                     predicted: Tracks::default(),
                     raw_now: None,
                 })
@@ -95,6 +98,14 @@ impl Outcomes {
         verdict
     }
 
+    /// The recorded DOF values at record time `t` (at the precision of a forecast's values),
+    /// if a sample stands for it: a forecast's origin ([`Decider::decide_from`]).
+    pub fn recorded_at(&self, t: f64) -> Option<[f64; 6]> {
+        self.samples
+            .dof_at(t)
+            .map(|dof| dof.map(|v| f64::from(v as f32)))
+    }
+
     /// The forecast `decider` just decided on (its tracks are copied), to be verified once it
     /// has happened.
     pub fn push_decision(&mut self, forecast: &Forecast, decider: &Decider) {
@@ -108,6 +119,7 @@ impl Outcomes {
             return;
         };
         w.time_s = forecast.time_s;
+        w.origin = decider.origin();
         w.predicted.clone_from(decider.tracks());
         w.raw_now = decider.raw_now();
         self.waiting.push_back(w);
@@ -128,24 +140,19 @@ impl Outcomes {
                 break;
             };
             if self.fill_actual(&w) {
-                decider.fill_tracks(&self.actual, &mut self.actual_tracks);
+                // The origin the forecast was decided with (the errors at its first step are
+                // taken as its tracks were made), and the value past its horizon if here yet.
+                let dt = w.predicted.dt_s;
+                let after = self.recorded_at(w.time_s + (w.predicted.steps + 1) as f64 * dt);
+                decider.fill_happened(
+                    &self.actual,
+                    w.origin.as_ref(),
+                    after.as_ref(),
+                    &mut self.actual_tracks,
+                    &mut self.judged_tracks,
+                );
                 decider.verify(&w.predicted, &self.actual_tracks);
                 if let Some((n, p)) = w.raw_now {
-                    // At the precision of the steps' values (f32), for the differences.
-                    let record_at = |t: f64| {
-                        self.samples
-                            .dof_at(t)
-                            .map(|dof| dof.map(|v| f64::from(v as f32)))
-                    };
-                    let dt = w.predicted.dt_s;
-                    let before = record_at(w.time_s);
-                    let after = record_at(w.time_s + (w.predicted.steps + 1) as f64 * dt);
-                    decider.judged_tracks(
-                        &self.actual_tracks,
-                        before.as_ref(),
-                        after.as_ref(),
-                        &mut self.judged_tracks,
-                    );
                     let held = decider.window_held(&self.judged_tracks, n);
                     decider.add_outcome(n, p, held);
                 }

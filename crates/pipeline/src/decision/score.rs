@@ -163,7 +163,8 @@ pub struct DecisionScorer {
     correlation: ErrorCorrelation,
     pending: VecDeque<Pending>,
     actual: Box<Tracks>,
-    /// `actual` with central velocity differences at its ends: what the limits are judged on.
+    /// What happened, central at both ends: what the limits are judged on (`actual`, central
+    /// at the first step only, is what the errors are taken against).
     judged: Box<Tracks>,
     /// Record grid index -> every limit held at that step.
     grid: BTreeMap<i64, bool>,
@@ -260,12 +261,12 @@ impl DecisionScorer {
         let decider = &mut self.decider;
         decider.set_error_correlation(self.correlation.rho());
         decider.set_error_matrices(&self.correlation, forecast.valid_steps());
-        decider.load(forecast);
-        decider.fill_tracks(happened.at_steps, &mut self.actual);
-        decider.judged_tracks(
-            &self.actual,
+        decider.load_from(forecast, happened.before.as_ref());
+        decider.fill_happened(
+            happened.at_steps,
             happened.before.as_ref(),
             happened.after.as_ref(),
+            &mut self.actual,
             &mut self.judged,
         );
         let steps = decider.tracks().steps.min(self.actual.steps);
