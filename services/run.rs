@@ -375,8 +375,7 @@ fn two_ship_configs(config: &mut PipelineConfig) -> anyhow::Result<PipelineConfi
 /// The configuration handed to the children: readable by the owner only (it may hold a
 /// password or an inline private key), never written through a symlink.
 fn write_config(config: &PipelineConfig, path: &Path) -> anyhow::Result<()> {
-    let (Some(dir), Some(name)) = (path.parent(), path.file_name().and_then(|n| n.to_str()))
-    else {
+    let (Some(dir), Some(name)) = (path.parent(), path.file_name().and_then(|n| n.to_str())) else {
         anyhow::bail!("writing {}: not a file path", path.display());
     };
     crate::private_files::write_new(dir, name, &config.to_toml()?, true).map(|_| ())
@@ -413,8 +412,7 @@ impl TryFrom<Args> for Config {
         // shared temp dir could be made in advance by another user, with symlinks in it.
         let log_dir = match args.log_dir {
             Some(d) => {
-                std::fs::create_dir_all(&d)
-                    .with_context(|| format!("creating {}", d.display()))?;
+                std::fs::create_dir_all(&d).with_context(|| format!("creating {}", d.display()))?;
                 d
             }
             None => crate::private_files::new_private_temp_dir("shipcast-run")?,

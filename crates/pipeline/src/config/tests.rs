@@ -395,3 +395,32 @@ fn relative_security_paths_become_absolute_once_and_survive_a_rewrite() {
         PipelineConfig::from_toml(&c.to_toml().unwrap(), Path::new("logs/pipeline.toml")).unwrap();
     assert_eq!(again.zenoh.tls, c.zenoh.tls);
 }
+
+#[test]
+fn with_tls_every_endpoint_must_be_tls() {
+    // Regression: a tcp/ listen endpoint beside the tls/ one served every forecast to a plain
+    // client; a station's file with a tcp/ connect reached an unauthenticated predictor.
+    let tls = "tls = { root_ca = \"/c/ca.pem\", certificate = \"/c/n.pem\", private_key = \"/c/n.key\" }\n";
+    for (endpoints, bad) in [
+        (
+            "listen = [\"tls/127.0.0.1:7447\", \"tcp/127.0.0.1:7448\"]\n",
+            "tcp/127.0.0.1:7448",
+        ),
+        (
+            "listen = []\nconnect = [\"tcp/10.0.0.5:7447\"]\n",
+            "tcp/10.0.0.5:7447",
+        ),
+        // A station's file that leaves out `listen` gets the default plain endpoint.
+        ("connect = [\"tls/10.0.0.5:7447\"]\n", "listen = []"),
+    ] {
+        let text = format!("[zenoh]\n{endpoints}{tls}");
+        let e = PipelineConfig::from_toml(&text, Path::new("s.toml"))
+            .and_then(|c| c.validate().map(|()| c))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains(bad) && e.contains("is not tls/"), "{e}");
+    }
+    let text = format!("[zenoh]\nlisten = [\"tls/127.0.0.1:7447\"]\n{tls}");
+    let c = PipelineConfig::from_toml(&text, Path::new("s.toml")).unwrap();
+    assert!(c.validate().is_ok());
+}

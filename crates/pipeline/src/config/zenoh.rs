@@ -141,6 +141,25 @@ impl ZenohConfig {
         if tls_endpoint && self.tls.is_none() {
             return bad("tls (root_ca, certificate, private_key) is required for tls/ endpoints");
         }
+        // Regression: a plain endpoint beside the TLS one served every forecast, unencrypted
+        // and unauthenticated, to any client (found by a security audit).
+        if self.tls.is_some() {
+            for (key, flag, endpoints) in [
+                ("listen", listen_flag, &self.listen),
+                ("connect", "--zenoh-connect", &self.connect),
+            ] {
+                if let Some(e) = endpoints.iter().find(|e| !e.starts_with("tls/")) {
+                    let default = if e == DEFAULT_ZENOH_ENDPOINT {
+                        "; it is the default: give listen = [] for a station that only connects"
+                    } else {
+                        ""
+                    };
+                    return bad(&format!(
+                        "{key} (or {flag}) endpoint '{e}' is not tls/: with [zenoh.tls] every link must be mutual TLS (a plain endpoint would carry the data unencrypted, to anyone){default}"
+                    ));
+                }
+            }
+        }
         if self.tls.is_some() && self.multicast_scouting {
             return bad("multicast_scouting must be off with tls: consumers reach the data only through the node that enforces the access rules");
         }
