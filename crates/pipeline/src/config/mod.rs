@@ -179,8 +179,10 @@ impl PipelineConfig {
 
     /// Check values that parse but cannot work.
     pub fn validate(&self) -> Result<(), ConfigError> {
-        self.names()?;
+        let names = self.names()?;
         self.zenoh.validate()?;
+        self.validate_access_covers(&names)
+            .map_err(ConfigError::Invalid)?;
         self.validate_producer().map_err(ConfigError::Invalid)?;
         self.validate_predictor().map_err(ConfigError::Invalid)?;
         self.validate_consumers().map_err(ConfigError::Invalid)?;
@@ -192,6 +194,40 @@ impl PipelineConfig {
             .validate()
             .map_err(|e| ConfigError::Invalid(format!("producer.station: {e}")))?;
         Ok(())
+    }
+
+    /// A pipeline's access rules (it publishes: `publishers` set) must cover its own keys.
+    /// Regression: `--instance` or `--vessel` over a file from `shipcast certs` moved the
+    /// keys out of the rules, and the predictor denied its own stations every forecast, in
+    /// silence (found by a security audit).
+    fn validate_access_covers(&self, names: &Names) -> Result<(), String> {
+        use ::zenoh::key_expr::keyexpr;
+        let Some(access) = self
+            .zenoh
+            .access
+            .as_ref()
+            .filter(|a| !a.publishers.is_empty())
+        else {
+            return Ok(());
+        };
+        let own = format!("{}{}/**", names.fleet_prefix(), names.vessel());
+        let Ok(own_keys) = keyexpr::new(own.as_str()) else {
+            return Ok(());
+        };
+        let covered = access
+            .key_exprs
+            .iter()
+            .filter_map(|k| keyexpr::new(k.as_str()).ok())
+            .any(|k| k.includes(own_keys));
+        if covered {
+            return Ok(());
+        }
+        Err(format!(
+            "zenoh.access.key_exprs {:?} do not cover this pipeline's keys '{own}' (instance {:?}, vessel '{}'; changed by --instance or --vessel?): the access rules would deny its stations every forecast",
+            access.key_exprs,
+            self.instance.as_deref().unwrap_or(""),
+            self.vessel
+        ))
     }
 
     fn validate_producer(&self) -> Result<(), String> {

@@ -424,3 +424,33 @@ fn with_tls_every_endpoint_must_be_tls() {
     let c = PipelineConfig::from_toml(&text, Path::new("s.toml")).unwrap();
     assert!(c.validate().is_ok());
 }
+
+#[test]
+fn a_pipelines_access_rules_must_cover_its_own_keys() {
+    // Regression: `--instance` over a file from `certs` left the rules on the old keys.
+    let text = "instance = \"a\"\n[zenoh]\nlisten = [\"tls/127.0.0.1:7447\"]\n\
+                tls = { root_ca = \"/c/ca.pem\", certificate = \"/c/n.pem\", private_key = \"/c/n.key\" }\n\
+                access = { key_exprs = [\"a/shipcast/ddg51/**\"], publishers = [\"ddg51-pipeline\"] }\n";
+    let c = PipelineConfig::from_toml(text, Path::new("s.toml")).unwrap();
+    assert!(c.validate().is_ok());
+    let moved = PipelineConfig {
+        instance: Some("b".into()),
+        ..c.clone()
+    };
+    let e = moved.validate().unwrap_err().to_string();
+    assert!(
+        e.contains("do not cover this pipeline's keys 'b/shipcast/ddg51/**'"),
+        "{e}"
+    );
+    let other_vessel = PipelineConfig {
+        vessel: "ffg7".into(),
+        ..c.clone()
+    };
+    assert!(other_vessel.validate().is_err());
+    // A wider rule covers it.
+    let mut wide = moved.clone();
+    if let Some(a) = wide.zenoh.access.as_mut() {
+        a.key_exprs = vec!["*/shipcast/**".into()];
+    }
+    assert!(wide.validate().is_ok());
+}
