@@ -79,6 +79,8 @@ pub struct Config {
     /// The predictor's listen endpoint and its host.
     pub listen: String,
     pub listen_host: String,
+    /// The endpoint stations connect to: `listen`, or with a wildcard host the first `--host`.
+    pub station_connect: String,
     /// The fleet router's endpoint and host, for a fleet.
     pub router: Option<(String, String)>,
     /// Station names: plain, and none a pipeline's or the router's.
@@ -115,6 +117,26 @@ impl TryFrom<Args> for Config {
             anyhow::bail!("--vessel '{v}' is given twice");
         }
         let listen_host = endpoint_host(&args.listen)?.to_string();
+        for h in &args.host {
+            if !is_host_name(h) {
+                anyhow::bail!(
+                    "--host '{h}': a host name (letters, digits, '-', '.') or an IP address"
+                );
+            }
+        }
+        // Regression: a wildcard listen without --host, or stations told to connect to
+        // 0.0.0.0, which no certificate names (found by a security audit).
+        let station_connect = if is_wildcard(&listen_host) {
+            let Some(first) = args.host.first() else {
+                anyhow::bail!(
+                    "--listen '{}' is a wildcard address, which stations cannot connect to: give --host with the name or address they use",
+                    args.listen
+                );
+            };
+            with_host(&args.listen, first)
+        } else {
+            args.listen.clone()
+        };
         let mut taken: Vec<String> = args.vessel.iter().map(|v| pipeline_name(v)).collect();
         // The configurations written beside the stations' `<station>.toml`: a station of the
         // same name would overwrite one (and the report would still point at it).
@@ -158,6 +180,11 @@ impl TryFrom<Args> for Config {
         let router = match args.router {
             Some(r) => {
                 let host = endpoint_host(&r)?.to_string();
+                if is_wildcard(&host) {
+                    anyhow::bail!(
+                        "--router '{r}': vessels and stations connect to the router, so it must name its host, not a wildcard address"
+                    );
+                }
                 Some((r, host))
             }
             None => None,
@@ -167,6 +194,7 @@ impl TryFrom<Args> for Config {
             vessels,
             listen: args.listen,
             listen_host,
+            station_connect,
             router,
             stations: args.station,
             hosts: args.host,
@@ -325,7 +353,7 @@ fn single_vessel(
         ),
         false,
     )?;
-    write_stations(setup, names, &setup.listen, ca, validity)?;
+    write_stations(setup, names, &setup.station_connect, ca, validity)?;
     let _ = writeln!(
         std::io::stdout(),
         "wrote a new CA and certificates for '{pipeline}' and {} station(s) into {}; start the pipeline with: shipcast run --config {}",
@@ -337,6 +365,38 @@ fn single_vessel(
 }
 
 /// `<station>.json5` and `<station>.toml` of every station, connecting to `endpoint`.
+/// An unspecified IP address (0.0.0.0, ::): a listener's wildcard, no one's name.
+fn is_wildcard(host: &str) -> bool {
+    matches!(host.parse::<std::net::IpAddr>(), Ok(ip) if ip.is_unspecified())
+}
+
+/// A DNS name or an IP address, as a certificate's subject alternative name takes it.
+fn is_host_name(host: &str) -> bool {
+    host.parse::<std::net::IpAddr>().is_ok()
+        || (!host.is_empty()
+            && host.len() <= 253
+            && host.split('.').all(|label| {
+                !label.is_empty()
+                    && label.len() <= 63
+                    && !label.starts_with('-')
+                    && !label.ends_with('-')
+                    && label.chars().all(|c| c.is_ascii_alphanumeric() || c == '-')
+            }))
+}
+
+/// `endpoint` (`tls/HOST:PORT[options]`) with another host.
+fn with_host(endpoint: &str, host: &str) -> String {
+    let address = endpoint.strip_prefix("tls/").unwrap_or(endpoint);
+    let split = address.find(['#', '?']).unwrap_or(address.len());
+    let (address, options) = address.split_at(split);
+    let port = address.rsplit_once(':').map_or("", |(_, p)| p);
+    if host.contains(':') {
+        format!("tls/[{host}]:{port}{options}")
+    } else {
+        format!("tls/{host}:{port}{options}")
+    }
+}
+
 fn write_stations(
     setup: &Config,
     names: &Names,
@@ -512,6 +572,41 @@ mod tests {
         assert_eq!(std::fs::read_to_string(&elsewhere).unwrap(), "untouched");
         assert!(!link.symlink_metadata().unwrap().file_type().is_symlink());
         assert_eq!(mode(&link), 0o600);
+    }
+
+    /// Regression: `--listen tls/0.0.0.0:P` without `--host` was accepted, and with it the
+    /// stations' files still connected to 0.0.0.0, which no certificate names.
+    #[test]
+    fn a_wildcard_listen_needs_a_host_that_stations_connect_to() {
+        let (_dir, out) = fresh_out();
+        let wildcard =
+            crate::refused::<Args, Config>(&["--out", &out, "--listen", "tls/0.0.0.0:7447"]);
+        assert!(wildcard.contains("give --host"), "{wildcard}");
+        let c = crate::validated::<Args, Config>(&[
+            "--out",
+            &out,
+            "--listen",
+            "tls/0.0.0.0:7447",
+            "--host",
+            "ship.example",
+            "--host",
+            "10.0.0.5",
+        ])
+        .unwrap();
+        assert_eq!(c.listen, "tls/0.0.0.0:7447");
+        assert_eq!(c.station_connect, "tls/ship.example:7447");
+        assert_eq!(
+            with_host("tls/[::]:7447#iface=eth0", "fd00::5"),
+            "tls/[fd00::5]:7447#iface=eth0"
+        );
+        // A named listen host is what stations connect to.
+        let c = crate::validated::<Args, Config>(&["--out", &out, "--listen", LISTEN]).unwrap();
+        assert_eq!(c.station_connect, LISTEN);
+        for bad in ["", "a b", "x..y", "-"] {
+            let e = refused(&["--host", bad]);
+            assert!(e.starts_with(&format!("--host '{bad}'")), "{e}");
+        }
+        assert!(refused(&["--router", "tls/0.0.0.0:7447"]).contains("not a wildcard"));
     }
 
     #[test]

@@ -100,7 +100,7 @@ pub fn classify(target: &str, message: &str) -> Option<Refusal> {
             // The client ended the handshake on our certificate: a client that trusts another
             // CA sends DecryptError (seen with zenoh 1.10 and rustls 0.23), others UnknownCA.
             Some(Refusal {
-                reason: "the client rejected our certificate (does it trust another CA?)",
+                reason: "the client rejected our certificate (does it trust another CA, or connect by a name the certificate does not carry?)",
                 detail: Some(format!("fatal alert {alert}")),
             })
         } else if detail.contains("received corrupt message") {
@@ -245,7 +245,7 @@ mod tests {
         );
         assert_eq!(
             tls("received fatal alert: DecryptError").as_deref(),
-            Some("the client rejected our certificate (does it trust another CA?): fatal alert DecryptError")
+            Some("the client rejected our certificate (does it trust another CA, or connect by a name the certificate does not carry?): fatal alert DecryptError")
         );
         assert_eq!(
             tls("peer is incompatible: Tls12NotOffered").as_deref(),
