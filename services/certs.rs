@@ -214,7 +214,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         validity,
     )?;
     let (out, vessels, host) = (&setup.out, &setup.vessels, setup.listen_host.as_str());
-    write(out, "ca.pem", &ca.certificate_pem(), false)?;
+    // ca.pem is written last: it is what keeps a later run from replacing the setup, so a run
+    // that fails half-way (an unwritable file) must leave none, or the retry is refused.
     let Some((router, router_host)) = &setup.router else {
         return single_vessel(&setup, &vessels[0], host, &ca, validity);
     };
@@ -298,6 +299,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         )?;
     }
     write_stations(&setup, &vessels[0], router, &ca, validity)?;
+    write(out, "ca.pem", &ca.certificate_pem(), false)?;
     let _ = writeln!(
         std::io::stdout(),
         "wrote a new CA and certificates for the router, {} vessel(s) and {} station(s) into {}; start the router with: shipcast router --config {}",
@@ -354,6 +356,7 @@ fn single_vessel(
         false,
     )?;
     write_stations(setup, names, &setup.station_connect, ca, validity)?;
+    write(out, "ca.pem", &ca.certificate_pem(), false)?;
     let _ = writeln!(
         std::io::stdout(),
         "wrote a new CA and certificates for '{pipeline}' and {} station(s) into {}; start the pipeline with: shipcast run --config {}",
@@ -607,6 +610,27 @@ mod tests {
             assert!(e.starts_with(&format!("--host '{bad}'")), "{e}");
         }
         assert!(refused(&["--router", "tls/0.0.0.0:7447"]).contains("not a wildcard"));
+    }
+
+    /// Regression: ca.pem was written first, so a run that failed on a later file left it,
+    /// and the retry was refused as if a setup were there.
+    #[test]
+    fn a_run_that_fails_half_way_can_be_retried() {
+        let (_dir, out) = fresh_out();
+        std::fs::create_dir_all(Path::new(&out).join("pipeline.key")).unwrap();
+        let e = run(crate::parse_args::<Args>(&[
+            "--out", &out, "--listen", LISTEN,
+        ]))
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("pipeline.key"), "{e}");
+        assert!(!Path::new(&out).join("ca.pem").exists());
+        std::fs::remove_dir(Path::new(&out).join("pipeline.key")).unwrap();
+        run(crate::parse_args::<Args>(&[
+            "--out", &out, "--listen", LISTEN,
+        ]))
+        .unwrap();
+        assert!(Path::new(&out).join("ca.pem").exists());
     }
 
     #[test]
