@@ -254,7 +254,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         &format!(
             "# Router of the fleet {:?} (shipcast certs): shipcast router --config router.toml\n\
              # Each vessel's pipeline may publish only on its own keys; stations {:?} may only\n\
-             # subscribe and query. Paths are relative to this file.\n{}",
+             # subscribe and query. TLS and users_file paths are relative to this file (others, such\n\
+             # as producer.input, to the working directory).\n{}",
             setup.vessel_names(),
             setup.stations,
             consumer_toml(&vessels[0], &router_zenoh)?
@@ -348,7 +349,8 @@ fn single_vessel(
         out,
         "shipcast.toml",
         &format!(
-            "# Secure pipeline of vessel {} (shipcast certs). Paths are relative to this file.\n\
+            "# Secure pipeline of vessel {} (shipcast certs). TLS and users_file paths are relative to this\n\
+             # file (others, such as producer.input or predictor.model, to the working directory).\n\
              # Only the certificate '{pipeline}' may publish; stations {:?} may subscribe.\n{toml}",
             names.vessel(),
             setup.stations
