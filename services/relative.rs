@@ -46,10 +46,15 @@ pub struct Args {
     pub target_record: Option<PathBuf>,
     /// Study mode: score only relative forecasts issued at record time >= S [default: 1200 s
     /// after the later record's first sample, whatever its clock: 0, or epoch seconds].
-    #[arg(long, value_name = "S", allow_negative_numbers = true)]
+    #[arg(
+        long,
+        value_name = "S",
+        allow_negative_numbers = true,
+        requires = "crane_record"
+    )]
     pub skip_s: Option<f64>,
     /// Study mode: the report as JSON instead of the table.
-    #[arg(long)]
+    #[arg(long, requires = "crane_record")]
     pub json: bool,
     /// Study mode: also write every scored lift call to this CSV, with its statements and the
     /// forecast and true relative displacement at every step of its window (an audit trail).

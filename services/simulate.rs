@@ -112,13 +112,9 @@ pub struct Args {
     #[arg(long, conflicts_with_all = ["hs", "tp", "gamma", "components", "spreading", "spectrum", "seed", "duration"])]
     pub elevation: Option<PathBuf>,
     /// With --elevation: seconds at each end of every segment that are tapered (outer half)
-    /// and not written.
-    #[arg(
-        long = "edge-s",
-        default_value_t = 120.0,
-        allow_negative_numbers = true
-    )]
-    pub edge_s: f64,
+    /// and not written [default: 120].
+    #[arg(long = "edge-s", allow_negative_numbers = true, requires = "elevation")]
+    pub edge_s: Option<f64>,
     /// Record time [s] at which the ship starts turning (needs --new-heading-deg).
     #[arg(
         long = "course-change-s",

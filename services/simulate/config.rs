@@ -12,6 +12,10 @@ use shipcast_sim::{
 };
 use std::path::PathBuf;
 
+/// Seconds at each end of a measured record's segment that are tapered and not written
+/// (`--edge-s`).
+pub const DEFAULT_EDGE_S: f64 = 120.0;
+
 /// What `simulate` writes, every value checked: built from [`Args`] by [`Config::try_from`],
 /// the only place that validates them, so the writers below see checked values only.
 #[derive(Debug, Clone)]
@@ -56,13 +60,18 @@ impl TryFrom<Args> for Config {
     type Error = anyhow::Error;
 
     fn try_from(args: Args) -> anyhow::Result<Self> {
+        // clap's `requires` lets it through when a flag that conflicts with --elevation is
+        // given too (--duration): an option that does nothing must not pass in silence.
+        if args.edge_s.is_some() && args.elevation.is_none() {
+            anyhow::bail!("--edge-s applies to --elevation only");
+        }
         let rate_hz = checked(limits::rate("--rate", args.rate, MAX_PRODUCER_RATE_HZ))?;
         let record = match &args.elevation {
             Some(elevation) => Record::Measured {
                 elevation: elevation.clone(),
                 edge_s: checked(limits::non_negative(
                     "--edge-s",
-                    args.edge_s,
+                    args.edge_s.unwrap_or(DEFAULT_EDGE_S),
                     limits::MAX_SECONDS,
                 ))?,
                 station: station(&args)?,
@@ -271,6 +280,12 @@ mod tests {
         assert_eq!(
             refused(&["--out", "m.csv", "--rao-table-length", "100"]),
             "--rao-table-length needs --rao-table"
+        );
+        // Regression: with --duration (which clap lets stand in for the required
+        // --elevation) --edge-s was accepted and did nothing.
+        assert_eq!(
+            refused(&["--out", "m.csv", "--duration", "10", "--edge-s", "5"]),
+            "--edge-s applies to --elevation only"
         );
         assert_eq!(
             refused(&[
