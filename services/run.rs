@@ -499,7 +499,19 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         )?;
     }
 
-    let session = zn::open(&config.zenoh.consumer_side())?;
+    // Given up at the run's limit (Ctrl-C, --duration): a secure client otherwise keeps
+    // trying its predictor for its whole patience, past both.
+    let Some(session) = zn::open_until(&config.zenoh.consumer_side(), &limit)? else {
+        children.stop();
+        let _ = std::fs::remove_file(&config_path);
+        let _ = std::fs::remove_file(&target_path);
+        let _ = writeln!(
+            std::io::stdout(),
+            "shipcast run: stopped before the live view could join zenoh; all services stopped (logs in {})",
+            logs.display()
+        );
+        return Ok(());
+    };
     let forecasts = LatestSubscriber::new(&session, &names.forecast())?;
     let forecast_publishers = PublisherWatch::new(&session, &names.forecast())?;
     let mut gate = ForecastGate::new(1.0 / config.predictor.sample_rate_hz);

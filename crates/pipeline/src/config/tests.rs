@@ -454,3 +454,29 @@ fn a_pipelines_access_rules_must_cover_its_own_keys() {
     }
     assert!(wide.validate().is_ok());
 }
+
+#[test]
+fn consumers_reach_a_wildcard_listen_address_on_loopback() {
+    // Regression: with `certs --listen tls/0.0.0.0:P --host H`, the pipeline's own deck,
+    // crane, display and view connected to tls/0.0.0.0:P, which no certificate names.
+    use crate::config::zenoh::on_loopback;
+    assert_eq!(on_loopback("tls/0.0.0.0:7447"), "tls/127.0.0.1:7447");
+    assert_eq!(
+        on_loopback("tcp/[::]:7447#iface=eth0"),
+        "tcp/[::1]:7447#iface=eth0"
+    );
+    for kept in [
+        "tls/10.0.0.5:7447",
+        "tls/ship.example:7447",
+        "tcp/[fd00::1]:7447",
+    ] {
+        assert_eq!(on_loopback(kept), kept);
+    }
+    let text = "[zenoh]\nlisten = [\"tls/0.0.0.0:7447\"]\nconnect = [\"tls/router.example:7448\"]\n\
+                tls = { root_ca = \"/c/ca.pem\", certificate = \"/c/n.pem\", private_key = \"/c/n.key\" }\n";
+    let c = PipelineConfig::from_toml(text, Path::new("s.toml")).unwrap();
+    assert_eq!(
+        c.zenoh.consumer_side().connect,
+        ["tls/127.0.0.1:7447", "tls/router.example:7448"]
+    );
+}

@@ -66,7 +66,10 @@ impl ZenohConfig {
     /// where. Secure (`tls` set): a client that reaches everything through the node it
     /// connects to, so nothing goes around that node's access rules.
     pub fn consumer_side(&self) -> ZenohSettings {
-        let mut connect = self.listen.clone();
+        // The predictor's own consumers reach a wildcard listen address on this machine's
+        // loopback, which `shipcast certs` always names in the certificate (0.0.0.0 is no
+        // name: with TLS every consumer was refused).
+        let mut connect: Vec<String> = self.listen.iter().map(|e| on_loopback(e)).collect();
         connect.extend(self.connect.iter().cloned());
         let secure = self.tls.is_some();
         ZenohSettings {
@@ -180,6 +183,25 @@ impl ZenohConfig {
         }
         Ok(())
     }
+}
+
+/// `endpoint` with an unspecified host (0.0.0.0, [::]) replaced by the loopback address of its
+/// family; any other endpoint as it is.
+pub fn on_loopback(endpoint: &str) -> String {
+    let Some((protocol, rest)) = endpoint.split_once('/') else {
+        return endpoint.to_string();
+    };
+    let split = rest.find(['?', '#']).unwrap_or(rest.len());
+    let (address, options) = rest.split_at(split);
+    let Some((host, port)) = address.rsplit_once(':') else {
+        return endpoint.to_string();
+    };
+    let loopback = match host.trim_start_matches('[').trim_end_matches(']').parse() {
+        Ok(std::net::IpAddr::V4(ip)) if ip.is_unspecified() => "127.0.0.1",
+        Ok(std::net::IpAddr::V6(ip)) if ip.is_unspecified() => "[::1]",
+        _ => return endpoint.to_string(),
+    };
+    format!("{protocol}/{loopback}:{port}{options}")
 }
 
 /// Whether an endpoint has zenoh's `protocol/address` shape with a port for the IP protocols

@@ -164,8 +164,14 @@ impl Verifier {
                 s.coverage_2sigma.push(frac(v[IN2]));
                 // About the window's mean: a list or trim is motion the forecast need not
                 // find, and would make a forecast look skilful for longer.
+                // NaN (null in the JSON) where nothing was scored: `max` would make it 0.
                 let mean = frac(v[SX]);
-                s.std.push(frac(v[XX] - n * mean * mean).max(0.0).sqrt());
+                let var = frac(v[XX] - n * mean * mean);
+                s.std.push(if var.is_nan() {
+                    var
+                } else {
+                    var.max(0.0).sqrt()
+                });
             }
             if s.scored.iter().all(|&n| n == 0) {
                 continue;
@@ -267,6 +273,9 @@ mod tests {
         assert_eq!(d.mean_sigma[0], 1.0);
         // The values 0.5 and 1.5 (forecast 0): mean 1, std 0.5.
         assert!((d.std[0] - 0.5).abs() < 1e-12, "{}", d.std[0]);
+        // A step with nothing scored has no std (null), not 0.
+        let r = v.report(2, 0.5, 500.0);
+        assert!(r.dofs[0].std[1].is_nan(), "{:?}", r.dofs[0].std);
     }
 
     /// Regression: the skill horizon compared the error with the motion's RMS about zero, so
