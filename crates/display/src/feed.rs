@@ -11,8 +11,9 @@ use crate::board::{AdvisoryView, Board, VerificationIn};
 use crate::sources::{parse_token, LiveSources};
 use shipcast_pipeline::transport::forecast_check::check_content;
 use shipcast_wire::payload::Forecast;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
-use std::time::Instant;
+use std::time::{Duration, Instant};
 use zenoh::pubsub::Subscriber;
 use zenoh::sample::{Sample, SampleKind};
 use zenoh::{Session, Wait};
@@ -25,9 +26,29 @@ pub struct FeedError {
     reason: String,
 }
 
-/// The running subscriptions; dropping it unsubscribes.
+/// The running subscriptions; dropping it unsubscribes and stops the token resync.
 pub struct Feed {
     _subscribers: Vec<Subscriber<()>>,
+    stop: Arc<AtomicBool>,
+    resync: Option<std::thread::JoinHandle<()>>,
+}
+
+impl Drop for Feed {
+    fn drop(&mut self) {
+        self.stop.store(true, Ordering::Relaxed);
+        if let Some(t) = self.resync.take() {
+            let _ = t.join();
+        }
+    }
+}
+
+/// How often the feed asks for every live token again after one was refused for lack of
+/// room ([`LiveSources::take_overflowed`]).
+pub const RESYNC_EVERY: Duration = Duration::from_secs(5);
+
+/// The token key expressions under `prefix`, one per kind of message the display reads.
+fn token_keys(prefix: &str) -> [String; 3] {
+    ["forecast", "verification", "advisory/*"].map(|tail| format!("{prefix}*/{tail}/publisher/*"))
 }
 
 /// What a key names after the fleet prefix (`[<instance>/]shipcast/`):
@@ -139,10 +160,50 @@ fn on_token(sources: &LiveSources, prefix: &str, sample: &Sample) {
     match sample.kind() {
         SampleKind::Put => {
             if !sources.appeared(key, zid) {
-                tracing::debug!("display: {key}: publisher token not followed (too many keys)");
+                tracing::debug!("display: {key}: publisher token {zid} not followed (no room)");
             }
         }
         SampleKind::Delete => sources.vanished(key, zid),
+    }
+}
+
+/// While tokens are refused for lack of room, ask zenoh for every live token again each
+/// [`RESYNC_EVERY`]: a refused token is never announced again, so without this a publisher
+/// that came while junk tokens filled the map would stay unheard after they went.
+fn resync_tokens(
+    session: Session,
+    sources: Arc<LiveSources>,
+    prefix: String,
+    stop: Arc<AtomicBool>,
+) {
+    let mut last = Instant::now();
+    while !stop.load(Ordering::Relaxed) {
+        std::thread::sleep(Duration::from_millis(100));
+        if last.elapsed() < RESYNC_EVERY || !sources.take_overflowed() {
+            continue;
+        }
+        last = Instant::now();
+        // At most one line per RESYNC_EVERY, however many tokens were refused.
+        tracing::warn!(
+            "display: publisher tokens refused for lack of room ({} keys, {} publishers per key at most): asking for every live token again",
+            crate::sources::MAX_KEYS,
+            crate::sources::MAX_IDS_PER_KEY
+        );
+        for key in token_keys(&prefix) {
+            let (sources, prefix) = (sources.clone(), prefix.clone());
+            let asked = session
+                .liveliness()
+                .get(key.clone())
+                .callback(move |reply| {
+                    if let Ok(sample) = reply.result() {
+                        on_token(&sources, &prefix, sample);
+                    }
+                })
+                .wait();
+            if let Err(e) = asked {
+                tracing::debug!("display: ask for the tokens on {key}: {e}");
+            }
+        }
     }
 }
 
@@ -154,11 +215,26 @@ pub fn start(
     board: Arc<Board>,
     expected_dt_s: f64,
 ) -> Result<Feed, FeedError> {
-    let sources = Arc::new(LiveSources::default());
+    start_with(
+        session,
+        prefix,
+        board,
+        expected_dt_s,
+        Arc::new(LiveSources::default()),
+    )
+}
+
+/// [`start`] following the publishers in `sources` (a test looks at them).
+fn start_with(
+    session: &Session,
+    prefix: &str,
+    board: Arc<Board>,
+    expected_dt_s: f64,
+    sources: Arc<LiveSources>,
+) -> Result<Feed, FeedError> {
     let mut subscribers = Vec::new();
     // The tokens first, with those already alive: a message is checked against them.
-    for tail in ["forecast", "verification", "advisory/*"] {
-        let key = format!("{prefix}*/{tail}/publisher/*");
+    for key in token_keys(prefix) {
         let (sources, prefix) = (sources.clone(), prefix.to_string());
         let subscriber = session
             .liveliness()
@@ -185,8 +261,22 @@ pub fn start(
             })?;
         subscribers.push(subscriber);
     }
+    let stop = Arc::new(AtomicBool::new(false));
+    let resync = {
+        let (session, sources, prefix, stop) =
+            (session.clone(), sources, prefix.to_string(), stop.clone());
+        std::thread::Builder::new()
+            .name("display-tokens".into())
+            .spawn(move || resync_tokens(session, sources, prefix, stop))
+            .map_err(|e| FeedError {
+                key: "(token resync thread)".into(),
+                reason: e.to_string(),
+            })?
+    };
     Ok(Feed {
         _subscribers: subscribers,
+        stop,
+        resync: Some(resync),
     })
 }
 
@@ -257,7 +347,6 @@ mod tests {
         use shipcast_pipeline::transport::zenoh::{
             free_loopback_endpoint, open, JsonPublisher, ZenohSettings,
         };
-        use std::time::Duration;
 
         let endpoint = free_loopback_endpoint().unwrap();
         let display = open(&ZenohSettings::listen_on(&endpoint)).unwrap();
@@ -334,6 +423,77 @@ mod tests {
             std::thread::sleep(Duration::from_millis(50));
         }
         assert_eq!(shown(&board).0, Some(seq));
+    }
+
+    /// Regression: tokens on made-up keys filled the map of followed publishers, and a real
+    /// publisher whose token came then was never followed, even after they went (zenoh
+    /// announces a token once). Now the feed asks for every live token again until all fit.
+    #[test]
+    fn a_publisher_refused_while_junk_tokens_filled_the_map_is_heard_once_they_go() {
+        use shipcast_pipeline::transport::naming::unique_instance;
+        use shipcast_pipeline::transport::zenoh::{
+            free_loopback_endpoint, liveliness_token, open, JsonPublisher, ZenohSettings,
+        };
+
+        let endpoint = free_loopback_endpoint().unwrap();
+        let display = open(&ZenohSettings::listen_on(&endpoint)).unwrap();
+        let vessel_side = open(&ZenohSettings::connect_to(&endpoint)).unwrap();
+        let flooder = open(&ZenohSettings::connect_to(&endpoint)).unwrap();
+        let prefix = format!("{}/shipcast/", unique_instance("flood"));
+        let board = Arc::new(Board::new(
+            crate::board::Limits {
+                roll_deg: 5.0,
+                pitch_deg: 3.0,
+            },
+            Duration::from_secs(60),
+        ));
+        let sources = Arc::new(LiveSources::default());
+        let _feed = start_with(&display, &prefix, board.clone(), 0.5, sources.clone()).unwrap();
+        let flood: Vec<_> = (0..crate::sources::MAX_KEYS)
+            .map(|i| {
+                let key = format!("{prefix}junk{i}/forecast/publisher/x");
+                liveliness_token(&flooder, &key).unwrap()
+            })
+            .collect();
+        let wait = |what: &str, ok: &dyn Fn() -> bool| {
+            let deadline = Instant::now() + Duration::from_secs(30);
+            while !ok() {
+                assert!(Instant::now() < deadline, "{what}");
+                std::thread::sleep(Duration::from_millis(20));
+            }
+        };
+        wait("the junk tokens fill the map", &|| {
+            sources.len() == crate::sources::MAX_KEYS
+        });
+        let shown = || {
+            let s = board.snapshot(Instant::now());
+            let vessel = s.vessels.iter().find(|v| v.vessel == "v1").cloned();
+            (
+                vessel
+                    .as_ref()
+                    .and_then(|v| v.forecast.as_ref().map(|f| f.seq)),
+                s.rejected_unheard + vessel.map_or(0, |v| v.rejected),
+            )
+        };
+        let predictor = JsonPublisher::new(&vessel_side, &format!("{prefix}v1/forecast")).unwrap();
+        let mut seq = 1;
+        while shown().1 < 3 {
+            predictor.put(&forecast_json(seq)).unwrap();
+            seq += 1;
+            std::thread::sleep(Duration::from_millis(50));
+            assert!(seq < 600, "no put refused: {:?}", shown());
+        }
+        assert_eq!(shown().0, None, "a publisher with no room was followed");
+        drop(flood);
+        wait("the junk tokens go", &|| sources.is_empty());
+        // Within a resync or two, the real publisher is followed and its forecasts shown.
+        let deadline = Instant::now() + 4 * RESYNC_EVERY;
+        while shown().0.is_none() {
+            assert!(Instant::now() < deadline, "still refused: {:?}", shown());
+            predictor.put(&forecast_json(seq)).unwrap();
+            seq += 1;
+            std::thread::sleep(Duration::from_millis(50));
+        }
     }
 
     #[test]

@@ -10,6 +10,7 @@
 
 use shipcast_pipeline::transport::forecast_check::{LivePublishers, Rejection};
 use std::collections::HashMap;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Mutex;
 
 /// The most keys whose publishers are followed: every key the board can show (64 vessels,
@@ -17,10 +18,19 @@ use std::sync::Mutex;
 /// grow the map without bound.
 pub const MAX_KEYS: usize = crate::board::MAX_VESSELS * (2 + crate::board::MAX_STATIONS);
 
+/// The most publishers followed on one key: one is the rule (a second makes the key's
+/// messages refused as from "several publishers"), a few cover a restart's overlap.
+pub const MAX_IDS_PER_KEY: usize = 8;
+
 /// The live publishers of every followed key.
+///
+/// zenoh announces a token once: one refused for lack of room would never be followed, and
+/// its publisher's messages refused for good. So a refusal is flagged ([`Self::take_overflowed`])
+/// and the feed asks zenoh for every live token again once in a while until all fit.
 #[derive(Debug, Default)]
 pub struct LiveSources {
     keys: Mutex<HashMap<String, LivePublishers>>,
+    overflowed: AtomicBool,
 }
 
 /// A token key split into the key it covers and the publisher's id.
@@ -30,15 +40,20 @@ pub fn parse_token(token: &str) -> Option<(&str, &str)> {
 }
 
 impl LiveSources {
-    /// Publisher `zid` of `key` appeared. False if the key was not followed because the map
-    /// is full.
+    /// Publisher `zid` of `key` appeared. False (and flagged) if it is not followed because
+    /// the map or the key's publishers are full.
     pub fn appeared(&self, key: &str, zid: &str) -> bool {
         let mut keys = self.keys.lock().unwrap_or_else(|p| p.into_inner());
         if let Some(live) = keys.get_mut(key) {
-            live.appeared(zid);
-            return true;
+            if live.contains(zid) || live.len() < MAX_IDS_PER_KEY {
+                live.appeared(zid);
+                return true;
+            }
+            self.overflowed.store(true, Ordering::Relaxed);
+            return false;
         }
         if keys.len() >= MAX_KEYS {
+            self.overflowed.store(true, Ordering::Relaxed);
             return false;
         }
         let mut live = LivePublishers::default();
@@ -56,6 +71,21 @@ impl LiveSources {
                 keys.remove(key);
             }
         }
+    }
+
+    /// How many keys are followed.
+    pub fn len(&self) -> usize {
+        self.keys.lock().unwrap_or_else(|p| p.into_inner()).len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Whether a token was refused for lack of room since the last call (and so must be asked
+    /// for again).
+    pub fn take_overflowed(&self) -> bool {
+        self.overflowed.swap(false, Ordering::Relaxed)
     }
 
     /// Ok if `publisher` (the id a message on `key` carried) is the key's one live publisher.
@@ -121,12 +151,29 @@ mod tests {
         for i in 0..MAX_KEYS {
             assert!(s.appeared(&format!("shipcast/v{i}/forecast"), "z"));
         }
+        assert!(!s.take_overflowed());
         assert!(!s.appeared("shipcast/late/forecast", "z"));
         assert!(s.admits("shipcast/late/forecast", Some("z")).is_err());
+        assert!(s.take_overflowed());
+        assert!(!s.take_overflowed(), "taken once");
         // A known key still follows its publishers on a full map.
         assert!(s.appeared("shipcast/v0/forecast", "y"));
         s.vanished("shipcast/v1/forecast", "z");
         assert!(s.appeared("shipcast/late/forecast", "z"));
         assert_eq!(s.admits("shipcast/late/forecast", Some("z")), Ok(()));
+    }
+
+    #[test]
+    fn one_key_follows_a_bounded_number_of_publishers() {
+        let s = LiveSources::default();
+        let key = "shipcast/a/forecast";
+        for i in 0..MAX_IDS_PER_KEY {
+            assert!(s.appeared(key, &format!("z{i}")));
+        }
+        assert!(!s.appeared(key, "one-too-many"));
+        assert!(s.take_overflowed());
+        // Those already followed may appear again.
+        assert!(s.appeared(key, "z0"));
+        assert!(!s.take_overflowed());
     }
 }

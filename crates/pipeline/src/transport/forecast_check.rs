@@ -99,6 +99,15 @@ impl LivePublishers {
         self.zids.is_empty()
     }
 
+    /// How many publishers of the key are alive.
+    pub fn len(&self) -> usize {
+        self.zids.len()
+    }
+
+    pub fn contains(&self, zid: &str) -> bool {
+        self.zids.contains(zid)
+    }
+
     /// The one live publisher, or why there is not exactly one.
     fn the_one(&self) -> Result<&str, usize> {
         let mut it = self.zids.iter();
