@@ -158,7 +158,13 @@ impl DeckAdvisor {
     /// Vertical velocity (up) and its sigma at step k by differences over the forecast steps.
     /// The sigma assumes independent errors at the two steps: conservative, since forecast
     /// errors of neighbouring steps are correlated.
-    fn velocity(&self, k: usize, steps: usize, dt: f64) -> (f64, f64) {
+    /// The deck point's vertical velocity and its sigma at step `k`: a central difference,
+    /// at the first step from `origin_z` (the recorded value at `time_s`, exact) if given.
+    fn velocity(&self, k: usize, steps: usize, dt: f64, origin_z: Option<f64>) -> (f64, f64) {
+        if let (0, Some(z0), true) = (k, origin_z, steps > 1) {
+            let span = 2.0 * dt;
+            return ((self.z_up[1] - z0) / span, self.z_sigma[1] / span);
+        }
         let (a, b) = match (k.checked_sub(1), k + 1 < steps) {
             (Some(a), true) => (a, k + 1),
             (None, true) => (k, k + 1),
@@ -199,12 +205,14 @@ impl DeckAdvisor {
             windows: Vec::new(),
             decision: self.decider.decide_from(forecast, origin),
         };
+        // The same first step as the decision's (`Tracks::central_ends`).
+        let origin_z = origin.map(|dof| -self.point.displacement(*dof).z);
         let mut open: Option<(usize, f64)> = None;
         for k in 0..=steps {
             let step_ok = if k < steps {
                 let roll = forecast.mean[ROLL][k] as f64;
                 let pitch = forecast.mean[PITCH][k] as f64;
-                let (v, v_sigma) = self.velocity(k, steps, dt);
+                let (v, v_sigma) = self.velocity(k, steps, dt, origin_z);
                 advisory.max_roll_deg = advisory.max_roll_deg.max(roll.abs().to_degrees());
                 advisory.max_pitch_deg = advisory.max_pitch_deg.max(pitch.abs().to_degrees());
                 advisory.max_vertical_velocity_mps =
@@ -367,5 +375,30 @@ pub(crate) mod tests {
         let a = advisor.advise(&f);
         assert!(a.max_vertical_velocity_mps > 1.0, "{a:?}");
         assert!(a.windows.is_empty(), "{a:?}");
+    }
+
+    /// With the recorded motion at `time_s`, the advisory's first-step velocity is the central
+    /// difference, as its decision's is (one-sided, it was the velocity 0.25 s later).
+    #[test]
+    fn the_advisory_takes_the_first_steps_velocity_from_the_origin() {
+        let config = DeckConfig {
+            point_m: [0.0; 3],
+            ..DeckConfig::default()
+        };
+        let mut advisor = DeckAdvisor::new(&config);
+        // Heave (5 - t)^2 at t = 0.5, 1.0, ..., 5.0: its speed 2 (5 - t) is largest first.
+        let mut f = forecast_with_roll(10, |_| 0.0, 0.0);
+        for k in 0..10 {
+            let t = 0.5 * (k + 1) as f64;
+            f.mean[HEAVE][k] = ((5.0 - t) * (5.0 - t)) as f32;
+        }
+        let one_sided = advisor.advise(&f).max_vertical_velocity_mps;
+        assert!((one_sided - 8.5).abs() < 1e-5, "{one_sided}");
+        let mut origin = [0.0; 6];
+        origin[HEAVE] = 25.0;
+        let central = advisor
+            .advise_from(&f, Some(&origin))
+            .max_vertical_velocity_mps;
+        assert!((central - 9.0).abs() < 1e-5, "{central}");
     }
 }
