@@ -80,6 +80,34 @@ fn block_validity(block: &Pem, now_unix: i64) -> Validity {
     }
 }
 
+/// Whether the first certificate in `own` was signed by one of the certificates in `roots`
+/// (or by one that follows it in `own`, a chain): None when a certificate cannot be read (left
+/// to zenoh). A certificate from another `shipcast certs` run than the root CA's is refused
+/// by every peer, and the service itself would have started as if all were well.
+pub fn issued_by(own: &[u8], roots: &[u8]) -> Option<bool> {
+    let blocks = |pem: &[u8]| -> Vec<Pem> {
+        Pem::iter_from_buffer(pem)
+            .map_while(Result::ok)
+            .filter(|b| b.label == "CERTIFICATE")
+            .collect()
+    };
+    let own_blocks = blocks(own);
+    let root_blocks = blocks(roots);
+    let first = own_blocks.first()?.parse_x509().ok()?;
+    let mut signers = Vec::new();
+    for block in own_blocks.iter().skip(1).chain(&root_blocks) {
+        signers.push(block.parse_x509().ok()?);
+    }
+    if root_blocks.is_empty() {
+        return None;
+    }
+    Some(
+        signers
+            .iter()
+            .any(|signer| first.verify_signature(Some(signer.public_key())).is_ok()),
+    )
+}
+
 /// Seconds since 1970 now, by the system clock (what the peers check against too).
 pub fn now_unix() -> i64 {
     std::time::SystemTime::now()
@@ -129,6 +157,41 @@ mod tests {
             validity(cert.as_bytes(), 1_798_761_600 - 15 * 86_400),
             Validity::Valid
         );
+    }
+
+    #[test]
+    fn a_certificate_is_checked_against_the_ca_that_should_have_signed_it() {
+        use rcgen::{BasicConstraints, IsCa, Issuer};
+        let ca = |name: &str| {
+            let mut params = CertificateParams::new(Vec::<String>::new()).unwrap();
+            params.is_ca = IsCa::Ca(BasicConstraints::Unconstrained);
+            params
+                .distinguished_name
+                .push(rcgen::DnType::CommonName, name);
+            let key = KeyPair::generate().unwrap();
+            let cert = params.self_signed(&key).unwrap();
+            (Issuer::new(params, key), cert.pem())
+        };
+        // Two CAs of the same name: two `shipcast certs` runs.
+        let (ours, ours_pem) = ca("shipcast ddg51 CA");
+        let (_, other_pem) = ca("shipcast ddg51 CA");
+        let leaf_key = KeyPair::generate().unwrap();
+        let leaf = CertificateParams::new(vec!["localhost".to_string()])
+            .unwrap()
+            .signed_by(&leaf_key, &ours)
+            .unwrap()
+            .pem();
+        assert_eq!(issued_by(leaf.as_bytes(), ours_pem.as_bytes()), Some(true));
+        assert_eq!(
+            issued_by(leaf.as_bytes(), other_pem.as_bytes()),
+            Some(false)
+        );
+        // A bundle holding the right CA beside another passes.
+        let both = format!("{other_pem}{ours_pem}");
+        assert_eq!(issued_by(leaf.as_bytes(), both.as_bytes()), Some(true));
+        // Unreadable: left to zenoh.
+        assert_eq!(issued_by(b"junk", ours_pem.as_bytes()), None);
+        assert_eq!(issued_by(leaf.as_bytes(), b""), None);
     }
 
     #[test]

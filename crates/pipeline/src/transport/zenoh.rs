@@ -5,7 +5,7 @@
 //! receive thread.
 
 use crate::transport::zenoh_security::{self as security, AccessRules, TlsSettings, UserPassword};
-use crate::transport::zenoh_tls_files::check_tls_file;
+use crate::transport::zenoh_tls_files::{check_issuer, check_tls_file};
 use serde::{Deserialize, Serialize};
 use shipcast_wire::payload::limits;
 use std::time::Duration;
@@ -288,6 +288,7 @@ pub fn zenoh_config(settings: &ZenohSettings) -> Result<zenoh::Config, ZenohErro
         ] {
             check_tls_file(key, value)?;
         }
+        check_issuer(tls)?;
     }
     let mut config = zenoh::Config::default();
     for (key, value) in config_entries(settings) {

@@ -49,6 +49,36 @@ pub(super) fn check_tls_file(key: &str, value: &str) -> Result<(), ZenohError> {
     }
 }
 
+/// Refuse our own certificate when no certificate in the root CA file signed it: a
+/// certificate from another `shipcast certs` run than the CA's, which every peer refuses at
+/// the handshake while this service would have started as if all were well.
+pub(super) fn check_issuer(tls: &security::TlsSettings) -> Result<(), ZenohError> {
+    let text = |value: &str| -> Option<Vec<u8>> {
+        if security::is_inline_pem(value) {
+            Some(value.as_bytes().to_vec())
+        } else {
+            std::fs::read(value).ok()
+        }
+    };
+    let (Some(own), Some(roots)) = (text(&tls.certificate), text(&tls.root_ca)) else {
+        return Ok(());
+    };
+    if cert_validity::issued_by(&own, &roots) == Some(false) {
+        let name = |key: &str, value: &str| {
+            if security::is_inline_pem(value) {
+                format!("tls {key} (inline)")
+            } else {
+                format!("tls {key} file {value}")
+            }
+        };
+        return Err(err(name("certificate", &tls.certificate))(format!(
+            "not signed by the CA in {} (from another `shipcast certs` run?): every peer would refuse it",
+            name("root_ca", &tls.root_ca)
+        )));
+    }
+    Ok(())
+}
+
 /// Refuse a certificate (ours, or the root CA we trust) outside its dates, and warn two weeks
 /// before it expires (`cert_validity`).
 fn judge_certificate_dates(context: &str, validity: Validity) -> Result<(), ZenohError> {
