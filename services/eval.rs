@@ -161,7 +161,10 @@ impl DofChoice {
         if text.trim().eq_ignore_ascii_case("all") {
             return Ok(DofChoice::All);
         }
-        Ok(DofChoice::One(text.parse::<Dof>()?))
+        // The one place `all` is a choice: say so beside the DOF names.
+        text.parse::<Dof>()
+            .map(DofChoice::One)
+            .map_err(|e| anyhow::anyhow!("--dof: {e}, or all"))
     }
 
     /// The DOF to evaluate in `data`: the one asked for (which must be in the file), or all
@@ -185,7 +188,9 @@ fn parse_methods(text: &str) -> anyhow::Result<Vec<Method>> {
     if text.trim().eq_ignore_ascii_case("all") {
         return Ok(Method::ALL.to_vec());
     }
-    Ok(vec![text.parse::<Method>().map_err(anyhow::Error::msg)?])
+    Ok(vec![text
+        .parse::<Method>()
+        .map_err(|e| anyhow::anyhow!("--method: {e}, or all"))?])
 }
 
 impl TryFrom<Args> for Config {
@@ -386,6 +391,9 @@ mod tests {
         );
         assert!(refused(&["--dof", "heavy"]).contains("unknown degree of freedom 'heavy'"));
         assert!(refused(&["--method", "kalman"]).contains("unknown method 'kalman'"));
+        // `all`, the default of both, is named among the choices.
+        assert!(refused(&["--dof", "heavy"]).ends_with("or yaw), or all"));
+        assert!(refused(&["--method", "kalman"]).ends_with("or zero), or all"));
     }
 
     #[test]

@@ -45,7 +45,8 @@ enum Command {
     Paper(paper::Args),
     /// Run the predictor's engine over a recorded motion CSV and score every forecast.
     Replay(replay::Args),
-    /// Start the whole pipeline (producer, predictor, deck, crane) as separate processes.
+    /// Start the whole pipeline (producer, predictor, deck, crane, display; with --two-ship
+    /// also the second ship and `relative`) as separate processes, with a live view.
     Run(run::Args),
     /// Publish motion samples over iceoryx2 (simulator or CSV replay).
     Producer(producer::Args),

@@ -55,15 +55,24 @@ fn display_address(asked: Option<&str>) -> anyhow::Result<std::net::SocketAddr> 
     let address: std::net::SocketAddr = wanted.parse().with_context(|| {
         format!("--display must be HOST:PORT with an IP address, got '{wanted}'")
     })?;
-    let probe = match std::net::TcpListener::bind(address) {
-        Ok(l) => l,
-        Err(_) if asked.is_none() => std::net::TcpListener::bind((address.ip(), 0))
-            .with_context(|| format!("no free port for the display on {}", address.ip()))?,
-        Err(e) => return Err(e).with_context(|| format!("--display {wanted}: cannot listen")),
+    // Port 0 (pick one) and a taken default port get one drawn outside the ephemeral range:
+    // a port `bind(0)` hands out could be taken by any outgoing connection before the display
+    // binds it (parallel tests' zenoh sessions dial out all the time).
+    let pick = || {
+        zn::free_port(address.ip())
+            .map(|port| std::net::SocketAddr::new(address.ip(), port))
+            .with_context(|| format!("no free port for the display on {}", address.ip()))
     };
-    // Released again for the display process; taken by another program in between, the
-    // display exits with its own one-line error and the run stops.
-    Ok(probe.local_addr()?)
+    if address.port() == 0 {
+        return pick();
+    }
+    match std::net::TcpListener::bind(address) {
+        // Released again for the display process; taken by another program in between, the
+        // display exits with its own one-line error and the run stops.
+        Ok(probe) => Ok(probe.local_addr()?),
+        Err(_) if asked.is_none() => pick(),
+        Err(e) => Err(e).with_context(|| format!("--display {wanted}: cannot listen")),
+    }
 }
 
 /// Grace period between SIGTERM and SIGKILL when stopping children.
@@ -540,9 +549,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }
         if let Some((stage, name, status)) = children.exited() {
             // A producer replaying a file (`producer.input`) or given `producer.record_s`
-            // ends by itself when its record does: the run is complete, not failed.
+            // ends by itself when its record does: the run is complete, not failed. A producer
+            // stopped by SIGTERM ends the same way (status 0), and cannot be told apart here.
             if stage == Stage::Producer && status.success() {
-                break Ok("the record ended (the producer finished)");
+                break Ok("the producer finished (its record ended, or it was stopped)");
             }
             let log = logs.join(format!("{name}.log"));
             let reason = last_error_line(&log).map_or(String::new(), |e| format!(": {e}"));
@@ -635,12 +645,40 @@ pub fn run(args: Args) -> anyhow::Result<()> {
 fn last_error_line(log: &Path) -> Option<String> {
     let text = std::fs::read_to_string(log).ok()?;
     let line = text.lines().rev().find(|l| l.starts_with("error: "))?;
-    Some(
-        line.trim_start_matches("error: ")
-            .chars()
-            .take(300)
-            .collect(),
-    )
+    let line = without_source_locations(line.trim_start_matches("error: "));
+    const MOST: usize = 300;
+    Some(if line.chars().count() > MOST {
+        format!("{}...", line.chars().take(MOST).collect::<String>())
+    } else {
+        line
+    })
+}
+
+/// `text` without the source locations zenoh writes into its errors (` at
+/// /root/.cargo/registry/.../tcp.rs:61.`): they filled the 300 characters of the reason
+/// `run` repeats and cut it off mid-path.
+fn without_source_locations(text: &str) -> String {
+    let mut out = String::with_capacity(text.len());
+    let mut rest = text;
+    while let Some(i) = rest.find(" at /") {
+        out.push_str(&rest[..i]);
+        let after = &rest[i + 4..];
+        let end = after
+            .find(|c: char| c.is_whitespace() || c == ']')
+            .unwrap_or(after.len());
+        let path = after[..end].trim_end_matches('.');
+        let is_location = path
+            .rsplit_once(".rs:")
+            .is_some_and(|(_, line)| !line.is_empty() && line.chars().all(|c| c.is_ascii_digit()));
+        if is_location {
+            rest = &after[end..];
+        } else {
+            out.push_str(" at ");
+            rest = after;
+        }
+    }
+    out.push_str(rest);
+    out
 }
 
 /// The newest JSON document of one key whose publisher is the key's one live publisher; others
@@ -694,6 +732,18 @@ impl CheckedJson {
 #[cfg(test)]
 mod config_tests {
     use super::*;
+
+    #[test]
+    fn zenohs_source_locations_are_left_out_of_a_repeated_reason() {
+        let line = "zenoh: open peer session: Can not create a new TCP listener bound to tcp/127.0.0.1:7447: Address already in use (os error 98) at /root/.cargo/registry/src/index.crates.io-1949cf8c6b5b557f/zenoh-link-tcp-1.10.2/src/unicast.rs:61.] at /root/.cargo/registry/src/x/zenoh-1.10.2/src/net/runtime/orchestrator.rs:201.";
+        assert_eq!(
+            without_source_locations(line),
+            "zenoh: open peer session: Can not create a new TCP listener bound to tcp/127.0.0.1:7447: Address already in use (os error 98)]"
+        );
+        // A path that is not a source location stays.
+        let kept = "tls certificate file /etc/ship/a.pem: expired at /etc time";
+        assert_eq!(without_source_locations(kept), kept);
+    }
 
     #[test]
     fn the_display_flags_and_two_ship_are_resolved_and_checked() {

@@ -83,7 +83,18 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         "{}: no DOF column (expected any of surge_m, sway_m, heave_m, roll_rad, pitch_rad, yaw_rad)",
         input.display()
     );
-    let model = train_models(&data, &dofs, &options)?;
+    let holdout = options.holdout_fraction;
+    let model = train_models(&data, &dofs, &options).map_err(|e| {
+        // "train N" in the protocol's message is the record less its held-out share here.
+        let text = e.to_string();
+        if text.contains("is too short: train") {
+            anyhow::anyhow!(
+                "{text} (train: the record less --holdout {holdout} of it; a longer record, a lower --order or --holdout help)"
+            )
+        } else {
+            anyhow::Error::from(e)
+        }
+    })?;
     model.save(&out)?;
     for m in &model.dofs {
         let diagnostics = shipcast_predict::Predictor::diagnostics(&m.predictor);

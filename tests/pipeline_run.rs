@@ -98,7 +98,9 @@ fn run_ends_cleanly_when_the_producer_finishes_its_record() {
         "--no-display",
     ]);
     assert!(
-        stdout.contains("the record ended (the producer finished); all services stopped"),
+        stdout.contains(
+            "the producer finished (its record ended, or it was stopped); all services stopped"
+        ),
         "{stdout}"
     );
 }

@@ -146,20 +146,26 @@ impl ZenohSettings {
 /// bind can, and a random draw makes that unlikely. Where the range leaves no room (1024-65535),
 /// the OS picks, as before.
 pub fn free_loopback_endpoint() -> Result<String, ZenohError> {
+    let port = free_port(std::net::Ipv4Addr::LOCALHOST.into())?;
+    Ok(format!("tcp/127.0.0.1:{port}"))
+}
+
+/// A TCP port on `ip` that is free now, drawn from outside the ephemeral range as
+/// [`free_loopback_endpoint`] explains (the display `shipcast run` starts takes one too).
+pub fn free_port(ip: std::net::IpAddr) -> Result<u16, ZenohError> {
     const TRIES: usize = 64;
     if let Some(band) = ports_outside_ephemeral_range() {
         for _ in 0..TRIES {
             let port = rand::random_range(band.clone());
-            if std::net::TcpListener::bind(("127.0.0.1", port)).is_ok() {
-                return Ok(format!("tcp/127.0.0.1:{port}"));
+            if std::net::TcpListener::bind((ip, port)).is_ok() {
+                return Ok(port);
             }
         }
     }
-    let port = std::net::TcpListener::bind("127.0.0.1:0")
+    Ok(std::net::TcpListener::bind((ip, 0))
         .and_then(|l| l.local_addr())
-        .map_err(err("find a free TCP port on 127.0.0.1"))?
-        .port();
-    Ok(format!("tcp/127.0.0.1:{port}"))
+        .map_err(err(format!("find a free TCP port on {ip}")))?
+        .port())
 }
 
 /// Ports to draw from outside the ephemeral range: below it from 10000 (1024 if it starts
