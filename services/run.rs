@@ -510,16 +510,26 @@ pub fn run(args: Args) -> anyhow::Result<()> {
 
     // Given up at the run's limit (Ctrl-C, --duration): a secure client otherwise keeps
     // trying its predictor for its whole patience, past both.
-    let Some(session) = zn::open_until(&config.zenoh.consumer_side(), &limit)? else {
+    let consumer_side = config.zenoh.consumer_side();
+    let Some(session) = zn::open_until(&consumer_side, &limit)? else {
         children.stop();
         let _ = std::fs::remove_file(&config_path);
         let _ = std::fs::remove_file(&target_path);
-        let _ = writeln!(
-            std::io::stdout(),
-            "shipcast run: stopped before the live view could join zenoh; all services stopped (logs in {})",
+        // Ctrl-C before the view joined is the operator's choice; the duration running out is
+        // a setup that never connected, and must not look like a run that went well.
+        if shutdown::stop_requested() {
+            let _ = writeln!(
+                std::io::stdout(),
+                "shipcast run: stopped by Ctrl-C before the live view could join zenoh; all services stopped (logs in {})",
+                logs.display()
+            );
+            return Ok(());
+        }
+        anyhow::bail!(
+            "the live view could not join zenoh at {:?} within the run's duration (see the services' logs in {}, and docs/FAQ.md for 'open client session')",
+            consumer_side.connect,
             logs.display()
         );
-        return Ok(());
     };
     let forecasts = LatestSubscriber::new(&session, &names.forecast())?;
     let forecast_publishers = PublisherWatch::new(&session, &names.forecast())?;

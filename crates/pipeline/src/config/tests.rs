@@ -465,6 +465,8 @@ fn consumers_reach_a_wildcard_listen_address_on_loopback() {
         on_loopback("tcp/[::]:7447#iface=eth0"),
         "tcp/[::1]:7447#iface=eth0"
     );
+    // With TLS the name must be in the certificate, which holds 127.0.0.1, never ::1.
+    assert_eq!(on_loopback("tls/[::]:7447"), "tls/127.0.0.1:7447");
     for kept in [
         "tls/10.0.0.5:7447",
         "tls/ship.example:7447",

@@ -185,8 +185,8 @@ impl ZenohConfig {
     }
 }
 
-/// `endpoint` with an unspecified host (0.0.0.0, [::]) replaced by the loopback address of its
-/// family; any other endpoint as it is.
+/// `endpoint` with an unspecified host (0.0.0.0, [::]) replaced by a loopback address (with
+/// TLS always 127.0.0.1, the one the certificate names); any other endpoint as it is.
 pub fn on_loopback(endpoint: &str) -> String {
     let Some((protocol, rest)) = endpoint.split_once('/') else {
         return endpoint.to_string();
@@ -196,8 +196,13 @@ pub fn on_loopback(endpoint: &str) -> String {
     let Some((host, port)) = address.rsplit_once(':') else {
         return endpoint.to_string();
     };
+    // TLS checks the name connected to against the certificate, which `certs` makes for
+    // 127.0.0.1 and localhost, never ::1 (and zenoh's TLS link takes no bracketed address as
+    // a name): a [::] listener, dual-stack, is reached on 127.0.0.1.
+    let named = matches!(protocol, "tls" | "quic");
     let loopback = match host.trim_start_matches('[').trim_end_matches(']').parse() {
         Ok(std::net::IpAddr::V4(ip)) if ip.is_unspecified() => "127.0.0.1",
+        Ok(std::net::IpAddr::V6(ip)) if ip.is_unspecified() && named => "127.0.0.1",
         Ok(std::net::IpAddr::V6(ip)) if ip.is_unspecified() => "[::1]",
         _ => return endpoint.to_string(),
     };

@@ -9,6 +9,7 @@
 //! A PEM block that does not parse as a certificate is not judged here: zenoh reads the file
 //! itself and names what is wrong with it.
 
+use x509_parser::certificate::X509Certificate;
 use x509_parser::pem::Pem;
 
 /// How long before expiry a service warns [s]: two weeks, time to make new certificates
@@ -80,32 +81,60 @@ fn block_validity(block: &Pem, now_unix: i64) -> Validity {
     }
 }
 
-/// Whether the first certificate in `own` was signed by one of the certificates in `roots`
-/// (or by one that follows it in `own`, a chain): None when a certificate cannot be read (left
-/// to zenoh). A certificate from another `shipcast certs` run than the root CA's is refused
-/// by every peer, and the service itself would have started as if all were well.
-pub fn issued_by(own: &[u8], roots: &[u8]) -> Option<bool> {
+/// How a node's own certificate stands to the CAs it trusts itself ([`issued_by`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Issuer {
+    /// Signed by a CA in the root file, directly or through a chain in its own file that one
+    /// of them signed.
+    Trusted,
+    /// Not signed by any of them, though one carries the name of its issuer: a CA of the same
+    /// name from another `shipcast certs` run (every run makes a new one), so the peers that
+    /// trust this node's CA file would refuse it.
+    SameNameOtherKey,
+    /// Signed by a CA this node does not trust itself. Legitimate where trust is split (a
+    /// node's peers trust its issuer; it trusts theirs), so it is only worth a warning.
+    Untrusted,
+}
+
+/// How the first certificate in `own` stands to the certificates in `roots`; None when a
+/// certificate cannot be read (left to zenoh).
+pub fn issued_by(own: &[u8], roots: &[u8]) -> Option<Issuer> {
     let blocks = |pem: &[u8]| -> Vec<Pem> {
         Pem::iter_from_buffer(pem)
             .map_while(Result::ok)
             .filter(|b| b.label == "CERTIFICATE")
             .collect()
     };
-    let own_blocks = blocks(own);
-    let root_blocks = blocks(roots);
-    let first = own_blocks.first()?.parse_x509().ok()?;
-    let mut signers = Vec::new();
-    for block in own_blocks.iter().skip(1).chain(&root_blocks) {
-        signers.push(block.parse_x509().ok()?);
-    }
+    let (own_blocks, root_blocks) = (blocks(own), blocks(roots));
     if root_blocks.is_empty() {
         return None;
     }
-    Some(
-        signers
+    let first = own_blocks.first()?.parse_x509().ok()?;
+    let mut chain = Vec::new();
+    for block in own_blocks.iter().skip(1) {
+        chain.push(block.parse_x509().ok()?);
+    }
+    let mut cas = Vec::new();
+    for block in &root_blocks {
+        cas.push(block.parse_x509().ok()?);
+    }
+    let signs = |signer: &X509Certificate, cert: &X509Certificate| {
+        cert.verify_signature(Some(signer.public_key())).is_ok()
+    };
+    // A chain member counts only if a trusted CA signed it in turn.
+    let trusted = cas.iter().any(|ca| signs(ca, &first))
+        || chain
             .iter()
-            .any(|signer| first.verify_signature(Some(signer.public_key())).is_ok()),
-    )
+            .any(|link| signs(link, &first) && cas.iter().any(|ca| signs(ca, link)));
+    if trusted {
+        return Some(Issuer::Trusted);
+    }
+    let same_name = cas.iter().any(|ca| ca.subject() == first.issuer());
+    Some(if same_name {
+        Issuer::SameNameOtherKey
+    } else {
+        Issuer::Untrusted
+    })
 }
 
 /// Seconds since 1970 now, by the system clock (what the peers check against too).
@@ -161,7 +190,7 @@ mod tests {
 
     #[test]
     fn a_certificate_is_checked_against_the_ca_that_should_have_signed_it() {
-        use rcgen::{BasicConstraints, IsCa, Issuer};
+        use rcgen::{BasicConstraints, IsCa, Issuer as CaIssuer};
         let ca = |name: &str| {
             let mut params = CertificateParams::new(Vec::<String>::new()).unwrap();
             params.is_ca = IsCa::Ca(BasicConstraints::Unconstrained);
@@ -170,7 +199,7 @@ mod tests {
                 .push(rcgen::DnType::CommonName, name);
             let key = KeyPair::generate().unwrap();
             let cert = params.self_signed(&key).unwrap();
-            (Issuer::new(params, key), cert.pem())
+            (CaIssuer::new(params, key), cert.pem())
         };
         // Two CAs of the same name: two `shipcast certs` runs.
         let (ours, ours_pem) = ca("shipcast ddg51 CA");
@@ -181,14 +210,33 @@ mod tests {
             .signed_by(&leaf_key, &ours)
             .unwrap()
             .pem();
-        assert_eq!(issued_by(leaf.as_bytes(), ours_pem.as_bytes()), Some(true));
+        assert_eq!(
+            issued_by(leaf.as_bytes(), ours_pem.as_bytes()),
+            Some(Issuer::Trusted)
+        );
         assert_eq!(
             issued_by(leaf.as_bytes(), other_pem.as_bytes()),
-            Some(false)
+            Some(Issuer::SameNameOtherKey)
         );
         // A bundle holding the right CA beside another passes.
         let both = format!("{other_pem}{ours_pem}");
-        assert_eq!(issued_by(leaf.as_bytes(), both.as_bytes()), Some(true));
+        assert_eq!(
+            issued_by(leaf.as_bytes(), both.as_bytes()),
+            Some(Issuer::Trusted)
+        );
+        // Split trust: signed by a CA of another name that this node does not trust itself.
+        let (_, stranger_pem) = ca("shore CA");
+        assert_eq!(
+            issued_by(leaf.as_bytes(), stranger_pem.as_bytes()),
+            Some(Issuer::Untrusted)
+        );
+        // A chain in the certificate's own file counts only if a trusted CA signed it: the
+        // leaf with its own (other run's) CA appended is still refused against another root.
+        let leaf_and_ca = format!("{leaf}{ours_pem}");
+        assert_eq!(
+            issued_by(leaf_and_ca.as_bytes(), other_pem.as_bytes()),
+            Some(Issuer::SameNameOtherKey)
+        );
         // Unreadable: left to zenoh.
         assert_eq!(issued_by(b"junk", ours_pem.as_bytes()), None);
         assert_eq!(issued_by(leaf.as_bytes(), b""), None);

@@ -2,7 +2,7 @@
 //! holding PEM, and certificates within their dates. zenoh itself finds a bad file only when a
 //! link is made, and then names none.
 
-use crate::transport::cert_validity::{self, Validity};
+use crate::transport::cert_validity::{self, Issuer, Validity};
 use crate::transport::zenoh::{err, ZenohError};
 use crate::transport::zenoh_security as security;
 
@@ -49,9 +49,10 @@ pub(super) fn check_tls_file(key: &str, value: &str) -> Result<(), ZenohError> {
     }
 }
 
-/// Refuse our own certificate when no certificate in the root CA file signed it: a
-/// certificate from another `shipcast certs` run than the CA's, which every peer refuses at
-/// the handshake while this service would have started as if all were well.
+/// Refuse our own certificate when the root CA file holds a CA of its issuer's name that did
+/// not sign it: a certificate from another `shipcast certs` run than the CA's, which every
+/// peer refuses at the handshake while this service would have started as if all were well.
+/// Signed by a CA the file does not hold at all (trust split between nodes) only warns.
 pub(super) fn check_issuer(tls: &security::TlsSettings) -> Result<(), ZenohError> {
     let text = |value: &str| -> Option<Vec<u8>> {
         if security::is_inline_pem(value) {
@@ -63,20 +64,28 @@ pub(super) fn check_issuer(tls: &security::TlsSettings) -> Result<(), ZenohError
     let (Some(own), Some(roots)) = (text(&tls.certificate), text(&tls.root_ca)) else {
         return Ok(());
     };
-    if cert_validity::issued_by(&own, &roots) == Some(false) {
-        let name = |key: &str, value: &str| {
-            if security::is_inline_pem(value) {
-                format!("tls {key} (inline)")
-            } else {
-                format!("tls {key} file {value}")
-            }
-        };
-        return Err(err(name("certificate", &tls.certificate))(format!(
-            "not signed by the CA in {} (from another `shipcast certs` run?): every peer would refuse it",
+    let name = |key: &str, value: &str| {
+        if security::is_inline_pem(value) {
+            format!("tls {key} (inline)")
+        } else {
+            format!("tls {key} file {value}")
+        }
+    };
+    match cert_validity::issued_by(&own, &roots) {
+        Some(Issuer::SameNameOtherKey) => Err(err(name("certificate", &tls.certificate))(format!(
+            "not signed by the CA of its issuer's name in {} (from another `shipcast certs` run?): every peer trusting that file would refuse it",
             name("root_ca", &tls.root_ca)
-        )));
+        ))),
+        Some(Issuer::Untrusted) => {
+            tracing::warn!(
+                "{}: signed by a CA that {} does not hold: peers that trust only that file will refuse this node",
+                name("certificate", &tls.certificate),
+                name("root_ca", &tls.root_ca)
+            );
+            Ok(())
+        }
+        Some(Issuer::Trusted) | None => Ok(()),
     }
-    Ok(())
 }
 
 /// Refuse a certificate (ours, or the root CA we trust) outside its dates, and warn two weeks
