@@ -12,7 +12,8 @@ pub fn init() {
     let filter =
         EnvFilter::try_from_default_env().unwrap_or_else(|_| EnvFilter::new("info,zenoh=warn"));
     // Colour only on a terminal: the children's logs under `run`, and stderr piped to grep,
-    // carried escape codes around every level and time stamp. NO_COLOR (non-empty, as its convention says) turns it off anywhere.
+    // carried escape codes around every level and time stamp. NO_COLOR (non-empty, as its
+    // convention says) turns it off anywhere.
     let colour = std::io::IsTerminal::is_terminal(&std::io::stderr())
         && std::env::var_os("NO_COLOR").is_none_or(|v| v.is_empty());
     let printed = tracing_subscriber::fmt::layer()
