@@ -465,7 +465,7 @@ fn consumer_toml(names: &Names, zenoh: &ZenohConfig) -> anyhow::Result<String> {
 /// Write `name` into `dir`; secrets (private keys, files embedding one) readable by the owner
 /// only, never through a symlink planted at the name.
 fn write(dir: &Path, name: &str, text: &str, secret: bool) -> anyhow::Result<()> {
-    crate::private_files::write_new(dir, name, text, secret).map(|_| ())
+    crate::private_files::write_new(&dir.join(name), text, secret)
 }
 
 #[cfg(test)]

@@ -6,18 +6,16 @@ use anyhow::Context;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
-/// Write `name` into `dir`; secrets readable by the owner only.
+/// Write `path`; secrets readable by the owner only.
 ///
 /// Whatever is at the path is removed first and the file is created anew (`create_new`, which
 /// never follows a symlink): the mode of `open` applies only to a file it creates, so a key
 /// written over an existing world-readable file kept that file's mode, and a symlink planted
 /// at the name had the text written wherever it pointed.
-pub fn write_new(dir: &Path, name: &str, text: &str, secret: bool) -> anyhow::Result<PathBuf> {
-    let path = dir.join(name);
-    let mut file = create_new(&path, secret)?;
+pub fn write_new(path: &Path, text: &str, secret: bool) -> anyhow::Result<()> {
+    let mut file = create_new(path, secret)?;
     file.write_all(text.as_bytes())
-        .with_context(|| format!("write {}", path.display()))?;
-    Ok(path)
+        .with_context(|| format!("write {}", path.display()))
 }
 
 /// Create `path` anew (see [`write_new`]) and return it open for writing.
@@ -73,7 +71,8 @@ mod tests {
         let victim = dir.path().join("victim.txt");
         std::fs::write(&victim, "ORIGINAL").unwrap();
         std::os::unix::fs::symlink(&victim, dir.path().join("pipeline.toml")).unwrap();
-        let path = write_new(dir.path(), "pipeline.toml", "password = \"x\"", true).unwrap();
+        let path = dir.path().join("pipeline.toml");
+        write_new(&path, "password = \"x\"", true).unwrap();
         assert_eq!(std::fs::read_to_string(&victim).unwrap(), "ORIGINAL");
         assert_eq!(std::fs::read_to_string(&path).unwrap(), "password = \"x\"");
         let meta = std::fs::symlink_metadata(&path).unwrap();

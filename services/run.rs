@@ -384,10 +384,7 @@ fn two_ship_configs(config: &mut PipelineConfig) -> anyhow::Result<PipelineConfi
 /// The configuration handed to the children: readable by the owner only (it may hold a
 /// password or an inline private key), never written through a symlink.
 fn write_config(config: &PipelineConfig, path: &Path) -> anyhow::Result<()> {
-    let (Some(dir), Some(name)) = (path.parent(), path.file_name().and_then(|n| n.to_str())) else {
-        anyhow::bail!("writing {}: not a file path", path.display());
-    };
-    crate::private_files::write_new(dir, name, &config.to_toml()?, true).map(|_| ())
+    crate::private_files::write_new(path, &config.to_toml()?, true)
 }
 
 /// What `run` starts, every value checked: built from [`Args`] by [`Config::try_from`] (the

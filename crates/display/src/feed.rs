@@ -46,9 +46,13 @@ impl Drop for Feed {
 /// room ([`LiveSources::take_overflowed`]).
 pub const RESYNC_EVERY: Duration = Duration::from_secs(5);
 
+/// The kinds of message the display reads, as key tails after `<prefix><vessel>/`: one list
+/// for the messages and for their publishers' tokens.
+const TAILS: [&str; 3] = ["forecast", "verification", "advisory/*"];
+
 /// The token key expressions under `prefix`, one per kind of message the display reads.
 fn token_keys(prefix: &str) -> [String; 3] {
-    ["forecast", "verification", "advisory/*"].map(|tail| format!("{prefix}*/{tail}/publisher/*"))
+    TAILS.map(|tail| format!("{prefix}*/{tail}/publisher/*"))
 }
 
 /// What a key names after the fleet prefix (`[<instance>/]shipcast/`):
@@ -248,7 +252,7 @@ fn start_with(
             })?;
         subscribers.push(subscriber);
     }
-    for tail in ["forecast", "verification", "advisory/*"] {
+    for tail in TAILS {
         let key = format!("{prefix}*/{tail}");
         let (board, sources, prefix) = (board.clone(), sources.clone(), prefix.to_string());
         let subscriber = session

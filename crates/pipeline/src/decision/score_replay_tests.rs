@@ -128,15 +128,21 @@ fn a_replay_starts_from_the_statements_an_earlier_run_left_and_adds_its_own() {
     assert_eq!(std::fs::read_to_string(&edited).unwrap(), text);
 }
 
-#[test]
-fn replay_scores_decisions_for_both_mots() {
-    let data = ar2_heave(2 * 1000, 5);
-    let deck = DeckConfig {
+/// A deck at the centre of gravity with a heave limit of 1 m and a velocity limit that never
+/// binds: its windows are those of the AR(2) heave alone.
+fn heave_deck() -> DeckConfig {
+    DeckConfig {
         point_m: [0.0; 3],
         vertical_displacement_limit_m: 1.0,
         vertical_velocity_limit_mps: 10.0,
         ..DeckConfig::default()
-    };
+    }
+}
+
+#[test]
+fn replay_scores_decisions_for_both_mots() {
+    let data = ar2_heave(2 * 1000, 5);
+    let deck = heave_deck();
     let config = PredictorServiceConfig::default();
     let (report, forecasts) =
         replay_scored(&data, &config, None, 200.0, true, Some(&deck), &|_| {}).unwrap();
@@ -186,12 +192,7 @@ fn replay_scores_decisions_for_both_mots() {
 #[test]
 fn a_skipped_stretch_still_teaches_the_deck() {
     let data = ar2_heave(2 * 1200, 7);
-    let deck = DeckConfig {
-        point_m: [0.0; 3],
-        vertical_displacement_limit_m: 1.0,
-        vertical_velocity_limit_mps: 10.0,
-        ..DeckConfig::default()
-    };
+    let deck = heave_deck();
     let config = PredictorServiceConfig::default();
     let (report, _) =
         replay_scored(&data, &config, None, 700.0, false, Some(&deck), &|_| {}).unwrap();
