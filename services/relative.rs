@@ -24,7 +24,9 @@ use shipcast_pipeline::limits;
 use shipcast_pipeline::relative::calls_csv::LiftCallsCsv;
 use shipcast_pipeline::relative::study::{study_calls, LiftCall, StudyReport};
 use shipcast_pipeline::relative::verify::{RelativeVerifier, MAX_PENDING};
-use shipcast_pipeline::relative::{advisory, Geometry, LiftDecider, LiftLimits, RelativeTrack};
+use shipcast_pipeline::relative::{
+    advisory, Geometry, LiftDecider, LiftLimits, PairCurrency, RelativeTrack,
+};
 use shipcast_pipeline::transport::forecast_check::{ForecastGate, PublisherWatch};
 use shipcast_pipeline::transport::zenoh::{self as zn, JsonPublisher, LatestSubscriber};
 use shipcast_pipeline::transport::{shutdown, Names};
@@ -375,8 +377,9 @@ impl Followed {
         })
     }
 
-    /// Takes every waiting forecast; true when an accepted one arrived.
-    fn poll(&mut self) -> anyhow::Result<bool> {
+    /// Takes every waiting forecast, each accepted one counted as `ship`'s in `currency`;
+    /// true when one arrived.
+    fn poll(&mut self, ship: usize, currency: &mut PairCurrency) -> anyhow::Result<bool> {
         let mut fresh = false;
         self.publishers.update(&mut self.gate.live);
         while let Some(received) = self.subscriber.try_recv_with_source()? {
@@ -384,6 +387,7 @@ impl Followed {
             self.publishers.update(&mut self.gate.live);
             match self.gate.check(&received) {
                 Ok(f) => {
+                    currency.arrived(ship, f.time_s);
                     // Reuses the box: nothing allocated per forecast once one arrived.
                     match &mut self.latest {
                         Some(latest) => **latest = f,
@@ -445,9 +449,13 @@ fn run_live(config: &PipelineConfig, limit: Option<Duration>) -> anyhow::Result<
         target_names.forecast()
     );
     let (mut count, mut misaligned) = (0u64, 0u64);
+    // Pairs refused as not current, and whether the latest one was.
+    let stale_pair_s = config.predictor.stale_after_s;
+    let (mut stale, mut was_stale) = (0u64, false);
+    let mut currency = PairCurrency::default();
     let stdout = std::io::stdout();
     while !limit.reached() {
-        let fresh = crane.poll()? | target.poll()?;
+        let fresh = crane.poll(0, &mut currency)? | target.poll(1, &mut currency)?;
         // Both polled every time: `|` does not short-circuit.
         if crane_motion.poll()? | target_motion.poll()? {
             verifier.drop_pending();
@@ -470,6 +478,20 @@ fn run_live(config: &PipelineConfig, limit: Option<Duration>) -> anyhow::Result<
         if !fresh {
             std::thread::sleep(Duration::from_millis(20));
             continue;
+        }
+        // A pair that is not current publishes nothing: the advisory ages and its readers
+        // (the display) show it stale, as when this service stops.
+        if let Err(e) = currency.check(stale_pair_s) {
+            stale += 1;
+            if !was_stale {
+                tracing::warn!(stale, "relative: no advisory while {e}");
+            }
+            was_stale = true;
+            continue;
+        }
+        if was_stale {
+            tracing::info!(stale, "relative: both vessels' forecasts are current again");
+            was_stale = false;
         }
         if let Err(e) = track.fill(&geometry, a, b, &verifier.calibration, &verifier.shrinkage) {
             misaligned += 1;
@@ -504,7 +526,7 @@ fn run_live(config: &PipelineConfig, limit: Option<Duration>) -> anyhow::Result<
     }
     let (ra, rb) = (crane.gate.stream.rejected, target.gate.stream.rejected);
     tracing::info!(
-        "relative: stopped after {count} relative forecasts ({} verified, {} unverifiable); rejected {} forecasts and {} motion samples from {}, {} and {} from {}, {misaligned} pairs not combinable",
+        "relative: stopped after {count} relative forecasts ({} verified, {} unverifiable); rejected {} forecasts and {} motion samples from {}, {} and {} from {}, {misaligned} pairs not combinable, {stale} not current",
         verifier.verified,
         verifier.unverifiable(),
         ra.total(),

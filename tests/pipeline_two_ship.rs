@@ -253,7 +253,9 @@ fn the_two_ship_study_scores_the_relative_forecast_from_two_simulated_records() 
     )
     .unwrap();
     let r = study(&itself, &same);
-    for l in r["leads"].as_array().unwrap() {
+    let leads = r["leads"].as_array().unwrap();
+    assert_eq!(leads.len(), 15, "{r}");
+    for l in leads {
         assert_eq!(l["relative_rms"].as_f64().unwrap(), 0.0, "{l}");
         assert!(
             (l["error_correlation"].as_f64().unwrap() - 1.0).abs() < 1e-9,

@@ -102,24 +102,31 @@ pub fn point_displacement(point: &ShipPoint, psi: f64, dof: [f64; 6]) -> [f64; 3
 }
 
 /// Linearised variance per axis of a point's displacement from the six DOF sigmas (independent
-/// within one ship), in the ship's own axes.
-pub fn point_variance(point: &ShipPoint, sigma: [f64; 6]) -> [f64; 3] {
+/// within one ship), in the ship's own axes, and the covariance of its x and y: with the lever
+/// arm r, dx = surge + r_z pitch - r_y yaw and dy = sway + r_x yaw - r_z roll share the yaw,
+/// so cov(dx, dy) = -r_x r_y var(yaw). A turn about z mixes x and y, and without it a spot
+/// off both axes on a ship turned 45 deg had its x sigma 0.10 m where it is 0.14 m (review).
+pub fn point_variance(point: &ShipPoint, sigma: [f64; 6]) -> ([f64; 3], f64) {
     let r = point.lever_arm;
     let v: [f64; 6] = sigma.map(|s| s * s);
-    [
-        v[SURGE] + r.z * r.z * v[PITCH] + r.y * r.y * v[YAW],
-        v[SWAY] + r.z * r.z * v[ROLL] + r.x * r.x * v[YAW],
-        v[HEAVE] + r.y * r.y * v[ROLL] + r.x * r.x * v[PITCH],
-    ]
+    (
+        [
+            v[SURGE] + r.z * r.z * v[PITCH] + r.y * r.y * v[YAW],
+            v[SWAY] + r.z * r.z * v[ROLL] + r.x * r.x * v[YAW],
+            v[HEAVE] + r.y * r.y * v[ROLL] + r.x * r.x * v[PITCH],
+        ],
+        -r.x * r.y * v[YAW],
+    )
 }
 
-/// A variance per axis given in axes turned `psi`, in the unturned axes (cross terms dropped:
-/// the axes' errors are taken as independent).
-fn rotate_variance(psi: f64, v: [f64; 3]) -> [f64; 3] {
+/// A variance per axis and the x-y covariance given in axes turned `psi`, as variances per
+/// axis in the unturned axes (x' = c x - s y, y' = s x + c y).
+fn rotate_variance(psi: f64, (v, cov_xy): ([f64; 3], f64)) -> [f64; 3] {
     let (s, c) = psi.sin_cos();
+    let cross = 2.0 * c * s * cov_xy;
     [
-        c * c * v[0] + s * s * v[1],
-        s * s * v[0] + c * c * v[1],
+        (c * c * v[0] + s * s * v[1] - cross).max(0.0),
+        (s * s * v[0] + c * c * v[1] + cross).max(0.0),
         v[2],
     ]
 }
@@ -188,6 +195,57 @@ pub enum AlignError {
     StepMismatch(f64, f64),
     #[error("the forecasts' origins are {0:.1} s apart, no step in common")]
     TooFarApart(f64),
+    #[error(
+        "{0} has sent no forecast while the other vessel's advanced {1:.1} s of record time \
+         (more than predictor.stale_after_s, {2:.1} s)"
+    )]
+    Stale(&'static str, f64, f64),
+}
+
+/// Whether two ships' latest forecasts are current enough to pair live: how far each ship's
+/// forecasts advanced in record time since the other's latest arrived. Why: a vessel whose
+/// predictor stopped leaves its last forecast behind, and [`align`] alone pairs every new
+/// forecast of the other ship with it, its steps shifted, until the two no longer overlap: a
+/// lift go stated from a forecast up to a horizon old, with a calibration learnt on pairs
+/// issued together (review, 2026-12-06). The origins themselves are not compared: two
+/// producers started a few seconds apart keep their record clocks that far apart for good.
+#[derive(Debug, Clone, Default)]
+pub struct PairCurrency {
+    /// Per ship (0 the crane vessel, 1 the target): record time its forecasts advanced since
+    /// the other's latest arrived [s], its latest origin, and whether the other's arrived
+    /// since (the step to the next one then spans the other's arrival, and counts nothing:
+    /// a vessel speaking again after a silence has not left the other behind).
+    advanced_s: [f64; 2],
+    last_s: [Option<f64>; 2],
+    other_since: [bool; 2],
+}
+
+impl PairCurrency {
+    /// A forecast of `ship` (0 the crane vessel, 1 the target) with origin `time_s` arrived.
+    pub fn arrived(&mut self, ship: usize, time_s: f64) {
+        let ship = ship.min(1);
+        if let (Some(last), false) = (self.last_s[ship], self.other_since[ship]) {
+            let step = time_s - last;
+            // A clock that went back (a restarted producer) advances nothing.
+            if step.is_finite() && step > 0.0 {
+                self.advanced_s[ship] += step;
+            }
+        }
+        self.last_s[ship] = Some(time_s);
+        self.other_since[ship] = false;
+        self.advanced_s[1 - ship] = 0.0;
+        self.other_since[1 - ship] = true;
+    }
+
+    /// Ok while neither ship's forecasts advanced more than `max_s` past the other's latest.
+    pub fn check(&self, max_s: f64) -> Result<(), AlignError> {
+        for (ship, silent) in [(0, "the target vessel"), (1, "the crane vessel")] {
+            if self.advanced_s[ship] > max_s {
+                return Err(AlignError::Stale(silent, self.advanced_s[ship], max_s));
+            }
+        }
+        Ok(())
+    }
 }
 
 /// Aligns `a` and `b` on the later origin.

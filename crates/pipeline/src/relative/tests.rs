@@ -114,6 +114,43 @@ fn independent_sigma_adds_both_ships_linearised_variances() {
 }
 
 #[test]
+fn a_points_variance_turned_to_a_heading_matches_a_monte_carlo_of_its_displacement() {
+    // Regression: the x-y covariance that yaw gives a point off both axes was dropped, so on a
+    // ship turned 45 deg a spot at (10, 10) had its x sigma 0.10 m where it is 0.14 m.
+    use rand::SeedableRng;
+    use rand_distr::{Distribution, Normal};
+    let point = ShipPoint::new([10.0, 10.0, -6.0]);
+    let sigma = [0.05, 0.04, 0.3, 0.01, 0.008, 0.01];
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(21);
+    for psi_deg in [0.0f64, 45.0, 120.0] {
+        let psi = psi_deg.to_radians();
+        let f = forecast(0.0, 1, NONE, sigma.map(|s| s as f32));
+        let mut track = PointTrack::default();
+        track.fill(&point, psi, &f, 0, 1);
+        // Small angles: the linearisation is exact to a few parts in a thousand.
+        let n = 200_000;
+        let mut sum_sq = [0.0; 3];
+        for _ in 0..n {
+            let dof: [f64; 6] =
+                std::array::from_fn(|d| Normal::new(0.0, sigma[d]).unwrap().sample(&mut rng));
+            let m = point_displacement(&point, psi, dof);
+            for (sum, v) in sum_sq.iter_mut().zip(m) {
+                *sum += v * v;
+            }
+        }
+        for (a, (sum, var)) in sum_sq.iter().zip(&track.var).enumerate() {
+            let mc = (sum / n as f64).sqrt();
+            let stated = var[0].sqrt();
+            // 200 000 draws: the sample sigma is within about 0.5 % (3 standard errors).
+            assert!(
+                (stated / mc - 1.0).abs() < 0.01,
+                "psi {psi_deg} axis {a}: stated {stated}, Monte Carlo {mc}"
+            );
+        }
+    }
+}
+
+#[test]
 fn forecasts_are_aligned_on_the_later_origin() {
     let g = geometry([0.0; 3], [0.0; 3], 0.0);
     let mut a = forecast(10.0, 8, NONE, NONE);
@@ -141,6 +178,48 @@ fn forecasts_are_aligned_on_the_later_origin() {
     assert!(matches!(
         align(&a, &other),
         Err(AlignError::StepMismatch(..))
+    ));
+}
+
+#[test]
+fn a_vessel_whose_forecasts_stopped_is_not_paired_though_its_last_still_overlaps() {
+    // Regression: the target's last forecast was paired with every new one of the crane
+    // vessel, its steps shifted, until they no longer overlapped.
+    let mut currency = PairCurrency::default();
+    // Two producers 3 s apart on their record clocks: current, whatever the offset.
+    for k in 0..10 {
+        currency.arrived(0, 100.0 + 0.5 * k as f64);
+        currency.arrived(1, 97.0 + 0.5 * k as f64);
+        assert_eq!(currency.check(2.0), Ok(()));
+    }
+    // The target falls silent after its forecast of 101.5 (the crane vessel's of 104.5 came
+    // before it): 2 s of the crane vessel's forecasts after that are tolerated, no more.
+    let last_target = forecast(101.5, 50, NONE, NONE);
+    for k in 1..=5 {
+        currency.arrived(0, 104.5 + 0.5 * k as f64);
+        assert_eq!(currency.check(2.0), Ok(()), "{k}");
+    }
+    currency.arrived(0, 107.5);
+    let crane = forecast(107.5, 50, NONE, NONE);
+    // Still overlapping (so `align` alone would pair them), but not current.
+    assert!(align(&crane, &last_target).is_ok());
+    assert!(matches!(
+        currency.check(2.0),
+        Err(AlignError::Stale("the target vessel", advanced, _)) if (advanced - 2.5).abs() < 1e-12
+    ));
+    // It speaks again, 2.5 s on: current (its own silence left nobody behind). A clock
+    // that goes back advances nothing.
+    currency.arrived(1, 104.0);
+    assert_eq!(currency.check(2.0), Ok(()));
+    currency.arrived(1, 0.0);
+    currency.arrived(1, 0.5);
+    assert_eq!(currency.check(2.0), Ok(()));
+    for k in 0..5 {
+        currency.arrived(1, 1.0 + 0.5 * k as f64);
+    }
+    assert!(matches!(
+        currency.check(2.0),
+        Err(AlignError::Stale("the crane vessel", ..))
     ));
 }
 
@@ -356,7 +435,9 @@ fn noise_pair_study() -> StudyReport {
 #[test]
 fn a_relative_sigma_learnt_in_the_no_skill_minutes_is_not_kept_too_narrow() {
     let report = noise_pair_study();
-    for l in report.leads.iter().filter(|l| l.axis == "z") {
+    let z: Vec<_> = report.leads.iter().filter(|l| l.axis == "z").collect();
+    assert_eq!(z.len(), STUDY_LEADS_S.len());
+    for l in z {
         assert!(l.scored > 1000, "{l:?}");
         assert!(l.coverage_1sigma >= 0.64, "{l:?}");
         assert!(l.coverage_2sigma >= 0.92, "{l:?}");
