@@ -357,8 +357,16 @@ mod tests {
             stale_timeout(&c.pipeline),
             Duration::from_secs_f64(limits::MAX_SECONDS)
         );
+        // As fast as possible counts as 100x: the default 2 s of record is 20 ms, raised to
+        // the floor.
         let c = crate::validated::<Args, Config>(&["--speed", "0"]).unwrap();
-        assert!(stale_timeout(&c.pipeline) >= MIN_STALE_WALL);
+        assert_eq!(c.pipeline.predictor.stale_after_s, 2.0);
+        assert!(MIN_STALE_WALL > Duration::from_millis(20));
+        assert_eq!(stale_timeout(&c.pipeline), MIN_STALE_WALL);
+        // A pacing that leaves the limit above the floor: 2 s of record at 0.5x is 4 s.
+        let c = crate::validated::<Args, Config>(&["--speed", "0.5"]).unwrap();
+        assert!(MIN_STALE_WALL < Duration::from_secs(4));
+        assert_eq!(stale_timeout(&c.pipeline), Duration::from_secs(4));
     }
 
     #[test]

@@ -754,8 +754,10 @@ mod config_tests {
 
     #[test]
     fn the_display_flags_and_two_ship_are_resolved_and_checked() {
-        let logs = std::env::temp_dir().join(format!("shipcast-run-test-{}", std::process::id()));
+        let tmp = tempfile::tempdir().unwrap();
+        let logs = tmp.path().join("logs");
         let dir = logs.to_str().unwrap();
+        let missing = tmp.path().join("missing.toml");
         let c = crate::validated::<Args, Config>(&["--log-dir", dir, "--no-display"]).unwrap();
         assert!(c.display.is_none() && !c.two_ship && logs.is_dir());
         assert_eq!(c.log_dir, logs);
@@ -776,7 +778,7 @@ mod config_tests {
         for bad in [
             &["--display", "localhost"][..],
             &["--duration", "nan"],
-            &["--no-display", "--config", "/nonexistent/shipcast.toml"],
+            &["--no-display", "--config", missing.to_str().unwrap()],
         ] {
             let argv = [&["--log-dir", dir][..], bad].concat();
             crate::refused::<Args, Config>(&argv);

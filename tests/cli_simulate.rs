@@ -596,7 +596,8 @@ fn a_second_vessel_meets_the_same_waves_shifted_by_its_position() {
         "the turn changed nothing"
     );
     // Bad input is one clear line.
-    let o = simulate(&["--vessel-y-m", "inf", "--out", "x.csv"]);
+    let x = dir.path().join("x.csv");
+    let o = simulate(&["--vessel-y-m", "inf", "--out", x.to_str().unwrap()]);
     assert!(!o.status.success());
     let e = String::from_utf8_lossy(&o.stderr);
     assert!(

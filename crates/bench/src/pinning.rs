@@ -100,11 +100,18 @@ mod tests {
         let mut cmd = std::process::Command::new("sleep");
         cmd.arg("5");
         pin_command(&mut cmd, 0);
-        let mut child = cmd.spawn().unwrap();
-        let outcome = child_pinned("sleep", child.id(), 0);
-        let wrong = child_pinned("sleep", child.id(), 1);
-        child.kill().unwrap();
-        child.wait().unwrap();
+        // Killed and reaped when the test ends, also when a check panics.
+        struct Killed(std::process::Child);
+        impl Drop for Killed {
+            fn drop(&mut self) {
+                let _ = self.0.kill();
+                let _ = self.0.wait();
+            }
+        }
+        let child = Killed(cmd.spawn().unwrap());
+        let outcome = child_pinned("sleep", child.0.id(), 0);
+        let wrong = child_pinned("sleep", child.0.id(), 1);
+        drop(child);
         assert!(outcome.pinned, "{outcome:?}");
         assert!(!wrong.pinned);
     }

@@ -383,7 +383,9 @@ mod tests {
     }
 
     /// One test per method, so the methods run in parallel; the match fails to compile when a
-    /// method is added without its test.
+    /// method is added without its test. A compile-time check, not a test: a test calling it
+    /// could not fail (test-quality review).
+    const _: fn(Method) -> fn() = conformance_test_exists;
     fn conformance_test_exists(method: Method) -> fn() {
         match method {
             Method::Mca => mca_conforms,
@@ -392,13 +394,6 @@ mod tests {
             Method::Mlp => mlp_conforms,
             Method::Persistence => persistence_conforms,
             Method::Zero => zero_conforms,
-        }
-    }
-
-    #[test]
-    fn every_method_has_a_conformance_test() {
-        for method in Method::ALL {
-            let _ = conformance_test_exists(method);
         }
     }
 

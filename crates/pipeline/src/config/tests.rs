@@ -449,9 +449,7 @@ fn a_pipelines_access_rules_must_cover_its_own_keys() {
     assert!(other_vessel.validate().is_err());
     // A wider rule covers it.
     let mut wide = moved.clone();
-    if let Some(a) = wide.zenoh.access.as_mut() {
-        a.key_exprs = vec!["*/shipcast/**".into()];
-    }
+    wide.zenoh.access.as_mut().expect("access rules").key_exprs = vec!["*/shipcast/**".into()];
     assert!(wide.validate().is_ok());
 }
 

@@ -25,7 +25,7 @@ struct Waiting {
 }
 
 /// What became of the decisions handed to [`Outcomes`].
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
 pub struct OutcomeCounts {
     /// Decisions verified against the motion.
     pub verified: u64,
@@ -38,6 +38,10 @@ pub struct OutcomeCounts {
     /// Motion samples not kept: a non-finite value, or seq or time not moving forward.
     #[serde(default)]
     pub rejected_samples: u64,
+    /// Record time (`time_s`) of the newest verified decision: on which producer run's clock
+    /// the deck verifies.
+    #[serde(default)]
+    pub newest_verified_s: Option<f64>,
 }
 
 pub struct Outcomes {
@@ -157,6 +161,7 @@ impl Outcomes {
                     decider.add_outcome(n, p, held);
                 }
                 self.counts.verified += 1;
+                self.counts.newest_verified_s = Some(w.time_s);
             } else {
                 self.counts.unverifiable += 1;
             }
@@ -308,6 +313,7 @@ mod tests {
                 unverifiable: 1,
                 restarts: 0,
                 rejected_samples: 2,
+                newest_verified_s: None,
             }
         );
         assert!(decider.ensemble().is_empty());
@@ -349,6 +355,7 @@ mod tests {
                 unverifiable: 1,
                 restarts: 1,
                 rejected_samples: 0,
+                newest_verified_s: None,
             }
         );
         // On the new run's clock, a decision at 0 s is verified once 25 s have happened.
@@ -360,6 +367,7 @@ mod tests {
         }
         outcomes.verify_ready(&mut decider);
         assert_eq!(outcomes.counts.verified, 1, "{:?}", outcomes.counts);
+        assert_eq!(outcomes.counts.newest_verified_s, Some(0.0));
         assert_eq!(decider.ensemble().len(), 1);
     }
 }

@@ -197,8 +197,11 @@ mod tests {
 
     #[test]
     fn locks_live_in_a_directory_of_the_users_own_and_never_follow_a_symlink() {
-        let dir = lock_dir().unwrap();
-        assert!(check_own_dir(&dir).is_ok());
+        // A directory of the user's own, mode 0700, is one (in a temporary directory: the
+        // test does not touch the real lock directory).
+        let mine = tempfile::tempdir().unwrap();
+        std::fs::set_permissions(mine.path(), std::fs::Permissions::from_mode(0o700)).unwrap();
+        assert!(check_own_dir(mine.path()).is_ok());
         // A directory others may write to is not one.
         let shared = tempfile::tempdir().unwrap();
         std::fs::set_permissions(shared.path(), std::fs::Permissions::from_mode(0o777)).unwrap();
@@ -221,7 +224,8 @@ mod tests {
     #[test]
     fn a_lock_file_that_cannot_be_opened_does_not_stop_the_service() {
         let names = Names::new(Some("lock-test"), "ddg").unwrap();
-        let missing = Path::new("/nonexistent/shipcast-lock-dir");
-        assert!(HostLock::acquire_in(missing, &names, "predictor").is_ok());
+        let dir = tempfile::tempdir().unwrap();
+        let missing = dir.path().join("missing");
+        assert!(HostLock::acquire_in(&missing, &names, "predictor").is_ok());
     }
 }

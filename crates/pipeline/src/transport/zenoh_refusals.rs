@@ -159,23 +159,28 @@ impl Visit for Message {
 /// Count one refusal; returns how many of its reason went unprinted before it if its line is
 /// due now.
 fn count(reason: &'static str) -> Option<u64> {
+    count_at(reason, Instant::now())
+}
+
+/// [`count`] at `now` (tests drive the clock).
+fn count_at(reason: &'static str, now: Instant) -> Option<u64> {
     REFUSED.fetch_add(1, Ordering::Relaxed);
     let mut tallies = TALLIES.lock().ok()?;
     let Some(t) = tallies.iter_mut().find(|t| t.reason == reason) else {
         tallies.push(Tally {
             reason,
             count: 1,
-            printed_at: Instant::now(),
+            printed_at: now,
             unprinted: 0,
         });
         return Some(0);
     };
     t.count += 1;
-    if t.printed_at.elapsed() < PRINT_EVERY {
+    if now.saturating_duration_since(t.printed_at) < PRINT_EVERY {
         t.unprinted += 1;
         return None;
     }
-    t.printed_at = Instant::now();
+    t.printed_at = now;
     Some(std::mem::take(&mut t.unprinted))
 }
 
@@ -280,21 +285,23 @@ mod tests {
     #[test]
     fn lines_are_rate_limited_per_reason_and_every_refusal_is_counted() {
         // A reason of its own, so that other tests in this process do not share its tally.
+        // The clock is driven: no real second passes (test-quality review).
         let reason = "test reason";
-        assert_eq!(count(reason), Some(0));
-        for _ in 0..5 {
-            assert_eq!(count(reason), None);
+        let start = Instant::now();
+        assert_eq!(count_at(reason, start), Some(0));
+        for i in 0..5 {
+            let t = start + PRINT_EVERY * i / 5;
+            assert_eq!(count_at(reason, t), None);
         }
         assert_eq!(
-            count("test reason 2"),
+            count_at("test reason 2", start),
             Some(0),
             "another reason has its own limit"
         );
         let tally = |r| refusals().into_iter().find(|t| t.0 == r).map(|t| t.1);
         assert_eq!(tally(reason), Some(6));
-        std::thread::sleep(PRINT_EVERY);
         assert_eq!(
-            count(reason),
+            count_at(reason, start + PRINT_EVERY),
             Some(5),
             "the next line says how many were not printed"
         );
