@@ -224,6 +224,19 @@ impl RelativeConfig {
                 r.error_correlation
             ));
         }
+        // The lift's sums forget: their weight tends to 1 / (1 - decay), about 1.44 half-lives.
+        // A minimum beyond it is never reached, and the lift's sigma and shrinkage would stay
+        // uncalibrated for good while the issued sigma said calibrated (review, 2026-12-06).
+        let decay = crate::sigma_scale::decay_per_forecast(r.calibration_halflife);
+        let reachable = 1.0 / (1.0 - decay);
+        if r.calibration_min_verified >= reachable {
+            return Err(format!(
+                "relative.calibration_min_verified ({}) must be below the weight a half-life \
+                 of {} verified forecasts reaches ({reachable:.0}): raise the half-life or \
+                 lower the minimum",
+                r.calibration_min_verified, r.calibration_halflife
+            ));
+        }
         limits::count("relative.print_every", r.print_every, 1, u64::MAX)?;
         Ok(())
     }

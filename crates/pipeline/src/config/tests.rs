@@ -480,3 +480,24 @@ fn consumers_reach_a_wildcard_listen_address_on_loopback() {
         ["tls/127.0.0.1:7447", "tls/router.example:7448"]
     );
 }
+
+#[test]
+fn a_lift_minimum_its_half_life_never_reaches_is_refused() {
+    // Regression: half-life 60 with a minimum of 100 verified forecasts was accepted; the
+    // decayed weight tops out at 1 / (1 - 0.5^(1/60)) = 87.1, so the lift never calibrated.
+    let config = |halflife: f64, min: f64| {
+        let text = format!(
+            "[relative]\ncalibration_halflife = {halflife}\ncalibration_min_verified = {min}\n"
+        );
+        PipelineConfig::from_toml(&text, Path::new("x.toml"))
+    };
+    let reachable = 1.0 / (1.0 - 0.5f64.powf(1.0 / 60.0));
+    assert!((reachable - 87.06).abs() < 0.01, "{reachable}");
+    let e = format!("{:#}", config(60.0, 100.0).unwrap_err());
+    assert!(
+        e.contains("relative.calibration_min_verified (100) must be below the weight"),
+        "{e}"
+    );
+    assert!(config(60.0, 87.0).is_ok());
+    assert!(config(70.0, 100.0).is_ok());
+}
