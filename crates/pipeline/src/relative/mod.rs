@@ -186,6 +186,24 @@ pub struct Alignment {
     /// How far the older forecast's shifted steps are from the common step times [s]
     /// (at most half a step).
     pub misalignment_s: f64,
+    /// A's origin is the later one (B's steps are the shifted ones).
+    pub a_later: bool,
+}
+
+impl Alignment {
+    /// Record times of A's and B's own step behind relative step `k` (steps of `dt_s`): the
+    /// later ship's at time_s + (k + 1) dt, the older one's `misalignment_s` earlier. Each
+    /// ship's motion is verified at its own step's time: on two sample grids out of phase,
+    /// looking both up at the later ship's time missed every sample of the other (review).
+    pub fn step_times_s(&self, k: usize, dt_s: f64) -> (f64, f64) {
+        let t = self.time_s + (k + 1) as f64 * dt_s;
+        let older = t - self.misalignment_s;
+        if self.a_later {
+            (t, older)
+        } else {
+            (older, t)
+        }
+    }
 }
 
 /// Why two forecasts cannot be combined.
@@ -274,6 +292,7 @@ pub fn align(a: &Forecast, b: &Forecast) -> Result<Alignment, AlignError> {
         skip_b,
         steps,
         misalignment_s,
+        a_later: gap >= 0.0,
     })
 }
 
@@ -322,6 +341,7 @@ impl Default for RelativeTrack {
                 skip_b: 0,
                 steps: 0,
                 misalignment_s: 0.0,
+                a_later: true,
             },
             dt_s: 0.0,
             mean: [[0.0; MAX_STEPS]; 3],

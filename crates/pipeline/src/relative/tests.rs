@@ -182,6 +182,57 @@ fn forecasts_are_aligned_on_the_later_origin() {
 }
 
 #[test]
+fn each_ship_is_verified_at_its_own_steps_on_sample_grids_out_of_phase() {
+    // Regression: both ships' motion was looked up at the later ship's step times, so with
+    // B sampling 60 ms off A's grid every relative forecast was unverifiable.
+    use crate::observed::MotionHistory;
+    use shipcast_wire::payload::MotionSample;
+    let g = geometry([0.0; 3], [0.0; 3], 0.0);
+    // Heave is the record time itself: what is looked up says when it was recorded.
+    let history = |offset_s: f64| {
+        let mut h = MotionHistory::new(8.0, 60.0);
+        for i in 0..(8 * 40) {
+            let time_s = offset_s + i as f64 / 8.0;
+            h.push(&MotionSample {
+                seq: i,
+                stamp_ns: 0,
+                time_s,
+                dof: [0.0, 0.0, time_s, 0.0, 0.0, 0.0],
+            });
+        }
+        h
+    };
+    let (ha, hb) = (history(0.0), history(0.06));
+    // The latest forecasts: A's at 10.0 on its grid, B's at 9.56 on its own.
+    for (a_s, b_s) in [(10.0, 9.56), (9.5, 10.06)] {
+        let t = relative(
+            &g,
+            &forecast(a_s, 20, NONE, NONE),
+            &forecast(b_s, 20, NONE, NONE),
+        );
+        let (mut tip, mut spot) = (Vec::new(), Vec::new());
+        assert!(
+            verify::observed(&t, &g, &ha, &hb, &mut tip, &mut spot),
+            "{:?}",
+            t.alignment
+        );
+        assert_eq!(tip.len(), t.steps());
+        for k in 0..t.steps() {
+            // Each ship's own step k (after the older one's skip) on its own clock.
+            let (ka, kb) = (k + t.alignment.skip_a, k + t.alignment.skip_b);
+            assert!(
+                (tip[k][2] - (a_s + (ka + 1) as f64 * 0.5)).abs() < 1e-9,
+                "{k}"
+            );
+            assert!(
+                (spot[k][2] - (b_s + (kb + 1) as f64 * 0.5)).abs() < 1e-9,
+                "{k}"
+            );
+        }
+    }
+}
+
+#[test]
 fn a_vessel_whose_forecasts_stopped_is_not_paired_though_its_last_still_overlaps() {
     // Regression: the target's last forecast was paired with every new one of the crane
     // vessel, its steps shifted, until they no longer overlapped.

@@ -145,8 +145,8 @@ pub fn observed(
     tip.clear();
     spot.clear();
     for k in 0..track.steps() {
-        let t = track.alignment.time_s + (k + 1) as f64 * track.dt_s;
-        let (Some(da), Some(db)) = (a.dof_at(t), b.dof_at(t)) else {
+        let (ta, tb) = track.alignment.step_times_s(k, track.dt_s);
+        let (Some(da), Some(db)) = (a.dof_at(ta), b.dof_at(tb)) else {
             return false;
         };
         tip.push(point_displacement(&geometry.tip, 0.0, da));
