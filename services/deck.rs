@@ -59,6 +59,7 @@ impl TryFrom<Args> for Config {
 
     fn try_from(args: Args) -> anyhow::Result<Self> {
         let pipeline = args.common.load()?;
+        crate::checked(pipeline.check_mot_fits_horizon("deck.mot_s", pipeline.deck.mot_s))?;
         let print_every = crate::checked(value_limits::count(
             "--print-every",
             args.print_every,
@@ -333,6 +334,18 @@ impl DeckStatus {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_mot_no_forecast_holds_is_refused_at_start() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("long_mot.toml");
+        std::fs::write(&path, "[deck]\nmot_s = 30.0\n").unwrap();
+        let e = crate::refused::<Args, Config>(&["--config", path.to_str().unwrap()]);
+        assert!(
+            e.contains("deck.mot_s (30 s) is longer than the forecast horizon"),
+            "{e}"
+        );
+    }
 
     #[test]
     fn flags_are_checked_and_no_publish_wins_over_the_configuration() {

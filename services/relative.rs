@@ -95,6 +95,7 @@ impl TryFrom<Args> for Config {
 
     fn try_from(args: Args) -> anyhow::Result<Self> {
         let pipeline = args.common.load()?;
+        crate::checked(pipeline.check_mot_fits_horizon("relative.mot_s", pipeline.relative.mot_s))?;
         let mode = match (args.crane_record, args.target_record) {
             (Some(crane_record), Some(target_record)) => {
                 if let Some(skip_s) = args.skip_s {

@@ -501,6 +501,28 @@ impl CommonArgs {
 }
 
 impl PipelineConfig {
+    /// Refuses a station's MOT (`name`, e.g. "deck.mot_s") longer than the forecast horizon:
+    /// no window of it fits in a forecast, so the station would run without ever stating a
+    /// probability or a go. Checked by the stations that decide, not by the whole
+    /// configuration: a predictor run with a short horizon has no window to decide.
+    pub fn check_mot_fits_horizon(&self, name: &str, mot_s: f64) -> Result<(), String> {
+        let p = &self.predictor;
+        let steps = crate::decision::window_steps(mot_s, 1.0 / p.sample_rate_hz);
+        if steps > p.horizon {
+            return Err(format!(
+                "{name} ({mot_s} s) is longer than the forecast horizon ({} s: predictor.horizon \
+                 {} steps at {} Hz), so no window of it could be decided; lower it or raise \
+                 predictor.horizon",
+                p.horizon as f64 / p.sample_rate_hz,
+                p.horizon,
+                p.sample_rate_hz
+            ));
+        }
+        Ok(())
+    }
+}
+
+impl PipelineConfig {
     /// The configuration as TOML, as `shipcast run` hands it to its children.
     pub fn to_toml(&self) -> Result<String, ConfigError> {
         toml::to_string(self).map_err(|e| ConfigError::Invalid(format!("serialise: {e}")))

@@ -501,3 +501,20 @@ fn a_lift_minimum_its_half_life_never_reaches_is_refused() {
     assert!(config(60.0, 87.0).is_ok());
     assert!(config(70.0, 100.0).is_ok());
 }
+
+#[test]
+fn a_station_mot_longer_than_the_horizon_is_refused() {
+    // Default: 50 steps at 2 Hz, 25 s. MOT 25 s is 50 steps and fits; 25.5 s needs 51.
+    let c = PipelineConfig::default();
+    assert_eq!((c.predictor.horizon, c.predictor.sample_rate_hz), (50, 2.0));
+    assert_eq!(c.check_mot_fits_horizon("deck.mot_s", c.deck.mot_s), Ok(()));
+    assert_eq!(c.check_mot_fits_horizon("deck.mot_s", 25.0), Ok(()));
+    let e = c.check_mot_fits_horizon("deck.mot_s", 25.5).unwrap_err();
+    assert!(
+        e.starts_with("deck.mot_s (25.5 s) is longer than the forecast horizon (25 s"),
+        "{e}"
+    );
+    let long =
+        PipelineConfig::from_toml("[predictor]\nhorizon = 80\n", Path::new("x.toml")).unwrap();
+    assert_eq!(long.check_mot_fits_horizon("relative.mot_s", 30.0), Ok(()));
+}
