@@ -450,8 +450,13 @@ fn run_live(config: &PipelineConfig, limit: Option<Duration>) -> anyhow::Result<
         target_names.forecast()
     );
     let (mut count, mut misaligned) = (0u64, 0u64);
-    // Pairs refused as not current, and whether the latest one was.
-    let stale_pair_s = config.predictor.stale_after_s;
+    // Pairs refused as not current, and whether the latest one was. The limit is at least
+    // the forecasts a poll may take at once (the subscriber keeps ZENOH_RING): one poll of a
+    // healthy ship's batch must not read as the other's silence (review).
+    let stale_pair_s = config
+        .predictor
+        .stale_after_s
+        .max(shipcast_wire::payload::limits::ZENOH_RING as f64 * dt);
     let (mut stale, mut was_stale) = (0u64, false);
     let mut currency = PairCurrency::default();
     let stdout = std::io::stdout();

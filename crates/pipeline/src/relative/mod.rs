@@ -105,7 +105,8 @@ pub fn point_displacement(point: &ShipPoint, psi: f64, dof: [f64; 6]) -> [f64; 3
 /// within one ship), in the ship's own axes, and the covariance of its x and y: with the lever
 /// arm r, dx = surge + r_z pitch - r_y yaw and dy = sway + r_x yaw - r_z roll share the yaw,
 /// so cov(dx, dy) = -r_x r_y var(yaw). A turn about z mixes x and y, and without it a spot
-/// off both axes on a ship turned 45 deg had its x sigma 0.10 m where it is 0.14 m (review).
+/// off both axes on a ship turned 45 deg, (10, 10) with a yaw sigma of 0.01 rad and nothing
+/// else, had its x sigma 0.10 m where it is 0.14 m (review).
 pub fn point_variance(point: &ShipPoint, sigma: [f64; 6]) -> ([f64; 3], f64) {
     let r = point.lever_arm;
     let v: [f64; 6] = sigma.map(|s| s * s);
@@ -215,7 +216,8 @@ pub enum AlignError {
     TooFarApart(f64),
     #[error(
         "{0} has sent no forecast while the other vessel's advanced {1:.1} s of record time \
-         (more than predictor.stale_after_s, {2:.1} s)"
+         (more than {2:.1} s: predictor.stale_after_s, at least 4 forecast steps); it has \
+         stopped or fallen behind"
     )]
     Stale(&'static str, f64, f64),
 }

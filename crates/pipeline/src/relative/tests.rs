@@ -116,7 +116,8 @@ fn independent_sigma_adds_both_ships_linearised_variances() {
 #[test]
 fn a_points_variance_turned_to_a_heading_matches_a_monte_carlo_of_its_displacement() {
     // Regression: the x-y covariance that yaw gives a point off both axes was dropped, so on a
-    // ship turned 45 deg a spot at (10, 10) had its x sigma 0.10 m where it is 0.14 m.
+    // ship turned 45 deg a spot at (10, 10), with a yaw sigma of 0.01 rad alone, had its x
+    // sigma 0.10 m where it is 0.14 m.
     use rand::SeedableRng;
     use rand_distr::{Distribution, Normal};
     let point = ShipPoint::new([10.0, 10.0, -6.0]);

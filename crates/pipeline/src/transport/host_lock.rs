@@ -124,14 +124,19 @@ impl HostLock {
 /// system for this user alone), else `<temp>/shipcast-locks-<uid>` with mode 0700. One that
 /// another user owns, or that others may write to, is refused.
 fn lock_dir() -> std::io::Result<PathBuf> {
-    if let Some(dir) = std::env::var_os("XDG_RUNTIME_DIR").filter(|d| !d.is_empty()) {
+    lock_dir_in(std::env::var_os("XDG_RUNTIME_DIR"), &std::env::temp_dir())
+}
+
+/// [`lock_dir`] with the runtime directory and the temporary directory given (tests).
+fn lock_dir_in(runtime: Option<std::ffi::OsString>, temp: &Path) -> std::io::Result<PathBuf> {
+    if let Some(dir) = runtime.filter(|d| !d.is_empty()) {
         let dir = PathBuf::from(dir);
         check_own_dir(&dir)?;
         return Ok(dir);
     }
     // SAFETY: geteuid takes no arguments, touches no memory of ours and cannot fail.
     let uid = unsafe { libc::geteuid() };
-    let dir = std::env::temp_dir().join(format!("shipcast-locks-{uid}"));
+    let dir = temp.join(format!("shipcast-locks-{uid}"));
     match std::fs::DirBuilder::new().mode(0o700).create(&dir) {
         Ok(()) => {}
         Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {}
@@ -197,11 +202,25 @@ mod tests {
 
     #[test]
     fn locks_live_in_a_directory_of_the_users_own_and_never_follow_a_symlink() {
-        // A directory of the user's own, mode 0700, is one (in a temporary directory: the
-        // test does not touch the real lock directory).
-        let mine = tempfile::tempdir().unwrap();
-        std::fs::set_permissions(mine.path(), std::fs::Permissions::from_mode(0o700)).unwrap();
-        assert!(check_own_dir(mine.path()).is_ok());
+        // Without a runtime directory, one of the user's own is made under the temporary
+        // root, mode 0700, and used again (under a temporary root of the test's own: the
+        // real lock directory is not touched).
+        let temp = tempfile::tempdir().unwrap();
+        let made = lock_dir_in(None, temp.path()).unwrap();
+        assert_eq!(made.parent(), Some(temp.path()));
+        let mode = std::fs::metadata(&made).unwrap().permissions().mode() & 0o777;
+        assert_eq!(mode, 0o700);
+        assert_eq!(lock_dir_in(Some("".into()), temp.path()).unwrap(), made);
+        // A runtime directory is used as it is, if it is the user's own alone.
+        let runtime = tempfile::tempdir().unwrap();
+        std::fs::set_permissions(runtime.path(), std::fs::Permissions::from_mode(0o700)).unwrap();
+        let given = Some(runtime.path().as_os_str().to_owned());
+        assert_eq!(
+            lock_dir_in(given.clone(), temp.path()).unwrap(),
+            runtime.path()
+        );
+        std::fs::set_permissions(runtime.path(), std::fs::Permissions::from_mode(0o777)).unwrap();
+        assert!(lock_dir_in(given, temp.path()).is_err());
         // A directory others may write to is not one.
         let shared = tempfile::tempdir().unwrap();
         std::fs::set_permissions(shared.path(), std::fs::Permissions::from_mode(0o777)).unwrap();
