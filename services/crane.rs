@@ -17,7 +17,9 @@ use shipcast_pipeline::deck::ShipPoint;
 use shipcast_pipeline::relative::PointTrack;
 use shipcast_pipeline::sigma_scale::SigmaScale;
 use shipcast_pipeline::transport::forecast_check::{ForecastGate, PublisherWatch};
-use shipcast_pipeline::transport::zenoh::{self as zn, LatestSubscriber, LivelinessWatch};
+use shipcast_pipeline::transport::zenoh::{
+    self as zn, LatestSubscriber, LivelinessWatch, Received,
+};
 use shipcast_pipeline::transport::{shutdown, Names};
 use shipcast_wire::payload::MAX_STEPS;
 use std::io::Write;
@@ -121,6 +123,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let mut track = Vec::new();
     let mut point = Box::<PointTrack>::default();
     let stdout = std::io::stdout();
+    // The forecast being checked, its buffers reused from one to the next.
+    let mut received = Received::empty();
     while !limit.reached() {
         if motion.poll()? {
             verifier.drop_pending();
@@ -135,9 +139,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }
         publishers.update(&mut gate.live);
         // Short, so that the motion is polled often enough for its queue.
-        let Some(received) = forecasts.recv_with_source(Duration::from_millis(20))? else {
+        if !forecasts.recv_into(Duration::from_millis(20), &mut received)? {
             continue;
-        };
+        }
         // A token may arrive just after the first forecast of its publisher.
         publishers.update(&mut gate.live);
         let forecast = match gate.check(&received) {

@@ -5,7 +5,7 @@
 use shipcast_pipeline::observed::MotionHistory;
 use shipcast_pipeline::transport::forecast_check::PublisherWatch;
 use shipcast_pipeline::transport::motion_gate::{Admitted, MotionGate};
-use shipcast_pipeline::transport::zenoh::LatestSubscriber;
+use shipcast_pipeline::transport::zenoh::{LatestSubscriber, Received};
 use shipcast_pipeline::transport::Names;
 
 /// One vessel's observed motion over zenoh (`.../motion`, from its predictor), checked.
@@ -17,6 +17,8 @@ pub struct FollowedMotion {
     publishers: PublisherWatch,
     pub gate: MotionGate,
     pub history: MotionHistory,
+    /// The sample being checked, its buffers reused from one to the next.
+    received: Received,
 }
 
 impl FollowedMotion {
@@ -39,6 +41,7 @@ impl FollowedMotion {
             gate: MotionGate::new(),
             history: MotionHistory::new(rate_hz, keep_s),
             key,
+            received: Received::empty(),
         })
     }
 
@@ -61,9 +64,9 @@ impl FollowedMotion {
     pub fn poll(&mut self) -> anyhow::Result<bool> {
         let mut restarted = false;
         self.publishers.update(&mut self.gate.live);
-        while let Some(received) = self.subscriber.try_recv_with_source()? {
+        while self.subscriber.try_recv_into(&mut self.received)? {
             self.publishers.update(&mut self.gate.live);
-            match self.gate.check(&received, &mut self.history) {
+            match self.gate.check(&self.received, &mut self.history) {
                 Ok(Admitted::Continues) => {}
                 Ok(Admitted::Restarted) => {
                     restarted = true;

@@ -28,7 +28,7 @@ use shipcast_pipeline::relative::{
     advisory, Geometry, LiftDecider, LiftLimits, PairCurrency, RelativeTrack,
 };
 use shipcast_pipeline::transport::forecast_check::{ForecastGate, PublisherWatch};
-use shipcast_pipeline::transport::zenoh::{self as zn, JsonPublisher, LatestSubscriber};
+use shipcast_pipeline::transport::zenoh::{self as zn, JsonPublisher, LatestSubscriber, Received};
 use shipcast_pipeline::transport::{shutdown, Names};
 use shipcast_series::motion_csv::MotionData;
 use shipcast_wire::payload::{Forecast, MAX_STEPS};
@@ -365,6 +365,8 @@ struct Followed {
     publishers: PublisherWatch,
     gate: ForecastGate,
     latest: Option<Box<Forecast>>,
+    /// The forecast being checked, its buffers reused from one to the next.
+    received: Received,
 }
 
 impl Followed {
@@ -375,6 +377,7 @@ impl Followed {
             publishers: PublisherWatch::new(session, &names.forecast())?,
             gate: ForecastGate::new(dt),
             latest: None,
+            received: Received::empty(),
         })
     }
 
@@ -383,10 +386,10 @@ impl Followed {
     fn poll(&mut self, ship: usize, currency: &mut PairCurrency) -> anyhow::Result<bool> {
         let mut fresh = false;
         self.publishers.update(&mut self.gate.live);
-        while let Some(received) = self.subscriber.try_recv_with_source()? {
+        while self.subscriber.try_recv_into(&mut self.received)? {
             // A token may arrive just after the first forecast of its publisher.
             self.publishers.update(&mut self.gate.live);
-            match self.gate.check(&received) {
+            match self.gate.check(&self.received) {
                 Ok(f) => {
                     currency.arrived(ship, f.time_s);
                     // Reuses the box: nothing allocated per forecast once one arrived.

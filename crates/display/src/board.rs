@@ -251,7 +251,11 @@ impl Board {
         // A panic elsewhere never leaves the map half-written (every update is one assignment),
         // so a poisoned lock is still safe to use.
         let mut map = self.vessels.lock().unwrap_or_else(|p| p.into_inner());
-        if !map.contains_key(vessel) && map.len() >= MAX_VESSELS {
+        // A known vessel (every message but its first): its name is not copied again.
+        if let Some(v) = map.get_mut(vessel) {
+            return Some(f(v));
+        }
+        if map.len() >= MAX_VESSELS {
             let stalest = make_room.and_then(|now| {
                 map.iter()
                     .filter(|(_, v)| self.is_stale(v.forecast_at, now))
@@ -318,7 +322,10 @@ impl Board {
             }
             v.forecast = Some(ForecastView::of(f));
             v.forecast_at = Some(now);
-            v.publisher = publisher.map(str::to_string);
+            // Copied only when it changes (a new publisher), not with every forecast.
+            if v.publisher.as_deref() != publisher {
+                v.publisher = publisher.map(str::to_string);
+            }
             Ok(())
         })
         .unwrap_or(Err(Refused::BeyondBounds))
@@ -343,7 +350,11 @@ impl Board {
     /// forecasts kept coming; now it is marked stale once older than the stale limit.
     pub fn advisory(&self, vessel: &str, station: &str, advisory: AdvisoryView, now: Instant) {
         let kept = self.with_vessel(vessel, None, |v| {
-            if !v.advisories.contains_key(station) && v.advisories.len() >= MAX_STATIONS {
+            if let Some(kept) = v.advisories.get_mut(station) {
+                *kept = (advisory, now);
+                return true;
+            }
+            if v.advisories.len() >= MAX_STATIONS {
                 return false;
             }
             v.advisories.insert(station.to_string(), (advisory, now));

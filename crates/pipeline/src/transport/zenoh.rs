@@ -366,6 +366,8 @@ pub struct JsonPublisher {
     publisher: Publisher<'static>,
     publisher_id: ZBytes,
     _token: LivelinessToken,
+    /// [`Self::put_serialize`]'s document, kept across calls.
+    json_buffer: std::sync::Mutex<Vec<u8>>,
 }
 
 impl JsonPublisher {
@@ -385,6 +387,7 @@ impl JsonPublisher {
             publisher,
             publisher_id: ZBytes::from(zid.into_bytes()),
             _token: token,
+            json_buffer: std::sync::Mutex::new(Vec::new()),
         })
     }
 
@@ -411,10 +414,19 @@ impl JsonPublisher {
             .map_err(|e| ZenohError::on(format!("put on '{}'", self.publisher.key_expr()))(e))
     }
 
-    /// Serialise `value` as JSON and publish it.
+    /// Serialise `value` as JSON and publish it. The document is written into a buffer kept
+    /// across calls (an advisory or status goes out every forecast): only zenoh's own copy
+    /// of it is allocated, not a buffer grown step by step each time.
     pub fn put_serialize<T: Serialize>(&self, value: &T) -> Result<(), ZenohError> {
-        let bytes = serde_json::to_vec(value).map_err(err("serialise JSON"))?;
-        self.put(&bytes)
+        // A poisoned lock only means another put panicked mid-write: the buffer is cleared
+        // before use anyway.
+        let mut buffer = self
+            .json_buffer
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
+        buffer.clear();
+        serde_json::to_writer(&mut *buffer, value).map_err(err("serialise JSON"))?;
+        self.put(&buffer)
     }
 
     /// True once at least one subscriber matches (declarations propagate asynchronously).
@@ -449,12 +461,38 @@ pub struct Received {
     pub publisher: Option<String>,
 }
 
+impl Received {
+    /// An empty one, to be filled by [`LatestSubscriber::try_recv_into`].
+    pub fn empty() -> Self {
+        Self {
+            payload: Vec::new(),
+            publisher: None,
+        }
+    }
+}
+
 fn received(sample: &Sample) -> Received {
-    Received {
-        payload: sample.payload().to_bytes().into_owned(),
-        publisher: sample
-            .attachment()
-            .and_then(|a| a.try_to_string().ok().map(|t| t.into_owned())),
+    let mut r = Received::empty();
+    receive_into(sample, &mut r);
+    r
+}
+
+/// `sample` into `into`, reusing its buffers: once they have grown to the largest payload and
+/// the publisher's id, receiving allocates nothing of ours (a motion sample arrives 8 times a
+/// second per followed vessel).
+fn receive_into(sample: &Sample, into: &mut Received) {
+    into.payload.clear();
+    into.payload.extend_from_slice(&sample.payload().to_bytes());
+    let publisher = sample.attachment().and_then(|a| a.try_to_string().ok());
+    match (publisher, &mut into.publisher) {
+        (Some(p), Some(kept)) => {
+            if kept.as_str() != p.as_ref() {
+                kept.clear();
+                kept.push_str(&p);
+            }
+        }
+        (Some(p), slot) => *slot = Some(p.into_owned()),
+        (None, slot) => *slot = None,
     }
 }
 
@@ -488,19 +526,39 @@ impl LatestSubscriber {
         Ok(sample.map(|s| s.payload().to_bytes().into_owned()))
     }
 
-    /// Wait up to `timeout` for the next payload, with the zenoh id its publisher attached.
-    pub fn recv_with_source(&self, timeout: Duration) -> Result<Option<Received>, ZenohError> {
-        let sample = self
+    /// Wait up to `timeout` for the next payload, with the zenoh id its publisher attached,
+    /// into `into`, reusing its buffers; false when nothing arrived within `timeout` (`into`
+    /// is then left as it was).
+    pub fn recv_into(&self, timeout: Duration, into: &mut Received) -> Result<bool, ZenohError> {
+        match self
             .subscriber
             .recv_timeout(timeout)
-            .map_err(err("receive"))?;
-        Ok(sample.map(|s| received(&s)))
+            .map_err(err("receive"))?
+        {
+            Some(sample) => {
+                receive_into(&sample, into);
+                Ok(true)
+            }
+            None => Ok(false),
+        }
     }
 
     /// The next payload waiting, if any, with the zenoh id its publisher attached.
     pub fn try_recv_with_source(&self) -> Result<Option<Received>, ZenohError> {
         let sample = self.subscriber.try_recv().map_err(err("receive"))?;
         Ok(sample.map(|s| received(&s)))
+    }
+
+    /// [`Self::try_recv_with_source`] into `into`, reusing its buffers; false when nothing
+    /// was waiting (`into` is then left as it was).
+    pub fn try_recv_into(&self, into: &mut Received) -> Result<bool, ZenohError> {
+        match self.subscriber.try_recv().map_err(err("receive"))? {
+            Some(sample) => {
+                receive_into(&sample, into);
+                Ok(true)
+            }
+            None => Ok(false),
+        }
     }
 
     /// The newest payload waiting, if any, discarding older ones.
