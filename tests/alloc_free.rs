@@ -133,6 +133,30 @@ fn engine_step_and_json_encoding_do_not_allocate_in_steady_state() {
 }
 
 #[test]
+fn parsing_a_received_forecast_does_not_allocate() {
+    // What every consumer does with each forecast it receives over zenoh: a full forecast of
+    // 50 steps, encoded as the predictor does, parsed back.
+    let mut f = Forecast {
+        seq: 7,
+        time_s: 12.5,
+        dt_s: 0.5,
+        steps: 50,
+        ..Forecast::default()
+    };
+    for d in 0..6 {
+        for k in 0..50 {
+            f.mean[d][k] = (d * 100 + k) as f32 * 0.01;
+            f.sigma[d][k] = 0.1 + k as f32 * 0.001;
+        }
+    }
+    let mut json = ForecastJsonEncoder::new();
+    let bytes = json.encode(&f).expect("encode").to_vec();
+    let (back, n) = counted(|| Forecast::from_json(&bytes));
+    assert_eq!(back.expect("valid JSON"), f);
+    assert_eq!(n, 0, "allocations parsing one forecast");
+}
+
+#[test]
 fn an_inline_retrain_is_counted_in_the_step() {
     // `shipcast replay` retrains inline, in the step (deterministic): there the step copies
     // the history and fits, and the counter must see it. The same stretch as the service's.

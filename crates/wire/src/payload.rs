@@ -6,6 +6,7 @@
 //! sizes must not change. Every limit of the transports (buffers, history, number of ports) lives
 //! in [`limits`], so that all processes of a pipeline agree on them.
 
+use crate::forecast_rows::Rows;
 use iceoryx2::prelude::ZeroCopySend;
 use serde::{Deserialize, Serialize};
 
@@ -208,7 +209,8 @@ pub struct ForecastJsonView<'a> {
     pub sigma: [&'a [f32]; NUM_DOF],
 }
 
-/// Owned JSON form of a forecast, as received over zenoh.
+/// JSON form of a forecast, as received over zenoh (its rows parsed in place, no heap
+/// allocation: [`crate::forecast_rows`]).
 #[derive(Debug, Clone, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ForecastJson {
@@ -220,8 +222,8 @@ pub struct ForecastJson {
     pub dt_s: f64,
     pub steps: u32,
     pub model_version: u32,
-    pub mean: Vec<Vec<f32>>,
-    pub sigma: Vec<Vec<f32>>,
+    pub mean: Rows,
+    pub sigma: Rows,
 }
 
 impl TryFrom<ForecastJson> for Forecast {
@@ -249,20 +251,19 @@ impl TryFrom<ForecastJson> for Forecast {
             ("mean", &json.mean, &mut f.mean),
             ("sigma", &json.sigma, &mut f.sigma),
         ] {
-            if rows.len() != NUM_DOF {
+            if rows.count != NUM_DOF {
                 return Err(PayloadError::Shape(format!(
                     "'{name}' has {} rows, expected {NUM_DOF}",
-                    rows.len()
+                    rows.count
                 )));
             }
-            for (d, row) in rows.iter().enumerate() {
-                if row.len() != steps {
+            for (d, (row, &len)) in rows.values.iter().zip(&rows.lens).enumerate() {
+                if len != steps {
                     return Err(PayloadError::Shape(format!(
-                        "'{name}' row {d} has {} values, expected steps = {steps}",
-                        row.len()
+                        "'{name}' row {d} has {len} values, expected steps = {steps}"
                     )));
                 }
-                dst[d][..steps].copy_from_slice(row);
+                dst[d][..steps].copy_from_slice(&row[..steps]);
             }
         }
         Ok(f)
@@ -372,6 +373,24 @@ mod tests {
         let err = Forecast::from_json(v.to_string().as_bytes()).unwrap_err();
         assert!(err.to_string().contains("exceeds"), "{err}");
         assert!(Forecast::from_json(b"{not json").is_err());
+        // A forged row of a million values is counted, not kept, and refused by its length.
+        let mut v: serde_json::Value = serde_json::from_slice(&buf).unwrap();
+        v["sigma"][1] = serde_json::Value::Array(vec![0.5.into(); 1_000_000]);
+        let err = Forecast::from_json(v.to_string().as_bytes()).unwrap_err();
+        assert!(
+            err.to_string()
+                .contains("'sigma' row 1 has 1000000 values, expected steps = 3"),
+            "{err}"
+        );
+        v["sigma"]
+            .as_array_mut()
+            .unwrap()
+            .push(serde_json::json!([1, 2, 3]));
+        let err = Forecast::from_json(v.to_string().as_bytes()).unwrap_err();
+        assert!(
+            err.to_string().contains("'sigma' has 7 rows, expected 6"),
+            "{err}"
+        );
     }
 
     #[test]
