@@ -420,13 +420,18 @@ impl JsonPublisher {
     pub fn put_serialize<T: Serialize>(&self, value: &T) -> Result<(), ZenohError> {
         // A poisoned lock only means another put panicked mid-write: the buffer is cleared
         // before use anyway.
-        let mut buffer = self
-            .json_buffer
-            .lock()
-            .unwrap_or_else(std::sync::PoisonError::into_inner);
-        buffer.clear();
-        serde_json::to_writer(&mut *buffer, value).map_err(err("serialise JSON"))?;
-        self.put(&buffer)
+        let payload = {
+            let mut buffer = self
+                .json_buffer
+                .lock()
+                .unwrap_or_else(std::sync::PoisonError::into_inner);
+            buffer.clear();
+            buffer.shrink_to(KEPT_PAYLOAD_BYTES);
+            serde_json::to_writer(&mut *buffer, value).map_err(err("serialise JSON"))?;
+            // zenoh's copy; the lock is not held across the put, which may wait.
+            ZBytes::from(&buffer[..])
+        };
+        self.put_payload(payload)
     }
 
     /// True once at least one subscriber matches (declarations propagate asynchronously).
@@ -477,11 +482,17 @@ fn received(sample: &Sample) -> Received {
     r
 }
 
+/// The largest receive buffer kept from one message to the next [bytes].
+const KEPT_PAYLOAD_BYTES: usize = 64 * 1024;
+
 /// `sample` into `into`, reusing its buffers: once they have grown to the largest payload and
 /// the publisher's id, receiving allocates nothing of ours (a motion sample arrives 8 times a
 /// second per followed vessel).
 fn receive_into(sample: &Sample, into: &mut Received) {
     into.payload.clear();
+    // A forecast's JSON is about 9 KB: a buffer grown past this by one oversized (forged)
+    // message is given back, not kept for the rest of the process.
+    into.payload.shrink_to(KEPT_PAYLOAD_BYTES);
     into.payload.extend_from_slice(&sample.payload().to_bytes());
     let publisher = sample.attachment().and_then(|a| a.try_to_string().ok());
     match (publisher, &mut into.publisher) {
