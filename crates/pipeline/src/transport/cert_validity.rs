@@ -144,8 +144,38 @@ pub fn now_unix() -> i64 {
         .map_or(0, |d| i64::try_from(d.as_secs()).unwrap_or(i64::MAX))
 }
 
+/// Certificates for the tests of this module and of `zenoh_tls_files`.
+#[cfg(test)]
+pub(crate) mod test_certs {
+    use rcgen::{BasicConstraints, CertificateParams, IsCa, Issuer, KeyPair};
+
+    /// A CA of common name `name`: what signs with it, and its PEM.
+    pub fn ca(name: &str) -> (Issuer<'static, KeyPair>, String) {
+        let mut params = CertificateParams::new(Vec::<String>::new()).unwrap();
+        params.is_ca = IsCa::Ca(BasicConstraints::Unconstrained);
+        params
+            .distinguished_name
+            .push(rcgen::DnType::CommonName, name);
+        let key = KeyPair::generate().unwrap();
+        let cert = params.self_signed(&key).unwrap();
+        (Issuer::new(params, key), cert.pem())
+    }
+
+    /// A certificate for localhost signed by `ca`: its PEM and its key.
+    pub fn leaf(ca: &Issuer<'static, KeyPair>) -> (String, KeyPair) {
+        let key = KeyPair::generate().unwrap();
+        let pem = CertificateParams::new(vec!["localhost".to_string()])
+            .unwrap()
+            .signed_by(&key, ca)
+            .unwrap()
+            .pem();
+        (pem, key)
+    }
+}
+
 #[cfg(test)]
 mod tests {
+    use super::test_certs::{ca, leaf};
     use super::*;
     use rcgen::{date_time_ymd, CertificateParams, KeyPair};
 
@@ -190,26 +220,10 @@ mod tests {
 
     #[test]
     fn a_certificate_is_checked_against_the_ca_that_should_have_signed_it() {
-        use rcgen::{BasicConstraints, IsCa, Issuer as CaIssuer};
-        let ca = |name: &str| {
-            let mut params = CertificateParams::new(Vec::<String>::new()).unwrap();
-            params.is_ca = IsCa::Ca(BasicConstraints::Unconstrained);
-            params
-                .distinguished_name
-                .push(rcgen::DnType::CommonName, name);
-            let key = KeyPair::generate().unwrap();
-            let cert = params.self_signed(&key).unwrap();
-            (CaIssuer::new(params, key), cert.pem())
-        };
         // Two CAs of the same name: two `shipcast certs` runs.
         let (ours, ours_pem) = ca("shipcast ddg51 CA");
         let (_, other_pem) = ca("shipcast ddg51 CA");
-        let leaf_key = KeyPair::generate().unwrap();
-        let leaf = CertificateParams::new(vec!["localhost".to_string()])
-            .unwrap()
-            .signed_by(&leaf_key, &ours)
-            .unwrap()
-            .pem();
+        let (leaf, _) = leaf(&ours);
         assert_eq!(
             issued_by(leaf.as_bytes(), ours_pem.as_bytes()),
             Some(Issuer::Trusted)

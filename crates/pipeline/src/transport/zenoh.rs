@@ -5,7 +5,7 @@
 //! receive thread.
 
 use crate::transport::zenoh_security::{self as security, AccessRules, TlsSettings, UserPassword};
-use crate::transport::zenoh_tls_files::{check_issuer, check_tls_file};
+use crate::transport::zenoh_tls_files::check_tls_files;
 use serde::{Deserialize, Serialize};
 use shipcast_wire::payload::limits;
 use std::time::Duration;
@@ -287,14 +287,7 @@ pub fn config_document(settings: &ZenohSettings) -> serde_json::Value {
 /// The zenoh configuration of `settings`.
 pub fn zenoh_config(settings: &ZenohSettings) -> Result<zenoh::Config, ZenohError> {
     if let Some(tls) = &settings.tls {
-        for (key, value) in [
-            ("root_ca", &tls.root_ca),
-            ("certificate", &tls.certificate),
-            ("private_key", &tls.private_key),
-        ] {
-            check_tls_file(key, value)?;
-        }
-        check_issuer(tls)?;
+        check_tls_files(tls)?;
     }
     let mut config = zenoh::Config::default();
     for (key, value) in config_entries(settings) {
@@ -541,17 +534,11 @@ impl LatestSubscriber {
     /// into `into`, reusing its buffers; false when nothing arrived within `timeout` (`into`
     /// is then left as it was).
     pub fn recv_into(&self, timeout: Duration, into: &mut Received) -> Result<bool, ZenohError> {
-        match self
+        let sample = self
             .subscriber
             .recv_timeout(timeout)
-            .map_err(err("receive"))?
-        {
-            Some(sample) => {
-                receive_into(&sample, into);
-                Ok(true)
-            }
-            None => Ok(false),
-        }
+            .map_err(err("receive"))?;
+        Ok(sample.map(|s| receive_into(&s, into)).is_some())
     }
 
     /// The next payload waiting, if any, with the zenoh id its publisher attached.
@@ -563,13 +550,8 @@ impl LatestSubscriber {
     /// [`Self::try_recv_with_source`] into `into`, reusing its buffers; false when nothing
     /// was waiting (`into` is then left as it was).
     pub fn try_recv_into(&self, into: &mut Received) -> Result<bool, ZenohError> {
-        match self.subscriber.try_recv().map_err(err("receive"))? {
-            Some(sample) => {
-                receive_into(&sample, into);
-                Ok(true)
-            }
-            None => Ok(false),
-        }
+        let sample = self.subscriber.try_recv().map_err(err("receive"))?;
+        Ok(sample.map(|s| receive_into(&s, into)).is_some())
     }
 
     /// The newest payload waiting, if any, discarding older ones.

@@ -6,10 +6,26 @@ use crate::transport::cert_validity::{self, Issuer, Validity};
 use crate::transport::zenoh::{err, ZenohError};
 use crate::transport::zenoh_security as security;
 
+/// The three TLS files of `tls` checked ([`check_tls_file`]), then our certificate against
+/// the root CA file ([`check_issuer`]), each file read once.
+pub(super) fn check_tls_files(tls: &security::TlsSettings) -> Result<(), ZenohError> {
+    let root_ca = check_tls_file("root_ca", &tls.root_ca)?;
+    let certificate = check_tls_file("certificate", &tls.certificate)?;
+    check_tls_file("private_key", &tls.private_key)?;
+    check_issuer(&certificate, &root_ca)
+}
+
+/// A TLS file as read, and how its messages name it.
+#[derive(Debug)]
+pub(super) struct TlsFile {
+    context: String,
+    text: Vec<u8>,
+}
+
 /// A TLS file that is missing, unreadable, empty or holds no PEM block, named in one line
 /// before zenoh is given it: zenoh finds out only when a link is made, and a client retried
 /// for its whole patience (a minute) and then reported a timeout that named no file.
-pub(super) fn check_tls_file(key: &str, value: &str) -> Result<(), ZenohError> {
+pub(super) fn check_tls_file(key: &str, value: &str) -> Result<TlsFile, ZenohError> {
     let (context, text) = if security::is_inline_pem(value) {
         (format!("tls {key} (inline)"), value.as_bytes().to_vec())
     } else {
@@ -27,60 +43,44 @@ pub(super) fn check_tls_file(key: &str, value: &str) -> Result<(), ZenohError> {
     };
     let now = cert_validity::now_unix();
     match key {
-        "private_key" => Ok(()),
+        "private_key" => {}
         // A bundle of CAs (the old one and its successor while certificates are renewed) is
         // refused only if none of them is valid; an expired one beside a valid one warns.
         "root_ca" => {
             let all = cert_validity::validities(&text, now);
             if !all.iter().any(Validity::is_usable) {
                 let first = all.into_iter().next().unwrap_or(Validity::Unreadable);
-                return judge_certificate_dates(&context, first);
-            }
-            for v in &all {
-                if let Validity::Expired { not_after } = v {
-                    tracing::warn!(
-                        "{context}: one of its CA certificates expired on {not_after}; a valid one is used"
-                    );
+                judge_certificate_dates(&context, first)?;
+            } else {
+                for v in &all {
+                    if let Validity::Expired { not_after } = v {
+                        tracing::warn!(
+                            "{context}: one of its CA certificates expired on {not_after}; a valid one is used"
+                        );
+                    }
                 }
             }
-            Ok(())
         }
-        _ => judge_certificate_dates(&context, cert_validity::validity(&text, now)),
+        _ => judge_certificate_dates(&context, cert_validity::validity(&text, now))?,
     }
+    Ok(TlsFile { context, text })
 }
 
 /// Refuse our own certificate when the root CA file holds a CA of its issuer's name that did
 /// not sign it: a certificate from another `shipcast certs` run than the CA's, which every
 /// peer refuses at the handshake while this service would have started as if all were well.
 /// Signed by a CA the file does not hold at all (trust split between nodes) only warns.
-pub(super) fn check_issuer(tls: &security::TlsSettings) -> Result<(), ZenohError> {
-    let text = |value: &str| -> Option<Vec<u8>> {
-        if security::is_inline_pem(value) {
-            Some(value.as_bytes().to_vec())
-        } else {
-            std::fs::read(value).ok()
-        }
-    };
-    let (Some(own), Some(roots)) = (text(&tls.certificate), text(&tls.root_ca)) else {
-        return Ok(());
-    };
-    let name = |key: &str, value: &str| {
-        if security::is_inline_pem(value) {
-            format!("tls {key} (inline)")
-        } else {
-            format!("tls {key} file {value}")
-        }
-    };
-    match cert_validity::issued_by(&own, &roots) {
-        Some(Issuer::SameNameOtherKey) => Err(err(name("certificate", &tls.certificate))(format!(
+fn check_issuer(own: &TlsFile, roots: &TlsFile) -> Result<(), ZenohError> {
+    match cert_validity::issued_by(&own.text, &roots.text) {
+        Some(Issuer::SameNameOtherKey) => Err(err(own.context.clone())(format!(
             "not signed by the CA of its issuer's name in {} (from another `shipcast certs` run?): every peer trusting that file would refuse it",
-            name("root_ca", &tls.root_ca)
+            roots.context
         ))),
         Some(Issuer::Untrusted) => {
             tracing::warn!(
                 "{}: signed by a CA that {} does not hold: peers that trust only that file will refuse this node",
-                name("certificate", &tls.certificate),
-                name("root_ca", &tls.root_ca)
+                own.context,
+                roots.context
             );
             Ok(())
         }
@@ -110,6 +110,30 @@ fn judge_certificate_dates(context: &str, validity: Validity) -> Result<(), Zeno
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Each file read once and handed to the issuer check: a certificate signed by another CA
+    /// of its issuer's name than the root CA's is refused, naming both; the right CA passes.
+    #[test]
+    fn the_files_are_checked_and_then_the_certificate_against_the_root_ca() {
+        use crate::transport::cert_validity::test_certs::{ca, leaf};
+        let (ours, ours_pem) = ca("shipcast ddg51 CA");
+        let (_, other_pem) = ca("shipcast ddg51 CA");
+        let (leaf, leaf_key) = leaf(&ours);
+        let settings = |root_ca: &str| security::TlsSettings {
+            root_ca: root_ca.to_string(),
+            certificate: leaf.clone(),
+            private_key: leaf_key.serialize_pem(),
+        };
+        assert!(check_tls_files(&settings(&ours_pem)).is_ok());
+        let e = format!(
+            "{:#}",
+            anyhow::Error::from(check_tls_files(&settings(&other_pem)).unwrap_err())
+        );
+        assert!(
+            e.contains("tls certificate (inline): not signed by the CA of its issuer's name in tls root_ca (inline)"),
+            "{e}"
+        );
+    }
 
     /// Regression: a missing, empty or garbage certificate was found by zenoh only when a
     /// link was made; a client retried for a minute and then reported a timeout.
