@@ -26,6 +26,10 @@ pub struct Args {
     /// A vessel with no forecast for this long is shown as stale [s].
     #[arg(long, value_name = "S", default_value_t = 3.0)]
     pub stale_after_s: f64,
+    /// A host name the page may be asked for (repeatable). IP addresses and localhost are
+    /// always served; a request for any other name is refused (DNS rebinding).
+    #[arg(long, value_name = "NAME")]
+    pub allow_host: Vec<String>,
 }
 
 /// What the display serves, every value checked: built from [`Args`] by [`Config::try_from`].
@@ -37,6 +41,8 @@ pub struct Config {
     /// HOST:PORT of the web page.
     pub listen: String,
     pub stale_after: Duration,
+    /// Host names served besides IP addresses and localhost.
+    pub hosts: server::AllowedHosts,
 }
 
 impl TryFrom<Args> for Config {
@@ -54,11 +60,21 @@ impl TryFrom<Args> for Config {
         if !matches!(port, Some((host, Ok(_))) if !host.is_empty()) {
             anyhow::bail!("--listen '{}' is not HOST:PORT", args.listen);
         }
+        for name in &args.allow_host {
+            let label =
+                |l: &str| !l.is_empty() && l.chars().all(|c| c.is_ascii_alphanumeric() || c == '-');
+            if name.len() > 253 || !name.split('.').all(label) {
+                anyhow::bail!(
+                    "--allow-host '{name}' is not a host name (letters, digits, '-' and '.')"
+                );
+            }
+        }
         Ok(Config {
             pipeline,
             limit,
             listen: args.listen,
             stale_after,
+            hosts: server::AllowedHosts::new(args.allow_host),
         })
     }
 }
@@ -69,6 +85,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         limit,
         listen,
         stale_after,
+        hosts,
     } = Config::try_from(args)?;
     let limit = shutdown::RunLimit::new(limit);
     let names = config.names()?;
@@ -102,12 +119,17 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             .with_context(|| format!("display: cannot listen on {listen}"))?;
         let address = listener.local_addr().context("display: local address")?;
         tracing::info!("display: http://{address}/ (every vessel under {prefix}*)");
+        if !address.ip().is_loopback() {
+            tracing::warn!(
+                "display: the page is offered beyond this machine on {address}: anyone who reaches it sees every vessel's forecasts and decisions (it is read-only and unencrypted; docs/security.md)"
+            );
+        }
         let stop = async move {
             while !limit.reached() {
                 tokio::time::sleep(Duration::from_millis(200)).await;
             }
         };
-        server::serve(listener, board, stop)
+        server::serve(listener, board, hosts, stop)
             .await
             .context("display: HTTP server")
     })?;
@@ -141,5 +163,24 @@ mod tests {
                 limits::MAX_SECONDS
             )
         );
+    }
+
+    #[test]
+    fn allowed_host_names_are_checked_and_kept() {
+        let c = crate::validated::<Args, Config>(&[
+            "--allow-host",
+            "bridge.local",
+            "--allow-host",
+            "Crane-2",
+        ])
+        .unwrap();
+        assert!(c.hosts.admits("bridge.local:8090") && c.hosts.admits("crane-2"));
+        assert!(!c.hosts.admits("other.local"));
+        for bad in ["", "a..b", "a b", "evil.example/x", "x:80"] {
+            assert_eq!(
+                refused(&["--allow-host", bad]),
+                format!("--allow-host '{bad}' is not a host name (letters, digits, '-' and '.')")
+            );
+        }
     }
 }

@@ -1,7 +1,8 @@
 //! The live display in a real headless browser: Chromium (from the distribution's packages)
 //! loads the page served by `shipcast display`, connects to its event stream, and shows a
 //! forecast whose seq rises as forecasts arrive; a client that never reads holds nothing up;
-//! when the predictor stops, the vessel is shown as stale instead of its last forecast.
+//! when the display stops, every vessel is shown stale with nothing drawn; when the
+//! predictor stops, the display forgets the vessel and the page drops its card.
 //!
 //! Needs Chromium (`apt-get install chromium` on Debian; `.ci/run` installs it). Without it the
 //! test fails with one line saying so: it is never skipped silently. Set SHIPCAST_SCREENSHOT=FILE
@@ -244,10 +245,13 @@ fn the_page_shows_live_forecasts_and_marks_a_vanished_vessel_stale() {
     let _deck = p.spawn("deck", &[]);
     let port = free_port();
     let listen = format!("127.0.0.1:{port}");
-    let display = p.spawn("display", &["--listen", &listen, "--stale-after-s", "4"]);
+    let display_args = ["--listen", listen.as_str(), "--stale-after-s", "4"];
+    let mut display = p.spawn("display", &display_args);
     display.wait_for("display: http://");
 
-    // A client that opens the event stream and never reads: it must hold nothing up.
+    // A client that opens the event stream and never reads: it must hold nothing up while
+    // the test runs (its buffers take about a minute to fill; the server's own tests cover
+    // a client whose buffers are full).
     let mut stalled = TcpStream::connect(("127.0.0.1", port)).expect("connect stalled client");
     write!(stalled, "GET /events HTTP/1.1\r\nHost: 127.0.0.1\r\n\r\n").expect("request");
 
@@ -289,10 +293,48 @@ fn the_page_shows_live_forecasts_and_marks_a_vanished_vessel_stale() {
             >= later
     );
 
+    drop(stalled);
+
+    // The display goes away. Regression (review): the page kept showing the vessel live
+    // with its last forecast and GO for good.
+    display.terminate();
+    assert_stale_and_withdrawn(
+        &mut browser,
+        "the vessel as stale once the display is not heard",
+    );
+
+    // The display comes back on the same address: the page reconnects by itself.
+    let mut display = p.spawn("display", &display_args);
+    display.wait_for("display: http://");
+    browser.wait_for(
+        "the vessel live again",
+        "document.querySelector('.vessel .status').textContent",
+        |v| v.as_str().filter(|t| *t == "live").map(str::to_string),
+    );
+
     // The predictor goes away: the vessel turns stale and its forecast is withdrawn.
     predictor.terminate();
+    assert_stale_and_withdrawn(&mut browser, "the vessel as stale");
+
+    // A display that never heard the vessel: the page drops its card (regression: cards
+    // were never removed, so forged names grew the page without bound).
+    display.terminate();
+    let display = p.spawn("display", &display_args);
+    display.wait_for("display: http://");
     browser.wait_for(
-        "the vessel as stale",
+        "no vessel once the display has none",
+        "document.querySelectorAll('.vessel').length",
+        |v| (v.as_u64() == Some(0)).then_some(()),
+    );
+    let empty = browser.eval("getComputedStyle(document.getElementById('empty')).display");
+    assert_eq!(empty, "block", "the page says no vessel is heard");
+}
+
+/// The card turns STALE and shows nothing current: no forecast seq, no drawn chart, no
+/// decision.
+fn assert_stale_and_withdrawn(browser: &mut Browser, what: &str) {
+    browser.wait_for(
+        what,
         "document.querySelector('.vessel .status').textContent",
         |v| {
             v.as_str()
@@ -305,5 +347,8 @@ fn the_page_shows_live_forecasts_and_marks_a_vanished_vessel_stale() {
         "",
         "a stale vessel shows no forecast"
     );
-    drop(stalled);
+    let drawn = browser.eval("document.querySelectorAll('.vessel svg *').length");
+    assert_eq!(drawn, 0, "a stale vessel's charts are not drawn");
+    let advisory = browser.eval("document.querySelector('.vessel .advisory').textContent");
+    assert_eq!(advisory, "", "a stale vessel shows no decision");
 }

@@ -1,6 +1,6 @@
 //! What one host can take of the display's server: at most [`MAX_CONNECTIONS`] connections
-//! at once (a further one is closed as soon as it is accepted, and reported at most once per
-//! [`REPORT_PERIOD`]), a connection that does not send a complete request head within
+//! at once, and [`MAX_CONNECTIONS_PER_HOST`] of them from one address (a further one is closed
+//! as soon as it is accepted, and reported at most once per [`REPORT_PERIOD`]), a connection that does not send a complete request head within
 //! [`HEAD_TIMEOUT`] is closed, and so is one whose client takes nothing sent for
 //! [`WRITE_TIMEOUT`] (also reported at most once per period). Each connection is its own task,
 //! so a stalled one holds only its own slot. The HTTP routes themselves are in
@@ -12,10 +12,11 @@ use axum::Router;
 use hyper::server::conn::http1;
 use hyper_util::rt::{TokioIo, TokioTimer};
 use hyper_util::service::TowerToHyperService;
+use std::collections::HashMap;
 use std::convert::Infallible;
 use std::future::Future;
 use std::io::ErrorKind;
-use std::net::SocketAddr;
+use std::net::{IpAddr, SocketAddr};
 use std::time::Duration;
 use tokio::net::TcpStream;
 use tokio::task::{JoinError, JoinSet};
@@ -27,6 +28,11 @@ use tokio::time::Instant;
 /// fetched it, so 64 serves far more screens than a bridge has, while a host that opens
 /// connections without end takes no more than 64 descriptors.
 pub const MAX_CONNECTIONS: usize = 64;
+
+/// The most connections served at once to one client address. A browser opens at most six
+/// to one server over HTTP/1.1, so a screen never needs more; without this bound one host
+/// that opened 64 event streams and kept reading them locked every other screen out (review).
+pub const MAX_CONNECTIONS_PER_HOST: usize = 8;
 
 /// How long a connection may take to send a complete request head (request line and headers),
 /// counted from when it connects or from the end of its previous response. Any client on a
@@ -72,6 +78,7 @@ const ACCEPT_RETRY: Duration = Duration::from_secs(1);
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(crate) struct ConnectionLimits {
     pub max_connections: usize,
+    pub max_per_host: usize,
     pub head_timeout: Duration,
     pub write_timeout: Duration,
     pub send_buffer: usize,
@@ -81,6 +88,7 @@ impl Default for ConnectionLimits {
     fn default() -> Self {
         ConnectionLimits {
             max_connections: MAX_CONNECTIONS,
+            max_per_host: MAX_CONNECTIONS_PER_HOST,
             head_timeout: HEAD_TIMEOUT,
             write_timeout: WRITE_TIMEOUT,
             send_buffer: SEND_BUFFER,
@@ -106,6 +114,7 @@ pub(crate) async fn accept_loop(
 ) -> Infallible {
     let http = http_builder(limits.head_timeout);
     let mut connections = JoinSet::new();
+    let hosts = HostSlots::default();
     let mut closes = Closes::new(limits);
     // Only the first of each period is logged; the next due report waits for the next error.
     let mut accept_errors = Tally::new(REPORT_PERIOD);
@@ -118,14 +127,22 @@ pub(crate) async fn accept_loop(
                     while let Some(ended) = connections.try_join_next() {
                         closes.ended(ended);
                     }
-                    if connections.len() >= limits.max_connections {
+                    let slot = (connections.len() < limits.max_connections)
+                        .then(|| hosts.take(peer.ip(), limits.max_per_host))
+                        .flatten();
+                    let Some(slot) = slot else {
                         // Closed at once, before anything is read: a refused connection costs
                         // a descriptor only for this moment, and the client is not left queued.
                         drop(stream);
                         closes.refused();
                         continue;
-                    }
-                    connections.spawn(serve_connection(&http, stream, peer, app.clone(), &limits));
+                    };
+                    let served = serve_connection(&http, stream, peer, app.clone(), &limits);
+                    // The slot is given back when the task ends, however it ends.
+                    connections.spawn(async move {
+                        let _slot = slot;
+                        served.await
+                    });
                 }
                 // A connection that failed before it was accepted: the listener is fine.
                 Err(e) if is_connection_error(e.kind()) => {
@@ -151,6 +168,54 @@ pub(crate) async fn accept_loop(
                 if report_due.is_some() =>
             {
                 closes.report_due();
+            }
+        }
+    }
+}
+
+/// Connections open per client address. A [`HostSlot`] taken from it gives its place back
+/// when dropped, with the connection's task.
+#[derive(Debug, Default, Clone)]
+struct HostSlots(std::sync::Arc<std::sync::Mutex<HashMap<IpAddr, usize>>>);
+
+impl HostSlots {
+    /// A slot for one more connection from `host`, or None when it holds `max` already.
+    fn take(&self, host: IpAddr, max: usize) -> Option<HostSlot> {
+        // Every update is one counter step: a poisoned lock is still consistent.
+        let mut open = self.0.lock().unwrap_or_else(|p| p.into_inner());
+        let n = open.entry(host).or_insert(0);
+        if *n >= max {
+            return None;
+        }
+        *n += 1;
+        Some(HostSlot {
+            slots: self.clone(),
+            host,
+        })
+    }
+
+    #[cfg(test)]
+    fn open(&self, host: IpAddr) -> usize {
+        let open = self.0.lock().unwrap_or_else(|p| p.into_inner());
+        open.get(&host).copied().unwrap_or(0)
+    }
+}
+
+/// One connection's place among its host's.
+#[derive(Debug)]
+struct HostSlot {
+    slots: HostSlots,
+    host: IpAddr,
+}
+
+impl Drop for HostSlot {
+    fn drop(&mut self) {
+        let mut open = self.slots.0.lock().unwrap_or_else(|p| p.into_inner());
+        if let Some(n) = open.get_mut(&self.host) {
+            *n -= 1;
+            if *n == 0 {
+                // A host with no connection left takes no memory.
+                open.remove(&self.host);
             }
         }
     }
@@ -271,8 +336,9 @@ impl Closes {
         tracing::warn!(
             refused = report.since_last,
             refused_total = report.total,
-            "display: {} connections open, the most it serves at once: new connections are closed unserved",
-            self.limits.max_connections
+            "display: {} connections open, or {} from one address, the most it serves at once: new connections are closed unserved",
+            self.limits.max_connections,
+            self.limits.max_per_host
         );
     }
 
@@ -327,6 +393,27 @@ mod tests {
         };
         let served = serve_connection(&http_builder(HEAD_TIMEOUT), stream, peer, app, &limits);
         (served, client)
+    }
+
+    #[test]
+    fn a_host_takes_at_most_its_slots_and_gets_them_back_when_its_connections_end() {
+        let hosts = HostSlots::default();
+        let (a, b): (IpAddr, IpAddr) = ([10, 0, 0, 1].into(), [10, 0, 0, 2].into());
+        let held: Vec<_> = (0..3).map(|_| hosts.take(a, 3).expect("a slot")).collect();
+        assert!(hosts.take(a, 3).is_none(), "a fourth from the same host");
+        let other = hosts.take(b, 3).expect("another host is served");
+        drop(held);
+        assert_eq!(hosts.open(a), 0);
+        assert_eq!(hosts.open(b), 1);
+        let again = hosts.take(a, 3).expect("free again");
+        drop(other);
+        assert_eq!(
+            hosts.0.lock().unwrap().len(),
+            1,
+            "b's entry went with its last slot"
+        );
+        drop(again);
+        assert!(hosts.0.lock().unwrap().is_empty());
     }
 
     #[tokio::test]

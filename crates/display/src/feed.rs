@@ -10,6 +10,7 @@
 use crate::board::{AdvisoryView, Board, VerificationIn};
 use crate::sources::{parse_token, LiveSources};
 use shipcast_pipeline::transport::forecast_check::check_content;
+use shipcast_pipeline::transport::naming::check_segment;
 use shipcast_wire::payload::Forecast;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
@@ -64,17 +65,22 @@ pub enum Topic<'a> {
     Advisory { vessel: &'a str, station: &'a str },
 }
 
-/// The topic of `key` under `prefix` (`Names::fleet_prefix`), or None for any other key.
+/// The topic of `key` under `prefix` (`Names::fleet_prefix`), or None for any other key and
+/// for a vessel or station name that breaks the rule every shipcast name keeps (at most 64
+/// letters, digits, '-', '_' and '.': `check_segment`). Regression (review): a forged
+/// 30 000-character name was kept on the board and sent in every snapshot.
 pub fn topic<'a>(prefix: &str, key: &'a str) -> Option<Topic<'a>> {
     let rest = key.strip_prefix(prefix)?;
     let mut parts = rest.split('/');
-    let vessel = parts.next().filter(|v| !v.is_empty())?;
+    let name = |n: &'a str| check_segment("name", n).is_ok().then_some(n);
+    let vessel = parts.next().and_then(name)?;
     let topic = match (parts.next()?, parts.next(), parts.next()) {
         ("forecast", None, None) => Topic::Forecast { vessel },
         ("verification", None, None) => Topic::Verification { vessel },
-        ("advisory", Some(station), None) if !station.is_empty() => {
-            Topic::Advisory { vessel, station }
-        }
+        ("advisory", Some(station), None) => Topic::Advisory {
+            vessel,
+            station: name(station)?,
+        },
         _ => return None,
     };
     Some(topic)
@@ -106,6 +112,9 @@ fn on_sample(
 ) {
     let key = sample.key_expr().as_str();
     let Some(topic) = topic(prefix, key) else {
+        // Every key the subscriptions deliver names a topic unless a name breaks the rule.
+        board.reject_unheard();
+        tracing::debug!("display: {key}: refused: not a topic with valid names");
         return;
     };
     let publisher = sample
@@ -134,7 +143,7 @@ fn on_sample(
         },
         Topic::Verification { vessel } => match serde_json::from_slice::<VerificationIn>(&bytes) {
             Ok(report) => {
-                board.verification(vessel, &report);
+                board.verification(vessel, &report, Instant::now());
             }
             Err(e) => {
                 board.reject(vessel);
@@ -143,7 +152,9 @@ fn on_sample(
         },
         Topic::Advisory { vessel, station } => {
             match serde_json::from_slice::<AdvisoryView>(&bytes) {
-                Ok(a) => board.advisory(vessel, station, a, Instant::now()),
+                Ok(a) => {
+                    board.advisory(vessel, station, a, Instant::now());
+                }
                 Err(e) => {
                     board.reject(vessel);
                     tracing::debug!("display: {vessel}/{station}: refused advisory: {e}");
@@ -287,6 +298,29 @@ fn start_with(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Regression (review): any name a key carried was kept, 30 000 characters long or
+    /// with markup in it.
+    #[test]
+    fn names_that_break_the_naming_rule_make_no_topic() {
+        let long = "v".repeat(65);
+        let longest = "v".repeat(64);
+        for key in [
+            format!("shipcast/{long}/forecast"),
+            format!("shipcast/a/advisory/{long}"),
+            "shipcast/<img src=x>/forecast".to_string(),
+            "shipcast/a/advisory/de\"ck".to_string(),
+        ] {
+            assert_eq!(topic("shipcast/", &key), None, "{key}");
+        }
+        assert_eq!(
+            topic("shipcast/", &format!("shipcast/{longest}/advisory/lift.2")),
+            Some(Topic::Advisory {
+                vessel: &longest,
+                station: "lift.2"
+            })
+        );
+    }
 
     #[test]
     fn keys_name_their_vessel_station_and_kind() {

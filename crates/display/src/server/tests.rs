@@ -49,7 +49,8 @@ impl Server {
             // A dropped sender stops the server too.
             let _ = stopped.await;
         };
-        let task = runtime.spawn(serve_with(listener, board, limits, shutdown));
+        let app = router(board, AllowedHosts::default());
+        let task = runtime.spawn(serve_with(listener, app, limits, shutdown));
         Server {
             addr,
             stop: Some(stop),
@@ -71,7 +72,27 @@ impl Server {
     }
 
     fn connect(&self) -> TcpStream {
-        let stream = TcpStream::connect(self.addr).expect("connect");
+        self.connect_from([127, 0, 0, 1])
+    }
+
+    /// A connection from the loopback address `from` (any 127.x.y.z is this host's on Linux),
+    /// so that one test can be several client hosts.
+    fn connect_from(&self, from: [u8; 4]) -> TcpStream {
+        let socket = tokio::net::TcpSocket::new_v4().expect("a socket");
+        socket
+            .bind(SocketAddr::from((from, 0)))
+            .expect("bind the client's address");
+        self.connect_socket(socket)
+    }
+
+    /// Connect `socket` to the server: a blocking std stream with the test's timeouts.
+    fn connect_socket(&self, socket: tokio::net::TcpSocket) -> TcpStream {
+        let stream = self
+            .runtime
+            .block_on(socket.connect(self.addr))
+            .expect("connect");
+        let stream = stream.into_std().expect("a std socket");
+        stream.set_nonblocking(false).expect("blocking");
         stream.set_read_timeout(Some(WAIT)).expect("read timeout");
         stream.set_write_timeout(Some(WAIT)).expect("write timeout");
         stream
@@ -80,8 +101,12 @@ impl Server {
     /// One GET with `Connection: close`: the whole response, or None when the server
     /// closed the connection without one.
     fn get(&self, path: &str) -> Option<String> {
-        let mut stream = self.connect();
-        let request = format!("GET {path} HTTP/1.1\r\nHost: display\r\nConnection: close\r\n\r\n");
+        self.request(self.connect(), path, "127.0.0.1")
+    }
+
+    /// One GET of `path` on `stream` with `Host: host` and `Connection: close`, as [`get`].
+    fn request(&self, mut stream: TcpStream, path: &str, host: &str) -> Option<String> {
+        let request = format!("GET {path} HTTP/1.1\r\nHost: {host}\r\nConnection: close\r\n\r\n");
         if let Err(e) = stream.write_all(request.as_bytes()) {
             assert!(is_closed(&e), "writing the request: {e}");
             return None;
@@ -130,7 +155,7 @@ impl Drop for Server {
 /// Asks `stream` for the event stream and reads the response's status line (an OK).
 fn request_events(mut stream: TcpStream) -> BufReader<TcpStream> {
     stream
-        .write_all(b"GET /events HTTP/1.1\r\nHost: display\r\n\r\n")
+        .write_all(b"GET /events HTTP/1.1\r\nHost: 127.0.0.1\r\n\r\n")
         .expect("send the request");
     let mut events = BufReader::new(stream);
     let mut status = String::new();
@@ -186,17 +211,123 @@ fn closed_within(stream: &mut impl Read, wait: Duration) -> bool {
     false
 }
 
+/// Regression (review): one host that opened 64 event streams and kept reading them locked
+/// every other screen out.
 #[test]
-fn serve_uses_the_documented_limits() {
+fn one_host_takes_at_most_its_share_and_another_is_still_served() {
+    let server = Server::start(ConnectionLimits {
+        max_connections: 64,
+        max_per_host: 2,
+        ..ConnectionLimits::default()
+    });
+    let first = request_events(server.connect_from([127, 0, 0, 7]));
+    let _second = request_events(server.connect_from([127, 0, 0, 7]));
     assert_eq!(
-        ConnectionLimits::default(),
-        ConnectionLimits {
-            max_connections: MAX_CONNECTIONS,
-            head_timeout: HEAD_TIMEOUT,
-            write_timeout: WRITE_TIMEOUT,
-            send_buffer: SEND_BUFFER,
-        }
+        server.request(
+            server.connect_from([127, 0, 0, 7]),
+            "/snapshot.json",
+            "127.0.0.1"
+        ),
+        None,
+        "a third connection from the same host is closed unserved"
     );
+    let other = server.request(
+        server.connect_from([127, 0, 0, 8]),
+        "/snapshot.json",
+        "127.0.0.1",
+    );
+    assert!(other.is_some_and(|r| r.starts_with("HTTP/1.1 200")));
+    // The host's slot comes back once one of its streams ends.
+    drop(first);
+    let deadline = Instant::now() + WAIT;
+    while server
+        .request(
+            server.connect_from([127, 0, 0, 7]),
+            "/snapshot.json",
+            "127.0.0.1",
+        )
+        .is_none()
+    {
+        assert!(Instant::now() < deadline, "the slot never came back");
+        std::thread::sleep(Duration::from_millis(50));
+    }
+}
+
+/// The value of header `name` in a whole response (case-insensitive name).
+fn header<'a>(response: &'a str, name: &str) -> Option<&'a str> {
+    let head = response.split("\r\n\r\n").next()?;
+    head.lines().find_map(|l| {
+        let (n, v) = l.split_once(':')?;
+        n.eq_ignore_ascii_case(name).then(|| v.trim())
+    })
+}
+
+/// Regression (review): no response forbade framing, sniffing or foreign scripts, and a
+/// request for any Host was served (a page elsewhere whose name resolves here could read
+/// the snapshots: DNS rebinding).
+#[test]
+fn responses_forbid_what_the_page_does_not_need_and_a_foreign_host_is_refused() {
+    let server = Server::start(ConnectionLimits::default());
+    for (path, content_type) in [
+        ("/", "text/html"),
+        ("/page.js", "text/javascript"),
+        ("/page.css", "text/css"),
+        ("/snapshot.json", "application/json"),
+    ] {
+        let r = server.get(path).expect("served");
+        assert!(r.starts_with("HTTP/1.1 200"), "{path}: {r:.200}");
+        assert!(
+            header(&r, "content-type").is_some_and(|v| v.starts_with(content_type)),
+            "{path}: {r:.300}"
+        );
+        assert_eq!(
+            header(&r, "content-security-policy"),
+            Some(CONTENT_SECURITY_POLICY)
+        );
+        assert_eq!(header(&r, "x-content-type-options"), Some("nosniff"));
+        assert_eq!(header(&r, "x-frame-options"), Some("DENY"));
+    }
+    for host in [
+        "evil.example",
+        "evil.example:8090",
+        "127.0.0.1.evil.example",
+    ] {
+        let r = server
+            .request(server.connect(), "/snapshot.json", host)
+            .expect("answered");
+        assert!(r.starts_with("HTTP/1.1 421"), "{host}: {r:.200}");
+        assert!(r.contains("--allow-host"), "{r}");
+        assert!(!r.contains("vessels"), "no snapshot for {host}");
+    }
+    for host in ["localhost:8090", "LOCALHOST", "10.1.2.3:80", "[::1]:8090"] {
+        let r = server
+            .request(server.connect(), "/snapshot.json", host)
+            .expect("answered");
+        assert!(r.starts_with("HTTP/1.1 200"), "{host}: {r:.200}");
+    }
+}
+
+#[test]
+fn the_allowed_host_names_are_served_with_or_without_a_port() {
+    let hosts = AllowedHosts::new(["Bridge-Display".to_string()]);
+    for ok in [
+        "bridge-display",
+        "BRIDGE-DISPLAY:8090",
+        "192.168.1.20:8090",
+        "[fe80::1]",
+    ] {
+        assert!(hosts.admits(ok), "{ok}");
+    }
+    for refused in [
+        "bridge-display.evil",
+        "[fe80::1",
+        "[nothost]:80",
+        "other:8090",
+        "",
+    ] {
+        assert!(!hosts.admits(refused), "{refused}");
+    }
+    assert!(!AllowedHosts::default().admits("bridge-display"));
 }
 
 #[test]
@@ -211,11 +342,11 @@ fn a_connection_without_a_complete_request_head_is_closed_after_the_head_timeout
     // Sends half a head and then nothing (a byte now and then would do the same).
     let mut partial = server.connect();
     partial
-        .write_all(b"GET /snapshot.json HTTP/1.1\r\nHost: display\r\n")
+        .write_all(b"GET /snapshot.json HTTP/1.1\r\nHost: 127.0.0.1\r\n")
         .expect("send half a head");
     // Is served once, then keeps its connection open without a next request.
     let mut idle = server.connect();
-    idle.write_all(b"GET /snapshot.json HTTP/1.1\r\nHost: display\r\n\r\n")
+    idle.write_all(b"GET /snapshot.json HTTP/1.1\r\nHost: 127.0.0.1\r\n\r\n")
         .expect("send a request");
     let mut idle = BufReader::new(idle);
     let mut status = String::new();

@@ -48,6 +48,12 @@ impl RejectionCounts {
     }
 }
 
+/// The largest magnitude of a mean or sigma a forecast may carry (m or rad). No ship's motion
+/// comes near it; it keeps a forged value that f32 still holds (3e38) from overflowing a
+/// consumer's arithmetic. Regression (review): a roll of 3e38 rad became infinity in degrees
+/// on the display, was sent as null and drawn as a calm 0.
+pub const MAX_ABS_VALUE: f32 = 1.0e6;
+
 /// Checks of a forecast's content that do not depend on who sent it.
 pub fn check_content(f: &Forecast, expected_dt_s: f64) -> Result<(), Rejection> {
     let bad = |m: String| Err(Rejection::Payload(format!("forecast JSON: {m}")));
@@ -73,6 +79,17 @@ pub fn check_content(f: &Forecast, expected_dt_s: f64) -> Result<(), Rejection> 
         if let Some(k) = sigma.iter().position(|v| !(v.is_finite() && *v >= 0.0)) {
             return bad(format!(
                 "sigma of DOF {d} step {k} is not a finite non-negative number"
+            ));
+        }
+        let beyond = |v: &f32| v.abs() > MAX_ABS_VALUE;
+        if let Some(k) = mean.iter().chain(sigma).position(beyond) {
+            let (what, k) = if k < steps {
+                ("mean", k)
+            } else {
+                ("sigma", k - steps)
+            };
+            return bad(format!(
+                "{what} of DOF {d} step {k} is beyond {MAX_ABS_VALUE:e}, no ship's motion"
             ));
         }
     }
@@ -489,6 +506,23 @@ mod tests {
         assert!(matches!(
             check_content(&infinite, 0.5),
             Err(Rejection::Payload(ref m)) if m.contains("mean of DOF 2 step 1 is not finite")
+        ));
+        // Finite in f32 but beyond any motion: a consumer's degrees would overflow.
+        let mut huge_roll = forecast(6);
+        huge_roll.mean[3][2] = 3e38;
+        let mut huge_sigma = forecast(7);
+        huge_sigma.sigma[1][0] = 2.0e6;
+        let mut largest = forecast(8);
+        largest.mean[3][2] = -MAX_ABS_VALUE;
+        largest.sigma[1][0] = MAX_ABS_VALUE;
+        assert!(check_content(&largest, 0.5).is_ok());
+        assert!(matches!(
+            check_content(&huge_roll, 0.5),
+            Err(Rejection::Payload(ref m)) if m.contains("mean of DOF 3 step 2 is beyond")
+        ));
+        assert!(matches!(
+            check_content(&huge_sigma, 0.5),
+            Err(Rejection::Payload(ref m)) if m.contains("sigma of DOF 1 step 0 is beyond")
         ));
         // steps above the maximum.
         let text = String::from_utf8(received(&forecast(5), Some("aaa")).payload).unwrap();

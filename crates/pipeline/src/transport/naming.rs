@@ -23,8 +23,9 @@ pub struct Names {
 }
 
 /// A name segment must be usable both as one zenoh key chunk and inside an iceoryx2 service
-/// name and file-name prefix, so only a conservative character set is allowed.
-fn check_segment(what: &'static str, value: &str) -> Result<(), NameError> {
+/// name and file-name prefix, so only a conservative character set is allowed. Readers of
+/// names that come over the network (the display) hold them to the same rule.
+pub fn check_segment(what: &'static str, value: &str) -> Result<(), NameError> {
     let err = |reason| NameError {
         what,
         value: value.to_string(),

@@ -53,6 +53,7 @@ fn busy_server(max_connections: usize, write_timeout: Duration) -> Server {
     Server::start_with(
         ConnectionLimits {
             max_connections,
+            max_per_host: MAX_CONNECTIONS_PER_HOST,
             head_timeout: HEAD_TIMEOUT,
             write_timeout,
             send_buffer: SMALL_BUFFER,
@@ -69,14 +70,7 @@ impl Server {
         socket
             .set_recv_buffer_size(SMALL_BUFFER as u32)
             .expect("a small receive buffer");
-        let stream = self
-            .runtime
-            .block_on(socket.connect(self.addr))
-            .expect("connect");
-        let stream = stream.into_std().expect("a std socket");
-        stream.set_nonblocking(false).expect("blocking");
-        stream.set_read_timeout(Some(WAIT)).expect("read timeout");
-        request_events(stream)
+        request_events(self.connect_socket(socket))
     }
 }
 
