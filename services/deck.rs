@@ -14,7 +14,7 @@
 
 use shipcast_pipeline::config::{CommonArgs, PipelineConfig};
 use shipcast_pipeline::decision::outcomes::{OutcomeCounts, Outcomes};
-use shipcast_pipeline::decision::statements_file::StatementsKeeper;
+use shipcast_pipeline::decision::statements_file::{self, StatementsKeeper};
 use shipcast_pipeline::deck::DeckAdvisor;
 use shipcast_pipeline::limits as value_limits;
 use shipcast_pipeline::transport::clock::monotonic_ns;
@@ -121,6 +121,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     };
     let mut advisor = DeckAdvisor::new(&config.deck);
     let dt_s = 1.0 / config.predictor.sample_rate_hz;
+    // A file that cannot be kept where asked stops the deck now, not its statements at the
+    // end of the watch; an existing file that cannot be read is left alone (below).
+    if let Some(path) = config.deck.statements_file.as_deref() {
+        statements_file::check_writable(path).map_err(|e| anyhow::anyhow!("deck: {e:#}"))?;
+    }
     let mut statements = config.deck.statements_file.as_deref().and_then(|path| {
         match StatementsKeeper::open(path, dt_s, advisor.decider_mut()) {
             Ok(keeper) => Some(keeper),
@@ -285,8 +290,19 @@ fn with_statements_saved<T>(
     body: impl FnOnce(&mut DeckAdvisor, &mut Option<StatementsKeeper>) -> anyhow::Result<T>,
 ) -> anyhow::Result<T> {
     let result = body(advisor, keeper);
-    save_statements(keeper.as_mut(), advisor);
-    result
+    let saved = keeper
+        .as_mut()
+        .map_or(Ok(false), |k| k.save(advisor.decider()));
+    match (result, saved) {
+        (result, Ok(_)) => result,
+        // The watch ended but its statements are lost: not a clean stop (review: the deck
+        // exited 0 with one warning).
+        (Ok(_), Err(e)) => Err(e.context("deck: the verified statements could not be kept")),
+        (Err(e), Err(lost)) => {
+            tracing::error!("deck: the verified statements could not be kept: {lost:#}");
+            Err(e)
+        }
+    }
 }
 
 /// Write the verified statements if a file keeps them; a failed write is logged and tried
@@ -379,5 +395,29 @@ mod tests {
         let mut fresh = DeckAdvisor::new(&config);
         StatementsKeeper::open(&path, 0.5, fresh.decider_mut()).unwrap();
         assert_eq!(fresh.decider().statement_calls(), 2.0);
+    }
+
+    /// Regression (review): a final write that failed was one warning and exit 0; the
+    /// watch's statements were lost without a failing stop.
+    #[test]
+    fn statements_that_cannot_be_written_at_the_end_make_the_stop_an_error() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("statements.json");
+        let config = shipcast_pipeline::config::DeckConfig::default();
+        let mut advisor = DeckAdvisor::new(&config);
+        let mut keeper = Some(StatementsKeeper::open(&path, 0.5, advisor.decider_mut()).unwrap());
+        // The temporary file's name taken by a directory: no write can succeed, even as root.
+        std::fs::create_dir(dir.path().join("statements.json.tmp")).unwrap();
+        let result: anyhow::Result<u32> =
+            with_statements_saved(&mut keeper, &mut advisor, |advisor, _| {
+                advisor.decider_mut().add_outcome(20, 0.3, true);
+                Ok(7)
+            });
+        let e = format!("{:#}", result.unwrap_err());
+        assert!(
+            e.starts_with("deck: the verified statements could not be kept: statements file"),
+            "{e}"
+        );
+        assert!(!path.exists());
     }
 }

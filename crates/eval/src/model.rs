@@ -161,18 +161,20 @@ impl ModelFile {
         self.dofs.iter().find(|m| m.dof == dof)
     }
 
-    /// Write the file (compact JSON: prediction matrices are large).
+    /// Write the file (compact JSON: prediction matrices are large), atomically: a write that
+    /// fails leaves an existing model file as it was. Regression (review): it was written in
+    /// place, and a retrain whose write failed (a full disk) left a truncated model that the
+    /// predictor then refused.
     pub fn save(&self, path: impl AsRef<Path>) -> Result<(), ModelError> {
         let path = path.as_ref();
-        let io_err = |error| ModelError::Io {
-            path: path.to_path_buf(),
-            error,
-        };
         let json = serde_json::to_vec(self).map_err(|error| ModelError::Json {
             path: path.to_path_buf(),
             error,
         })?;
-        std::fs::write(path, json).map_err(io_err)
+        shipcast_series::atomic_file::write_atomically(path, &json).map_err(|e| ModelError::Io {
+            path: path.to_path_buf(),
+            error: std::io::Error::other(e.to_string()),
+        })
     }
 
     /// Read and check a model file.
@@ -507,6 +509,23 @@ mod tests {
         v["dofs"][0]["predictor"]["params"] = serde_json::json!([]);
         let e = load(&v);
         assert!(e.contains("heave: the mlp model cannot forecast"), "{e}");
+    }
+
+    /// Regression (review): a model was written in place, so a retrain whose write failed
+    /// (a full disk, a file size limit) left a truncated file the predictor then refused.
+    #[test]
+    fn a_save_that_fails_leaves_the_old_model_file_usable() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("model.json");
+        let old = train_models(&record(500), &[Dof::Heave], &options(Method::Zero)).unwrap();
+        old.save(&path).unwrap();
+        let new = train_models(&record(500), &[Dof::Heave], &options(Method::Persistence)).unwrap();
+        // The temporary file's name taken by a directory: no write can succeed, even as root.
+        std::fs::create_dir(dir.path().join("model.json.tmp")).unwrap();
+        let e = new.save(&path).unwrap_err().to_string();
+        assert!(e.contains("writing its temporary file"), "{e}");
+        let back = ModelFile::load(&path).unwrap();
+        assert_eq!(back.method, Method::Zero, "the old model, whole");
     }
 
     #[test]

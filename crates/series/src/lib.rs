@@ -8,7 +8,11 @@
 //! ([`Decimator`], used by the predictor service for 8 -> 2 Hz), and the batch functions are the
 //! streaming decimator run over the series, so evaluation and service see identical values.
 //! The filter, its delay and its attenuation are documented on [`fir::design_lowpass`].
+//!
+//! [`atomic_file`] writes the files a run leaves for later runs (model files, the deck's
+//! statements) so that a failed write never destroys the old one.
 
+pub mod atomic_file;
 pub mod decimator;
 pub mod fir;
 pub mod motion_csv;

@@ -18,6 +18,7 @@
 use super::recalibrate::StatementRecord;
 use super::{Decider, MAX_RECORDS};
 use serde::{Deserialize, Serialize};
+use shipcast_series::atomic_file::{temporary_path, write_atomically};
 use shipcast_wire::payload::MAX_STEPS;
 use std::path::{Path, PathBuf};
 
@@ -107,42 +108,47 @@ pub fn load(path: &Path) -> anyhow::Result<Option<StatementsFile>> {
         .map_err(|e| anyhow::anyhow!("statements file {}: {e}", path.display()))
 }
 
-/// Write a statements file atomically: a temporary file beside it, flushed to the disk, then
-/// renamed over it, and the directory flushed so the rename survives a power cut too (a
-/// rename of unflushed data can leave an empty file after one, the very loss this avoids).
+/// Write a statements file atomically (`shipcast_series::atomic_file`): a failed write
+/// leaves the old file as it was.
 pub fn save(path: &Path, file: &StatementsFile) -> anyhow::Result<()> {
-    use std::io::Write;
-    let mut tmp = path.as_os_str().to_owned();
-    tmp.push(".tmp");
-    let tmp = std::path::PathBuf::from(tmp);
     let text = serde_json::to_string(file)?;
-    let io_err =
-        |p: &Path, e: std::io::Error| anyhow::anyhow!("statements file {}: {e}", p.display());
-    let tmp_err = |e: std::io::Error| {
-        anyhow::anyhow!(
-            "statements file {}: writing its temporary file {}: {e}",
-            path.display(),
-            tmp.display()
-        )
-    };
-    let mut out = std::fs::File::create(&tmp).map_err(tmp_err)?;
-    out.write_all(text.as_bytes())
-        .and_then(|()| out.sync_all())
-        .map_err(tmp_err)?;
-    drop(out);
-    std::fs::rename(&tmp, path).map_err(|e| io_err(path, e))?;
-    // Flushing a directory is a Unix notion; elsewhere the rename is left to the OS.
-    #[cfg(unix)]
-    {
-        let dir = match path.parent() {
-            Some(d) if !d.as_os_str().is_empty() => d,
-            _ => Path::new("."),
-        };
-        std::fs::File::open(dir)
-            .and_then(|d| d.sync_all())
-            .map_err(|e| io_err(dir, e))?;
+    write_atomically(path, text.as_bytes())
+        .map_err(|e| anyhow::anyhow!("statements file {}: {e}", path.display()))
+}
+
+/// Whether a statements file can be kept at `path`: found at start, not at the first write
+/// after hours of calls (or, in replay, after the whole record). The directory must exist and
+/// take a file: the temporary file `save` writes is made and removed again. Regression
+/// (review): only the directory's existence was checked, so a deck whose directory it could
+/// not write ran its whole watch and lost every statement at the end.
+pub fn check_writable(path: &Path) -> anyhow::Result<()> {
+    if path.as_os_str().is_empty() {
+        anyhow::bail!("statements file: the path is empty");
     }
-    Ok(())
+    if path.is_dir() {
+        anyhow::bail!("statements file {}: is a directory", path.display());
+    }
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    if !dir.is_dir() {
+        anyhow::bail!(
+            "statements file {}: its directory {} does not exist",
+            path.display(),
+            dir.display()
+        );
+    }
+    let tmp = temporary_path(path);
+    std::fs::File::create(&tmp)
+        .and_then(|_| std::fs::remove_file(&tmp))
+        .map_err(|e| {
+            anyhow::anyhow!(
+                "statements file {}: cannot be written in {} ({e})",
+                path.display(),
+                dir.display()
+            )
+        })
 }
 
 /// A deck's statements file: read into its decider at start, written as statements are
@@ -157,29 +163,12 @@ pub struct StatementsKeeper {
 
 impl StatementsKeeper {
     /// Start `decider` from the statements in `path` (none if there is no file yet) for
-    /// forecasts of step `dt_s`. An error says why an existing file cannot be used; the
-    /// caller then runs without a keeper, so that file is never overwritten (it may be the
-    /// only copy of a long run's statements).
+    /// forecasts of step `dt_s`. An error says why the file cannot be kept there
+    /// ([`check_writable`]) or why an existing file cannot be used; in the second case the
+    /// deck runs without a keeper, so that file is never overwritten (it may be the only copy
+    /// of a long run's statements).
     pub fn open(path: &Path, dt_s: f64, decider: &mut Decider) -> anyhow::Result<Self> {
-        // Where it cannot be written is found now, not at the first write after hours of
-        // calls (or, in replay, after the whole record).
-        if path.as_os_str().is_empty() {
-            anyhow::bail!("statements file: the path is empty");
-        }
-        if path.is_dir() {
-            anyhow::bail!("statements file {}: is a directory", path.display());
-        }
-        let dir = match path.parent() {
-            Some(d) if !d.as_os_str().is_empty() => d,
-            _ => Path::new("."),
-        };
-        if !dir.is_dir() {
-            anyhow::bail!(
-                "statements file {}: its directory {} does not exist",
-                path.display(),
-                dir.display()
-            );
-        }
+        check_writable(path)?;
         let mut keeper = Self {
             path: path.to_path_buf(),
             dt_s,
@@ -251,6 +240,32 @@ mod tests {
         }
         assert_eq!(records[1].1.calls(), 1.0);
         assert!(!dir.path().join("statements.json.tmp").exists());
+    }
+
+    /// Regression (review): only the directory's existence was checked at start, so a
+    /// file that could not be written was found at the end of the watch.
+    #[test]
+    fn a_place_no_file_can_be_written_is_refused_at_open() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("statements.json");
+        // The temporary file's name taken by a directory: no write can succeed, even as root.
+        std::fs::create_dir(dir.path().join("statements.json.tmp")).unwrap();
+        let mut decider = Decider::new(&crate::config::DeckConfig::default());
+        let e = StatementsKeeper::open(&path, 0.5, &mut decider).unwrap_err();
+        assert!(
+            e.to_string().starts_with(&format!(
+                "statements file {}: cannot be written in {}",
+                path.display(),
+                dir.path().display()
+            )),
+            "{e}"
+        );
+        std::fs::remove_dir(dir.path().join("statements.json.tmp")).unwrap();
+        StatementsKeeper::open(&path, 0.5, &mut decider).unwrap();
+        assert!(
+            !dir.path().join("statements.json.tmp").exists(),
+            "the check leaves nothing behind"
+        );
     }
 
     /// Regression: a file already holding MAX_RECORDS other window lengths (a deck run with
