@@ -13,13 +13,16 @@ use shipcast_wire::Dof;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
-/// Predictor options shared by `eval` and `train`; defaults are the paper's
-/// (`PredictorConfig::default()`).
+/// Predictor options shared by `eval` and `train`. Defaults are the paper's
+/// (`PredictorConfig::default()`), except the order and the Wiener fit, which `train` takes
+/// from the service (its models are for the service): `PredictorArgs::config` is given the
+/// defaults of its command.
 #[derive(clap::Args, Debug)]
 pub struct PredictorArgs {
-    /// Past values per forecast (MCA: window length n, of which n - horizon are past values).
-    #[arg(long, default_value_t = PredictorConfig::default().order)]
-    pub order: usize,
+    /// Past values per forecast (MCA: window length n, of which n - horizon are past values)
+    /// [default: eval 800, the paper's; train 200, the service's].
+    #[arg(long)]
+    pub order: Option<usize>,
     /// Steps forecast (H).
     #[arg(long, default_value_t = PredictorConfig::default().horizon)]
     pub horizon: usize,
@@ -27,11 +30,11 @@ pub struct PredictorArgs {
     #[arg(long, default_value_t = PredictorConfig::default().mca_shift)]
     pub shift: usize,
     /// MCA: energy fraction of the minor components.
-    #[arg(long, default_value_t = PredictorConfig::default().mca_energy)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = PredictorConfig::default().mca_energy)]
     pub energy: f64,
     /// MCA: ridge on B2^T B2, relative to its mean diagonal (0 = paper); with
     /// --mca-weighting inverse: eps relative to the mean eigenvalue (0 = 1e-3).
-    #[arg(long, default_value_t = PredictorConfig::default().mca_ridge)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = PredictorConfig::default().mca_ridge)]
     pub ridge: f64,
     /// MCA: choose the energy threshold by validation on the end of the training segment
     /// (inverse weighting: the ridge).
@@ -43,14 +46,15 @@ pub struct PredictorArgs {
     pub mca_weighting: McaWeighting,
     /// Wiener: how the weights are estimated, autocorrelation (the paper's Yule-Walker),
     /// least-squares (over the training segment's forecast origins) or guarded (least squares
-    /// held near the autocorrelation fit's forecast; the service's default).
-    #[arg(long, default_value_t = PredictorConfig::default().wiener_fit)]
-    pub wiener_fit: WienerFit,
+    /// held near the autocorrelation fit's forecast) [default: eval autocorrelation, the
+    /// paper's; train guarded, the service's].
+    #[arg(long)]
+    pub wiener_fit: Option<WienerFit>,
     /// AR: normalised LMS instead of plain LMS.
     #[arg(long)]
     pub nlms: bool,
     /// AR: LMS step size.
-    #[arg(long, default_value_t = PredictorConfig::default().lms_gain)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = PredictorConfig::default().lms_gain)]
     pub lms_gain: f64,
     /// MLP: Rprop epochs.
     #[arg(long, default_value_t = PredictorConfig::default().mlp_epochs)]
@@ -68,9 +72,11 @@ use limits::{MAX_EPOCHS, MAX_GAIN, MAX_HIDDEN, MAX_RIDGE};
 impl PredictorArgs {
     /// The predictor configuration, every option range-checked. Feasibility for a method
     /// (MCA needs order > horizon) is left to the method: `eval` reports it per method.
-    pub fn config(&self, seed: u64) -> anyhow::Result<PredictorConfig> {
+    /// `defaults` gives the order and Wiener fit of the command when they are not asked for.
+    pub fn config(&self, seed: u64, defaults: &PredictorConfig) -> anyhow::Result<PredictorConfig> {
+        let order = self.order.unwrap_or(defaults.order);
         Ok(PredictorConfig {
-            order: checked(limits::count("--order", self.order, 1, MAX_COUNT))?,
+            order: checked(limits::count("--order", order, 1, MAX_COUNT))?,
             horizon: checked(limits::count("--horizon", self.horizon, 1, MAX_COUNT))?,
             mca_shift: checked(limits::count("--shift", self.shift, 1, MAX_COUNT))?,
             mca_energy: checked(limits::positive("--energy", self.energy, 1.0))?,
@@ -79,7 +85,7 @@ impl PredictorArgs {
             mca_weighting: self.mca_weighting,
             lms_gain: checked(limits::positive("--lms-gain", self.lms_gain, MAX_GAIN))?,
             lms_normalized: self.nlms,
-            wiener_fit: self.wiener_fit,
+            wiener_fit: self.wiener_fit.unwrap_or(defaults.wiener_fit),
             mlp_hidden: checked(limits::count("--hidden", self.hidden, 1, MAX_HIDDEN))?,
             mlp_epochs: checked(limits::count("--epochs", self.epochs, 1, MAX_EPOCHS))?,
             seed,
@@ -110,10 +116,10 @@ pub struct Args {
     #[arg(long, default_value_t = 1)]
     pub stride: usize,
     /// Evaluation rate [Hz]; the input is low-pass filtered and decimated to it.
-    #[arg(long, default_value_t = 2.0)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 2.0)]
     pub sample_rate: f64,
     /// Gaussian noise added before training and testing, % of the peak amplitude.
-    #[arg(long, default_value_t = 0.0)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 0.0)]
     pub noise_pct: f64,
     /// Seed of the noise and of the methods' random choices.
     #[arg(long, default_value_t = 1)]
@@ -133,6 +139,9 @@ pub struct Args {
     #[command(flatten)]
     pub predictor: PredictorArgs,
 }
+
+/// Largest training segment accepted [samples] (a year at 2 Hz).
+const MAX_TRAIN: usize = 64_000_000;
 
 /// Largest noise accepted [% of the peak amplitude].
 const MAX_NOISE_PCT: f64 = 1000.0;
@@ -199,9 +208,13 @@ impl TryFrom<Args> for Config {
     fn try_from(args: Args) -> anyhow::Result<Self> {
         let methods = parse_methods(&args.method)?;
         let dofs = DofChoice::parse(&args.dof)?;
-        let predictor = args.predictor.config(args.seed)?;
+        // The protocol's defaults are the paper's.
+        let predictor = args
+            .predictor
+            .config(args.seed, &PredictorConfig::default())?;
         let settings = EvalSettings {
-            train: args.train,
+            // Every method needs a training segment: one clear error instead of one per method.
+            train: checked(limits::count("--train", args.train, 1, MAX_TRAIN))?,
             stride: checked(limits::count("--stride", args.stride, 1, MAX_COUNT))?,
             sample_rate: sample_rate(args.sample_rate)?,
             noise_pct: checked(limits::non_negative(
@@ -388,6 +401,20 @@ mod tests {
             refused(&["--horizon", "6", "--average", "7"]),
             "infeasible configuration: averaging over 7 forecasts: must be between 1 and the \
              horizon 6"
+        );
+        // Regressions (review): --train 0 gave one error per method; a negative number was
+        // "unexpected argument '-1'" instead of the range.
+        assert_eq!(
+            refused(&["--train", "0"]),
+            format!("--train must be 1..={MAX_TRAIN}, got 0")
+        );
+        assert_eq!(
+            refused(&["--ridge", "-1"]),
+            format!("--ridge must be a number in [0, {MAX_RIDGE}], got -1")
+        );
+        assert_eq!(
+            refused(&["--noise-pct", "-1"]),
+            format!("--noise-pct must be a number in [0, {MAX_NOISE_PCT}], got -1")
         );
         assert!(refused(&["--dof", "heavy"]).contains("unknown degree of freedom 'heavy'"));
         assert!(refused(&["--method", "kalman"]).contains("unknown method 'kalman'"));

@@ -75,9 +75,13 @@ fn checked<T>(check: Result<T, String>) -> anyhow::Result<T> {
     check.map_err(anyhow::Error::msg)
 }
 
-/// `path`, a file a command writes at the end of its work, must be in an existing directory:
-/// checked before the work starts, so that a typo costs no minutes.
+/// `path`, a file a command writes at the end of its work, must be in an existing directory
+/// and not be a directory itself: checked before the work starts, so that a typo costs no
+/// minutes (regression: `train --out DIR` trained first and failed at the write).
 fn output_in_existing_dir(option: &str, path: &std::path::Path) -> anyhow::Result<()> {
+    if path.is_dir() {
+        anyhow::bail!("{option} {}: is a directory, not a file", path.display());
+    }
     let dir = path.parent().filter(|d| !d.as_os_str().is_empty());
     match dir {
         Some(d) if !d.is_dir() => anyhow::bail!(

@@ -3,7 +3,8 @@
 
 use crate::eval::{load_resampled, sample_rate, PredictorArgs};
 use shipcast_eval::model::{train_models, TrainOptions};
-use shipcast_predict::Method;
+use shipcast_pipeline::config::{PredictorServiceConfig, WienerSettings};
+use shipcast_predict::{Method, PredictorConfig};
 use std::path::PathBuf;
 
 #[derive(clap::Args, Debug)]
@@ -14,20 +15,33 @@ pub struct Args {
     /// Model file to write (JSON).
     #[arg(long)]
     pub out: PathBuf,
-    /// Method (mca, wiener, ar, mlp, persistence, zero).
-    #[arg(long, default_value = "mca")]
+    /// Method (mca, wiener, ar, mlp, persistence, zero). The default is the service's: a
+    /// Wiener predictor of order 200, fitted guarded (docs/forecasting.md); the paper's MCA-800
+    /// learns one realisation's wave components and fails out of sample.
+    #[arg(long, default_value = "wiener")]
     pub method: String,
     /// Rate the models forecast at [Hz]; the input is low-pass filtered and decimated to it.
-    #[arg(long, default_value_t = 2.0)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 2.0)]
     pub sample_rate: f64,
     /// Fraction at the end of each series held out to measure the expected error (sigma).
-    #[arg(long, default_value_t = 0.2)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 0.2)]
     pub holdout: f64,
     /// Seed of the methods' random choices.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
     #[command(flatten)]
     pub predictor: PredictorArgs,
+}
+
+/// The order and Wiener fit of the predictor service's own default, for options not given:
+/// a model trained with the defaults is the one the service would fit.
+fn service_defaults() -> PredictorConfig {
+    let service = PredictorServiceConfig::default();
+    PredictorConfig {
+        order: service.order,
+        wiener_fit: WienerSettings::default().fit,
+        ..PredictorConfig::default()
+    }
 }
 
 /// What `train` fits and where it writes it, every value checked: built from [`Args`] by
@@ -45,7 +59,7 @@ impl TryFrom<Args> for Config {
 
     fn try_from(args: Args) -> anyhow::Result<Self> {
         let method: Method = args.method.parse().map_err(anyhow::Error::msg)?;
-        let config = args.predictor.config(args.seed)?;
+        let config = args.predictor.config(args.seed, &service_defaults())?;
         // Both parts must hold data: the fit and the sigma measurement.
         if !(args.holdout > 0.0 && args.holdout < 1.0) {
             anyhow::bail!(
@@ -160,6 +174,44 @@ mod tests {
                 "--order must be 1..={}, got 0",
                 shipcast_pipeline::config::MAX_ORDER
             )
+        );
+        let d = dir.path().to_str().unwrap();
+        assert_eq!(
+            refused(&["--input", "m.csv", "--out", d]),
+            format!("--out {d}: is a directory, not a file")
+        );
+    }
+
+    /// Regression (review): `train` with no options fitted the paper's MCA-800, whose sigma
+    /// was four times predicting zero's error out of sample; the service fits something else.
+    #[test]
+    fn the_defaults_fit_what_the_service_fits_and_options_still_override_them() {
+        let c = crate::validated::<Args, Config>(&["--input", "m.csv", "--out", "m.json"]).unwrap();
+        let service = PredictorServiceConfig::default();
+        assert_eq!(c.options.method, service.method);
+        assert_eq!(c.options.config.order, service.order);
+        assert_eq!(c.options.config.horizon, service.horizon);
+        assert_eq!(c.options.config.wiener_fit, WienerSettings::default().fit);
+        let c = crate::validated::<Args, Config>(&[
+            "--input",
+            "m.csv",
+            "--out",
+            "m.json",
+            "--method",
+            "mca",
+            "--order",
+            "800",
+            "--wiener-fit",
+            "autocorrelation",
+        ])
+        .unwrap();
+        assert_eq!(
+            (c.options.method, c.options.config.order),
+            (Method::Mca, 800)
+        );
+        assert_eq!(
+            c.options.config.wiener_fit,
+            shipcast_predict::WienerFit::Autocorrelation
         );
     }
 }

@@ -63,6 +63,16 @@ pub enum ModelError {
         path: PathBuf,
         error: serde_json::Error,
     },
+    /// A value that does not fit its field, named by its path in the file (the file is one
+    /// line of a megabyte: a column number alone does not find it).
+    #[error("{path}: at {field}: {error} (the text there: '{near}')")]
+    JsonAt {
+        path: PathBuf,
+        field: String,
+        error: serde_json::Error,
+        /// The text around the error's line and column.
+        near: String,
+    },
     #[error("{path}: not a shipcast model file (no 'format_version')")]
     NoVersion { path: PathBuf },
     #[error(
@@ -155,6 +165,20 @@ pub fn train_models(
     })
 }
 
+/// Up to 30 characters either side of `line` and `column` (1-based, as serde_json counts) of
+/// `text`: inside a field's path (an array of thousands of coefficients), what the bad value
+/// looks like is what finds it.
+fn text_near(text: &str, line: usize, column: usize) -> String {
+    let Some(line_text) = text.lines().nth(line.saturating_sub(1)) else {
+        return String::new();
+    };
+    let chars: Vec<char> = line_text.chars().collect();
+    let at = column.saturating_sub(1).min(chars.len());
+    let from = at.saturating_sub(30);
+    let to = (at + 30).min(chars.len());
+    chars[from..to].iter().collect()
+}
+
 impl ModelFile {
     /// The model of `dof`, if the file has one.
     pub fn dof(&self, dof: Dof) -> Option<&DofModel> {
@@ -215,7 +239,17 @@ impl ModelFile {
                 })
             }
         }
-        let model: ModelFile = serde_json::from_str(text).map_err(json_err)?;
+        let mut parser = serde_json::Deserializer::from_str(text);
+        let model: ModelFile = serde_path_to_error::deserialize(&mut parser).map_err(|e| {
+            let field = e.path().to_string();
+            let error = e.into_inner();
+            ModelError::JsonAt {
+                path: path.to_path_buf(),
+                field,
+                near: text_near(text, error.line(), error.column()),
+                error,
+            }
+        })?;
         model.check().map_err(|reason| ModelError::Invalid {
             path: path.to_path_buf(),
             reason,
@@ -407,6 +441,26 @@ mod tests {
             .to_string();
         assert!(err.starts_with("m.json: ") && !err.contains('\n'), "{err}");
         err
+    }
+
+    /// Regression (review): a coefficient edited to null in a one-line file of a megabyte
+    /// was "invalid type: null, expected f64 at line 1 column 658727", which finds nothing.
+    #[test]
+    fn a_value_of_the_wrong_type_is_named_by_its_field_and_shown_in_its_text() {
+        let err = load_error(Method::Wiener, |v| {
+            v["dofs"][0]["predictor"]["coefficients"]["coef"][5] = serde_json::Value::Null;
+        });
+        assert!(
+            err.contains("at dofs[0].predictor: invalid type: null"),
+            "{err}"
+        );
+        assert!(err.contains("null,"), "the text around it: {err}");
+        let err = load_error(Method::Wiener, |v| v["dofs"][0]["sigma"][2] = "x".into());
+        assert!(
+            err.contains("at dofs[0].sigma[2]: invalid type: string"),
+            "{err}"
+        );
+        assert!(err.contains("\"x\""), "{err}");
     }
 
     #[test]

@@ -1,10 +1,12 @@
 //! The motion CSV format (docs/contracts.md section 2.3): a header row of unit-carrying column
 //! names (`time_s,surge_m,sway_m,heave_m,roll_rad,pitch_rad,yaw_rad`), then one row per sample.
 //!
-//! Readers accept any subset of the six DOF columns, in any order, plus extra numeric columns
-//! (`wave_m`, ...). `time_s` is required and must increase strictly. Every value must be a finite
-//! number: a motion CSV is a numeric table, so a text column is rejected like a typo would be.
-//! Errors name the line (1-based, the header is line 1) and the column.
+//! Readers accept any subset of the six DOF columns, in any order, plus the wave elevation
+//! `wave_m`, and ignore every other column (a UTC stamp, a quality flag, a note): those are the
+//! file's own business and are neither parsed nor kept. `time_s` is required and must increase
+//! strictly. Every value of the columns read must be a finite number. Errors name the line
+//! (1-based, the header is line 1) and the column. Regression (review): every column was
+//! parsed, so a record with a text column was refused whole, against the contract.
 //!
 //! [`MotionCsvWriter`] writes the same format row by row (the simulator streams hours of data),
 //! with values printed in Rust's shortest round-trip form, so reading back gives the same `f64`s.
@@ -17,6 +19,14 @@ use std::path::Path;
 
 /// Name of the time column.
 pub const TIME_COLUMN: &str = "time_s";
+
+/// Name of the wave elevation column (`simulate` writes it; `simulate --elevation` reads it).
+pub const WAVE_COLUMN: &str = "wave_m";
+
+/// Whether a column other than time is read: a DOF's or the wave elevation's.
+fn is_read_column(name: &str) -> bool {
+    name == WAVE_COLUMN || Dof::ALL.iter().any(|d| d.csv_column() == name)
+}
 
 /// Why a motion CSV could not be read or written.
 #[derive(Debug, thiserror::Error)]
@@ -144,11 +154,11 @@ impl MotionData {
 
         let mut time = Vec::new();
         let mut values: Vec<Vec<f64>> = vec![Vec::new(); names.len()];
-        // The motion and wave columns are bounded; other extra columns (a stamp in
-        // nanoseconds, say) are the file's own business and ignored by the readers.
-        let bounded: Vec<bool> = names
+        // The motion and wave columns are read (and bounded); any other column is ignored.
+        let read: Vec<bool> = names
             .iter()
-            .map(|n| n == "wave_m" || Dof::ALL.iter().any(|d| d.csv_column() == n))
+            .enumerate()
+            .map(|(i, n)| i == time_index || is_read_column(n))
             .collect();
         let mut line = 1;
         while read_record(&mut reader, &mut record)? {
@@ -168,12 +178,15 @@ impl MotionData {
                 });
             }
             for (i, text) in record.iter().enumerate() {
+                if !read[i] {
+                    continue;
+                }
                 let value = if nan_is_gap && i != time_index && text.eq_ignore_ascii_case("nan") {
                     f64::NAN
                 } else {
                     parse_value(text, line, &names[i])?
                 };
-                if bounded[i] && value.abs() > MAX_ABS_MOTION {
+                if i != time_index && value.abs() > MAX_ABS_MOTION {
                     return Err(MotionCsvError::OutOfRange {
                         line,
                         column: names[i].clone(),
@@ -204,7 +217,7 @@ impl MotionData {
             .into_iter()
             .zip(values)
             .enumerate()
-            .filter(|(i, _)| *i != time_index)
+            .filter(|(i, _)| *i != time_index && read[*i])
             .map(|(_, (name, values))| Column { name, values })
             .collect();
         Ok(Self { time, columns })
@@ -645,9 +658,20 @@ mod tests {
         let epoch = read_str("time_s,heave_m\n1764860000,1000000\n1764860000.5,-1e6\n").unwrap();
         assert_eq!(epoch.time, vec![1764860000.0, 1764860000.5]);
         assert_eq!(epoch.dof(Dof::Heave).unwrap(), &[1e6, -1e6]);
-        // An extra column other than wave_m is not a motion: not bounded.
-        let stamped = read_str("time_s,heave_m,stamp_ns\n0,1,1764860000000000000\n").unwrap();
-        assert_eq!(stamped.column("stamp_ns").unwrap(), &[1.76486e18]);
+        // An extra column other than wave_m is not a motion: ignored whatever it holds.
+        // Regression (review): a text, empty or NaN cell in one refused the whole record.
+        let stamped = read_str(
+            "time_s,heave_m,stamp_ns,utc,note\n\
+             0,1,1764860000000000000,2024-01-01T00:00:00,\n\
+             0.5,2,NaN,2024-01-01T00:00:00.5,gps lost\n",
+        )
+        .unwrap();
+        assert_eq!(stamped.dof(Dof::Heave).unwrap(), &[1.0, 2.0]);
+        assert_eq!(stamped.time, vec![0.0, 0.5]);
+        assert!(stamped.column("stamp_ns").is_none() && stamped.column("utc").is_none());
+        assert_eq!(stamped.extras().count(), 0);
+        // The row's shape is still the header's.
+        assert!(err("time_s,heave_m,note\n0,1\n").contains("truncated row: 2 of 3 fields"));
         assert!(err("time_s,wave_m\n0,2e6\n").contains("column 'wave_m'"));
         // Bare CR line ends over more than the 1 MiB a line may have are lines, not one.
         let mut cr = String::from("time_s,heave_m\r");
