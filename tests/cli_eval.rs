@@ -310,6 +310,8 @@ fn train_writes_a_loadable_model_for_every_dof_present() {
         input.to_str().unwrap(),
         "--out",
         out.to_str().unwrap(),
+        "--method",
+        "mca",
         "--order",
         "10",
         "--horizon",
