@@ -17,13 +17,14 @@ use shipcast_pipeline::deck::ShipPoint;
 use shipcast_pipeline::relative::PointTrack;
 use shipcast_pipeline::sigma_scale::SigmaScale;
 use shipcast_pipeline::transport::forecast_check::{ForecastGate, PublisherWatch};
+use shipcast_pipeline::transport::silence::{ForecastSilence, NO_FORECAST_AFTER};
 use shipcast_pipeline::transport::zenoh::{
     self as zn, LatestSubscriber, LivelinessWatch, Received,
 };
 use shipcast_pipeline::transport::{shutdown, Names};
 use shipcast_wire::payload::MAX_STEPS;
 use std::io::Write;
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 #[derive(clap::Args, Debug)]
 pub struct Args {
@@ -98,6 +99,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     } = Config::try_from(args)?;
     let limit = shutdown::RunLimit::new(limit);
     let names = config.names()?;
+    // One crane per vessel and instance on a host: a second one under these names would
+    // only disturb the first (review: a second deck blanked the first's advisory, a second
+    // producer's samples were all refused).
+    let _lock = shipcast_pipeline::transport::host_lock::HostLock::acquire(&names, "crane")?;
     let Some(session) = zn::open_until(&config.zenoh.consumer_side(), &limit)? else {
         tracing::info!("crane: stopped before the zenoh session opened");
         return Ok(());
@@ -125,6 +130,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let stdout = std::io::stdout();
     // The forecast being checked, its buffers reused from one to the next.
     let mut received = Received::empty();
+    // Regression (review): with the producer dead and the predictor alive the crane said
+    // nothing at all, and a paused predictor only after the zenoh lease (10 s).
+    let mut silence = ForecastSilence::new("crane", NO_FORECAST_AFTER, Instant::now());
     while !limit.reached() {
         if motion.poll()? {
             verifier.drop_pending();
@@ -140,6 +148,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         publishers.update(&mut gate.live);
         // Short, so that the motion is polled often enough for its queue.
         if !forecasts.recv_into(Duration::from_millis(20), &mut received)? {
+            silence.check(Instant::now());
             continue;
         }
         // A token may arrive just after the first forecast of its publisher.
@@ -151,9 +160,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                     rejected = gate.stream.rejected.total(),
                     "crane: rejected: {e}"
                 );
+                silence.check(Instant::now());
                 continue;
             }
         };
+        silence.heard(Instant::now());
         // The tip's track once, for the console line and for verification.
         point.fill(&tip, 0.0, &forecast, 0, forecast.valid_steps());
         tip_track(&point, forecast.dt_s, &verifier, &mut track);

@@ -23,6 +23,7 @@ use shipcast_pipeline::transport::forecast_check::{
     IoxFollowedPort, IoxForecastGate, RejectionCounts,
 };
 use shipcast_pipeline::transport::iox::{self, IoxPublisher, IoxSubscriber, Sizing, WaitMode};
+use shipcast_pipeline::transport::silence::{ForecastSilence, NO_FORECAST_AFTER};
 use shipcast_pipeline::transport::zenoh::{self as zn, JsonPublisher};
 use shipcast_pipeline::transport::{shutdown, Names};
 use shipcast_wire::payload::{limits, DecisionSample, Forecast, MotionSample};
@@ -84,6 +85,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     } = Config::try_from(args)?;
     let limit = shutdown::RunLimit::new(limit);
     let names = config.names()?;
+    // One deck per vessel and instance on a host: a second one under these names would
+    // only disturb the first (review: a second deck blanked the first's advisory, a second
+    // producer's samples were all refused).
+    let _lock = shipcast_pipeline::transport::host_lock::HostLock::acquire(&names, "deck")?;
     let node = iox::node(&names, "deck")?;
     let forecasts = IoxSubscriber::<Forecast>::new(
         &node,
@@ -145,9 +150,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         "deck: advising from {}",
         names.forecast()
     );
-    let mut last_forecast = Instant::now();
+    let mut silence = ForecastSilence::new("deck", NO_FORECAST_AFTER, Instant::now());
     let mut last_status = Instant::now();
-    let mut waiting_reported = false;
     let mut count = 0u64;
     let stdout = std::io::stdout();
     // The loop runs inside a closure so that however it ends (an error from a port or the
@@ -178,14 +182,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             }
             let newest = newest_accepted(&forecasts, &mut gate, &mut connected)?;
             let Some(forecast) = newest else {
-                if !waiting_reported && last_forecast.elapsed() >= Duration::from_secs(5) {
-                    tracing::info!("deck: no forecast for 5 s");
-                    waiting_reported = true;
-                }
+                silence.check(Instant::now());
                 continue;
             };
-            last_forecast = Instant::now();
-            waiting_reported = false;
+            silence.heard(Instant::now());
             // The motion at the forecast's time_s: the deck velocity's first step is then a
             // central difference, like the outcome it is verified against.
             let origin = outcomes.recorded_at(forecast.time_s);
@@ -247,7 +247,11 @@ fn take_motion(
             }
             Err(e) => {
                 *rejected += 1;
-                tracing::warn!(rejected = *rejected, "deck: motion sample rejected: {e}");
+                // At most one line per power of two: a second producer's 8 samples a second
+                // must not become 8 lines a second (review); the status counts every one.
+                if rejected.is_power_of_two() {
+                    tracing::warn!(rejected = *rejected, "deck: motion sample rejected: {e}");
+                }
             }
         }
     }

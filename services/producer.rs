@@ -239,6 +239,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         .map(|path| CsvSource::open(path, p.rate_hz).map(|source| (path, source)))
         .transpose()?;
     let names = config.names()?;
+    // One producer per vessel and instance on a host: a second one under these names would
+    // only disturb the first (review: a second deck blanked the first's advisory, a second
+    // producer's samples were all refused).
+    let _lock = shipcast_pipeline::transport::host_lock::HostLock::acquire(&names, "producer")?;
     let node = iox::node(&names, "producer")?;
     let publisher = IoxPublisher::<MotionSample>::new(&node, &names.motion(), Sizing::MOTION)?;
 

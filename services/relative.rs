@@ -28,13 +28,14 @@ use shipcast_pipeline::relative::{
     advisory, Geometry, LiftDecider, LiftLimits, PairCurrency, RelativeTrack,
 };
 use shipcast_pipeline::transport::forecast_check::{ForecastGate, PublisherWatch};
+use shipcast_pipeline::transport::silence::{ForecastSilence, NO_FORECAST_AFTER};
 use shipcast_pipeline::transport::zenoh::{self as zn, JsonPublisher, LatestSubscriber, Received};
 use shipcast_pipeline::transport::{shutdown, Names};
 use shipcast_series::motion_csv::MotionData;
 use shipcast_wire::payload::{Forecast, MAX_STEPS};
 use std::io::Write;
 use std::path::{Path, PathBuf};
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 #[derive(clap::Args, Debug)]
 pub struct Args {
@@ -415,6 +416,9 @@ fn run_live(config: &PipelineConfig, limit: Option<Duration>) -> anyhow::Result<
     let limit = shutdown::RunLimit::new(limit);
     let instance = config.instance.as_deref();
     let crane_names = Names::new(instance, r.crane_vessel(&config.vessel))?;
+    // One relative service per crane vessel and instance on a host (as every service).
+    let _lock =
+        shipcast_pipeline::transport::host_lock::HostLock::acquire(&crane_names, "relative")?;
     let target_names = Names::new(instance, &r.target_vessel)?;
     let Some(session) = zn::open_until(&config.zenoh.consumer_side(), &limit)? else {
         tracing::info!("relative: stopped before the zenoh session opened");
@@ -463,8 +467,27 @@ fn run_live(config: &PipelineConfig, limit: Option<Duration>) -> anyhow::Result<
     let (mut stale, mut was_stale) = (0u64, false);
     let mut currency = PairCurrency::default();
     let stdout = std::io::stdout();
+    // Each ship's forecasts stopping is said once, by wall time (review: the service was
+    // silent when both ships' predictors stopped).
+    let started = Instant::now();
+    let mut silences = [
+        ForecastSilence::new("relative: crane vessel", NO_FORECAST_AFTER, started),
+        ForecastSilence::new("relative: target vessel", NO_FORECAST_AFTER, started),
+    ];
     while !limit.reached() {
-        let fresh = crane.poll(0, &mut currency)? | target.poll(1, &mut currency)?;
+        let heard = [
+            crane.poll(0, &mut currency)?,
+            target.poll(1, &mut currency)?,
+        ];
+        let now = Instant::now();
+        for (silence, heard) in silences.iter_mut().zip(heard) {
+            if heard {
+                silence.heard(now);
+            } else {
+                silence.check(now);
+            }
+        }
+        let fresh = heard[0] || heard[1];
         // Both polled every time: `|` does not short-circuit.
         if crane_motion.poll()? | target_motion.poll()? {
             verifier.drop_pending();

@@ -149,6 +149,13 @@ impl Children {
     }
 
     /// The first child that has exited, with its status.
+    /// A child that exited, unless it is a producer that finished its record.
+    fn failed(&mut self) -> Option<(String, std::process::ExitStatus)> {
+        self.exited()
+            .filter(|(stage, _, status)| !(*stage == Stage::Producer && status.success()))
+            .map(|(_, name, status)| (name, status))
+    }
+
     fn exited(&mut self) -> Option<(Stage, String, std::process::ExitStatus)> {
         self.list.iter_mut().find_map(|(stage, c)| {
             let status = c.try_exit().ok().flatten()?;
@@ -174,6 +181,17 @@ impl Children {
         }
         self.list.clear();
     }
+}
+
+/// Why the run stops when service `name` exited on its own: its status and the last error
+/// line of its log.
+fn exited_early(name: &str, status: std::process::ExitStatus, logs: &Path) -> anyhow::Error {
+    let log = logs.join(format!("{name}.log"));
+    let reason = last_error_line(&log).map_or(String::new(), |e| format!(": {e}"));
+    anyhow::anyhow!(
+        "{name} exited early ({status}){reason}; see {}",
+        log.display()
+    )
 }
 
 impl Drop for Children {
@@ -507,17 +525,30 @@ pub fn run(args: Args) -> anyhow::Result<()> {
 
     // Given up at the run's limit (Ctrl-C, --duration): a secure client otherwise keeps
     // trying its predictor for its whole patience, past both.
+    // A service that fails at start ends the wait too, with its own reason (regression,
+    // review: a predictor that could not listen left a secure run waiting the client's whole
+    // patience, 60 s, and then blaming the view).
     let consumer_side = config.zenoh.consumer_side();
-    let Some(session) = zn::open_until(&consumer_side, &limit)? else {
+    let mut failed = None;
+    let opened = zn::open_unless(&consumer_side, || {
+        if failed.is_none() {
+            failed = children.failed();
+        }
+        limit.reached() || failed.is_some()
+    })?;
+    let Some(session) = opened else {
         children.stop();
         let _ = std::fs::remove_file(&config_path);
         let _ = std::fs::remove_file(&target_path);
+        if let Some((name, status)) = failed {
+            return Err(exited_early(&name, status, &logs));
+        }
         // Ctrl-C before the view joined is the operator's choice; the duration running out is
         // a setup that never connected, and must not look like a run that went well.
         if shutdown::stop_requested() {
             let _ = writeln!(
                 std::io::stdout(),
-                "shipcast run: stopped by Ctrl-C before the live view could join zenoh; all services stopped (logs in {})",
+                "shipcast run: stopped (Ctrl-C or SIGTERM) before the live view could join zenoh; all services stopped (logs in {})",
                 logs.display()
             );
             return Ok(());
@@ -549,7 +580,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let outcome = loop {
         if limit.reached() {
             break Ok(if shutdown::stop_requested() {
-                "stopped by Ctrl-C"
+                "stopped (Ctrl-C or SIGTERM)"
             } else {
                 "duration reached"
             });
@@ -561,12 +592,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             if stage == Stage::Producer && status.success() {
                 break Ok("the producer finished (its record ended, or it was stopped)");
             }
-            let log = logs.join(format!("{name}.log"));
-            let reason = last_error_line(&log).map_or(String::new(), |e| format!(": {e}"));
-            break Err(anyhow::anyhow!(
-                "{name} exited early ({status}){reason}; see {}",
-                log.display()
-            ));
+            break Err(exited_early(&name, status, &logs));
         }
         forecast_publishers.update(&mut gate.live);
         while let Some(received) = forecasts.try_recv_with_source()? {

@@ -111,6 +111,34 @@ fn a_second_predictor_under_the_same_names_is_refused() {
     producer.terminate();
 }
 
+/// Regression (review): only the predictor took the host lock. A second deck blanked the
+/// first's advisory (the consumers refused both publishers), a second producer's samples were
+/// all refused. Each is now refused at start, naming the service.
+#[test]
+fn a_second_deck_or_producer_under_the_same_names_is_refused() {
+    let p = TestPipeline::new("twice2", "[producer]\nspeed = 20.0\nbackfill_s = 0.0\n");
+    for (service, args) in [
+        ("deck", &[][..]),
+        ("producer", &["--wait-subscriber-s", "30"][..]),
+    ] {
+        let first = p.spawn(service, args);
+        first.wait_for(service);
+        let mut second = p.spawn(service, args);
+        let status = second.wait_exit();
+        assert!(!status.success(), "{service}");
+        let stderr = second.stderr().join("\n");
+        assert!(
+            stderr.contains(&format!(
+                "error: another {service} for vessel '{}' in instance '{}' is running on this host",
+                p.names().vessel(),
+                p.names().instance().unwrap()
+            )),
+            "{stderr}"
+        );
+        drop(first);
+    }
+}
+
 /// The producer dies: the predictor reports the motion stale; a new producer (seq from 0)
 /// brings it back and forecasts resume on the new record.
 #[test]

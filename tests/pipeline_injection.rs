@@ -72,9 +72,8 @@ fn with_security_off_the_crane_rejects_a_second_publisher() {
         .collect();
     assert_eq!(rejected.len(), 10, "{}", crane.stderr().join("\n"));
     assert!(
-        rejected
-            .iter()
-            .all(|l| l.contains("without a publisher id") || l.contains("not the live predictor")),
+        rejected.iter().all(|l| l.contains("without a publisher id")
+            || l.contains("not the live publisher of its key")),
         "{rejected:?}"
     );
     drop(publisher);
@@ -189,7 +188,7 @@ fn the_deck_rejects_a_second_iceoryx2_publisher_and_keeps_advising() {
     assert!(
         rejected
             .iter()
-            .all(|l| l.contains("not the live predictor")),
+            .all(|l| l.contains("not the live publisher of its key")),
         "{rejected:?}"
     );
     drop(intruder);

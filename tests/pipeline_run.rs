@@ -48,7 +48,10 @@ fn run_shows_forecasts_and_advisory_and_stops_after_duration() {
     // predictor's last forecast after its liveliness token was gone, then log and count it as
     // rejected at a plain stop. Consumers now stop before the predictor.
     assert!(crane.contains(", 0 rejected"), "{crane}");
-    assert!(!crane.contains("not the live predictor"), "{crane}");
+    assert!(
+        !crane.contains("not the live publisher of its key"),
+        "{crane}"
+    );
 }
 
 #[test]

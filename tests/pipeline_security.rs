@@ -7,7 +7,7 @@
 mod pipeline_support;
 
 use pipeline_support::{
-    fake_forecast_json, run_ok, wait_crane_lines, Proc, TestPipeline, FAKE_SEQ, PATIENCE,
+    fake_forecast_json, run_ok, wait_crane_lines, Proc, TestPipeline, BIN, FAKE_SEQ, PATIENCE,
 };
 use shipcast_pipeline::pacing::poll_until;
 use shipcast_wire::payload::Forecast;
@@ -311,8 +311,47 @@ fn run_uses_the_generated_config_as_it_is() {
     // At the end the predictor stops first: a forecast still queued at the crane then comes
     // from a publisher whose token is gone, and is rightly rejected. Nothing else is.
     for line in crane.lines().filter(|l| l.contains("crane: rejected")) {
-        assert!(line.contains("not the live predictor (none)"), "{line}");
+        assert!(
+            line.contains("not the live publisher of its key (none)"),
+            "{line}"
+        );
     }
+}
+
+/// Regression (review): when the predictor of a secure run could not listen (its port
+/// taken), the live view kept trying to reach it for the client's whole patience (60 s) and
+/// then failed with its own connection error; the predictor's reason was only in its log.
+#[test]
+fn a_secure_run_whose_predictor_cannot_listen_stops_with_the_predictors_reason() {
+    let s = SecureSetup::new("securebusy");
+    let port = s.endpoint.rsplit(':').next().expect("a port");
+    let _taken = std::net::TcpListener::bind(format!("127.0.0.1:{port}")).expect("take the port");
+    let logs = tempfile::tempdir().unwrap();
+    let config = s.certs.join("shipcast.toml");
+    let out = std::process::Command::new(BIN)
+        .args([
+            "run",
+            "--duration",
+            "300",
+            "--config",
+            config.to_str().unwrap(),
+            "--log-dir",
+            logs.path().to_str().unwrap(),
+            "--no-display",
+        ])
+        .output()
+        .expect("run shipcast");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "{stderr}");
+    let error = stderr
+        .lines()
+        .find(|l| l.starts_with("error: "))
+        .unwrap_or_else(|| panic!("no error line: {stderr}"));
+    assert!(
+        error.starts_with("error: predictor exited early"),
+        "{error}"
+    );
+    assert!(error.to_lowercase().contains("in use"), "{error}");
 }
 
 /// The port a display logged it serves on (`display: http://127.0.0.1:PORT/ ...`).

@@ -18,7 +18,8 @@ pub enum Rejection {
     // The three source reasons name no payload: motion samples share them (`motion_gate`).
     #[error("sent without a publisher id (not from a shipcast publisher)")]
     NoPublisherId,
-    #[error("sent by publisher {got}, which is not the live predictor ({live})")]
+    // Forecasts and motion samples share it: "publisher", not "predictor" (review).
+    #[error("sent by publisher {got}, which is not the live publisher of its key ({live})")]
     NotLivePublisher { got: String, live: String },
     #[error("sent while {0} publishers are alive on the key; cannot tell which is the predictor")]
     SeveralPublishers(usize),

@@ -10,6 +10,7 @@ pub mod iox;
 pub mod motion_gate;
 pub mod naming;
 pub mod shutdown;
+pub mod silence;
 pub mod zenoh;
 pub mod zenoh_refusals;
 pub mod zenoh_router;

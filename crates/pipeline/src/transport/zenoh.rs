@@ -324,6 +324,15 @@ pub fn open_until(
     settings: &ZenohSettings,
     limit: &crate::transport::shutdown::RunLimit,
 ) -> Result<Option<Session>, ZenohError> {
+    open_unless(settings, || limit.reached())
+}
+
+/// [`open`], given up (`Ok(None)`) as soon as `give_up` says so (asked every 50 ms): `shipcast
+/// run` also gives up when one of its services exits while its view waits.
+pub fn open_unless(
+    settings: &ZenohSettings,
+    mut give_up: impl FnMut() -> bool,
+) -> Result<Option<Session>, ZenohError> {
     let (done, opened) = std::sync::mpsc::channel();
     let settings = settings.clone();
     // The thread owns nothing of ours: given up on, it ends with the open (or the process).
@@ -336,7 +345,7 @@ pub fn open_until(
     loop {
         match opened.recv_timeout(Duration::from_millis(50)) {
             Ok(result) => return result.map(Some),
-            Err(std::sync::mpsc::RecvTimeoutError::Timeout) if limit.reached() => return Ok(None),
+            Err(std::sync::mpsc::RecvTimeoutError::Timeout) if give_up() => return Ok(None),
             Err(std::sync::mpsc::RecvTimeoutError::Timeout) => {}
             Err(e @ std::sync::mpsc::RecvTimeoutError::Disconnected) => {
                 return Err(ZenohError::on("open the zenoh session")(e))
