@@ -291,6 +291,27 @@ fn measured_record_gets_its_averaged_rows_and_a_bad_one_is_a_one_line_error() {
         assert_one_line_error(&output, "garbled.csv");
     }
     assert!(!dir.path().join("garbled").join("report.md").exists());
+
+    // Regression (review): a record too short for the study gave rows of "MCA-0", all
+    // failed, and exit 0. 200 s at 8 Hz is 400 values at 2 Hz, below the 600 it needs.
+    let short = dir.path().join("short.csv");
+    let mut text = String::from("time_s,heave_m\n");
+    for i in 0..1600 {
+        text.push_str(&format!(
+            "{},{}\n",
+            i as f64 / 8.0,
+            (0.6 * i as f64 / 8.0).sin()
+        ));
+    }
+    std::fs::write(&short, text).unwrap();
+    let output = shipcast()
+        .args(["paper", "--quick", "--measured-only", "--measured"])
+        .arg(&short)
+        .arg("--out")
+        .arg(dir.path().join("short"))
+        .output()
+        .unwrap();
+    assert_one_line_error(&output, "are too few for the study: it needs at least 600");
 }
 
 /// `--measured-only` writes the measured-sea section alone, as measured.md, and needs

@@ -41,6 +41,15 @@ impl MeasuredSeries {
             .dof(Dof::Heave)
             .with_context(|| format!("measured record {}", path.display()))?
             .to_vec();
+        if heave.len() < MIN_MEASURED_VALUES {
+            anyhow::bail!(
+                "measured record {}: {} values at {STUDY_RATE_HZ} Hz ({:.0} s) are too few for the study: it needs at least {MIN_MEASURED_VALUES} ({:.0} minutes)",
+                path.display(),
+                heave.len(),
+                heave.len() as f64 / STUDY_RATE_HZ,
+                MIN_MEASURED_VALUES as f64 / STUDY_RATE_HZ / 60.0
+            );
+        }
         let title = path.file_name().map_or_else(
             || path.display().to_string(),
             |n| n.to_string_lossy().into_owned(),
@@ -48,6 +57,11 @@ impl MeasuredSeries {
         Ok(Self { title, heave, data })
     }
 }
+
+/// The fewest values (at the study's 2 Hz) a measured record must hold: half trains, and the
+/// small order (100) with the horizon (50) must fit twice in that half. Regression (review):
+/// a record of 2 s gave a section of "MCA-0" rows, every one failed, and exit 0.
+pub const MIN_MEASURED_VALUES: usize = 600;
 
 /// The numbers of forecasts combined (1 = the newest alone).
 pub const AVERAGE_KS: [usize; 4] = [1, 2, 5, 10];

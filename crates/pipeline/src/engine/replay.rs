@@ -113,7 +113,8 @@ const RATE_SNAP: f64 = 1e-5;
 /// configuration, and says when its steps are not even regular (stamps rounded to fewer
 /// digits than the rate needs).
 pub fn record_rate(time: &[f64], forecast_hz: f64) -> anyhow::Result<f64> {
-    let measured = shipcast_series::median_rate(time)?;
+    let median = shipcast_series::median_rate(time)?;
+    let measured = regular_mean_rate(time, median);
     let multiple = (measured / forecast_hz).round();
     let rate =
         if multiple >= 1.0 && ((measured - multiple * forecast_hz) / measured).abs() < RATE_SNAP {
@@ -125,6 +126,24 @@ pub fn record_rate(time: &[f64], forecast_hz: f64) -> anyhow::Result<f64> {
         anyhow::bail!("{}", rate_mismatch(time, rate, forecast_hz));
     }
     Ok(rate)
+}
+
+/// One over the mean of the steps within 1 % of the median step (`median_hz`): gaps do not
+/// move it, and stamps rounded to fewer digits than the rate needs average out. Regression
+/// (review): a 6 Hz record stamped to the millisecond (steps of 0.167 and 0.166 s) read as
+/// 5.988 Hz by its median step and was refused, while `eval` took it.
+fn regular_mean_rate(time: &[f64], median_hz: f64) -> f64 {
+    let median = 1.0 / median_hz;
+    let (sum, n) = time
+        .windows(2)
+        .map(|p| p[1] - p[0])
+        .filter(|step| ((step - median) / median).abs() <= 0.01)
+        .fold((0.0, 0usize), |(sum, n), step| (sum + step, n + 1));
+    if n == 0 {
+        median_hz
+    } else {
+        n as f64 / sum
+    }
 }
 
 fn rate_mismatch(time: &[f64], rate: f64, forecast_hz: f64) -> String {

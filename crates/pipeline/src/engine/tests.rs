@@ -650,3 +650,21 @@ fn after_a_change_of_sea_retrains_try_the_new_sea_alone_until_the_window_has_lef
         "cleared at value {cleared}, change detected at {at}"
     );
 }
+
+/// Regression (review): a 6 Hz record stamped to the millisecond read as 5.988 Hz by its
+/// median step and was refused by replay while eval took it; gaps and epoch stamps must still
+/// give the record's own rate, and a rate that is no multiple is still refused.
+#[test]
+fn a_record_rate_comes_from_its_regular_steps_whatever_the_rounding_and_gaps() {
+    use super::replay::record_rate;
+    let ms = |t: f64| (t * 1000.0).round() / 1000.0;
+    let six: Vec<f64> = (0..3000).map(|i| ms(i as f64 / 6.0)).collect();
+    assert_eq!(record_rate(&six, 2.0).unwrap(), 6.0);
+    // Ten hertz in epoch seconds with a 20 s gap.
+    let mut ten: Vec<f64> = (0..2000).map(|i| 1.7e9 + i as f64 * 0.1).collect();
+    ten.extend((2200..4000).map(|i| 1.7e9 + i as f64 * 0.1));
+    assert_eq!(record_rate(&ten, 2.0).unwrap(), 10.0);
+    let odd: Vec<f64> = (0..3000).map(|i| i as f64 * 0.13).collect();
+    let e = record_rate(&odd, 2.0).unwrap_err().to_string();
+    assert!(e.contains("typical time step is 0.13 s"), "{e}");
+}
