@@ -133,11 +133,21 @@ impl Children {
             .stdin(Stdio::null())
             .stdout(log.try_clone()?)
             .stderr(log);
-        // SAFETY: prctl is async-signal-safe; it only asks the kernel to send SIGTERM to the
-        // child if this process dies (e.g. kill -9), so no child outlives `shipcast run`.
+        // The parent as the child must see it: if `run` died between the fork and the prctl,
+        // the child has been handed to another parent and would outlive it (review).
+        let parent = std::process::id() as libc::pid_t;
+        // SAFETY: prctl and getppid are async-signal-safe, touch no memory of ours and nothing
+        // here allocates (between fork and exec only such calls are sound); prctl
+        // only asks the kernel to send SIGTERM to the child if this process dies (e.g. kill
+        // -9), so no child outlives `shipcast run`, and a child whose parent is already gone
+        // fails its exec instead of running on.
         unsafe {
-            cmd.pre_exec(|| {
+            cmd.pre_exec(move || {
                 libc::prctl(libc::PR_SET_PDEATHSIG, libc::SIGTERM);
+                if libc::getppid() != parent {
+                    // No allocation between fork and exec: a raw OS error only.
+                    return Err(std::io::Error::from_raw_os_error(libc::ESRCH));
+                }
                 Ok(())
             });
         }
