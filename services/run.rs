@@ -52,9 +52,24 @@ pub struct Args {
 /// default, falling back to a free port when another process holds the default.
 fn display_address(asked: Option<&str>) -> anyhow::Result<std::net::SocketAddr> {
     let wanted = asked.unwrap_or(crate::display::DEFAULT_LISTEN);
-    let address: std::net::SocketAddr = wanted.parse().with_context(|| {
-        format!("--display must be HOST:PORT with an IP address, got '{wanted}'")
-    })?;
+    // A host name (localhost, the bridge machine's name) is resolved here, an IPv4 address
+    // first: the port is checked and the page's URL printed with the address itself.
+    let address = match wanted.parse::<std::net::SocketAddr>() {
+        Ok(a) => a,
+        Err(_) => {
+            use std::net::ToSocketAddrs;
+            let resolved: Vec<_> = wanted
+                .to_socket_addrs()
+                .with_context(|| format!("--display must be HOST:PORT, got '{wanted}'"))?
+                .collect();
+            resolved
+                .iter()
+                .find(|a| a.is_ipv4())
+                .or(resolved.first())
+                .copied()
+                .with_context(|| format!("--display {wanted}: the host name has no address"))?
+        }
+    };
     // Port 0 (pick one) and a taken default port get one drawn outside the ephemeral range:
     // a port `bind(0)` hands out could be taken by any outgoing connection before the display
     // binds it (parallel tests' zenoh sessions dial out all the time).
@@ -809,6 +824,14 @@ mod config_tests {
         assert!(address.ip().is_loopback() && address.port() != 0 && c.two_ship);
         let e = crate::refused::<Args, Config>(&["--log-dir", dir, "--display", "localhost"]);
         assert!(e.starts_with("--display must be HOST:PORT"), "{e}");
+        // A host name with a port is resolved (it was refused: an IP address only).
+        let c = crate::validated::<Args, Config>(&["--log-dir", dir, "--display", "localhost:0"])
+            .unwrap();
+        let address = c.display.unwrap();
+        assert!(
+            address.ip().is_loopback() && address.port() != 0,
+            "{address}"
+        );
         let _ = std::fs::remove_dir_all(&logs);
         // Regression: refused flags left the (empty) log directory behind.
         for bad in [
