@@ -90,6 +90,15 @@ fn display_address(asked: Option<&str>) -> anyhow::Result<std::net::SocketAddr> 
     }
 }
 
+/// The host name of a `--display HOST:PORT`, unless it is an IP address or localhost (which
+/// the display always serves).
+fn host_name_of(display: &str) -> Option<String> {
+    let (host, _port) = display.rsplit_once(':')?;
+    let host = host.trim_start_matches('[').trim_end_matches(']');
+    (host.parse::<std::net::IpAddr>().is_err() && !host.eq_ignore_ascii_case("localhost"))
+        .then(|| host.to_string())
+}
+
 /// Grace period between SIGTERM and SIGKILL when stopping children.
 const STOP_GRACE: Duration = Duration::from_secs(5);
 
@@ -441,6 +450,8 @@ pub struct Config {
     pub log_dir: PathBuf,
     /// Where the live display listens (None: `--no-display`); free when checked.
     pub display: Option<std::net::SocketAddr>,
+    /// The host name `--display` gave, if a name: the display serves requests for it.
+    pub display_name: Option<String>,
     /// `--two-ship` or `relative.two_ship`.
     pub two_ship: bool,
 }
@@ -455,6 +466,7 @@ impl TryFrom<Args> for Config {
         } else {
             Some(display_address(args.display.as_deref())?)
         };
+        let display_name = args.display.as_deref().and_then(host_name_of);
         let limit = args.common.duration()?;
         // Created last: a refused flag must not leave an empty directory behind.
         // The default is a new directory only this user can enter: a fixed name under the
@@ -472,6 +484,7 @@ impl TryFrom<Args> for Config {
             limit,
             log_dir,
             display,
+            display_name,
         })
     }
 }
@@ -482,6 +495,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         limit,
         log_dir: logs,
         display,
+        display_name,
         two_ship,
     } = Config::try_from(args)?;
     let limit = shutdown::RunLimit::new(limit);
@@ -525,12 +539,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         children.spawn("relative", &[], &config_path, &logs)?;
     }
     if let Some(address) = display {
-        children.spawn(
-            "display",
-            &["--listen", &address.to_string()],
-            &config_path,
-            &logs,
-        )?;
+        let listen = address.to_string();
+        let mut args = vec!["--listen", listen.as_str()];
+        // The page opened by the name it was asked for must be served (the display refuses
+        // other names than the ones it is told).
+        if let Some(name) = &display_name {
+            args.extend(["--allow-host", name.as_str()]);
+        }
+        children.spawn("display", &args, &config_path, &logs)?;
     }
     children.spawn(
         "producer",
@@ -832,6 +848,11 @@ mod config_tests {
             address.ip().is_loopback() && address.port() != 0,
             "{address}"
         );
+        assert_eq!(c.display_name, None, "localhost is always served");
+        assert_eq!(host_name_of("bridge-pc:8090").as_deref(), Some("bridge-pc"));
+        for served in ["127.0.0.1:0", "[::1]:8090", "LocalHost:80", "0.0.0.0:8090"] {
+            assert_eq!(host_name_of(served), None, "{served}");
+        }
         let _ = std::fs::remove_dir_all(&logs);
         // Regression: refused flags left the (empty) log directory behind.
         for bad in [
