@@ -121,7 +121,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         tracing::info!("display: http://{address}/ (every vessel under {prefix}*)");
         if !address.ip().is_loopback() {
             tracing::warn!(
-                "display: the page is offered beyond this machine on {address}: anyone who reaches it sees every vessel's forecasts and decisions (it is read-only and unencrypted; docs/security.md)"
+                "display: the page is offered beyond this machine on {address}: anyone who reaches it sees every vessel's forecasts and decisions (it is read-only and unencrypted; docs/display.md)"
             );
         }
         let stop = async move {

@@ -41,6 +41,11 @@ pub struct Args {
     /// Do not start the live display.
     #[arg(long)]
     pub no_display: bool,
+    /// A host name the display's page may be opened by (repeatable; passed to the display as
+    /// `--allow-host`): needed with `--display 0.0.0.0:PORT` for screens that open the page
+    /// by the bridge machine's name.
+    #[arg(long, value_name = "NAME", conflicts_with = "no_display")]
+    pub allow_host: Vec<String>,
     /// Two ships in one sea (also `relative.two_ship` in the config): the target vessel of
     /// `[relative]` gets its own producer and predictor, simulated at its station, and the
     /// relative service forecasts the crane tip against its landing spot.
@@ -450,8 +455,9 @@ pub struct Config {
     pub log_dir: PathBuf,
     /// Where the live display listens (None: `--no-display`); free when checked.
     pub display: Option<std::net::SocketAddr>,
-    /// The host name `--display` gave, if a name: the display serves requests for it.
-    pub display_name: Option<String>,
+    /// Host names the display serves requests for: the one `--display` gave, if a name, and
+    /// every `--allow-host` (checked by the display itself).
+    pub display_names: Vec<String>,
     /// `--two-ship` or `relative.two_ship`.
     pub two_ship: bool,
 }
@@ -466,7 +472,13 @@ impl TryFrom<Args> for Config {
         } else {
             Some(display_address(args.display.as_deref())?)
         };
-        let display_name = args.display.as_deref().and_then(host_name_of);
+        let mut display_names: Vec<String> = args
+            .display
+            .as_deref()
+            .and_then(host_name_of)
+            .into_iter()
+            .collect();
+        display_names.extend(args.allow_host);
         let limit = args.common.duration()?;
         // Created last: a refused flag must not leave an empty directory behind.
         // The default is a new directory only this user can enter: a fixed name under the
@@ -484,7 +496,7 @@ impl TryFrom<Args> for Config {
             limit,
             log_dir,
             display,
-            display_name,
+            display_names,
         })
     }
 }
@@ -495,7 +507,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         limit,
         log_dir: logs,
         display,
-        display_name,
+        display_names,
         two_ship,
     } = Config::try_from(args)?;
     let limit = shutdown::RunLimit::new(limit);
@@ -543,7 +555,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         let mut args = vec!["--listen", listen.as_str()];
         // The page opened by the name it was asked for must be served (the display refuses
         // other names than the ones it is told).
-        if let Some(name) = &display_name {
+        for name in &display_names {
             args.extend(["--allow-host", name.as_str()]);
         }
         children.spawn("display", &args, &config_path, &logs)?;
@@ -581,7 +593,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         children.stop();
         let _ = std::fs::remove_file(&config_path);
         let _ = std::fs::remove_file(&target_path);
-        if let Some((name, status)) = failed {
+        // Ctrl-C reaches the children too: their exits then are no failure (review).
+        if let Some((name, status)) = failed.filter(|_| !shutdown::stop_requested()) {
             return Err(exited_early(&name, status, &logs));
         }
         // Ctrl-C before the view joined is the operator's choice; the duration running out is
@@ -848,7 +861,7 @@ mod config_tests {
             address.ip().is_loopback() && address.port() != 0,
             "{address}"
         );
-        assert_eq!(c.display_name, None, "localhost is always served");
+        assert!(c.display_names.is_empty(), "localhost is always served");
         assert_eq!(host_name_of("bridge-pc:8090").as_deref(), Some("bridge-pc"));
         for served in ["127.0.0.1:0", "[::1]:8090", "LocalHost:80", "0.0.0.0:8090"] {
             assert_eq!(host_name_of(served), None, "{served}");

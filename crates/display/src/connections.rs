@@ -32,7 +32,7 @@ pub const MAX_CONNECTIONS: usize = 64;
 /// The most connections served at once to one client address. A browser opens at most six
 /// to one server over HTTP/1.1, so a screen never needs more; without this bound one host
 /// that opened 64 event streams and kept reading them locked every other screen out (review).
-pub const MAX_CONNECTIONS_PER_HOST: usize = 8;
+pub const MAX_CONNECTIONS_PER_HOST: usize = 16;
 
 /// How long a connection may take to send a complete request head (request line and headers),
 /// counted from when it connects or from the end of its previous response. Any client on a

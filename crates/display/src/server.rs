@@ -83,7 +83,8 @@ impl AllowedHosts {
             },
             None => host.rsplit_once(':').map_or(host, |(name, _port)| name),
         };
-        let name = name.to_ascii_lowercase();
+        // A fully qualified name may end in a dot (`localhost.`): the same host.
+        let name = name.strip_suffix('.').unwrap_or(name).to_ascii_lowercase();
         name.parse::<std::net::Ipv4Addr>().is_ok()
             || name == "localhost"
             || self.names.contains(&name)

@@ -313,6 +313,8 @@ fn the_allowed_host_names_are_served_with_or_without_a_port() {
     for ok in [
         "bridge-display",
         "BRIDGE-DISPLAY:8090",
+        "bridge-display.:80",
+        "localhost.",
         "192.168.1.20:8090",
         "[fe80::1]",
     ] {
