@@ -131,15 +131,16 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if let Some(path) = config.deck.statements_file.as_deref() {
         statements_file::check_writable(path).map_err(|e| anyhow::anyhow!("deck: {e:#}"))?;
     }
-    let mut statements = config.deck.statements_file.as_deref().and_then(|path| {
-        match StatementsKeeper::open(path, dt_s, advisor.decider_mut()) {
-            Ok(keeper) => Some(keeper),
-            Err(e) => {
-                tracing::error!("deck: {e:#}; running without it, and it is left as it is");
-                None
-            }
-        }
-    });
+    let mut statements =
+        config.deck.statements_file.as_deref().and_then(
+            |path| match StatementsKeeper::open_checked(path, dt_s, advisor.decider_mut()) {
+                Ok(keeper) => Some(keeper),
+                Err(e) => {
+                    tracing::error!("deck: {e:#}; running without it, and it is left as it is");
+                    None
+                }
+            },
+        );
     let mut last_save = Instant::now();
     let mut gate = IoxForecastGate::new(dt_s);
     let mut motion_port = IoxFollowedPort::default();

@@ -27,6 +27,14 @@ pub enum AtomicWriteError {
     },
 }
 
+/// The directory `path` is in (`.` for a bare file name).
+pub fn directory_of(path: &Path) -> &Path {
+    match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    }
+}
+
 /// The temporary file a write of `path` goes through.
 pub fn temporary_path(path: &Path) -> PathBuf {
     let mut tmp = path.as_os_str().to_owned();
@@ -53,10 +61,7 @@ pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), AtomicWriteErro
     // Flushing a directory is a Unix notion; elsewhere the rename is left to the OS.
     #[cfg(unix)]
     {
-        let dir = match path.parent() {
-            Some(d) if !d.as_os_str().is_empty() => d,
-            _ => Path::new("."),
-        };
+        let dir = directory_of(path);
         std::fs::File::open(dir)
             .and_then(|d| d.sync_all())
             .map_err(|error| AtomicWriteError::Directory {

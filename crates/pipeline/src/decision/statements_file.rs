@@ -18,7 +18,7 @@
 use super::recalibrate::StatementRecord;
 use super::{Decider, MAX_RECORDS};
 use serde::{Deserialize, Serialize};
-use shipcast_series::atomic_file::{temporary_path, write_atomically};
+use shipcast_series::atomic_file::{directory_of, temporary_path, write_atomically};
 use shipcast_wire::payload::MAX_STEPS;
 use std::path::{Path, PathBuf};
 
@@ -128,10 +128,7 @@ pub fn check_writable(path: &Path) -> anyhow::Result<()> {
     if path.is_dir() {
         anyhow::bail!("statements file {}: is a directory", path.display());
     }
-    let dir = match path.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d,
-        _ => Path::new("."),
-    };
+    let dir = directory_of(path);
     if !dir.is_dir() {
         anyhow::bail!(
             "statements file {}: its directory {} does not exist",
@@ -169,6 +166,12 @@ impl StatementsKeeper {
     /// of a long run's statements).
     pub fn open(path: &Path, dt_s: f64, decider: &mut Decider) -> anyhow::Result<Self> {
         check_writable(path)?;
+        Self::open_checked(path, dt_s, decider)
+    }
+
+    /// [`Self::open`] for a `path` that [`check_writable`] has passed already (the deck
+    /// checks first, because it refuses to start where open's other errors let it run on).
+    pub fn open_checked(path: &Path, dt_s: f64, decider: &mut Decider) -> anyhow::Result<Self> {
         let mut keeper = Self {
             path: path.to_path_buf(),
             dt_s,
