@@ -411,8 +411,8 @@ mod tests {
         let config = shipcast_pipeline::config::DeckConfig::default();
         let mut advisor = DeckAdvisor::new(&config);
         let mut keeper = Some(StatementsKeeper::open(&path, 0.5, advisor.decider_mut()).unwrap());
-        // The temporary file's name taken by a directory: no write can succeed, even as root.
-        std::fs::create_dir(dir.path().join("statements.json.tmp")).unwrap();
+        // The directory gone during the watch: no write can succeed, even as root.
+        std::fs::remove_dir(dir.path()).unwrap();
         let result: anyhow::Result<u32> =
             with_statements_saved(&mut keeper, &mut advisor, |advisor, _| {
                 advisor.decider_mut().add_outcome(20, 0.3, true);

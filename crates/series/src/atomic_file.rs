@@ -1,19 +1,27 @@
 //! Writing a file so that a failure never destroys what was there: the bytes go to a
-//! temporary file beside it (`<name>.tmp`), are flushed to the disk, and the temporary file is
+//! temporary file beside it, are flushed to the disk, and the temporary file is
 //! renamed over the old one; then the directory is flushed so that the rename survives a power
 //! cut too (a rename of unflushed data can leave an empty file after one). A write that fails
 //! leaves the old file as it was and removes its temporary file.
 //!
+//! The temporary file has a name no other writer uses (`.<name>.<pid>.<n>.tmp`) and is made
+//! with `create_new`, which never follows a symbolic link nor opens a file that exists.
+//! Regression (review): it was `<name>.tmp`, opened with `File::create`, so a link planted
+//! there redirected the write, and two processes saving the same path truncated each other's
+//! temporary file.
+//!
 //! Used for the files a long run produces and a later run depends on: model files (`shipcast
 //! train`) and the deck's statements file.
 
+use std::fs::{File, OpenOptions};
 use std::io::Write;
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
 
 /// What failed, and on which path.
 #[derive(Debug, thiserror::Error)]
 pub enum AtomicWriteError {
-    #[error("writing its temporary file {path}: {error}")]
+    #[error("writing a temporary file in {path}: {error}")]
     Temporary {
         path: PathBuf,
         error: std::io::Error,
@@ -35,25 +43,54 @@ pub fn directory_of(path: &Path) -> &Path {
     }
 }
 
-/// The temporary file a write of `path` goes through.
-pub fn temporary_path(path: &Path) -> PathBuf {
-    let mut tmp = path.as_os_str().to_owned();
-    tmp.push(".tmp");
-    PathBuf::from(tmp)
+/// Tells apart the temporary files of one process's writes (threads may save at once).
+static NEXT_TEMPORARY: AtomicU64 = AtomicU64::new(0);
+
+/// A new temporary file beside `path`, made by this call: a name that exists (another
+/// writer's, a planted link) is never opened but skipped for the next one.
+fn create_temporary(path: &Path) -> std::io::Result<(PathBuf, File)> {
+    let name = path.file_name().unwrap_or(path.as_os_str());
+    let dir = directory_of(path);
+    let mut last_error = None;
+    // A few names taken at once is a crowded directory; more is something else (a full
+    // directory, a loop), reported with the last error.
+    for _ in 0..16 {
+        let n = NEXT_TEMPORARY.fetch_add(1, Ordering::Relaxed);
+        let mut file_name = std::ffi::OsString::from(".");
+        file_name.push(name);
+        file_name.push(format!(".{}.{n}.tmp", std::process::id()));
+        let tmp = dir.join(file_name);
+        match OpenOptions::new().write(true).create_new(true).open(&tmp) {
+            Ok(file) => return Ok((tmp, file)),
+            Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => last_error = Some(e),
+            Err(e) => return Err(e),
+        }
+    }
+    Err(last_error.unwrap_or_else(|| std::io::Error::other("no temporary name is free")))
+}
+
+/// Whether a file can be written beside `path` (in its directory): a temporary file is made
+/// and removed, as [`write_atomically`] would. For a long run that writes `path` only at its
+/// end, so that it is refused at start and not after hours of work.
+pub fn check_writable_beside(path: &Path) -> std::io::Result<()> {
+    let (tmp, file) = create_temporary(path)?;
+    drop(file);
+    std::fs::remove_file(&tmp)
 }
 
 /// Replace `path` by `bytes`, or leave it as it was.
 pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), AtomicWriteError> {
-    let tmp = temporary_path(path);
-    let written = std::fs::File::create(&tmp).and_then(|mut out| {
-        out.write_all(bytes)?;
-        out.sync_all()
-    });
-    if let Err(error) = written {
+    let (tmp, mut out) = create_temporary(path).map_err(|error| AtomicWriteError::Temporary {
+        path: directory_of(path).to_path_buf(),
+        error,
+    })?;
+    if let Err(error) = out.write_all(bytes).and_then(|()| out.sync_all()) {
         // A half-written temporary file is no use to anyone.
+        drop(out);
         let _ = std::fs::remove_file(&tmp);
         return Err(AtomicWriteError::Temporary { path: tmp, error });
     }
+    drop(out);
     if let Err(error) = std::fs::rename(&tmp, path) {
         let _ = std::fs::remove_file(&tmp);
         return Err(AtomicWriteError::Rename { error });
@@ -76,6 +113,16 @@ pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), AtomicWriteErro
 mod tests {
     use super::*;
 
+    /// The names of the files in `dir`, sorted.
+    fn files_in(dir: &Path) -> Vec<String> {
+        let mut names: Vec<String> = std::fs::read_dir(dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        names.sort();
+        names
+    }
+
     #[test]
     fn a_write_replaces_the_file_and_leaves_no_temporary_file() {
         let dir = tempfile::tempdir().unwrap();
@@ -83,25 +130,26 @@ mod tests {
         std::fs::write(&path, b"old").unwrap();
         write_atomically(&path, b"new contents").unwrap();
         assert_eq!(std::fs::read(&path).unwrap(), b"new contents");
-        assert!(!temporary_path(&path).exists());
+        check_writable_beside(&path).unwrap();
+        assert_eq!(files_in(dir.path()), ["model.json"]);
     }
 
     #[test]
     fn a_write_that_fails_leaves_the_old_file_as_it_was() {
         let dir = tempfile::tempdir().unwrap();
-        let path = dir.path().join("model.json");
+        // A name that fits the file system's limit (255 bytes) while its temporary file's
+        // does not: no temporary file can be made, even by root.
+        let path = dir.path().join("m".repeat(250));
         std::fs::write(&path, b"the only copy").unwrap();
-        // The temporary file's name taken by a directory: no write can succeed, even as root.
-        std::fs::create_dir(temporary_path(&path)).unwrap();
         let e = write_atomically(&path, b"new").unwrap_err();
         assert!(matches!(e, AtomicWriteError::Temporary { .. }), "{e}");
         assert!(
-            e.to_string().starts_with("writing its temporary file"),
+            e.to_string().starts_with("writing a temporary file in"),
             "{e}"
         );
+        assert!(check_writable_beside(&path).is_err());
         assert_eq!(std::fs::read(&path).unwrap(), b"the only copy");
         // A rename that fails (onto a directory) leaves no temporary file behind.
-        std::fs::remove_dir(temporary_path(&path)).unwrap();
         let onto_dir = dir.path().join("a_directory");
         std::fs::create_dir(&onto_dir).unwrap();
         std::fs::write(onto_dir.join("inside"), b"x").unwrap();
@@ -109,6 +157,51 @@ mod tests {
             write_atomically(&onto_dir, b"new"),
             Err(AtomicWriteError::Rename { .. })
         ));
-        assert!(!temporary_path(&onto_dir).exists());
+        assert_eq!(
+            files_in(dir.path()),
+            ["a_directory".to_string(), "m".repeat(250)]
+        );
+    }
+
+    /// Regression (review): the temporary file was `<name>.tmp` opened with `File::create`,
+    /// which follows a link planted there and truncates another writer's temporary file.
+    #[cfg(unix)]
+    #[test]
+    fn a_link_or_file_at_any_temporary_name_is_left_alone() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("statements.json");
+        let victim = dir.path().join("victim");
+        std::fs::write(&victim, b"not yours").unwrap();
+        // Links at the old fixed name and at the next names this process would pick.
+        std::os::unix::fs::symlink(&victim, dir.path().join("statements.json.tmp")).unwrap();
+        let next = NEXT_TEMPORARY.load(Ordering::Relaxed);
+        for n in next..next + 4 {
+            let name = format!(".statements.json.{}.{n}.tmp", std::process::id());
+            std::os::unix::fs::symlink(&victim, dir.path().join(name)).unwrap();
+        }
+        write_atomically(&path, b"statements").unwrap();
+        assert_eq!(std::fs::read(&path).unwrap(), b"statements");
+        assert_eq!(std::fs::read(&victim).unwrap(), b"not yours");
+        assert!(!std::fs::symlink_metadata(&path).unwrap().is_symlink());
+    }
+
+    #[test]
+    fn writers_of_one_path_at_once_each_leave_a_whole_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("model.json");
+        let texts: Vec<Vec<u8>> = (0..8u8).map(|i| vec![b'a' + i; 100_000]).collect();
+        std::thread::scope(|scope| {
+            for text in &texts {
+                let path = &path;
+                scope.spawn(move || {
+                    for _ in 0..5 {
+                        write_atomically(path, text).unwrap();
+                    }
+                });
+            }
+        });
+        let end = std::fs::read(&path).unwrap();
+        assert!(texts.contains(&end), "one writer's whole text, not a mix");
+        assert_eq!(files_in(dir.path()), ["model.json"]);
     }
 }

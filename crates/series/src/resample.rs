@@ -5,9 +5,12 @@ use super::decimator::decimate;
 use super::fir::delay_samples;
 use crate::motion_csv::{Column, MotionData};
 
-/// Largest relative deviation of one time step from the mean step still called regular (time
-/// stamps printed with few decimals jitter a little).
+/// Largest relative deviation of one time step from the median step still called regular,
+/// for stamps printed with enough decimals ([`regular_step_tolerance`] widens it for rounded
+/// ones).
 const STEP_TOLERANCE: f64 = 0.01;
+/// Roundings of time stamps [`regular_step_tolerance`] recognises, coarsest first.
+const STAMP_QUANTA: [f64; 4] = [1.0, 0.1, 0.01, 0.001];
 /// Largest relative deviation of input rate / target rate from an integer.
 const RATIO_TOLERANCE: f64 = 1e-3;
 
@@ -41,17 +44,42 @@ pub enum ResampleError {
     },
 }
 
-/// Sample rate [Hz] of regularly sampled times: 1 / mean step. Every step must be within 1 % of
-/// the median step (the typical one, unmoved by a single gap), otherwise the sampling is
-/// irregular and no rate is returned.
+/// How far [s] a step of `time` may lie from its typical step `median_step` and still be
+/// called regular: 1 % of the step, or, when every stamp is rounded to a quantum (whole
+/// seconds, 0.1, 0.01 or 0.001 s) at most a quarter of the step, that quantum: two rounded
+/// stamps make a step up to one quantum off. Regression (review): a 12, 16 or 24 Hz record
+/// stamped to the millisecond has steps 1.2 to 2.4 % apart (0.083 and 0.084 s) and was
+/// refused as irregular by eval and replay.
+pub fn regular_step_tolerance(time: &[f64], median_step: f64) -> f64 {
+    let relative = STEP_TOLERANCE * median_step;
+    // The coarsest rounding every stamp shows (whole seconds are also whole tenths).
+    let quantum = STAMP_QUANTA.into_iter().find(|&q| {
+        time.iter().all(|&t| {
+            let units = t / q;
+            // Within float precision of a whole number of quanta (epoch stamps carry
+            // 1e-7 s of representation error).
+            (units - units.round()).abs() <= 1e-3
+        })
+    });
+    match quantum {
+        // A hair over one quantum: the two roundings' error can reach it exactly.
+        Some(q) if q <= 0.25 * median_step => relative.max(1.01 * q),
+        _ => relative,
+    }
+}
+
+/// Sample rate [Hz] of regularly sampled times: 1 / mean step. Every step must be within
+/// [`regular_step_tolerance`] of the median step (the typical one, unmoved by a single gap),
+/// otherwise the sampling is irregular and no rate is returned.
 pub fn sample_rate(time: &[f64]) -> Result<f64, ResampleError> {
     if time.len() < 2 {
         return Err(ResampleError::TooFewForRate(time.len()));
     }
     let steps: Vec<f64> = time.windows(2).map(|p| p[1] - p[0]).collect();
     let median = median_of(steps.clone());
+    let tolerance = regular_step_tolerance(time, median);
     for (index, &step) in steps.iter().enumerate() {
-        if step.is_nan() || step <= 0.0 || ((step - median) / median).abs() > STEP_TOLERANCE {
+        if step.is_nan() || step <= 0.0 || (step - median).abs() > tolerance {
             return Err(ResampleError::Irregular {
                 index: index + 1,
                 step,
@@ -193,6 +221,34 @@ mod tests {
             sample_rate(&[1.0]),
             Err(ResampleError::TooFewForRate(1))
         ));
+    }
+
+    /// Regression (review): millisecond stamps at 12, 16 and 24 Hz make steps 1.2 to 2.4 %
+    /// apart; they are regular, while a step off by more than the rounding explains is not.
+    #[test]
+    fn rounded_stamps_are_regular_up_to_their_rounding_and_no_further() {
+        let ms = |t: f64| (t * 1000.0).round() / 1000.0;
+        for rate in [12.0, 16.0, 24.0, 64.0] {
+            let time: Vec<f64> = (0..2000).map(|i| ms(50.0 + i as f64 / rate)).collect();
+            let got = sample_rate(&time).unwrap();
+            assert!((got - rate).abs() < 1e-3 * rate, "{rate} Hz read as {got}");
+            // One stamp 2 ms late: a step 2.5 ms off (0.0858 s at 12 Hz) is not rounding.
+            let mut late = time.clone();
+            late[1000] += 0.002;
+            assert!(
+                matches!(sample_rate(&late), Err(ResampleError::Irregular { .. })),
+                "{rate} Hz"
+            );
+        }
+        // Whole-second stamps at 1 Hz: the rounding is the step itself and widens nothing.
+        let mut seconds: Vec<f64> = (0..100).map(f64::from).collect();
+        seconds.iter_mut().skip(50).for_each(|t| *t += 0.2);
+        assert!(matches!(
+            sample_rate(&seconds),
+            Err(ResampleError::Irregular { index: 50, .. })
+        ));
+        let whole: Vec<f64> = (0..100).map(f64::from).collect();
+        assert_eq!(regular_step_tolerance(&whole, 1.0), 0.01);
     }
 
     #[test]

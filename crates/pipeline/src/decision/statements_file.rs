@@ -18,7 +18,7 @@
 use super::recalibrate::StatementRecord;
 use super::{Decider, MAX_RECORDS};
 use serde::{Deserialize, Serialize};
-use shipcast_series::atomic_file::{directory_of, temporary_path, write_atomically};
+use shipcast_series::atomic_file::{check_writable_beside, directory_of, write_atomically};
 use shipcast_wire::payload::MAX_STEPS;
 use std::path::{Path, PathBuf};
 
@@ -118,7 +118,7 @@ pub fn save(path: &Path, file: &StatementsFile) -> anyhow::Result<()> {
 
 /// Whether a statements file can be kept at `path`: found at start, not at the first write
 /// after hours of calls (or, in replay, after the whole record). The directory must exist and
-/// take a file: the temporary file `save` writes is made and removed again. Regression
+/// take a file: a temporary file like the one `save` writes is made and removed again. Regression
 /// (review): only the directory's existence was checked, so a deck whose directory it could
 /// not write ran its whole watch and lost every statement at the end.
 pub fn check_writable(path: &Path) -> anyhow::Result<()> {
@@ -136,16 +136,13 @@ pub fn check_writable(path: &Path) -> anyhow::Result<()> {
             dir.display()
         );
     }
-    let tmp = temporary_path(path);
-    std::fs::File::create(&tmp)
-        .and_then(|_| std::fs::remove_file(&tmp))
-        .map_err(|e| {
-            anyhow::anyhow!(
-                "statements file {}: cannot be written in {} ({e})",
-                path.display(),
-                dir.display()
-            )
-        })
+    check_writable_beside(path).map_err(|e| {
+        anyhow::anyhow!(
+            "statements file {}: cannot be written in {} ({e})",
+            path.display(),
+            dir.display()
+        )
+    })
 }
 
 /// A deck's statements file: read into its decider at start, written as statements are
@@ -242,7 +239,11 @@ mod tests {
             assert_eq!(records[0].1.correct(p, 0.95), a.correct(p, 0.95));
         }
         assert_eq!(records[1].1.calls(), 1.0);
-        assert!(!dir.path().join("statements.json.tmp").exists());
+        assert_eq!(
+            std::fs::read_dir(dir.path()).unwrap().count(),
+            1,
+            "no temporary file"
+        );
     }
 
     /// Regression (review): only the directory's existence was checked at start, so a
@@ -250,9 +251,9 @@ mod tests {
     #[test]
     fn a_place_no_file_can_be_written_is_refused_at_open() {
         let dir = tempfile::tempdir().unwrap();
-        let path = dir.path().join("statements.json");
-        // The temporary file's name taken by a directory: no write can succeed, even as root.
-        std::fs::create_dir(dir.path().join("statements.json.tmp")).unwrap();
+        // A name that fits the file system's limit (255 bytes) while its temporary file's
+        // does not: no write can succeed, even as root.
+        let path = dir.path().join(format!("{}.json", "s".repeat(245)));
         let mut decider = Decider::new(&crate::config::DeckConfig::default());
         let e = StatementsKeeper::open(&path, 0.5, &mut decider).unwrap_err();
         assert!(
@@ -263,10 +264,11 @@ mod tests {
             )),
             "{e}"
         );
-        std::fs::remove_dir(dir.path().join("statements.json.tmp")).unwrap();
+        let path = dir.path().join("statements.json");
         StatementsKeeper::open(&path, 0.5, &mut decider).unwrap();
-        assert!(
-            !dir.path().join("statements.json.tmp").exists(),
+        assert_eq!(
+            std::fs::read_dir(dir.path()).unwrap().count(),
+            0,
             "the check leaves nothing behind"
         );
     }

@@ -128,16 +128,18 @@ pub fn record_rate(time: &[f64], forecast_hz: f64) -> anyhow::Result<f64> {
     Ok(rate)
 }
 
-/// One over the mean of the steps within 1 % of the median step (`median_hz`): gaps do not
+/// One over the mean of the regular steps (within
+/// [`shipcast_series::regular_step_tolerance`] of the median step, `median_hz`): gaps do not
 /// move it, and stamps rounded to fewer digits than the rate needs average out. Regression
 /// (review): a 6 Hz record stamped to the millisecond (steps of 0.167 and 0.166 s) read as
 /// 5.988 Hz by its median step and was refused, while `eval` took it.
 fn regular_mean_rate(time: &[f64], median_hz: f64) -> f64 {
     let median = 1.0 / median_hz;
+    let tolerance = shipcast_series::regular_step_tolerance(time, median);
     let (sum, n) = time
         .windows(2)
         .map(|p| p[1] - p[0])
-        .filter(|step| ((step - median) / median).abs() <= 0.01)
+        .filter(|step| (step - median).abs() <= tolerance)
         .fold((0.0, 0usize), |(sum, n), step| (sum + step, n + 1));
     if n == 0 {
         median_hz
@@ -150,13 +152,14 @@ fn rate_mismatch(time: &[f64], rate: f64, forecast_hz: f64) -> String {
     // To a microsecond: the step as the stamps give it (0.13, not 0.1299999948).
     let median = (1e6 / rate).round() / 1e6;
     let steps = time.len().saturating_sub(1);
+    let tolerance = shipcast_series::regular_step_tolerance(time, median);
     let off = time
         .windows(2)
-        .filter(|p| ((p[1] - p[0] - median) / median).abs() > 0.01)
+        .filter(|p| (p[1] - p[0] - median).abs() > tolerance)
         .count();
     let irregular = if off * 10 > steps {
         format!(
-            "; {off} of its {steps} time steps differ from it by more than 1 % (time stamps rounded or jittered?)"
+            "; {off} of its {steps} time steps differ from it by more than {tolerance:.2e} s (time stamps rounded or jittered?)"
         )
     } else {
         String::new()

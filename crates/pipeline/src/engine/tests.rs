@@ -667,4 +667,10 @@ fn a_record_rate_comes_from_its_regular_steps_whatever_the_rounding_and_gaps() {
     let odd: Vec<f64> = (0..3000).map(|i| i as f64 * 0.13).collect();
     let e = record_rate(&odd, 2.0).unwrap_err().to_string();
     assert!(e.contains("typical time step is 0.13 s"), "{e}");
+    // Regression (review): rates whose millisecond steps differ by more than 1 % (0.083 and
+    // 0.084 s at 12 Hz) were refused as irregular.
+    for rate in [12.0, 16.0, 24.0] {
+        let stamped: Vec<f64> = (0..3000).map(|i| ms(100.0 + i as f64 / rate)).collect();
+        assert_eq!(record_rate(&stamped, 2.0).unwrap(), rate, "{rate} Hz");
+    }
 }
