@@ -29,16 +29,21 @@ pub struct Args {
     #[arg(long)]
     pub seed: Option<u64>,
     /// Simulator sample rate [Hz].
-    #[arg(long, value_name = "HZ")]
+    #[arg(long, value_name = "HZ", allow_negative_numbers = true)]
     pub rate: Option<f64>,
     /// Stop after this much record time [s].
-    #[arg(long, value_name = "S")]
+    #[arg(long, value_name = "S", allow_negative_numbers = true)]
     pub record_s: Option<f64>,
     /// Publish the first S seconds of record at the backfill speed (see the config).
-    #[arg(long, value_name = "S")]
+    #[arg(long, value_name = "S", allow_negative_numbers = true)]
     pub backfill_s: Option<f64>,
     /// Wait up to S seconds for a subscriber before publishing the first sample.
-    #[arg(long, value_name = "S", default_value_t = 0.0)]
+    #[arg(
+        long,
+        value_name = "S",
+        default_value_t = 0.0,
+        allow_negative_numbers = true
+    )]
     pub wait_subscriber_s: f64,
     /// Fault injection (tests): every N-th sample carries a NaN heave.
     #[arg(long, value_name = "N")]

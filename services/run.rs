@@ -420,6 +420,20 @@ fn two_ship_configs(config: &mut PipelineConfig) -> anyhow::Result<PipelineConfi
             config.vessel
         );
     }
+    // Regression (review): both were taken and made a wrong pair. The target's station is
+    // measured from the simulated reference vessel, while the relative service places it
+    // from the crane vessel; and a recorded input would have fed both vessels the same
+    // motion.
+    if config.producer.station != shipcast_sim::Station::REFERENCE {
+        anyhow::bail!(
+            "--two-ship simulates the crane vessel as the reference vessel: leave [producer] station out (the target's place is [relative] target_position_m)"
+        );
+    }
+    if config.producer.input.is_some() {
+        anyhow::bail!(
+            "--two-ship simulates both vessels in one sea; [producer] input replays one record (run each vessel's producer with its own record instead)"
+        );
+    }
     let endpoint = zn::free_loopback_endpoint()?;
     let mut target = config.clone();
     target.vessel = config.relative.target_vessel.clone();
@@ -877,6 +891,35 @@ mod config_tests {
             crate::refused::<Args, Config>(&argv);
             assert!(!logs.exists(), "{bad:?} left {}", logs.display());
         }
+    }
+
+    /// Regression (review): a two-ship run took a station for the crane vessel (the target
+    /// then stood in the wrong place relative to it) and a recorded input (both vessels
+    /// replayed the same motion).
+    #[test]
+    fn a_two_ship_run_refuses_a_moved_crane_vessel_and_a_recorded_input() {
+        let mut config = PipelineConfig::default();
+        let target = two_ship_configs(&mut config.clone()).unwrap();
+        assert_eq!(
+            target.producer.station,
+            crate::relative::target_station(&config)
+        );
+        assert_ne!(target.vessel, config.vessel);
+        config.producer.station.y_m = 40.0;
+        let e = two_ship_configs(&mut config.clone())
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.starts_with("--two-ship simulates the crane vessel as the reference"),
+            "{e}"
+        );
+        config.producer.station = shipcast_sim::Station::REFERENCE;
+        config.producer.input = Some("motion.csv".into());
+        let e = two_ship_configs(&mut config).unwrap_err().to_string();
+        assert!(
+            e.starts_with("--two-ship simulates both vessels in one sea"),
+            "{e}"
+        );
     }
 }
 

@@ -37,9 +37,11 @@ scripts/fetch_wafo.py fetches two measured records (non-commercial licence, neve
 
 Non-stationary records: --course-change-s T --new-heading-deg D [--turn-s R] turns the ship
 (same wave field) so that the mean relative wave direction ramps linearly from --heading-deg to
-D over R s from record time T. --sea-change-s T --new-hs M --new-tp S [--ramp-s R] cross-fades
-(power-preserving) to an independent sea (seed + 1, DNV gamma) of Hs M and Tp S over R s from
-T. Both may be combined. Before T the record equals the stationary simulation; the producer
+D over R s from record time T, through every direction in between as written (from 170 to -170
+the ship turns 340 deg through following seas; give 190 for the 20 deg turn through head
+seas). --sea-change-s T --new-hs M --new-tp S [--ramp-s R] cross-fades (power-preserving) to
+an independent sea (seed + 1, the same spectrum; a JONSWAP takes the DNV gamma of the new Hs
+and Tp) of Hs M and Tp S over R s from T. Both may be combined. Before T the record equals the stationary simulation; the producer
 uses such a record through `simulate --out F.csv` then `producer --input F.csv`.
 
 Two vessels in one sea: run simulate twice with the same sea options and seed, the second time
@@ -64,13 +66,14 @@ pub struct Args {
     /// Spectrum: jonswap (DNV, gamma from Tp/sqrt(Hs) unless --gamma) or ittc.
     #[arg(long, default_value = "jonswap")]
     pub spectrum: String,
-    /// JONSWAP peak enhancement factor.
+    /// JONSWAP peak enhancement factor (--spectrum jonswap only).
     #[arg(long, allow_negative_numbers = true)]
     pub gamma: Option<f64>,
     /// Ship speed [kn].
     #[arg(long = "speed-kn", allow_negative_numbers = true)]
     pub speed_kn: Option<f64>,
-    /// Mean wave direction relative to the ship [deg], 180 = head seas, 0 = following seas.
+    /// Mean wave direction relative to the ship [deg], where the waves come from: 180 = head
+    /// seas, 0 = following seas, 90 = beam seas from port (travelling to starboard).
     #[arg(long = "heading-deg", allow_negative_numbers = true)]
     pub heading_deg: Option<f64>,
     /// A line spectrum of N components on a fixed frequency grid (default: >= 1000 components
@@ -98,18 +101,18 @@ pub struct Args {
     #[arg(long = "rao-table")]
     pub rao_table: Option<PathBuf>,
     /// Ship length the RAO table was computed for [m] (needed with --hull-length).
-    #[arg(long = "rao-table-length")]
+    #[arg(long = "rao-table-length", allow_negative_numbers = true)]
     pub rao_table_length: Option<f64>,
     /// Length of the simulated hull [m]: scales the default DTMB 5415 hull, or Froude-scales
     /// the RAO table from --rao-table-length.
-    #[arg(long = "hull-length")]
+    #[arg(long = "hull-length", allow_negative_numbers = true)]
     pub hull_length: Option<f64>,
     /// Also draw an SVG figure of the spectra and the first minute of motion.
     #[arg(long, conflicts_with_all = ["elevation", "course_change_s", "sea_change_s"])]
     pub plot: Option<PathBuf>,
     /// Drive the RAOs with this measured wave-elevation CSV (time_s,wave_m) instead of a
     /// simulated sea: long-crested waves from --heading-deg, elevation at the CG (see below).
-    #[arg(long, conflicts_with_all = ["hs", "tp", "gamma", "components", "spreading", "spectrum", "seed", "duration"])]
+    #[arg(long, conflicts_with_all = ["scenario", "hs", "tp", "gamma", "components", "spreading", "spectrum", "seed", "duration"])]
     pub elevation: Option<PathBuf>,
     /// With --elevation: seconds at each end of every segment that are tapered (outer half)
     /// and not written [default: 120].
@@ -123,16 +126,17 @@ pub struct Args {
         allow_negative_numbers = true
     )]
     pub course_change_s: Option<f64>,
-    /// Mean relative wave direction after the turn [deg] (90 = beam seas).
+    /// Mean relative wave direction after the turn [deg] (as --heading-deg: 90 = beam seas
+    /// from port).
     #[arg(
         long = "new-heading-deg",
         requires = "course_change_s",
         allow_negative_numbers = true
     )]
     pub new_heading_deg: Option<f64>,
-    /// Duration of the turn [s].
-    #[arg(long = "turn-s", default_value_t = 60.0, allow_negative_numbers = true)]
-    pub turn_s: f64,
+    /// Duration of the turn [s] [default: 60].
+    #[arg(long = "turn-s", allow_negative_numbers = true)]
+    pub turn_s: Option<f64>,
     /// Record time [s] at which the sea state starts changing (needs --new-hs and --new-tp).
     #[arg(long = "sea-change-s", requires_all = ["new_hs", "new_tp"], conflicts_with = "elevation", allow_negative_numbers = true)]
     pub sea_change_s: Option<f64>,
@@ -150,13 +154,9 @@ pub struct Args {
         allow_negative_numbers = true
     )]
     pub new_tp: Option<f64>,
-    /// Duration of the sea-state cross-fade [s].
-    #[arg(
-        long = "ramp-s",
-        default_value_t = 300.0,
-        allow_negative_numbers = true
-    )]
-    pub ramp_s: f64,
+    /// Duration of the sea-state cross-fade [s] [default: 300].
+    #[arg(long = "ramp-s", allow_negative_numbers = true)]
+    pub ramp_s: Option<f64>,
     /// Simulate a second vessel of the same sea (same seed, or the same measured record;
     /// --heading-deg relative to the reference vessel) this far forward of the reference
     /// vessel's centre of gravity [m], keeping station with it.

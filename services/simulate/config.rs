@@ -8,13 +8,17 @@ use anyhow::Context;
 use shipcast_pipeline::config::MAX_PRODUCER_RATE_HZ;
 use shipcast_pipeline::limits;
 use shipcast_sim::{
-    CourseChange, Hull, RaoSpec, Scenario, SeaChange, SimConfig, Spectrum, SpectrumKind, Station,
+    CourseChange, Hull, RaoSpec, Scenario, SeaChange, SimConfig, Spectrum, Station,
 };
 use std::path::PathBuf;
 
 /// Seconds at each end of a measured record's segment that are tapered and not written
 /// (`--edge-s`).
 pub const DEFAULT_EDGE_S: f64 = 120.0;
+/// Duration of a course change's turn (`--turn-s`).
+pub const DEFAULT_TURN_S: f64 = 60.0;
+/// Duration of a sea-state change's cross-fade (`--ramp-s`).
+pub const DEFAULT_RAMP_S: f64 = 300.0;
 
 /// What `simulate` writes, every value checked: built from [`Args`] by [`Config::try_from`],
 /// the only place that validates them, so the writers below see checked values only.
@@ -65,6 +69,16 @@ impl TryFrom<Args> for Config {
         if args.edge_s.is_some() && args.elevation.is_none() {
             anyhow::bail!("--edge-s applies to --elevation only");
         }
+        // Regression (review): these were taken, even negative, and did nothing.
+        if args.turn_s.is_some() && args.course_change_s.is_none() {
+            anyhow::bail!("--turn-s applies to a course change (--course-change-s) only");
+        }
+        if args.ramp_s.is_some() && args.sea_change_s.is_none() {
+            anyhow::bail!("--ramp-s applies to a sea-state change (--sea-change-s) only");
+        }
+        if args.gamma.is_some() && args.spectrum.trim().eq_ignore_ascii_case("ittc") {
+            anyhow::bail!("--gamma applies to --spectrum jonswap only");
+        }
         let rate_hz = checked(limits::rate("--rate", args.rate, MAX_PRODUCER_RATE_HZ))?;
         let record = match &args.elevation {
             Some(elevation) => Record::Measured {
@@ -97,10 +111,9 @@ impl TryFrom<Args> for Config {
             Spectrum::new(sim.spectrum, sim.hs_m, sim.tp_s, sim.gamma)?;
         }
         if let Record::Changing { sea: Some(s), .. } = &record {
-            // The new sea is a JONSWAP with the DNV gamma (see AFTER_HELP), within the ranges
-            // of any simulated sea.
-            Spectrum::new(SpectrumKind::Jonswap, s.hs_m, s.tp_s, None)
-                .context("--new-hs/--new-tp")?;
+            // The new sea has the same spectrum family (a JONSWAP with the DNV gamma; see
+            // AFTER_HELP), within the ranges of any simulated sea.
+            Spectrum::new(sim.spectrum, s.hs_m, s.tp_s, None).context("--new-hs/--new-tp")?;
             shipcast_sim::ChangingMotion::new_sea_config(&sim, s)
                 .validate()
                 .context("--new-hs/--new-tp")?;
@@ -124,11 +137,17 @@ impl TryFrom<Args> for Config {
 fn changes(args: &Args, duration_s: f64) -> anyhow::Result<Record> {
     let seconds = |name: &str, v: f64| checked(limits::non_negative(name, v, limits::MAX_SECONDS));
     let course = match (args.course_change_s, args.new_heading_deg) {
-        (Some(at_s), Some(new_heading_deg)) => Some(CourseChange {
-            at_s: seconds("--course-change-s", at_s)?,
-            new_heading_deg,
-            turn_s: seconds("--turn-s", args.turn_s)?,
-        }),
+        (Some(at_s), Some(new_heading_deg)) => {
+            Some(CourseChange {
+                at_s: seconds("--course-change-s", at_s)?,
+                new_heading_deg: if new_heading_deg.is_finite() {
+                    new_heading_deg
+                } else {
+                    anyhow::bail!("--new-heading-deg must be a finite number of degrees, got {new_heading_deg}")
+                },
+                turn_s: seconds("--turn-s", args.turn_s.unwrap_or(DEFAULT_TURN_S))?,
+            })
+        }
         _ => None,
     };
     let sea = match (args.sea_change_s, args.new_hs, args.new_tp) {
@@ -136,7 +155,7 @@ fn changes(args: &Args, duration_s: f64) -> anyhow::Result<Record> {
             at_s: seconds("--sea-change-s", at_s)?,
             hs_m,
             tp_s,
-            ramp_s: seconds("--ramp-s", args.ramp_s)?,
+            ramp_s: seconds("--ramp-s", args.ramp_s.unwrap_or(DEFAULT_RAMP_S))?,
         }),
         _ => None,
     };
@@ -180,6 +199,14 @@ fn sim_config(args: &Args) -> anyhow::Result<SimConfig> {
     cfg.components = args.components;
     cfg.seed = args.seed;
     cfg.rao = match (&args.rao_table, args.rao_table_length, args.hull_length) {
+        (Some(_), None, Some(_)) => {
+            anyhow::bail!("--hull-length with --rao-table needs --rao-table-length (the length the table was computed for)")
+        }
+        (Some(_), Some(_), None) => {
+            anyhow::bail!(
+                "--rao-table-length needs --hull-length (the length to scale the table to)"
+            )
+        }
         (Some(path), table_length_m, hull_length_m) => RaoSpec::Table {
             path: path.clone(),
             table_length_m,
@@ -364,12 +391,39 @@ mod tests {
             "{e}"
         );
         // The limits themselves are accepted.
-        for (flag, value) in [("--hs", "30"), ("--tp", "40"), ("--speed-kn", "60")] {
-            assert!(
-                config(&["--out", "m.csv", flag, value]).is_ok(),
-                "{flag} {value}"
-            );
+        for limit in [
+            &["--hs", "30", "--tp", "40"][..],
+            &["--tp", "40"],
+            &["--speed-kn", "60"],
+            // The steepest sea accepted: 2 pi Hs / g Tp^2 = 1/15 at Tp 5 s.
+            &["--hs", "2.6", "--tp", "5"],
+        ] {
+            let argv: Vec<&str> = ["--out", "m.csv"].iter().chain(limit).copied().collect();
+            assert!(config(&argv).is_ok(), "{limit:?}");
         }
+        // Regression (review): Hs 30 m at Tp 0.5 s, a sea that cannot exist, was simulated.
+        let e = refused(&["--out", "m.csv", "--hs", "30", "--tp", "0.5"]);
+        assert!(
+            e.contains("a sea of Hs 30 m and Tp 0.5 s is steeper (2 pi Hs / g Tp^2 = 76.859)")
+                && e.contains("Hs is at most 0.03 m"),
+            "{e}"
+        );
+        let e = refused(&["--out", "m.csv", "--hs", "2.7", "--tp", "5"]);
+        assert!(e.contains("steeper"), "{e}");
+        let e = refused(&[
+            "--out",
+            "m.csv",
+            "--sea-change-s",
+            "100",
+            "--new-hs",
+            "12",
+            "--new-tp",
+            "6",
+        ]);
+        assert!(
+            e.starts_with("--new-hs/--new-tp: ") && e.contains("steeper"),
+            "{e}"
+        );
         assert_eq!(
             refused(&[
                 "--out",
@@ -391,6 +445,83 @@ mod tests {
                 limits::MAX_SECONDS
             )
         );
+    }
+
+    /// Regression (review): each of these was accepted and did nothing, or was refused
+    /// without naming the option at fault.
+    #[test]
+    fn options_that_would_do_nothing_are_refused_and_errors_name_the_option() {
+        for (argv, expected) in [
+            (
+                &["--turn-s", "30"][..],
+                "--turn-s applies to a course change (--course-change-s) only",
+            ),
+            (
+                &["--ramp-s", "-30"],
+                "--ramp-s applies to a sea-state change (--sea-change-s) only",
+            ),
+            (
+                &["--spectrum", "ittc", "--gamma", "50"],
+                "--gamma applies to --spectrum jonswap only",
+            ),
+            (
+                &["--course-change-s", "10", "--new-heading-deg", "nan"],
+                "--new-heading-deg must be a finite number of degrees, got NaN",
+            ),
+            (
+                &["--rao-table", "t.csv", "--hull-length", "100"],
+                "--hull-length with --rao-table needs --rao-table-length (the length the table \
+                 was computed for)",
+            ),
+            (
+                &["--rao-table", "t.csv", "--rao-table-length", "-5"],
+                "--rao-table-length needs --hull-length (the length to scale the table to)",
+            ),
+        ] {
+            let argv: Vec<&str> = ["--out", "m.csv"].iter().chain(argv).copied().collect();
+            assert_eq!(refused(&argv), expected, "{argv:?}");
+        }
+        // Given with their change, both still take their values.
+        let c = config(&[
+            "--out",
+            "m.csv",
+            "--sea-change-s",
+            "100",
+            "--new-hs",
+            "3",
+            "--new-tp",
+            "9",
+            "--ramp-s",
+            "30",
+        ])
+        .unwrap();
+        assert!(matches!(c.record, Record::Changing { sea: Some(s), .. } if s.ramp_s == 30.0));
+        // A scenario says what sea to draw; a measured record is the sea (clap refuses it).
+        #[derive(clap::Parser)]
+        struct Simulate {
+            #[command(flatten)]
+            args: Args,
+        }
+        let parse = |argv: &[&str]| <Simulate as clap::Parser>::try_parse_from(argv).map(|_| ());
+        let e = parse(&[
+            "s",
+            "--out",
+            "m.csv",
+            "--elevation",
+            "e.csv",
+            "--scenario",
+            "ss6",
+        ])
+        .unwrap_err()
+        .to_string();
+        assert!(
+            e.contains("'--elevation <ELEVATION>' cannot be used with '--scenario <SCENARIO>'"),
+            "{e}"
+        );
+        assert!(parse(&["s", "--out", "m.csv", "--elevation", "e.csv"]).is_ok());
+        // A negative length reaches the range check, not clap's "unexpected argument".
+        let e = refused(&["--out", "m.csv", "--hull-length", "-5"]);
+        assert!(e.contains("hull length must be in [1, 500] m"), "{e}");
     }
 
     #[test]

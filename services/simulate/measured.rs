@@ -141,6 +141,9 @@ pub(super) fn run_measured(
     }
     bar.finish_and_clear();
     if written == 0 {
+        // Regression (review): a header-only file was left to be taken for a record.
+        drop(out);
+        let _ = std::fs::remove_file(&config.out);
         anyhow::bail!(
             "{}: no segment is longer than twice --edge-s {} s ({} segments, {} skipped)",
             path.display(),

@@ -14,8 +14,11 @@ use std::path::PathBuf;
 pub const KNOT_MPS: f64 = 1852.0 / 3600.0;
 
 /// A named starting point for a simulation.
+/// Read from a configuration as from the command line ([`std::str::FromStr`]: any case,
+/// spaces around ignored). Regression (review): `--scenario SS4` was taken while
+/// `scenario = "SS4"` in a configuration was an unknown variant.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
+#[serde(rename_all = "lowercase", try_from = "String")]
 pub enum Scenario {
     Paper,
     Ss3,
@@ -38,6 +41,13 @@ impl std::str::FromStr for Scenario {
                 ("ss6", Scenario::Ss6),
             ],
         )
+    }
+}
+
+impl TryFrom<String> for Scenario {
+    type Error = SimError;
+    fn try_from(s: String) -> Result<Self, SimError> {
+        s.parse()
     }
 }
 
@@ -104,6 +114,12 @@ pub const MAX_HS_M: f64 = 30.0;
 pub const MIN_TP_S: f64 = 0.5;
 pub const MAX_TP_S: f64 = 40.0;
 
+/// Steepest sea state accepted: the significant steepness 2 pi Hs / (g Tp^2). Waves break
+/// beyond about 1/7 one by one; DNV-RP-C205 (3.5.5) gives 1/15 as the limit of a sea state
+/// (for Tp up to 8 s, less for longer periods). Regression (review): Hs 30 m at Tp 0.5 s
+/// was simulated as if such a sea could exist.
+pub const MAX_STEEPNESS: f64 = 1.0 / 15.0;
+
 impl SimConfig {
     /// The configuration of a named scenario with the default DTMB 5415 hull.
     pub fn scenario(scenario: Scenario) -> Self {
@@ -152,6 +168,15 @@ impl SimConfig {
                 self.tp_s
             )));
         }
+        let steepness = 2.0 * std::f64::consts::PI * self.hs_m / (super::G * self.tp_s * self.tp_s);
+        if steepness > MAX_STEEPNESS {
+            return Err(SimError::Config(format!(
+                "a sea of Hs {} m and Tp {} s is steeper (2 pi Hs / g Tp^2 = {steepness:.3}) than any sea state (at most 1/15): at this Tp, Hs is at most {:.2} m",
+                self.hs_m,
+                self.tp_s,
+                MAX_STEEPNESS * super::G * self.tp_s * self.tp_s / (2.0 * std::f64::consts::PI)
+            )));
+        }
         if !self.heading_deg.is_finite() {
             return Err(SimError::Config(
                 "heading must be a finite number of degrees".into(),
@@ -167,6 +192,19 @@ impl SimConfig {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_scenario_is_read_from_text_in_any_case_and_written_in_lower_case() {
+        let read = |text: &str| serde_json::from_str::<Scenario>(text).map_err(|e| e.to_string());
+        assert_eq!(read(r#""SS4""#), Ok(Scenario::Ss4));
+        assert_eq!(read(r#"" paper ""#), Ok(Scenario::Paper));
+        let e = read(r#""ss9""#).unwrap_err();
+        assert!(
+            e.contains("unknown scenario 'ss9' (expected paper, ss3, ss4, ss5, ss6)"),
+            "{e}"
+        );
+        assert_eq!(serde_json::to_string(&Scenario::Ss6).unwrap(), r#""ss6""#);
+    }
 
     #[test]
     fn scenarios_parse_and_paper_is_ten_feet() {
