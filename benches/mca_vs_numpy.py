@@ -14,9 +14,14 @@ Needs numpy. Without it on the default python3:
 (the cargo bench uses target/tmp/numpy-venv/bin/python when it exists, or the interpreter named
 by SHIPCAST_NUMPY_PYTHON).
 
-The fit is the same computation as src/predict/mca.rs: windows of `order` values every `shift`
-values, R = X X^T, eigh, the minor components by the energy rule (at least `horizon` of them),
-P = -(B2^T B2)^-1 B2^T B1. Prints one JSON line: median and minimum fit time [ms], the number of
+The fit gives the same prediction map as crates/predict/src/mca.rs by the textbook route:
+windows of `order` values every `shift` values, R = X X^T, the full eigh of R, the minor
+components by the energy rule (at least `horizon` of them), P = -(B2^T B2)^-1 B2^T B1.
+shipcast takes another route to the same map (crates/predict/src/mca_spectrum.rs): with fewer
+windows than `order` (421 for order 800 on 5000 points) the spectrum comes from a QR of the
+windows and a 421 x 421 eigenproblem, since R has rank 421 at most. The comparison is of the
+two ways to the same result, which the reference-matrix check confirms, not of one
+eigensolver against another. Prints one JSON line: median and minimum fit time [ms], the number of
 minor components, and, when a reference matrix is given, the largest difference to it relative
 to its largest entry.
 """

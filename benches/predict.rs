@@ -1,6 +1,8 @@
 //! Criterion benchmarks of the predictors: MCA-800 training on 5000 points, and one 50-step
 //! forecast per method and order (40, 100, 800), with the MCA forecast in three variants
-//! (f64 faer matrix-vector product as used by `forecast`, f64 plain loop, f32 matrix), and the
+//! (`forecast` as the services run it: the same origin each iteration, so the product of the
+//! known values is the one prepared ahead and only the newest value's column and a
+//! comparison are timed; f64 plain loop and f32 matrix: the full product), and the
 //! six-DOF MCA-800 forecast in full (`six_dof_forecast_in_full`: six predictors, a new origin
 //! every iteration). MCA-800 training against numpy: `cargo bench --bench mca_vs_numpy`.
 //!

@@ -88,10 +88,12 @@ struct LatencyArgs {
     /// Write an SVG of the latency distributions to this file.
     #[arg(long)]
     svg: Option<PathBuf>,
-    /// Cores of the sender/producer and the receiver/predictor, as A,B.
-    #[arg(long, default_value = "0,1", value_parser = |s: &str| parse_cores(s))]
-    cores: (usize, usize),
-    /// Unsent warm-up samples before measuring (default: 10 % of --samples, at most 200).
+    /// Cores of the sender/producer and the receiver/predictor, as A,B [default: 0,1; run
+    /// unpinned, with a warning, where those are not available].
+    #[arg(long, value_parser = |s: &str| parse_cores(s))]
+    cores: Option<(usize, usize)>,
+    /// Warm-up samples sent before measuring and not recorded (default: 10 % of --samples, at
+    /// most 200).
     #[arg(long)]
     warmup: Option<u64>,
     /// The measurements take turns this many times, each with its share of --samples, so
@@ -121,7 +123,10 @@ impl TryFrom<LatencyArgs> for LatencyConfig {
             warmup: a.warmup.unwrap_or((a.samples / 10).clamp(1, 200)),
             rounds: a.rounds,
             rate_hz: a.rate,
-            cores: a.cores,
+            cores: match a.cores {
+                Some(cores) => checked(shipcast_bench::pinning::allowed(cores))?,
+                None => DEFAULT_CORES,
+            },
             instance: Plan::unique_instance("latency"),
             shipcast_exe: Some(own_executable()?),
         };
@@ -138,6 +143,9 @@ impl TryFrom<LatencyArgs> for LatencyConfig {
         })
     }
 }
+
+/// The cores a latency run pins to unless `--cores` says otherwise.
+const DEFAULT_CORES: (usize, usize) = (0, 1);
 
 /// A fleet run, every value checked: built from [`FleetArgs`] by [`FleetConfig::try_from`].
 #[derive(Debug, Clone, PartialEq)]

@@ -94,6 +94,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     // Fail on an unusable output directory before spending minutes on the study.
     std::fs::create_dir_all(&out)
         .with_context(|| format!("creating the output directory {}", out.display()))?;
+    // Regression (review): a directory that exists but takes no file (read-only) was found
+    // only when the first figure was drawn, after the whole study.
+    shipcast_series::atomic_file::check_writable_beside(&out.join("report.md"))
+        .with_context(|| format!("the output directory {} takes no file", out.display()))?;
     match (sections, measured.as_ref()) {
         (Sections::AveragingOnly, measured) => {
             let section = paper::averaging::run_alone(&plan, measured)?;

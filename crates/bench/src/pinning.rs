@@ -12,6 +12,21 @@ pub struct PinOutcome {
     pub pinned: bool,
 }
 
+/// `--cores (a, b)` as asked for: cores this process may run on. Regression (review):
+/// `--cores 0,2` on a two-core machine measured the whole run unpinned, with only warnings.
+/// (The default cores, on a machine with fewer, still run unpinned and say so.)
+pub fn allowed((a, b): (usize, usize)) -> Result<(usize, usize), String> {
+    if let Some(ids) = core_affinity::get_core_ids() {
+        let allowed: Vec<usize> = ids.iter().map(|c| c.id).collect();
+        if let Some(core) = [a, b].into_iter().find(|c| !allowed.contains(c)) {
+            return Err(format!(
+                "--cores {a},{b}: core {core} is not one this process may run on (allowed: {allowed:?})"
+            ));
+        }
+    }
+    Ok((a, b))
+}
+
 /// Pin the calling thread to `core`; warn and record if that is not possible.
 pub fn pin_current(role: &str, core: usize) -> PinOutcome {
     let available = core_affinity::get_core_ids().unwrap_or_default();
@@ -85,6 +100,25 @@ pub fn child_pinned(role: &str, pid: u32, core: usize) -> PinOutcome {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn cores_asked_for_must_be_ones_the_process_may_run_on() {
+        let ids: Vec<usize> = core_affinity::get_core_ids()
+            .unwrap()
+            .iter()
+            .map(|c| c.id)
+            .collect();
+        let first = ids[0];
+        let absent = ids.iter().max().unwrap() + 1;
+        assert_eq!(allowed((first, first)), Ok((first, first)));
+        let e = allowed((first, absent)).unwrap_err();
+        assert!(
+            e.starts_with(&format!(
+                "--cores {first},{absent}: core {absent} is not one this process may run on"
+            )),
+            "{e}"
+        );
+    }
 
     #[test]
     fn missing_core_is_recorded_not_fatal() {

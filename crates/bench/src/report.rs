@@ -177,12 +177,13 @@ impl LatencyReport {
             let floor = m.p99_us + f.p99_us;
             let _ = writeln!(
                 s,
-                "target event: sample-to-forecast-local ({}) p99 {:.1} µs vs two raw iceoryx2 wake-ups (motion + forecast p99) {:.1} µs: ratio {:.2} (target <= 1.5): {}",
+                "target event: sample-to-forecast-local ({}) p99 {:.1} µs vs two raw iceoryx2 wake-ups (motion + forecast p99) {:.1} µs: ratio {:.2} (target <= 1.5): {}{}",
                 r.source,
                 r.p99_us,
                 floor,
                 r.p99_us / floor,
-                verdict(r.p99_us <= 1.5 * floor)
+                verdict(r.p99_us <= 1.5 * floor),
+                below_floor(r.p99_us / floor)
             );
         }
         // The zenoh path holds one hop of each transport: the motion sample over iceoryx2 to
@@ -211,7 +212,7 @@ impl LatencyReport {
                     let floor = w.p99_us + z.p99_us;
                     let _ = writeln!(
                         s,
-                        "target zenoh {mode}: sample-to-forecast-zenoh ({}) p99 {:.1} µs vs raw iceoryx2 {mode} p99 ({} B) {:.1} µs + raw zenoh event p99 {floor_name} ({} B) {:.1} µs = {floor:.1} µs: ratio {:.2} (target <= 1.25): {}",
+                        "target zenoh {mode}: sample-to-forecast-zenoh ({}) p99 {:.1} µs vs raw iceoryx2 {mode} p99 ({} B) {:.1} µs + raw zenoh event p99 {floor_name} ({} B) {:.1} µs = {floor:.1} µs: ratio {:.2} (target <= 1.25): {}{}",
                         r.source,
                         r.p99_us,
                         motion_bytes,
@@ -219,7 +220,8 @@ impl LatencyReport {
                         json_bytes,
                         z.p99_us,
                         r.p99_us / floor,
-                        verdict(r.p99_us <= 1.25 * floor)
+                        verdict(r.p99_us <= 1.25 * floor),
+                        below_floor(r.p99_us / floor)
                     );
                 }
             }
@@ -325,6 +327,18 @@ fn nines_label(nines: f64) -> String {
     }
     let q = 100.0 * (1.0 - 10f64.powf(-nines));
     format!("p{}", (q * 100.0).round() / 100.0)
+}
+
+/// Said of a path faster than its floor (issue 12's sum of the hops' raw p99). Regression
+/// (review): such a ratio passed as "met" without a word, though it shows how lenient the
+/// floor is: the p99 of a chain of two hops is below the sum of their p99s, and the floor's
+/// rows are measured at other moments than the path's.
+fn below_floor(ratio: f64) -> &'static str {
+    if ratio < 1.0 {
+        " (below its floor: a sum of two p99s exceeds the p99 of the chain, and the floor was measured at another moment; compare the raw rows)"
+    } else {
+        ""
+    }
 }
 
 #[cfg(test)]
@@ -442,7 +456,8 @@ mod tests {
         // zenoh floor between processes (about 129.9 µs): 159.9 / 179.7.
         assert!(lines[0].contains("(services)") && lines[0].contains("between two processes"));
         assert!(
-            lines[0].contains("= 179.7 µs: ratio 0.89") && lines[0].ends_with(": met"),
+            lines[0]
+                .contains("= 179.7 µs: ratio 0.89 (target <= 1.25): met (below its floor: a sum"),
             "{targets}"
         );
         // In-process: 299.9 / (49.8 + 99.9 between threads) = 2.0, beyond 1.25.
@@ -451,6 +466,7 @@ mod tests {
             lines[1].contains("= 149.7 µs: ratio 2.00") && lines[1].ends_with("NOT met"),
             "{targets}"
         );
+        assert!(!lines[1].contains("below its floor"), "{targets}");
         // Without an iceoryx2 floor, the zenoh paths cannot be judged.
         rep.rows.retain(|r| r.path != Path::Iceoryx2Raw.name());
         assert!(!rep.targets(72, 6248, 3000).contains("target zenoh"));

@@ -346,7 +346,11 @@ pub fn section(outcomes: &[MeasuredOutcome], plan: &Plan, record: &RecordInfo, s
          predictor configuration, no start-up model, retraining on live history), and its \
          delivered forecasts issued from {skip} s of record time on (the start of the offline \
          test part) are scored against the record. Every number is error / std of the \
-         motion: 1 is what predicting zero scores.\n",
+         motion (for the engine, its RMS about zero): 1 is what predicting zero scores. A lead \
+         counts from the newest value each one forecasts from, the time that value represents: \
+         the offline series' is its filter's delay (1 s for an 8 Hz record) before the newest sample it holds, the \
+         engine's its minimum-phase filter's delay (0.5 s for an 8 Hz record); the offline methods are scored \
+         against that filtered series, the engine against the recorded samples.\n",
         title = record.title,
         len = record.len,
         mins = num(record.len as f64 / STUDY_RATE_HZ / 60.0, 3),

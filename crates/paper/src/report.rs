@@ -468,8 +468,8 @@ pub fn render(study: &Study, figures: &[Figure]) -> String {
         s,
         "- Ship and sea: the `paper` scenario (JONSWAP Hs 3.05 m, Tp 9.7 s, cos^2 spreading, \
          DTMB 5415 hull at 11 kn, waves 15 deg off the bow), simulated at 8 Hz and decimated to \
-         2 Hz with the evaluation's anti-alias filter (the one `shipcast eval` and the predictor \
-         service use).\n\
+         2 Hz with the evaluation's linear-phase anti-alias filter (the one `shipcast eval` uses; \
+         the predictor service defaults to its minimum-phase twin, which delays less).\n\
          - Ship motions: closed-form RAOs from the DTMB 5415's main particulars; against a \
          boundary-element solution of the hull at zero speed their response std is within 10 % \
          for pitch and roll and for heave in Tp 9.7 and 12.4 s seas, 0.66 of it for heave at \

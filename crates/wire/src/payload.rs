@@ -96,9 +96,11 @@ pub struct Forecast {
     pub source_seq: u64,
     /// Its stamp_ns, copied, for end-to-end latency.
     pub source_stamp_ns: u64,
-    /// CLOCK_MONOTONIC when the forecast was published.
+    /// CLOCK_MONOTONIC when the forecast was computed, just before it is sent (the path
+    /// `sample-to-forecast-published` of `shipcast bench latency` ends there).
     pub issued_stamp_ns: u64,
-    /// Record time of the newest sample used; step k (1-based) is at time_s + k * dt_s.
+    /// Record time of the newest decimated value used (the decimation filter's delay before the
+    /// newest sample); step k (1-based) is at time_s + k * dt_s.
     pub time_s: f64,
     /// Spacing of the forecast steps.
     pub dt_s: f64,

@@ -12,6 +12,12 @@
 //! directory any other user could create and hold the file and keep our predictor from ever
 //! starting, or plant a symlink for the truncation of the pid to follow. The file itself is
 //! opened without following a symlink.
+//!
+//! A service removes its lock file as it lets go, still holding the lock, so that runs under
+//! unique instance names (tests, `shipcast bench`) leave no files behind. Regression (review):
+//! every run left its files for good. A service that took the lock of a file removed in the
+//! meantime holds nothing others can see, so it checks after locking that the path still
+//! names its file, and opens it afresh if not.
 
 use super::naming::Names;
 use std::fs::{File, OpenOptions, TryLockError};
@@ -37,8 +43,32 @@ pub enum HostLockError {
 /// Held while the service runs; dropping it (or the process ending) lets go.
 #[derive(Debug)]
 pub struct HostLock {
-    _file: Option<File>,
+    /// The locked file and its path; none when the service runs unguarded.
+    held: Option<(File, PathBuf)>,
 }
+
+impl Drop for HostLock {
+    fn drop(&mut self) {
+        if let Some((file, path)) = self.held.take() {
+            // Removed while still locked: whoever opens the path next makes a new file, and
+            // whoever opened the old one before finds it gone after locking it.
+            let _ = std::fs::remove_file(&path);
+            drop(file);
+        }
+    }
+}
+
+/// Whether `path` still names the file `file` is (not removed, not replaced).
+fn still_named(file: &File, path: &Path) -> bool {
+    match (file.metadata(), std::fs::symlink_metadata(path)) {
+        (Ok(open), Ok(named)) => open.dev() == named.dev() && open.ino() == named.ino(),
+        _ => false,
+    }
+}
+
+/// How often a lock is taken again after its file was removed under it: each time, the one
+/// who removed it has let go, so a second round is only lost to a third service starting.
+const REOPENS: usize = 8;
 
 impl HostLock {
     /// Take the lock of `service` (e.g. "predictor") for `names`, or say who holds it. A lock
@@ -51,7 +81,7 @@ impl HostLock {
                 tracing::warn!(
                     "{service}: no directory of this user's for its lock file ({e}); a second {service} under the same names would not be refused"
                 );
-                Ok(Self { _file: None })
+                Ok(Self { held: None })
             }
         }
     }
@@ -59,6 +89,25 @@ impl HostLock {
     /// [`Self::acquire`] with the lock files in `dir`.
     pub fn acquire_in(dir: &Path, names: &Names, service: &str) -> Result<Self, HostLockError> {
         let path = dir.join(lock_file_name(names, service));
+        for _ in 0..REOPENS {
+            if let Some(taken) = Self::try_acquire(&path, names, service)? {
+                return Ok(taken);
+            }
+        }
+        tracing::warn!(
+            "{service}: its lock file {} was removed under it {REOPENS} times; a second {service} under the same names would not be refused",
+            path.display()
+        );
+        Ok(Self { held: None })
+    }
+
+    /// One attempt: the lock, an error naming who holds it, or `None` when the file locked
+    /// was removed meanwhile (try again).
+    fn try_acquire(
+        path: &Path,
+        names: &Names,
+        service: &str,
+    ) -> Result<Option<Self>, HostLockError> {
         // Never through a symlink, and readable by this user only.
         let opened = OpenOptions::new()
             .read(true)
@@ -67,7 +116,7 @@ impl HostLock {
             .truncate(false)
             .mode(0o600)
             .custom_flags(libc::O_NOFOLLOW)
-            .open(&path);
+            .open(path);
         let mut file = match opened {
             Ok(f) => f,
             Err(e) => {
@@ -75,10 +124,11 @@ impl HostLock {
                     "{service}: cannot open its lock file {} ({e}); a second {service} under the same names would not be refused",
                     path.display()
                 );
-                return Ok(Self { _file: None });
+                return Ok(Some(Self { held: None }));
             }
         };
         match file.try_lock() {
+            Ok(()) if !still_named(&file, path) => Ok(None),
             Ok(()) => {
                 // For the message a second one gives; the lock itself is what counts.
                 let pid = std::process::id().to_string();
@@ -89,7 +139,9 @@ impl HostLock {
                 if let Err(e) = written {
                     tracing::debug!("{service}: lock file {}: {e}", path.display());
                 }
-                Ok(Self { _file: Some(file) })
+                Ok(Some(Self {
+                    held: Some((file, path.to_path_buf())),
+                }))
             }
             Err(TryLockError::WouldBlock) => {
                 let mut text = String::new();
@@ -106,7 +158,7 @@ impl HostLock {
                         .instance()
                         .map_or(String::new(), |i| format!(" in instance '{i}'")),
                     pid,
-                    path,
+                    path: path.to_path_buf(),
                 })
             }
             Err(TryLockError::Error(e)) => {
@@ -114,7 +166,7 @@ impl HostLock {
                     "{service}: cannot lock {} ({e}); a second {service} under the same names would not be refused",
                     path.display()
                 );
-                Ok(Self { _file: None })
+                Ok(Some(Self { held: None }))
             }
         }
     }
@@ -197,7 +249,31 @@ mod tests {
         let _c = HostLock::acquire_in(dir.path(), &names, "producer").unwrap();
         // Once the first lets go, a new one starts.
         drop(first);
-        let _again = HostLock::acquire_in(dir.path(), &names, "predictor").unwrap();
+        let again = HostLock::acquire_in(dir.path(), &names, "predictor").unwrap();
+        assert!(again.held.is_some());
+        // Regression (review): lock files were left behind for good; each goes with its lock.
+        drop((again, _a, _b, _c));
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+    }
+
+    /// A service that opened the lock file before its holder removed it and let go must not
+    /// take a lock on the removed file while a third takes the new one: it opens it afresh.
+    #[test]
+    fn a_lock_on_a_removed_file_is_not_taken_for_the_lock() {
+        let dir = tempfile::tempdir().unwrap();
+        let names = Names::new(Some("lock-test"), "ddg").unwrap();
+        let path = dir.path().join(lock_file_name(&names, "predictor"));
+        let first = HostLock::acquire_in(dir.path(), &names, "predictor").unwrap();
+        // Opened by a second starter before the first let go (and removed the file).
+        let early = File::open(&path).unwrap();
+        drop(first);
+        assert!(!path.exists());
+        early.try_lock().unwrap();
+        assert!(!still_named(&early, &path));
+        // A third starts now and makes a new file; the second, retrying, is refused by it.
+        let third = HostLock::acquire_in(dir.path(), &names, "predictor").unwrap();
+        assert!(still_named(&third.held.as_ref().unwrap().0, &path));
+        assert!(HostLock::acquire_in(dir.path(), &names, "predictor").is_err());
     }
 
     #[test]
