@@ -53,6 +53,13 @@ pub struct Args {
     pub two_ship: bool,
 }
 
+/// `HOST:PORT` split, when it has that shape (a host, a colon, a port number).
+fn host_and_port(text: &str) -> Option<(&str, u16)> {
+    let (host, port) = text.rsplit_once(':')?;
+    let port = port.parse().ok()?;
+    (!host.is_empty()).then_some((host, port))
+}
+
 /// The address the display will listen on: the one asked for (port 0: a free one), or the
 /// default, falling back to a free port when another process holds the default.
 fn display_address(asked: Option<&str>) -> anyhow::Result<std::net::SocketAddr> {
@@ -65,7 +72,16 @@ fn display_address(asked: Option<&str>) -> anyhow::Result<std::net::SocketAddr> 
             use std::net::ToSocketAddrs;
             let resolved: Vec<_> = wanted
                 .to_socket_addrs()
-                .with_context(|| format!("--display must be HOST:PORT, got '{wanted}'"))?
+                .map_err(|e| match host_and_port(wanted) {
+                    // Regression (review): a name that does not resolve was told it was not
+                    // HOST:PORT.
+                    Some((host, _)) => {
+                        anyhow::anyhow!(
+                            "--display {wanted}: the host name '{host}' does not resolve ({e})"
+                        )
+                    }
+                    None => anyhow::anyhow!("--display must be HOST:PORT, got '{wanted}'"),
+                })?
                 .collect();
             resolved
                 .iter()
@@ -98,7 +114,7 @@ fn display_address(asked: Option<&str>) -> anyhow::Result<std::net::SocketAddr> 
 /// The host name of a `--display HOST:PORT`, unless it is an IP address or localhost (which
 /// the display always serves).
 fn host_name_of(display: &str) -> Option<String> {
-    let (host, _port) = display.rsplit_once(':')?;
+    let (host, _port) = host_and_port(display)?;
     let host = host.trim_start_matches('[').trim_end_matches(']');
     (host.parse::<std::net::IpAddr>().is_err() && !host.eq_ignore_ascii_case("localhost"))
         .then(|| host.to_string())
@@ -867,6 +883,10 @@ mod config_tests {
         assert!(address.ip().is_loopback() && address.port() != 0 && c.two_ship);
         let e = crate::refused::<Args, Config>(&["--log-dir", dir, "--display", "localhost"]);
         assert!(e.starts_with("--display must be HOST:PORT"), "{e}");
+        assert_eq!(host_and_port("bridge-pc:8090"), Some(("bridge-pc", 8090)));
+        for not_host_port in ["localhost", ":8090", "bridge-pc:port", "bridge-pc:99999"] {
+            assert_eq!(host_and_port(not_host_port), None, "{not_host_port}");
+        }
         // A host name with a port is resolved (it was refused: an IP address only).
         let c = crate::validated::<Args, Config>(&["--log-dir", dir, "--display", "localhost:0"])
             .unwrap();

@@ -160,12 +160,15 @@ const events = new EventSource("/events");
 events.onopen = () => { document.getElementById("connection").textContent = "connected"; };
 events.onerror = () => lost("reconnecting...");
 events.onmessage = (e) => {
-  lastSnapshot = Date.now();
+  // performance.now(): a monotonic clock, which a wall-clock step (NTP, a bridge PC's clock
+  // set by hand) cannot move; Date.now() could make a live page look silent, or hide silence.
+  lastSnapshot = performance.now();
   document.getElementById("connection").textContent = `connected, updated ${new Date().toLocaleTimeString()}`;
   render(JSON.parse(e.data));
 };
 setInterval(() => {
-  if (lastSnapshot !== null && Date.now() - lastSnapshot > SILENCE_MS) {
-    lost(`no snapshot for ${((Date.now() - lastSnapshot) / 1000).toFixed(0)} s, waiting...`);
+  const silent = lastSnapshot === null ? 0 : performance.now() - lastSnapshot;
+  if (silent > SILENCE_MS) {
+    lost(`no snapshot for ${(silent / 1000).toFixed(0)} s, waiting...`);
   }
 }, 1000);

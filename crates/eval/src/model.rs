@@ -346,6 +346,7 @@ mod tests {
                 .collect()
         };
         MotionData {
+            ignored: Vec::new(),
             time: (0..len).map(|i| i as f64 * 0.5).collect(),
             columns: vec![
                 Column {

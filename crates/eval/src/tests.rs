@@ -223,6 +223,7 @@ fn baselines_match_an_independent_computation_with_and_without_noise() {
 
 fn record(len: usize) -> MotionData {
     MotionData {
+        ignored: Vec::new(),
         time: (0..len).map(|i| i as f64 * 0.5).collect(),
         columns: vec![
             Column {

@@ -117,8 +117,12 @@ pub struct Column {
 pub struct MotionData {
     /// Sample times [s], strictly increasing.
     pub time: Vec<f64>,
-    /// Every column except `time_s`, in file order; each as long as `time`.
+    /// Every column read except `time_s`, in file order; each as long as `time`.
     pub columns: Vec<Column>,
+    /// The names of the columns the file has that are not read (neither a motion nor
+    /// `wave_m`): named in the error for a missing motion column, where a misnamed one
+    /// (`heave` for `heave_m`) is the usual cause.
+    pub ignored: Vec<String>,
 }
 
 impl MotionData {
@@ -213,6 +217,12 @@ impl MotionData {
         if !matches!(reader.get_ref().last, Some(b'\n' | b'\r')) {
             return Err(MotionCsvError::Unterminated { line });
         }
+        let ignored = names
+            .iter()
+            .zip(&read)
+            .filter(|(_, &r)| !r)
+            .map(|(n, _)| n.clone())
+            .collect();
         let columns = names
             .into_iter()
             .zip(values)
@@ -220,7 +230,11 @@ impl MotionData {
             .filter(|(i, _)| *i != time_index && read[*i])
             .map(|(_, (name, values))| Column { name, values })
             .collect();
-        Ok(Self { time, columns })
+        Ok(Self {
+            time,
+            columns,
+            ignored,
+        })
     }
 
     /// Number of samples (rows).
@@ -282,10 +296,16 @@ impl MotionData {
     }
 
     fn column_list(&self) -> String {
-        std::iter::once(TIME_COLUMN)
+        let read = std::iter::once(TIME_COLUMN)
             .chain(self.columns.iter().map(|c| c.name.as_str()))
             .collect::<Vec<_>>()
-            .join(", ")
+            .join(", ");
+        if self.ignored.is_empty() {
+            return read;
+        }
+        // Regression (review): since other columns are ignored, a misnamed motion column
+        // (`heave`) vanished from this list, and with it the hint.
+        format!("{read}; not read: {}", self.ignored.join(", "))
     }
 }
 
@@ -577,6 +597,30 @@ mod tests {
         let absent = data.dof(Dof::Pitch).unwrap_err().to_string();
         assert!(absent.contains("pitch_rad"), "{absent}");
         assert!(absent.contains("heave_m, time_s") || absent.contains("time_s, heave_m"));
+    }
+
+    /// Regression (review): a misnamed motion column, ignored as any other, vanished from
+    /// the error that a motion column is missing.
+    #[test]
+    fn a_missing_motion_column_is_told_with_the_columns_not_read() {
+        let data = read_str("time_s,heave,roll_deg,wave_m
+0,1,2,3
+0.5,2,3,4
+").unwrap();
+        assert_eq!(data.ignored, ["heave", "roll_deg"]);
+        assert_eq!(
+            data.dof(Dof::Heave).unwrap_err().to_string(),
+            "no 'heave_m' column for heave (columns: time_s, wave_m; not read: heave, roll_deg)"
+        );
+        let plain = read_str("time_s,heave_m
+0,1
+0.5,2
+").unwrap();
+        assert!(plain.ignored.is_empty());
+        assert_eq!(
+            plain.dof(Dof::Roll).unwrap_err().to_string(),
+            "no 'roll_rad' column for roll (columns: time_s, heave_m)"
+        );
     }
 
     #[test]

@@ -161,7 +161,11 @@ pub fn resample_motion(data: &MotionData, target: f64) -> Result<MotionData, Res
             })
         })
         .collect::<Result<_, ResampleError>>()?;
-    Ok(MotionData { time, columns })
+    Ok(MotionData {
+        time,
+        columns,
+        ignored: data.ignored.clone(),
+    })
 }
 
 #[cfg(test)]
@@ -173,6 +177,7 @@ mod tests {
         let heave = time.iter().map(|t| (0.6 * t).sin()).collect();
         let wave = time.iter().map(|t| (0.5 * t).cos()).collect();
         MotionData {
+            ignored: Vec::new(),
             time,
             columns: vec![
                 Column {
@@ -266,6 +271,7 @@ mod tests {
         assert!(decimation_factor(8.0, f64::NAN).is_err());
         // A tiny target rate gives a factor no filter should be built for.
         let tiny = MotionData {
+            ignored: Vec::new(),
             time: vec![0.0, 1.0, 2.0],
             columns: vec![],
         };

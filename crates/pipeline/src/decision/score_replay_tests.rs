@@ -19,6 +19,7 @@ fn ar2_heave(n: usize, seed: u64) -> MotionData {
         x[t] = a1 * x[t - 1] + a2 * x[t - 2] + noise.sample(&mut rng);
     }
     MotionData {
+        ignored: Vec::new(),
         time: (0..n).map(|i| i as f64 / 2.0).collect(),
         columns: vec![Column {
             name: "heave_m".into(),

@@ -26,6 +26,7 @@ fn ar2(n: usize, seed: u64, scale: impl Fn(usize) -> f64) -> Vec<f64> {
 
 fn record(heave: Vec<f64>, rate: f64) -> MotionData {
     MotionData {
+        ignored: Vec::new(),
         time: (0..heave.len()).map(|i| i as f64 / rate).collect(),
         columns: vec![Column {
             name: "heave_m".into(),
@@ -508,6 +509,7 @@ fn after_a_change_of_sea_the_10s_error_is_back_near_its_new_level_within_a_bound
         "yaw_rad",
     ];
     let data = MotionData {
+        ignored: Vec::new(),
         time: (0..n).map(|i| i as f64 / rate).collect(),
         columns: names
             .iter()

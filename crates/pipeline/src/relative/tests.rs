@@ -333,6 +333,7 @@ fn record(seconds: f64, shift: f64) -> MotionData {
         values: time.iter().map(|&t| wave(amp, period, t)).collect(),
     };
     MotionData {
+        ignored: Vec::new(),
         columns: vec![
             column("heave_m", 1.0, 9.0),
             column("roll_rad", 0.03, 11.0),
