@@ -13,12 +13,28 @@ Needs `pip install iceoryx2==0.10.0` and a pipeline on the same machine
 import argparse
 import ctypes
 import math
+import re
+import signal
 import sys
 
 import iceoryx2 as iox2
 
 MAX_STEPS = 128
 NUM_DOF = 6
+# The limits of shipcast's services (shipcast_wire::payload::limits): whichever process comes
+# first creates the service, and one created with iceoryx2's defaults (2 publishers, no
+# history) would keep the predictor from starting.
+MAX_PUBLISHERS = 4
+MAX_SUBSCRIBERS = 16
+MAX_NODES = 32
+FORECAST_BUFFER = 8
+FORECAST_HISTORY = 1
+MAX_NOTIFIERS = 4
+MAX_LISTENERS = 16
+# What a printed forecast must satisfy (shared memory holds whatever another process wrote).
+MAX_ABS_MOTION = 1.0e6
+MAX_DT_S = 60.0
+NAME = re.compile(r"[A-Za-z0-9._-]{1,64}")
 
 
 class MotionSample(ctypes.Structure):
@@ -61,6 +77,25 @@ assert ctypes.sizeof(MotionSample) == 72
 assert ctypes.sizeof(Forecast) == 6200
 
 
+def step_at(f: Forecast, lead_s: float, dofs) -> int:
+    """The index of the step nearest `lead_s`, after checking the forecast's shape and the
+    values of `dofs` there; ValueError says what is wrong."""
+    if not 1 <= f.steps <= MAX_STEPS:
+        raise ValueError(f"steps {f.steps}")
+    if not (0.0 < f.dt_s <= MAX_DT_S) or not math.isfinite(f.time_s):
+        raise ValueError(f"dt_s {f.dt_s}, time_s {f.time_s}")
+    k = min(max(round(lead_s / f.dt_s), 1), f.steps) - 1
+    for d in dofs:
+        mean, sigma = f.mean[d][k], f.sigma[d][k]
+        if not (abs(mean) <= MAX_ABS_MOTION and 0.0 <= sigma <= MAX_ABS_MOTION):
+            raise ValueError(f"DOF {d} step {k + 1}: mean {mean}, sigma {sigma}")
+    return k
+
+
+def stop(_signum, _frame):
+    raise KeyboardInterrupt
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--instance", default="")
@@ -68,6 +103,11 @@ def main() -> int:
     parser.add_argument("--count", type=int, default=0,
                         help="stop after N forecasts (0: run until Ctrl-C)")
     args = parser.parse_args()
+    for flag, value in (("--instance", args.instance), ("--vessel", args.vessel)):
+        if (value or flag == "--vessel") and not NAME.fullmatch(value):
+            parser.error(f"{flag} '{value}': 1 to 64 characters of A-Z a-z 0-9 . _ -")
+    # SIGTERM ends the loop like Ctrl-C, so the node and its ports are closed (their files go).
+    signal.signal(signal.SIGTERM, stop)
     name = f"shipcast/{args.vessel}/forecast"
     config = iox2.config.default()
     if args.instance:
@@ -78,10 +118,21 @@ def main() -> int:
     node = iox2.NodeBuilder.new().config(config).create(iox2.ServiceType.Ipc)
     service = (node.service_builder(iox2.ServiceName.new(name))
                .publish_subscribe(Forecast)
+               .max_publishers(MAX_PUBLISHERS)
+               .max_subscribers(MAX_SUBSCRIBERS)
+               .max_nodes(MAX_NODES)
+               .subscriber_max_buffer_size(FORECAST_BUFFER)
+               .history_size(FORECAST_HISTORY)
+               .enable_safe_overflow(True)
                .open_or_create())
     subscriber = service.subscriber_builder().create()
     # The predictor notifies this event service after every forecast.
-    event = node.service_builder(iox2.ServiceName.new(name + "/event")).event().open_or_create()
+    event = (node.service_builder(iox2.ServiceName.new(name + "/event"))
+             .event()
+             .max_notifiers(MAX_NOTIFIERS)
+             .max_listeners(MAX_LISTENERS)
+             .max_nodes(MAX_NODES)
+             .open_or_create())
     listener = event.listener_builder().create()
     print(f"reading {name} (iceoryx2)", file=sys.stderr)
 
@@ -89,17 +140,25 @@ def main() -> int:
     try:
         while args.count == 0 or received < args.count:
             listener.timed_wait(iox2.Duration.from_millis(500))
-            while True:
+            # One wake-up may find several forecasts queued: never more than --count printed.
+            while args.count == 0 or received < args.count:
                 sample = subscriber.receive()
                 if sample is None:
                     break
                 f = sample.payload().contents
+                try:
+                    k5 = step_at(f, 5.0, (2, 4))
+                except ValueError as why:
+                    print(f"skipped forecast seq {f.seq}: {why}", file=sys.stderr)
+                    sample.delete()
+                    continue
                 received += 1
-                k5 = min(f.steps, round(5.0 / f.dt_s)) - 1
-                print(f"seq {f.seq} t={f.time_s:.1f}s v{f.model_version}: in 5 s "
+                latency_us = max(f.issued_stamp_ns - f.source_stamp_ns, 0) / 1e3
+                print(f"seq {f.seq} t={f.time_s:.1f}s v{f.model_version}: "
+                      f"in {(k5 + 1) * f.dt_s:.1f} s "
                       f"heave {f.mean[2][k5]:+.2f} m (sigma {f.sigma[2][k5]:.2f}), "
                       f"pitch {math.degrees(f.mean[4][k5]):+.2f} deg, "
-                      f"latency {(f.issued_stamp_ns - f.source_stamp_ns) / 1e3:.0f} us")
+                      f"latency {latency_us:.0f} us")
                 sample.delete()
     except KeyboardInterrupt:
         pass

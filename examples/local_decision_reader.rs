@@ -27,6 +27,31 @@ fn seconds(v: f64, absent: &str) -> String {
     }
 }
 
+/// Why `d` makes no sense, if it does not. A GO must come with a probability that reaches
+/// its threshold (the display refuses the same): a forged or corrupted "GO" is never shown.
+fn check(d: &DecisionSample) -> Result<(), String> {
+    let p = d.probability_now;
+    let probability = |v: f64| (0.0..=1.0).contains(&v);
+    if d.go > 1 {
+        return Err(format!("go {}", d.go));
+    }
+    if !(d.mot_s > 0.0 && d.mot_s.is_finite() && d.time_s.is_finite()) {
+        return Err(format!("MOT {} s at t={}", d.mot_s, d.time_s));
+    }
+    if !probability(d.go_probability) || !(p.is_nan() || probability(p)) {
+        return Err(format!("p {p}, threshold {}", d.go_probability));
+    }
+    // NaN (no probability) reaches no threshold.
+    let reaches = p.is_finite() && p >= d.go_probability;
+    if d.go == 1 && !reaches {
+        return Err(format!(
+            "GO with p {p} below its threshold {}",
+            d.go_probability
+        ));
+    }
+    Ok(())
+}
+
 fn run(options: &options::Options) -> Result<(), Box<dyn std::error::Error>> {
     let station = options.get("--station").unwrap_or("deck");
     // The deck notifies the event service after every sample: no polling needed.
@@ -42,18 +67,18 @@ fn run(options: &options::Options) -> Result<(), Box<dyn std::error::Error>> {
         if !reader.wait()? {
             break;
         }
-        while let Some(sample) = subscriber.receive()? {
+        // One wake-up may find several decisions queued: never more than --count printed.
+        while options.count == 0 || received < options.count {
+            let Some(sample) = subscriber.receive()? else {
+                break;
+            };
             let d: &DecisionSample = &sample;
             // Shared memory is written by another process: check what is printed.
-            let p = d.probability_now;
-            let bad_mot = d.mot_s.is_nan() || d.mot_s <= 0.0;
-            if d.go > 1 || bad_mot || !(p.is_nan() || (0.0..=1.0).contains(&p)) {
-                eprintln!(
-                    "skipped a decision with go {}, MOT {}, p {p}",
-                    d.go, d.mot_s
-                );
+            if let Err(why) = check(d) {
+                eprintln!("skipped decision seq {}: {why}", d.forecast_seq);
                 continue;
             }
+            let p = d.probability_now;
             received += 1;
             let verdict = if d.go == 1 { "GO" } else { "NO-GO" };
             let now = if p.is_nan() {

@@ -12,12 +12,14 @@
 //! With `--instance NAME` the pipeline's service names start with `NAME/` and its iceoryx2 files
 //! with the prefix `iox2_NAME_`; pass the same `--instance` here.
 
+#[path = "common/checks.rs"]
+mod checks;
 #[path = "common/iox_reader.rs"]
 mod iox_reader;
 #[path = "common/options.rs"]
 mod options;
 
-use shipcast_wire::payload::{Forecast, MAX_STEPS};
+use shipcast_wire::payload::Forecast;
 use shipcast_wire::Dof;
 use std::process::ExitCode;
 
@@ -33,27 +35,28 @@ fn run(options: &options::Options) -> Result<(), Box<dyn std::error::Error>> {
         if !reader.wait()? {
             break;
         }
-        while let Some(sample) = subscriber.receive()? {
+        // One wake-up may find several forecasts queued: never more than --count printed.
+        while options.count == 0 || received < options.count {
+            let Some(sample) = subscriber.receive()? else {
+                break;
+            };
             let f: &Forecast = &sample;
-            // Shared memory is written by another process: check what indexing relies on.
-            if f.steps == 0 || f.steps as usize > MAX_STEPS || f.dt_s.is_nan() || f.dt_s <= 0.0 {
-                eprintln!(
-                    "skipped a forecast with steps {} and dt_s {}",
-                    f.steps, f.dt_s
-                );
-                continue;
-            }
-            received += 1;
-            let k5 = ((5.0 / f.dt_s).round() as usize)
-                .min(f.steps as usize)
-                .max(1)
-                - 1;
             let (heave, pitch) = (Dof::Heave.index(), Dof::Pitch.index());
+            // Shared memory is written by another process: check what is indexed and printed.
+            let k5 = match checks::step_at(f, 5.0, &[heave, pitch]) {
+                Ok(k) => k,
+                Err(why) => {
+                    eprintln!("skipped forecast seq {}: {why}", f.seq);
+                    continue;
+                }
+            };
+            received += 1;
             println!(
-                "seq {} t={:.1}s v{}: in 5 s heave {:+.2} m (sigma {:.2}), pitch {:+.2} deg, latency {:.0} us",
+                "seq {} t={:.1}s v{}: in {:.1} s heave {:+.2} m (sigma {:.2}), pitch {:+.2} deg, latency {:.0} us",
                 f.seq,
                 f.time_s,
                 f.model_version,
+                (k5 + 1) as f64 * f.dt_s,
                 f.mean[heave][k5],
                 f.sigma[heave][k5],
                 f.mean[pitch][k5].to_degrees(),

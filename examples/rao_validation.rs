@@ -11,14 +11,32 @@ use shipcast_sim::rao_reference::{std_ratio_on_same_waves, validation_sea, Refer
 use shipcast_sim::{Channel, ClosedFormRao, Hull, Rao, ShipMotion, SimConfig};
 use shipcast_wire::Dof;
 use std::path::Path;
+use std::process::ExitCode;
 
-fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+const USAGE: &str = "usage: rao_validation [--out FILE.svg]";
+
+/// Errors as one line `error: ...` (not the debug form `main` would print), `--help` as help.
+fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();
-    let out = match args.as_slice() {
+    if args.iter().any(|a| a == "--help" || a == "-h") {
+        println!("{USAGE} (default: docs/results/rao_validation.svg)");
+        return ExitCode::SUCCESS;
+    }
+    match run(&args) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn run(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let out = match args {
         [] => root.join("docs/results/rao_validation.svg"),
         [flag, path] if flag == "--out" => Path::new(path).to_path_buf(),
-        _ => return Err(format!("usage: rao_validation [--out FILE.svg], got {args:?}").into()),
+        _ => return Err(format!("{USAGE}, got {}", args.join(" ")).into()),
     };
     let bem = ReferenceRaos::load(&root.join("tests/fixtures/dtmb5415-bem/motion_rao.csv"))?;
     let hull = Hull::dtmb5415();

@@ -13,12 +13,15 @@
 //! `shipcast certs`, which holds the endpoint, TLS and the station's certificate:
 //! `--config DIR/crane.json5`.
 
+#[path = "common/checks.rs"]
+mod checks;
 #[path = "common/options.rs"]
 mod options;
 
 use shipcast_wire::payload::{limits, Forecast};
 use shipcast_wire::Dof;
 use std::process::ExitCode;
+use std::time::Duration;
 use zenoh::handlers::RingChannel;
 use zenoh::Wait;
 
@@ -28,15 +31,25 @@ type Error = Box<dyn std::error::Error + Send + Sync>;
 /// The default endpoint: where `shipcast run` listens.
 const DEFAULT_CONNECT: &str = "tcp/127.0.0.1:17447";
 
+/// Where this peer itself listens: loopback only, a port of the system's choosing. Without it
+/// zenoh listens on every interface. Regression (review).
+const OWN_LISTEN: &str = "tcp/127.0.0.1:0";
+
+/// How long to wait for the predictor's liveliness token before saying it is not heard.
+const ALIVE_PATIENCE: Duration = Duration::from_secs(5);
+
 fn zenoh_config(options: &options::Options) -> Result<zenoh::Config, Error> {
     // A zenoh client configuration (JSON5) replaces the endpoint.
     if let Some(path) = options.get("--config") {
-        return zenoh::Config::from_file(path);
+        return zenoh::Config::from_file(path).map_err(|e| format!("--config {path}: {e}").into());
     }
     let connect = options.get("--connect").unwrap_or(DEFAULT_CONNECT);
     let mut config = zenoh::Config::default();
     config.insert_json5("mode", r#""peer""#)?;
-    config.insert_json5("connect/endpoints", &serde_json::to_string(&[connect])?)?;
+    config
+        .insert_json5("connect/endpoints", &serde_json::to_string(&[connect])?)
+        .map_err(|e| format!("--connect {connect}: {e}"))?;
+    config.insert_json5("listen/endpoints", &serde_json::to_string(&[OWN_LISTEN])?)?;
     // Explicit endpoints only: no multicast discovery on a ship's network.
     config.insert_json5("scouting/multicast/enabled", "false")?;
     Ok(config)
@@ -54,6 +67,20 @@ fn run(options: &options::Options) -> Result<(), Error> {
         .with(RingChannel::new(limits::ZENOH_RING))
         .wait()?;
     eprintln!("listening on {key}");
+    // Said at once when the predictor is not there (a wrong endpoint, a stopped pipeline)
+    // rather than waiting in silence. Regression (review).
+    let alive = format!("{key}/alive");
+    let replies = session
+        .liveliness()
+        .get(&alive)
+        .timeout(ALIVE_PATIENCE)
+        .wait()?;
+    if !std::iter::from_fn(|| replies.recv().ok()).any(|r| r.result().is_ok()) {
+        eprintln!(
+            "no predictor heard on {alive} after {} s (is it running, and is this its endpoint?): waiting for it",
+            ALIVE_PATIENCE.as_secs()
+        );
+    }
 
     let mut received = 0;
     while options.count == 0 || received < options.count {
@@ -61,27 +88,23 @@ fn run(options: &options::Options) -> Result<(), Error> {
         let bytes = sample.payload().to_bytes();
         // The JSON's own checks (fields, shapes) by the wire type; a bad one is skipped.
         let forecast = match Forecast::from_json(&bytes) {
-            Ok(f) if f.steps > 0 && f.dt_s > 0.0 => f,
-            Ok(f) => {
-                eprintln!(
-                    "skipped a forecast with steps {} and dt_s {}",
-                    f.steps, f.dt_s
-                );
-                continue;
-            }
+            Ok(f) => f,
             Err(e) => {
                 eprintln!("skipped a message that is not a forecast: {e}");
                 continue;
             }
         };
-        received += 1;
-        let k20 = ((20.0 / forecast.dt_s).round() as usize)
-            .min(forecast.steps as usize)
-            .max(1)
-            - 1;
         let (heave, roll) = (Dof::Heave.index(), Dof::Roll.index());
+        let k20 = match checks::step_at(&forecast, 20.0, &[heave, roll]) {
+            Ok(k) => k,
+            Err(why) => {
+                eprintln!("skipped forecast seq {}: {why}", forecast.seq);
+                continue;
+            }
+        };
+        received += 1;
         println!(
-            "seq {} t={:.1}s model v{}: in {:.0} s heave {:+.2} m (sigma {:.2}), roll {:+.1} deg  [{}]",
+            "seq {} t={:.1}s model v{}: in {:.1} s heave {:+.2} m (sigma {:.2}), roll {:+.1} deg  [{}]",
             forecast.seq,
             forecast.time_s,
             forecast.model_version,

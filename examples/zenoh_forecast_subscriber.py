@@ -17,9 +17,44 @@ import argparse
 import json
 import math
 import sys
-import time
 
 import zenoh
+
+NUM_DOF = 6
+MAX_STEPS = 128
+MAX_ABS_MOTION = 1.0e6
+MAX_DT_S = 60.0
+# Where this peer itself listens: loopback, a port of the system's choosing (zenoh's default
+# is every interface).
+OWN_LISTEN = "tcp/127.0.0.1:0"
+
+
+def forecast_at(payload: bytes, lead_s: float):
+    """(forecast, step index nearest lead_s) from the JSON of a forecast; ValueError says why
+    a message is not one this script prints (the network carries whatever a peer sent)."""
+    try:
+        f = json.loads(payload)
+        steps, dt = int(f["steps"]), float(f["dt_s"])
+        mean, sigma = f["mean"], f["sigma"]
+        float(f["time_s"]), int(f["seq"]), int(f["model_version"])
+    except (ValueError, TypeError, KeyError) as e:
+        raise ValueError(f"not a forecast ({type(e).__name__}: {e})") from None
+    if not 1 <= steps <= MAX_STEPS or not 0.0 < dt <= MAX_DT_S:
+        raise ValueError(f"steps {steps}, dt_s {dt}")
+    try:
+        shaped = (len(mean) == NUM_DOF and len(sigma) == NUM_DOF
+                  and all(len(row) == steps for row in list(mean) + list(sigma)))
+    except TypeError:
+        shaped = False
+    if not shaped:
+        raise ValueError("mean and sigma are not 6 arrays of `steps` values")
+    k = min(max(round(lead_s / dt), 1), steps) - 1
+    for d in (2, 3):
+        m, s = mean[d][k], sigma[d][k]
+        if not (isinstance(m, (int, float)) and isinstance(s, (int, float))
+                and abs(m) <= MAX_ABS_MOTION and 0.0 <= s <= MAX_ABS_MOTION):
+            raise ValueError(f"DOF {d} step {k + 1}: mean {m}, sigma {s}")
+    return f, k
 
 
 def main() -> int:
@@ -42,14 +77,20 @@ def main() -> int:
         if args.instance:
             args.key = f"{args.instance}/{args.key}"
 
-    if args.config:
-        config = zenoh.Config.from_file(args.config)
-        args.connect = args.config
-    else:
-        config = zenoh.Config()
-        config.insert_json5("mode", '"peer"')
-        config.insert_json5("connect/endpoints", json.dumps([args.connect]))
-        config.insert_json5("scouting/multicast/enabled", "false")
+    try:
+        if args.config:
+            config = zenoh.Config.from_file(args.config)
+            args.connect = args.config
+        else:
+            config = zenoh.Config()
+            config.insert_json5("mode", '"peer"')
+            config.insert_json5("connect/endpoints", json.dumps([args.connect]))
+            config.insert_json5("listen/endpoints", json.dumps([OWN_LISTEN]))
+            config.insert_json5("scouting/multicast/enabled", "false")
+    except Exception as e:  # zenoh raises its own ZError
+        flag = "--config" if args.config else "--connect"
+        print(f"error: {flag} {args.connect}: {' '.join(str(e).split())}", file=sys.stderr)
+        return 1
 
     received = 0
     with zenoh.open(config) as session:
@@ -59,16 +100,18 @@ def main() -> int:
         try:
             while args.count == 0 or received < args.count:
                 sample = subscriber.recv()
-                forecast = json.loads(sample.payload.to_bytes())
+                try:
+                    forecast, k20 = forecast_at(sample.payload.to_bytes(), 20.0)
+                except ValueError as why:
+                    print(f"skipped a message: {why}", file=sys.stderr)
+                    continue
                 received += 1
-                steps = forecast["steps"]
                 dt = forecast["dt_s"]
-                k20 = min(steps, round(20.0 / dt)) - 1
                 heave = forecast["mean"][2][k20]
                 heave_sigma = forecast["sigma"][2][k20]
                 roll = math.degrees(forecast["mean"][3][k20])
                 print(f"seq {forecast['seq']} t={forecast['time_s']:.1f}s model v{forecast['model_version']}: "
-                      f"in {(k20 + 1) * dt:.0f} s heave {heave:+.2f} m (sigma {heave_sigma:.2f}), "
+                      f"in {(k20 + 1) * dt:.1f} s heave {heave:+.2f} m (sigma {heave_sigma:.2f}), "
                       f"roll {roll:+.1f} deg  [{sample.encoding}]")
         except KeyboardInterrupt:
             pass

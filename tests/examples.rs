@@ -13,9 +13,12 @@ mod python_env;
 use pipeline_support::TestPipeline;
 use python_env::Python;
 use shipcast_pipeline::child::ChildProcess;
+use shipcast_wire::payload::Forecast;
+use shipcast_wire::Dof;
 use std::path::{Path, PathBuf};
 use std::process::{Command, ExitStatus, Stdio};
 use std::time::Duration;
+use zenoh::Wait;
 
 /// Forecasts each example reads before it exits.
 const COUNT: usize = 3;
@@ -108,6 +111,16 @@ impl ExampleProc {
 
     fn read(path: &Path) -> String {
         std::fs::read_to_string(path).unwrap_or_default()
+    }
+
+    /// What the example printed, if it has exited.
+    fn try_finish(&mut self) -> Option<ExampleOutput> {
+        let status = self.child.wait_timeout(Duration::ZERO)?;
+        Some(ExampleOutput {
+            status,
+            stdout: Self::read(&self.stdout),
+            stderr: Self::read(&self.stderr),
+        })
     }
 
     /// Wait for the example to exit; panics with its output after EXAMPLE_PATIENCE.
@@ -241,6 +254,41 @@ fn python_examples_read_forecasts_over_zenoh_and_iceoryx2() {
     check_both(zenoh, iox);
 }
 
+/// A Python iceoryx2 reader started before the pipeline creates the forecast service; the
+/// predictor must still start and the reader read from it. Regression (review): the script
+/// created it with iceoryx2's default limits (2 publishers), and the predictor then refused
+/// to start.
+#[test]
+fn a_python_reader_started_first_does_not_keep_the_predictor_from_starting() {
+    let python = require_python_packages();
+    let p = TestPipeline::new("pyfirst", "");
+    let reader = ExampleProc::python(
+        &python,
+        p.dir.path(),
+        "iceoryx2_forecast_reader.py",
+        &["--instance", &p.instance, "--count", "1"],
+    );
+    // The reader has made the service once it says so on stderr.
+    let made =
+        shipcast_pipeline::pacing::poll_until(EXAMPLE_PATIENCE, Duration::from_millis(50), || {
+            ExampleProc::read(&reader.stderr)
+                .contains("(iceoryx2)")
+                .then_some(())
+        });
+    assert!(made.is_some(), "{}", ExampleProc::read(&reader.stderr));
+    let predictor = p.spawn("predictor", &[]);
+    predictor.wait_for("(iceoryx2 and zenoh)");
+    let _producer = p.spawn("producer", &["--wait-subscriber-s", "30"]);
+    let out = reader.finish();
+    assert!(out.status.success(), "{}\n{}", out.stdout, out.stderr);
+    assert_eq!(
+        out.stdout.lines().filter(|l| l.starts_with("seq ")).count(),
+        1,
+        "{}",
+        out.stdout
+    );
+}
+
 /// The Rust consumers (examples/local_forecast_reader.rs over iceoryx2 and
 /// examples/remote_forecast_subscriber.rs over zenoh) print the same lines as the Python ones
 /// and are checked the same way.
@@ -339,12 +387,172 @@ fn the_rao_validation_example_prints_its_table_and_writes_its_figure() {
     assert!(figure.contains("<svg") && figure.contains("closed form (shipcast)"));
     let bad = ExampleProc::rust(dir.path(), "rao_validation", &["--outt", "x"]).finish();
     assert!(!bad.status.success());
-    assert!(
-        bad.stderr
-            .contains("usage: rao_validation [--out FILE.svg]"),
-        "{}",
-        bad.stderr
+    // One line, not the debug form of the error (regression, review).
+    assert_eq!(
+        bad.stderr.trim_end(),
+        "error: usage: rao_validation [--out FILE.svg], got --outt x"
     );
+}
+
+/// A peer of the test's own that the remote examples connect to, publishing on `key` what the
+/// test makes up: forged messages between forecasts whose values are known.
+struct FakePredictor {
+    session: zenoh::Session,
+    endpoint: String,
+}
+
+impl FakePredictor {
+    fn new() -> Self {
+        let endpoint =
+            shipcast_pipeline::transport::zenoh::free_loopback_endpoint().expect("a free port");
+        let mut config = zenoh::Config::default();
+        config.insert_json5("mode", "\"peer\"").unwrap();
+        config
+            .insert_json5("scouting/multicast/enabled", "false")
+            .unwrap();
+        config
+            .insert_json5("listen/endpoints", &format!("[\"{endpoint}\"]"))
+            .unwrap();
+        let session = zenoh::open(config).wait().expect("the test's zenoh peer");
+        Self { session, endpoint }
+    }
+
+    /// Publish `messages` on `key`, over and over, until `example` exits (it subscribes some
+    /// time after it starts).
+    fn feed_until_exit(
+        &self,
+        key: &str,
+        messages: &[Vec<u8>],
+        example: ExampleProc,
+    ) -> ExampleOutput {
+        let publisher = self
+            .session
+            .declare_publisher(key.to_string())
+            .wait()
+            .unwrap();
+        let deadline = std::time::Instant::now() + EXAMPLE_PATIENCE;
+        let mut example = example;
+        loop {
+            for m in messages {
+                publisher.put(m.clone()).wait().unwrap();
+            }
+            if let Some(out) = example.try_finish() {
+                return out;
+            }
+            assert!(
+                std::time::Instant::now() < deadline,
+                "{} did not exit",
+                example.label
+            );
+            std::thread::sleep(Duration::from_millis(100));
+        }
+    }
+}
+
+/// A forecast whose values say where they are: heave `0.01 k` m and roll `k` degrees at step
+/// k, sigma a tenth of the heave.
+fn labelled_forecast(seq: u64) -> Forecast {
+    let mut f = Forecast {
+        seq,
+        time_s: 100.0 + seq as f64 * 0.5,
+        dt_s: 0.5,
+        steps: 50,
+        model_version: 3,
+        ..Forecast::default()
+    };
+    for k in 0..50 {
+        let step = (k + 1) as f32;
+        f.mean[Dof::Heave.index()][k] = 0.01 * step;
+        f.sigma[Dof::Heave.index()][k] = 0.001 * step;
+        f.mean[Dof::Roll.index()][k] = step.to_radians();
+    }
+    f
+}
+
+/// The remote examples, fed forged messages among forecasts: each forged one is skipped with a
+/// line on stderr and never printed, and the forecasts printed carry the values of step 40
+/// (20 s at 0.5 s), heave and roll in degrees. Regression (review): the Python example died of
+/// the first malformed message, and nothing checked which step and DOF an example prints.
+#[test]
+fn remote_examples_skip_forged_messages_and_print_the_step_they_name() {
+    let json = |f: &Forecast| {
+        let mut out = Vec::new();
+        f.write_json(&mut out).unwrap();
+        out
+    };
+    let mut no_steps = labelled_forecast(7);
+    no_steps.steps = 0;
+    let mut zero_dt = labelled_forecast(8);
+    zero_dt.dt_s = 0.0;
+    let mut negative_sigma = labelled_forecast(9);
+    negative_sigma.sigma[Dof::Heave.index()][39] = -1.0;
+    let messages = vec![
+        b"garbage".to_vec(),
+        b"{}".to_vec(),
+        json(&no_steps),
+        json(&zero_dt),
+        json(&negative_sigma),
+        json(&labelled_forecast(1)),
+    ];
+    let python = require_python_packages();
+    for rust in [true, false] {
+        let fake = FakePredictor::new();
+        let instance = pipeline_support::unique_instance("forged");
+        let key = format!("{instance}/shipcast/ddg51/forecast");
+        let dir = tempfile::tempdir().unwrap();
+        let args = [
+            "--connect",
+            &fake.endpoint,
+            "--instance",
+            &instance,
+            "--count",
+            "2",
+        ];
+        let example = if rust {
+            ExampleProc::rust(dir.path(), "remote_forecast_subscriber", &args)
+        } else {
+            ExampleProc::python(&python, dir.path(), "zenoh_forecast_subscriber.py", &args)
+        };
+        let out = fake.feed_until_exit(&key, &messages, example);
+        let label = if rust { "rust" } else { "python" };
+        assert!(
+            out.status.success(),
+            "{label}: {}\n{}",
+            out.stdout,
+            out.stderr
+        );
+        let lines: Vec<&str> = out
+            .stdout
+            .lines()
+            .filter(|l| l.starts_with("seq "))
+            .collect();
+        assert_eq!(lines.len(), 2, "{label}: {}", out.stdout);
+        for line in lines {
+            let f = parse_forecast_line(line, "roll");
+            assert_eq!(
+                (f.seq, f.model_version, f.lead_s),
+                (1, 3, 20.0),
+                "{label}: {line}"
+            );
+            assert_eq!(
+                (f.heave_m, f.heave_sigma_m, f.angle_deg),
+                (0.4, 0.04, 40.0),
+                "{label}: {line}"
+            );
+        }
+        for forged in ["steps 0", "dt_s 0", "sigma -1"] {
+            assert!(
+                out.stderr.contains(forged),
+                "{label} did not skip '{forged}':\n{}",
+                out.stderr
+            );
+        }
+        assert!(
+            out.stderr.matches("skipped").count() >= 5,
+            "{label}:\n{}",
+            out.stderr
+        );
+    }
 }
 
 /// The transport an example reads from.

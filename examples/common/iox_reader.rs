@@ -7,7 +7,13 @@ use iceoryx2::port::subscriber::Subscriber;
 use iceoryx2::prelude::*;
 use shipcast_wire::payload::limits;
 use std::fmt::Debug;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
+
+/// Set by Ctrl-C or SIGTERM: the read loop ends and the node and its ports are dropped, which
+/// removes their files. Regression (review): no handler was installed, so a signal killed the
+/// reader and left its node's files behind.
+static STOP: AtomicBool = AtomicBool::new(false);
 
 pub struct Reader<T: Debug + ZeroCopySend + 'static> {
     // Kept alive for as long as the ports are used.
@@ -23,7 +29,7 @@ impl<T: Debug + ZeroCopySend + 'static> Reader<T> {
     /// asked to stop (Ctrl-C).
     pub fn wait(&self) -> Result<bool, Box<dyn std::error::Error>> {
         match self.listener.timed_wait(|_| {}, Duration::from_millis(500)) {
-            Ok(_) => Ok(true),
+            Ok(_) => Ok(!STOP.load(Ordering::Relaxed)),
             Err(ListenerWaitError::InterruptSignal) => Ok(false),
             Err(e) => Err(e.into()),
         }
@@ -35,8 +41,11 @@ pub fn open<T: Debug + ZeroCopySend + 'static>(
     instance: &str,
     service: &str,
 ) -> Result<Reader<T>, Box<dyn std::error::Error>> {
+    ctrlc::set_handler(|| STOP.store(true, Ordering::Relaxed))?;
     let mut name = format!("shipcast/{service}");
     let mut config = iceoryx2::config::Config::default();
+    // A reader killed before (SIGKILL) left its node: removed when the next one starts.
+    config.global.node.cleanup_dead_nodes_on_creation = true;
     if !instance.is_empty() {
         name = format!("{instance}/{name}");
         let prefix = format!("iox2_{instance}_");
@@ -44,6 +53,8 @@ pub fn open<T: Debug + ZeroCopySend + 'static>(
     }
     let node = NodeBuilder::new()
         .config(&config)
+        // Signals are this reader's own (STOP above).
+        .signal_handling_mode(SignalHandlingMode::Disabled)
         .create::<ipc::Service>()?;
     // The same limits as the publishing service, so whichever process comes first creates a
     // service the other can open.

@@ -52,16 +52,43 @@ pub fn parse(own: &[&str]) -> Result<Options, String> {
                 options.own.push((flag, v));
             }
             other => {
-                let known: Vec<&str> = own
-                    .iter()
-                    .copied()
-                    .chain(["--instance", "--vessel", "--count"])
-                    .collect();
-                return Err(format!("unknown option '{other}' ({})", known.join(", ")));
+                return Err(format!("unknown option '{other}' ({})", usage(own)));
             }
         }
     }
+    // The rule every shipcast name keeps (docs/contracts.md): a name that breaks it names no
+    // service the pipeline has, and iceoryx2's own refusal does not say which option it was.
+    if !options.instance.is_empty() {
+        check_name("--instance", &options.instance)?;
+    }
+    check_name("--vessel", &options.vessel)?;
     Ok(options)
+}
+
+/// Longest name segment shipcast accepts.
+const MAX_NAME: usize = 64;
+
+fn check_name(flag: &str, name: &str) -> Result<(), String> {
+    let allowed = |c: char| c.is_ascii_alphanumeric() || matches!(c, '.' | '_' | '-');
+    if name.is_empty() || name.len() > MAX_NAME || !name.chars().all(allowed) {
+        return Err(format!(
+            "{flag} '{name}': 1 to {MAX_NAME} characters of A-Z a-z 0-9 . _ -"
+        ));
+    }
+    Ok(())
+}
+
+/// The options an example takes, for `--help` and the error for an unknown one.
+fn usage(own: &[&str]) -> String {
+    own.iter()
+        .map(|f| format!("{f} VALUE"))
+        .chain([
+            "--instance NAME".to_string(),
+            "--vessel NAME".to_string(),
+            "--count N".to_string(),
+        ])
+        .collect::<Vec<_>>()
+        .join(", ")
 }
 
 /// An example's `main`: parse the command line with the example's own flags `own`, run it,
@@ -70,6 +97,10 @@ pub fn main_with<E: std::fmt::Display>(
     own: &[&str],
     run: impl FnOnce(&Options) -> Result<(), E>,
 ) -> ExitCode {
+    if std::env::args().skip(1).any(|a| a == "--help" || a == "-h") {
+        println!("options: {} (see the example's source header)", usage(own));
+        return ExitCode::SUCCESS;
+    }
     let result = match parse(own) {
         Ok(options) => run(&options).map_err(|e| e.to_string()),
         Err(e) => Err(e),
@@ -77,8 +108,34 @@ pub fn main_with<E: std::fmt::Display>(
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {e}");
+            eprintln!("error: {}", one_line(&e));
             ExitCode::FAILURE
         }
     }
+}
+
+/// An error as one line: zenoh's errors carry the source location of every layer (`at
+/// /root/.cargo/registry/.../endpoint.rs:615.`) and may span lines.
+fn one_line(e: &str) -> String {
+    let mut out = String::with_capacity(e.len());
+    let mut rest = e;
+    while let Some(at) = rest.find(" at /") {
+        out.push_str(&rest[..at]);
+        let tail = &rest[at + 4..];
+        // Skip the path up to its ".rs:LINE" and the punctuation after it.
+        match tail.find(".rs:") {
+            Some(rs) => {
+                let after = &tail[rs + 4..];
+                let digits =
+                    after.len() - after.trim_start_matches(|c: char| c.is_ascii_digit()).len();
+                rest = after[digits..].trim_start_matches('.');
+            }
+            None => {
+                out.push_str(" at ");
+                rest = tail;
+            }
+        }
+    }
+    out.push_str(rest);
+    out.split_whitespace().collect::<Vec<_>>().join(" ")
 }
