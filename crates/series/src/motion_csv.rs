@@ -603,25 +603,13 @@ mod tests {
     /// the error that a motion column is missing.
     #[test]
     fn a_missing_motion_column_is_told_with_the_columns_not_read() {
-        let data = read_str(
-            "time_s,heave,roll_deg,wave_m
-0,1,2,3
-0.5,2,3,4
-",
-        )
-        .unwrap();
+        let data = read_str("time_s,heave,roll_deg,wave_m\n0,1,2,3\n0.5,2,3,4\n").unwrap();
         assert_eq!(data.ignored, ["heave", "roll_deg"]);
         assert_eq!(
             data.dof(Dof::Heave).unwrap_err().to_string(),
             "no 'heave_m' column for heave (columns: time_s, wave_m; not read: heave, roll_deg)"
         );
-        let plain = read_str(
-            "time_s,heave_m
-0,1
-0.5,2
-",
-        )
-        .unwrap();
+        let plain = read_str("time_s,heave_m\n0,1\n0.5,2\n").unwrap();
         assert!(plain.ignored.is_empty());
         assert_eq!(
             plain.dof(Dof::Roll).unwrap_err().to_string(),
