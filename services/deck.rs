@@ -15,6 +15,7 @@
 use shipcast_pipeline::config::{CommonArgs, PipelineConfig};
 use shipcast_pipeline::decision::outcomes::{OutcomeCounts, Outcomes};
 use shipcast_pipeline::decision::statements_file::{self, StatementsKeeper};
+use shipcast_pipeline::decision::withdrawn_sample;
 use shipcast_pipeline::deck::DeckAdvisor;
 use shipcast_pipeline::limits as value_limits;
 use shipcast_pipeline::transport::clock::monotonic_ns;
@@ -152,6 +153,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         names.forecast()
     );
     let mut silence = ForecastSilence::new("deck", NO_FORECAST_AFTER, Instant::now());
+    // (seq, time_s) of the last forecast decided on, for the NO-GO that withdraws it.
+    let mut last_decided: Option<(u64, f64)> = None;
     let mut last_status = Instant::now();
     let mut count = 0u64;
     let stdout = std::io::stdout();
@@ -183,9 +186,21 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             }
             let newest = newest_accepted(&forecasts, &mut gate, &mut connected)?;
             let Some(forecast) = newest else {
-                silence.check(Instant::now());
+                if let (true, Some((seq, time_s))) = (silence.check(Instant::now()), last_decided) {
+                    // No forecast for NO_FORECAST_AFTER: a NO-GO replaces the last decision
+                    // for local readers, which keep the newest one (the display and zenoh
+                    // readers judge by the advisory's age).
+                    local.send(&withdrawn_sample(
+                        config.deck.mot_s,
+                        config.deck.go_probability,
+                        seq,
+                        time_s,
+                        monotonic_ns(),
+                    ))?;
+                }
                 continue;
             };
+            last_decided = Some((forecast.seq, forecast.time_s));
             silence.heard(Instant::now());
             // The motion at the forecast's time_s: the deck velocity's first step is then a
             // central difference, like the outcome it is verified against.

@@ -7,7 +7,7 @@ use pipeline_support::{status_u64, TestPipeline, PATIENCE};
 use shipcast_pipeline::pacing::poll_until;
 use shipcast_pipeline::transport::iox::{self, IoxSubscriber, Sizing, WaitMode};
 use shipcast_pipeline::transport::{monotonic_ns, Counters, SeqTracker};
-use shipcast_wire::payload::{limits, Forecast, MotionSample};
+use shipcast_wire::payload::{limits, DecisionSample, Forecast, MotionSample};
 use std::time::{Duration, Instant};
 
 /// How often a waiting test looks again.
@@ -28,11 +28,20 @@ fn wait_forecast(
 
 /// kill -9 the predictor, reap it, start a new one: it starts without a stale-resource error
 /// and both consumers, still running, get forecasts again: the deck over iceoryx2, the crane
-/// over zenoh (which also sees the liveliness token go and come back).
+/// over zenoh (which also sees the liveliness token go and come back). While no forecast
+/// comes, the deck's newest decision for local readers is a NO-GO without probability.
 #[test]
 fn killed_predictor_restarts_and_consumers_resume() {
     let p = TestPipeline::new("kill9", "[producer]\nspeed = 20.0\nbackfill_s = 0.0\n");
     let names = p.names();
+    let node = iox::node(&names, "test-observer").unwrap();
+    let decisions = IoxSubscriber::<DecisionSample>::new(
+        &node,
+        &names.advisory("deck"),
+        Sizing::FORECAST,
+        WaitMode::Event,
+    )
+    .unwrap();
     let mut first = p.spawn("predictor", &[]);
     first.wait_for("(iceoryx2 and zenoh)");
     let deck = p.spawn("deck", &["--no-publish"]);
@@ -42,8 +51,25 @@ fn killed_predictor_restarts_and_consumers_resume() {
     crane.wait_for("crane t=");
 
     first.kill9();
+    let killed_ns = monotonic_ns();
     // The remote consumer sees the predictor's liveliness token go.
     crane.wait_for("predictor gone");
+    // Regression (review): local readers kept the last decision, a GO perhaps, for as long
+    // as no forecast came. The deck withdraws it once the silence passes its limit.
+    deck.wait_for("deck: no forecast for");
+    let newest = poll_until(PATIENCE, Duration::ZERO, || {
+        decisions.wait(Duration::from_millis(50)).unwrap();
+        std::iter::from_fn(|| decisions.receive().unwrap())
+            .last()
+            .filter(|d| d.stamp_ns > killed_ns)
+    })
+    .expect("a decision published after the predictor was killed");
+    assert_eq!(newest.go, 0, "{newest:?}");
+    assert!(
+        newest.probability_now.is_nan() && newest.next_window_s.is_nan(),
+        "{newest:?}"
+    );
+    assert!(newest.time_s.is_finite(), "{newest:?}");
     let before = deck.stdout().len();
     let crane_before = crane.stdout().len();
     let crane_mark = crane.mark();
@@ -71,7 +97,6 @@ fn killed_predictor_restarts_and_consumers_resume() {
     });
     assert!(resumed.is_some(), "crane did not resume");
     // The deck kept running through the crash and saw the new model's forecasts.
-    let node = iox::node(&names, "test-observer").unwrap();
     let sub =
         IoxSubscriber::<Forecast>::new(&node, &names.forecast(), Sizing::FORECAST, WaitMode::Event)
             .unwrap();

@@ -74,6 +74,32 @@ pub struct Decision {
     pub awaiting_verified_errors: bool,
 }
 
+/// The NO-GO a station publishes for its local readers when its forecasts stop: no
+/// probability, no window, nothing verified behind it, tied to the last forecast decided on
+/// (`forecast_seq`, `time_s`) and stamped now. Local readers keep the newest decision; without
+/// it they kept the last GO for as long as the silence lasted (review).
+pub fn withdrawn_sample(
+    mot_s: f64,
+    go_probability: f64,
+    forecast_seq: u64,
+    time_s: f64,
+    stamp_ns: u64,
+) -> DecisionSample {
+    DecisionSample {
+        forecast_seq,
+        stamp_ns,
+        time_s,
+        mot_s,
+        go_probability,
+        probability_now: f64::NAN,
+        next_window_s: f64::NAN,
+        next_window_probability: f64::NAN,
+        next_exceedance_s: f64::NAN,
+        go: 0,
+        ensemble_members: 0,
+    }
+}
+
 impl Decision {
     /// The decision as the iceoryx2 payload for local readers (NaN for absent values).
     pub fn sample(&self, forecast_seq: u64, time_s: f64, stamp_ns: u64) -> DecisionSample {
