@@ -138,16 +138,20 @@ fn a_second_predictor_under_the_same_names_is_refused() {
 
 /// Regression (review): only the predictor took the host lock. A second deck blanked the
 /// first's advisory (the consumers refused both publishers), a second producer's samples were
-/// all refused. Each is now refused at start, naming the service.
+/// all refused. Each is now refused at start, naming the service; the crane and the relative
+/// service (both zenoh consumers) the same way.
 #[test]
 fn a_second_deck_or_producer_under_the_same_names_is_refused() {
     let p = TestPipeline::new("twice2", "[producer]\nspeed = 20.0\nbackfill_s = 0.0\n");
-    for (service, args) in [
-        ("deck", &[][..]),
-        ("producer", &["--wait-subscriber-s", "30"][..]),
+    let _predictor = p.spawn("predictor", &[]);
+    for (service, args, started) in [
+        ("deck", &[][..], "deck"),
+        ("producer", &["--wait-subscriber-s", "30"][..], "producer"),
+        ("crane", &[][..], "crane: following"),
+        ("relative", &[][..], "relative"),
     ] {
         let first = p.spawn(service, args);
-        first.wait_for(service);
+        first.wait_for(started);
         let mut second = p.spawn(service, args);
         let status = second.wait_exit();
         assert!(!status.success(), "{service}");

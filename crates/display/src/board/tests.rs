@@ -182,6 +182,8 @@ fn the_deck_advisory_the_deck_publishes_parses_with_its_decision() {
     let mut fresh = DeckAdvisor::new(&DeckConfig::default());
     let json = serde_json::to_vec(&fresh.advise(&calm_forecast(50))).unwrap();
     let a: AdvisoryView = serde_json::from_slice(&json).unwrap();
+    // What the real deck publishes passes the check the board makes of every advisory.
+    a.check().unwrap();
     assert!(!a.decision.go && a.decision.ensemble_members == Some(0));
     assert_eq!(a.decision.probability_now, None);
     assert!(a.decision.awaiting_verified_errors);
@@ -191,6 +193,8 @@ fn the_deck_advisory_the_deck_publishes_parses_with_its_decision() {
     });
     let json = serde_json::to_vec(&advisor.advise(&calm_forecast(50))).unwrap();
     let a: AdvisoryView = serde_json::from_slice(&json).unwrap();
+    // What the real deck publishes passes the check the board makes of every advisory.
+    a.check().unwrap();
     assert_eq!(a.time_s, 100.0);
     assert!(a.max_roll_deg.is_some() && a.max_pitch_deg.is_some());
     // A calm sea with tiny sigma: go now, no exceedance.
@@ -204,6 +208,8 @@ fn the_deck_advisory_the_deck_publishes_parses_with_its_decision() {
     }
     let json = serde_json::to_vec(&advisor.advise(&f)).unwrap();
     let a: AdvisoryView = serde_json::from_slice(&json).unwrap();
+    // What the real deck publishes passes the check the board makes of every advisory.
+    a.check().unwrap();
     assert!(a.decision.next_exceedance_s.unwrap() > 9.0);
 }
 
