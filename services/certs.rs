@@ -550,10 +550,10 @@ mod tests {
         );
         assert_eq!(
             refused(&["--router", "tcp/r:1"]),
-            "certs: endpoint 'tcp/r:1' is not tls/HOST:PORT"
+            "certs: endpoint 'tcp/r:1' is not tls/HOST:PORT (port 1-65535: a certificate names a fixed address)"
         );
         let bad = crate::refused::<Args, Config>(&["--out", "x", "--listen", "tcp/h:1"]);
-        assert_eq!(bad, "certs: endpoint 'tcp/h:1' is not tls/HOST:PORT");
+        assert_eq!(bad, "certs: endpoint 'tcp/h:1' is not tls/HOST:PORT (port 1-65535: a certificate names a fixed address)");
     }
 
     /// Regression: a key written over an existing world-readable file kept its mode, and

@@ -180,11 +180,7 @@ impl DofChoice {
     /// present.
     pub fn in_record(self, data: &MotionData) -> anyhow::Result<Vec<Dof>> {
         match self {
-            DofChoice::All => {
-                let dofs = data.dofs();
-                anyhow::ensure!(!dofs.is_empty(), "no DOF column in the file (expected any of surge_m, sway_m, heave_m, roll_rad, pitch_rad, yaw_rad)");
-                Ok(dofs)
-            }
+            DofChoice::All => Ok(data.motion_dofs()?),
             DofChoice::One(dof) => {
                 data.dof(dof)?;
                 Ok(vec![dof])
@@ -266,7 +262,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         json,
     } = Config::try_from(args)?;
     let data = load_resampled(&input, settings.sample_rate)?;
-    let dofs = dofs.in_record(&data)?;
+    let dofs = dofs
+        .in_record(&data)
+        .map_err(|e| anyhow::anyhow!("{}: {e:#}", input.display()))?;
     let per_pair = eval::origin_count(data.len(), &config, &settings)?;
     let bar = progress::styled(
         (per_pair * dofs.len() * methods.len()) as u64,

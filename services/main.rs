@@ -10,6 +10,7 @@ mod certs;
 mod crane;
 mod deck;
 mod display;
+mod error_text;
 mod eval;
 mod followed_motion;
 mod logging;
@@ -157,7 +158,11 @@ fn main() -> ExitCode {
             // One line, no backtrace: the chain of causes joined by ": ". Written, not
             // eprintln!: with stderr closed (`2>&1 | head` done reading) that would panic,
             // and the exit status would be a panic's instead of the error's.
-            let _ = writeln!(std::io::stderr(), "error: {e:#}");
+            let _ = writeln!(
+                std::io::stderr(),
+                "error: {}",
+                error_text::one_line(&format!("{e:#}"))
+            );
             ExitCode::from(2)
         }
     }

@@ -99,10 +99,8 @@ impl CsvSource {
             .map(|(d, _)| d.csv_column())
             .collect();
         if missing.len() == 6 {
-            anyhow::bail!(
-                "{}: no motion column (expected e.g. heave_m)",
-                path.display()
-            );
+            data.motion_dofs()
+                .with_context(|| path.display().to_string())?;
         }
         if !missing.is_empty() {
             tracing::warn!("{}: columns {missing:?} missing, sent as 0", path.display());

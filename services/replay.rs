@@ -88,15 +88,18 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     } = Config::try_from(args)?;
     let data =
         MotionData::read_path(&input).with_context(|| format!("reading {}", input.display()))?;
-    if data.dofs().is_empty() {
-        anyhow::bail!(
-            "{}: no motion column (surge_m, sway_m, heave_m, roll_rad, pitch_rad, yaw_rad)",
-            input.display()
-        );
-    }
+    data.motion_dofs()
+        .with_context(|| input.display().to_string())?;
     // Skipping the whole record would score nothing and print a table of NaN.
     let start_s = data.time.first().copied().unwrap_or(0.0);
     let end_s = data.time.last().copied().unwrap_or(0.0);
+    if data.len() < 2 {
+        anyhow::bail!(
+            "{}: {} row: a record to replay needs at least two",
+            input.display(),
+            data.len()
+        );
+    }
     if skip_s >= end_s {
         anyhow::bail!(
             "--skip-s {skip_s} s (record time) skips the whole record: it runs from {start_s:.1} to {end_s:.1} s in {}",

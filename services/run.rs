@@ -762,40 +762,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
 fn last_error_line(log: &Path) -> Option<String> {
     let text = std::fs::read_to_string(log).ok()?;
     let line = text.lines().rev().find(|l| l.starts_with("error: "))?;
-    let line = without_source_locations(line.trim_start_matches("error: "));
+    let line = crate::error_text::without_source_locations(line.trim_start_matches("error: "));
     const MOST: usize = 300;
     Some(if line.chars().count() > MOST {
         format!("{}...", line.chars().take(MOST).collect::<String>())
     } else {
         line
     })
-}
-
-/// `text` without the source locations zenoh writes into its errors (` at
-/// /root/.cargo/registry/.../tcp.rs:61.`): they filled the 300 characters of the reason
-/// `run` repeats and cut it off mid-path.
-fn without_source_locations(text: &str) -> String {
-    let mut out = String::with_capacity(text.len());
-    let mut rest = text;
-    while let Some(i) = rest.find(" at /") {
-        out.push_str(&rest[..i]);
-        let after = &rest[i + 4..];
-        let end = after
-            .find(|c: char| c.is_whitespace() || c == ']')
-            .unwrap_or(after.len());
-        let path = after[..end].trim_end_matches('.');
-        let is_location = path
-            .rsplit_once(".rs:")
-            .is_some_and(|(_, line)| !line.is_empty() && line.chars().all(|c| c.is_ascii_digit()));
-        if is_location {
-            rest = &after[end..];
-        } else {
-            out.push_str(" at ");
-            rest = after;
-        }
-    }
-    out.push_str(rest);
-    out
 }
 
 /// The newest JSON document of one key whose publisher is the key's one live publisher; others
@@ -849,18 +822,6 @@ impl CheckedJson {
 #[cfg(test)]
 mod config_tests {
     use super::*;
-
-    #[test]
-    fn zenohs_source_locations_are_left_out_of_a_repeated_reason() {
-        let line = "zenoh: open peer session: Can not create a new TCP listener bound to tcp/127.0.0.1:7447: Address already in use (os error 98) at /root/.cargo/registry/src/index.crates.io-1949cf8c6b5b557f/zenoh-link-tcp-1.10.2/src/unicast.rs:61.] at /root/.cargo/registry/src/x/zenoh-1.10.2/src/net/runtime/orchestrator.rs:201.";
-        assert_eq!(
-            without_source_locations(line),
-            "zenoh: open peer session: Can not create a new TCP listener bound to tcp/127.0.0.1:7447: Address already in use (os error 98)]"
-        );
-        // A path that is not a source location stays.
-        let kept = "tls certificate file /etc/ship/a.pem: expired at /etc time";
-        assert_eq!(without_source_locations(kept), kept);
-    }
 
     #[test]
     fn the_display_flags_and_two_ship_are_resolved_and_checked() {

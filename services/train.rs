@@ -91,12 +91,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     } = Config::try_from(args)?;
     let method = options.method;
     let data = load_resampled(&input, options.sample_rate)?;
-    let dofs = data.dofs();
-    anyhow::ensure!(
-        !dofs.is_empty(),
-        "{}: no DOF column (expected any of surge_m, sway_m, heave_m, roll_rad, pitch_rad, yaw_rad)",
-        input.display()
-    );
+    let dofs = data
+        .motion_dofs()
+        .map_err(|e| anyhow::anyhow!("{}: {e}", input.display()))?;
     let holdout = options.holdout_fraction;
     let model = train_models(&data, &dofs, &options).map_err(|e| {
         // "train N" in the protocol's message is the record less its held-out share here.

@@ -560,15 +560,21 @@ fn heave_csv(
 
 /// Regression: an 8 Hz record whose time stamps were rounded to 2 decimals (steps of 0.12 and
 /// 0.13 s) was refused as "config: input rate 7.692308 Hz is not an integer multiple", blaming
-/// the configuration for the record's stamps.
+/// the configuration for the record's stamps. Stamps rounded to a quarter of the step or less
+/// are now read at their rate (eval does the same); rounded more coarsely (a 4 Hz record to
+/// 0.1 s: steps of 0.2 and 0.3 s), the record is refused and its stamps named.
 #[test]
 fn replay_of_a_record_with_rounded_time_stamps_says_so_of_the_record() {
     let dir = tempfile::tempdir().unwrap();
     let input = heave_csv(dir.path(), "rounded.csv", 8.0, 2000, |t| format!("{t:.2}"));
-    let output = shipcast(&["replay", "--input", input.to_str().unwrap()]);
+    let output = shipcast(&["replay", "--input", input.to_str().unwrap(), "--json"]);
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(output.status.success(), "{stderr}");
+    let coarse = heave_csv(dir.path(), "coarse.csv", 4.0, 1000, |t| format!("{t:.1}"));
+    let output = shipcast(&["replay", "--input", coarse.to_str().unwrap()]);
     assert_one_line_error(&output, "time stamps rounded or jittered");
     let stderr = String::from_utf8_lossy(&output.stderr);
-    assert!(stderr.contains("typical time step is 0.13 s"), "{stderr}");
+    assert!(stderr.contains("typical time step is 0.3 s"), "{stderr}");
     assert!(!stderr.contains("config"), "{stderr}");
 }
 

@@ -53,12 +53,14 @@ pub struct DofModel {
 /// a `source` would make error-chain printers (`anyhow`'s `{:#}`) repeat them.
 #[derive(Debug, thiserror::Error)]
 pub enum ModelError {
-    #[error("{path}: {error}")]
+    /// "model file": the bare OS or parser error named no model (review: `error: m.json: EOF
+    /// while parsing a list at line 1 column 5000`).
+    #[error("model file {path}: {error}")]
     Io {
         path: PathBuf,
         error: std::io::Error,
     },
-    #[error("{path}: {error}")]
+    #[error("model file {path}: {error}")]
     Json {
         path: PathBuf,
         error: serde_json::Error,

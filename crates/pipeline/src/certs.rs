@@ -16,7 +16,7 @@ pub enum CertError {
     #[error("certs: cannot make a key or certificate")]
     Rcgen(#[from] rcgen::Error),
     /// A listen or router endpoint that a certificate cannot name.
-    #[error("certs: endpoint '{endpoint}' is not tls/HOST:PORT")]
+    #[error("certs: endpoint '{endpoint}' is not tls/HOST:PORT (port 1-65535: a certificate names a fixed address)")]
     Endpoint { endpoint: String },
 }
 
@@ -161,7 +161,7 @@ mod tests {
             let e = anyhow::Error::from(endpoint_host(bad).unwrap_err());
             assert_eq!(
                 format!("{e:#}"),
-                format!("certs: endpoint '{bad}' is not tls/HOST:PORT")
+                format!("certs: endpoint '{bad}' is not tls/HOST:PORT (port 1-65535: a certificate names a fixed address)")
             );
         }
         assert_eq!(

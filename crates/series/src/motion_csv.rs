@@ -81,6 +81,8 @@ pub enum MotionCsvError {
     TimeNotIncreasing { line: u64, time: f64, previous: f64 },
     #[error("line {line}: malformed CSV: {message}")]
     Malformed { line: u64, message: String },
+    #[error("no motion column: none of surge_m, sway_m, heave_m, roll_rad, pitch_rad, yaw_rad (columns: {columns})")]
+    NoMotion { columns: String },
     #[error("no '{column}' column for {dof} (columns: {columns})")]
     DofAbsent {
         dof: Dof,
@@ -271,6 +273,18 @@ impl MotionData {
             .into_iter()
             .filter(|d| self.column(d.csv_column()).is_some())
             .collect()
+    }
+
+    /// The DOFs present, or an error listing the columns the file has (read and not read)
+    /// when there is none.
+    pub fn motion_dofs(&self) -> Result<Vec<Dof>, MotionCsvError> {
+        let dofs = self.dofs();
+        if dofs.is_empty() {
+            return Err(MotionCsvError::NoMotion {
+                columns: self.column_list(),
+            });
+        }
+        Ok(dofs)
     }
 
     /// Columns that are not one of the six DOFs (`wave_m`, ...).

@@ -23,9 +23,11 @@ pub enum ResampleError {
     FactorTooLarge(usize),
     #[error("need at least two samples to estimate the sample rate, got {0}")]
     TooFewForRate(usize),
-    #[error("irregular sampling: time step {index} is {step} s, the typical step is {median} s")]
+    #[error("irregular sampling: time step {index} (after t = {after_s} s) is {step} s, the typical step is {median} s")]
     Irregular {
         index: usize,
+        /// The time the step starts from: where to look in the file.
+        after_s: f64,
         step: f64,
         median: f64,
     },
@@ -82,6 +84,7 @@ pub fn sample_rate(time: &[f64]) -> Result<f64, ResampleError> {
         if step.is_nan() || step <= 0.0 || (step - median).abs() > tolerance {
             return Err(ResampleError::Irregular {
                 index: index + 1,
+                after_s: time[index],
                 step,
                 median,
             });
@@ -219,7 +222,7 @@ mod tests {
         gap.iter_mut().skip(50).for_each(|v| *v += 0.125);
         let message = sample_rate(&gap).unwrap_err().to_string();
         assert!(
-            message.contains("irregular sampling: time step 50 is 0.25 s"),
+            message.contains("irregular sampling: time step 50 (after t = 6.125 s) is 0.25 s"),
             "{message}"
         );
         assert!(matches!(

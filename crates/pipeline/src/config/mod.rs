@@ -302,6 +302,17 @@ impl PipelineConfig {
             MAX_RETRAIN_WINDOW,
         )?;
         limits::count("predictor.holdout", q.holdout, 0, MAX_RETRAIN_WINDOW)?;
+        // The first fit waits for `first_fit_s` of history, and the history holds
+        // `history_values`: a longer wait would never end, silently. Checked before the span
+        // below, whose "raise retrain_window to N" would otherwise lead to this error next
+        // (review: 405 asked, then 480 needed).
+        let first_fit_values = (q.first_fit_s * q.sample_rate_hz).round();
+        if q.retrain_every_s > 0.0 && first_fit_values > q.history_values() as f64 {
+            return Err(format!(
+                "predictor.first_fit_s = {} s is {first_fit_values:.0} values at {} Hz, more than the history holds (predictor.retrain_window = {}): the first fit would never come; lower first_fit_s or raise retrain_window to at least {first_fit_values:.0}",
+                q.first_fit_s, q.sample_rate_hz, q.retrain_window
+            ));
+        }
         // Every fit the engine makes must be able to fit and score some candidate: the live
         // retrains on the retrain window, and the start-up fit on simulated history (no model
         // file, warmup_s > 0), which needs its held-out part whether or not retraining is on.
@@ -344,15 +355,6 @@ impl PipelineConfig {
                     "{problem} (the start-up fit on simulated history; or give predictor.model, or set warmup_s = 0 to start with no skill)"
                 ));
             }
-        }
-        // The first fit waits for `first_fit_s` of history, and the history holds
-        // `history_values`: a longer wait would never end, silently.
-        let first_fit_values = (q.first_fit_s * q.sample_rate_hz).round();
-        if q.retrain_every_s > 0.0 && first_fit_values > q.history_values() as f64 {
-            return Err(format!(
-                "predictor.first_fit_s = {} s is {first_fit_values:.0} values at {} Hz, more than the history holds (predictor.retrain_window = {}): the first fit would never come; lower first_fit_s or raise retrain_window",
-                q.first_fit_s, q.sample_rate_hz, q.retrain_window
-            ));
         }
         Ok(())
     }

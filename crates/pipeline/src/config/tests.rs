@@ -285,6 +285,13 @@ fn impossible_values_are_refused() {
             "[predictor]\nretrain_window = 400\nfirst_fit_s = 100.0",
             "predictor.retrain_window = 400 values holds out at most a third of itself (133 values), too short to score any candidate: the smallest order (25) with the horizon (50) and 60 origins needs 135; raise retrain_window to at least 405 values",
         ),
+        // Regression (review): with the default first_fit_s (240 s, 480 values) the span's
+        // "raise to 405" led to the first-fit error next; that one now comes first, with the
+        // size that satisfies both.
+        (
+            "[predictor]\nretrain_window = 404",
+            "predictor.first_fit_s = 240 s is 480 values at 2 Hz, more than the history holds (predictor.retrain_window = 404): the first fit would never come; lower first_fit_s or raise retrain_window to at least 480",
+        ),
         // The training part left beside it must hold four values per order.
         (
             "[predictor]\norder = 400\ncandidate_orders = [400]\nretrain_window = 1530\nfirst_fit_s = 100.0",

@@ -383,7 +383,7 @@ pub fn load(path: &Path, sample_rate_hz: f64) -> anyhow::Result<ModelSet> {
     let file = ModelFile::load(path)?;
     if (file.sample_rate - sample_rate_hz).abs() > 1e-9 {
         anyhow::bail!(
-            "{}: model forecasts at {} Hz, the predictor runs at {sample_rate_hz} Hz",
+            "{}: model forecasts at {} Hz, the predictor runs at {sample_rate_hz} Hz ([predictor] sample_rate_hz; or train again with `shipcast train --sample-rate {sample_rate_hz}`)",
             path.display(),
             crate::limits::shown(file.sample_rate)
         );

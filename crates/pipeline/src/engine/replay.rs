@@ -114,10 +114,11 @@ const RATE_SNAP: f64 = 1e-5;
 /// digits than the rate needs).
 pub fn record_rate(time: &[f64], forecast_hz: f64) -> anyhow::Result<f64> {
     let median = shipcast_series::median_rate(time)?;
-    let measured = regular_mean_rate(time, median);
+    let (measured, uncertainty) = regular_mean_rate(time, median);
     let multiple = (measured / forecast_hz).round();
+    let snap = RATE_SNAP + uncertainty;
     let rate =
-        if multiple >= 1.0 && ((measured - multiple * forecast_hz) / measured).abs() < RATE_SNAP {
+        if multiple >= 1.0 && ((measured - multiple * forecast_hz) / measured).abs() < snap {
             multiple * forecast_hz
         } else {
             (measured * 1e6).round() / 1e6
@@ -129,22 +130,28 @@ pub fn record_rate(time: &[f64], forecast_hz: f64) -> anyhow::Result<f64> {
 }
 
 /// One over the mean of the regular steps (within
-/// [`shipcast_series::regular_step_tolerance`] of the median step, `median_hz`): gaps do not
-/// move it, and stamps rounded to fewer digits than the rate needs average out. Regression
-/// (review): a 6 Hz record stamped to the millisecond (steps of 0.167 and 0.166 s) read as
-/// 5.988 Hz by its median step and was refused, while `eval` took it.
-fn regular_mean_rate(time: &[f64], median_hz: f64) -> f64 {
+/// [`shipcast_series::regular_step_tolerance`] of the median step, `median_hz`), and how far
+/// the stamps' rounding may have moved it (relative): gaps do not move it, and stamps rounded
+/// to fewer digits than the rate needs average out, within one rounding per gap-free run.
+/// Regression (review): a 6 Hz record stamped to the millisecond (steps of 0.167 and 0.166 s)
+/// read as 5.988 Hz by its median step and was refused, while `eval` took it.
+fn regular_mean_rate(time: &[f64], median_hz: f64) -> (f64, f64) {
     let median = 1.0 / median_hz;
     let tolerance = shipcast_series::regular_step_tolerance(time, median);
-    let (sum, n) = time
-        .windows(2)
-        .map(|p| p[1] - p[0])
-        .filter(|step| (step - median).abs() <= tolerance)
-        .fold((0.0, 0usize), |(sum, n), step| (sum + step, n + 1));
+    let (mut sum, mut n, mut runs, mut in_run) = (0.0, 0usize, 0usize, false);
+    for step in time.windows(2).map(|p| p[1] - p[0]) {
+        let regular = (step - median).abs() <= tolerance;
+        if regular {
+            sum += step;
+            n += 1;
+            runs += usize::from(!in_run);
+        }
+        in_run = regular;
+    }
     if n == 0 {
-        median_hz
+        (median_hz, 0.0)
     } else {
-        n as f64 / sum
+        (n as f64 / sum, tolerance * runs as f64 / sum)
     }
 }
 
