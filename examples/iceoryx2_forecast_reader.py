@@ -92,8 +92,13 @@ def step_at(f: Forecast, lead_s: float, dofs) -> int:
     return k
 
 
+STOP = []
+
+
 def stop(_signum, _frame):
-    raise KeyboardInterrupt
+    """Ctrl-C or SIGTERM: noted, and the read loop ends at its next turn (the wait it
+    interrupts raises iceoryx2's InterruptSignal, which the loop takes as the stop)."""
+    STOP.append(True)
 
 
 def main() -> int:
@@ -106,8 +111,9 @@ def main() -> int:
     for flag, value in (("--instance", args.instance), ("--vessel", args.vessel)):
         if (value or flag == "--vessel") and not NAME.fullmatch(value):
             parser.error(f"{flag} '{value}': 1 to 64 characters of A-Z a-z 0-9 . _ -")
-    # SIGTERM ends the loop like Ctrl-C, so the node and its ports are closed (their files go).
+    # Ctrl-C and SIGTERM end the loop, so the node and its ports are closed (their files go).
     signal.signal(signal.SIGTERM, stop)
+    signal.signal(signal.SIGINT, stop)
     name = f"shipcast/{args.vessel}/forecast"
     config = iox2.config.default()
     if args.instance:
@@ -115,7 +121,12 @@ def main() -> int:
         config.global_cfg.prefix = iox2.FileName.new(f"iox2_{args.instance}_")
 
     iox2.set_log_level_from_env_or(iox2.LogLevel.Warn)
-    node = iox2.NodeBuilder.new().config(config).create(iox2.ServiceType.Ipc)
+    # Signals are this script's own (KeyboardInterrupt): with iceoryx2's handler, Ctrl-C made
+    # timed_wait raise its own error, and the script died with a dump (review).
+    node = (iox2.NodeBuilder.new()
+            .config(config)
+            .signal_handling_mode(iox2.SignalHandlingMode.Disabled)
+            .create(iox2.ServiceType.Ipc))
     service = (node.service_builder(iox2.ServiceName.new(name))
                .publish_subscribe(Forecast)
                .max_publishers(MAX_PUBLISHERS)
@@ -137,31 +148,34 @@ def main() -> int:
     print(f"reading {name} (iceoryx2)", file=sys.stderr)
 
     received = 0
-    try:
-        while args.count == 0 or received < args.count:
+    while not STOP and (args.count == 0 or received < args.count):
+        try:
             listener.timed_wait(iox2.Duration.from_millis(500))
-            # One wake-up may find several forecasts queued: never more than --count printed.
-            while args.count == 0 or received < args.count:
-                sample = subscriber.receive()
-                if sample is None:
-                    break
-                f = sample.payload().contents
-                try:
-                    k5 = step_at(f, 5.0, (2, 4))
-                except ValueError as why:
-                    print(f"skipped forecast seq {f.seq}: {why}", file=sys.stderr)
-                    sample.delete()
-                    continue
-                received += 1
-                latency_us = max(f.issued_stamp_ns - f.source_stamp_ns, 0) / 1e3
-                print(f"seq {f.seq} t={f.time_s:.1f}s v{f.model_version}: "
-                      f"in {(k5 + 1) * f.dt_s:.1f} s "
-                      f"heave {f.mean[2][k5]:+.2f} m (sigma {f.sigma[2][k5]:.2f}), "
-                      f"pitch {math.degrees(f.mean[4][k5]):+.2f} deg, "
-                      f"latency {latency_us:.0f} us")
+        except iox2.ListenerWaitError as e:
+            # A signal interrupts the wait before Python runs its handler.
+            if STOP or "InterruptSignal" in str(e):
+                break
+            raise
+        # One wake-up may find several forecasts queued: never more than --count printed.
+        while args.count == 0 or received < args.count:
+            sample = subscriber.receive()
+            if sample is None:
+                break
+            f = sample.payload().contents
+            try:
+                k5 = step_at(f, 5.0, (2, 4))
+            except ValueError as why:
+                print(f"skipped forecast seq {f.seq}: {why}", file=sys.stderr)
                 sample.delete()
-    except KeyboardInterrupt:
-        pass
+                continue
+            received += 1
+            latency_us = max(f.issued_stamp_ns - f.source_stamp_ns, 0) / 1e3
+            print(f"seq {f.seq} t={f.time_s:.1f}s v{f.model_version}: "
+                  f"in {(k5 + 1) * f.dt_s:.1f} s "
+                  f"heave {f.mean[2][k5]:+.2f} m (sigma {f.sigma[2][k5]:.2f}), "
+                  f"pitch {math.degrees(f.mean[4][k5]):+.2f} deg, "
+                  f"latency {latency_us:.0f} us")
+            sample.delete()
     return 0
 
 

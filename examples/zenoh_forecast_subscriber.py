@@ -27,6 +27,8 @@ MAX_DT_S = 60.0
 # Where this peer itself listens: loopback, a port of the system's choosing (zenoh's default
 # is every interface).
 OWN_LISTEN = "tcp/127.0.0.1:0"
+# How long to wait for the predictor's liveliness token before saying it is not heard.
+ALIVE_PATIENCE_S = 5.0
 
 
 def forecast_at(payload: bytes, lead_s: float):
@@ -36,11 +38,14 @@ def forecast_at(payload: bytes, lead_s: float):
         f = json.loads(payload)
         steps, dt = int(f["steps"]), float(f["dt_s"])
         mean, sigma = f["mean"], f["sigma"]
-        float(f["time_s"]), int(f["seq"]), int(f["model_version"])
+        time_s = float(f["time_s"])
+        int(f["seq"]), int(f["model_version"])
     except (ValueError, TypeError, KeyError) as e:
         raise ValueError(f"not a forecast ({type(e).__name__}: {e})") from None
     if not 1 <= steps <= MAX_STEPS or not 0.0 < dt <= MAX_DT_S:
         raise ValueError(f"steps {steps}, dt_s {dt}")
+    if not math.isfinite(time_s):  # json.loads takes NaN and Infinity
+        raise ValueError(f"time_s {time_s}")
     try:
         shaped = (len(mean) == NUM_DOF and len(sigma) == NUM_DOF
                   and all(len(row) == steps for row in list(mean) + list(sigma)))
@@ -97,6 +102,13 @@ def main() -> int:
         # A ring channel keeps only the newest forecasts: a slow script never holds zenoh up.
         subscriber = session.declare_subscriber(args.key, zenoh.handlers.RingChannel(4))
         print(f"listening on {args.key} via {args.connect}", file=sys.stderr)
+        # Said at once when the predictor is not there (a wrong endpoint, a stopped pipeline)
+        # rather than waiting in silence.
+        alive = f"{args.key}/alive"
+        replies = session.liveliness().get(alive, timeout=ALIVE_PATIENCE_S)
+        if not any(getattr(reply, "ok", None) is not None for reply in replies):
+            print(f"no predictor heard on {alive} after {ALIVE_PATIENCE_S:.0f} s (is it running, "
+                  "and is this its endpoint?): waiting for it", file=sys.stderr)
         try:
             while args.count == 0 or received < args.count:
                 sample = subscriber.recv()

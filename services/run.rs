@@ -57,7 +57,9 @@ pub struct Args {
 fn host_and_port(text: &str) -> Option<(&str, u16)> {
     let (host, port) = text.rsplit_once(':')?;
     let port = port.parse().ok()?;
-    (!host.is_empty()).then_some((host, port))
+    // An IPv6 address is bracketed ([::1]:8090); a bare one (::1) is no HOST:PORT.
+    let bracketed = host.starts_with('[') && host.ends_with(']');
+    (!host.is_empty() && (bracketed || !host.contains(':'))).then_some((host, port))
 }
 
 /// The address the display will listen on: the one asked for (port 0: a free one), or the
@@ -845,7 +847,15 @@ mod config_tests {
         let e = crate::refused::<Args, Config>(&["--log-dir", dir, "--display", "localhost"]);
         assert!(e.starts_with("--display must be HOST:PORT"), "{e}");
         assert_eq!(host_and_port("bridge-pc:8090"), Some(("bridge-pc", 8090)));
-        for not_host_port in ["localhost", ":8090", "bridge-pc:port", "bridge-pc:99999"] {
+        assert_eq!(host_and_port("[::1]:8090"), Some(("[::1]", 8090)));
+        for not_host_port in [
+            "localhost",
+            ":8090",
+            "bridge-pc:port",
+            "bridge-pc:99999",
+            "::1",
+            "fe80::1:80",
+        ] {
             assert_eq!(host_and_port(not_host_port), None, "{not_host_port}");
         }
         // A host name with a port is resolved (it was refused: an IP address only).

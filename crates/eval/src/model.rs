@@ -580,7 +580,7 @@ mod tests {
         std::fs::write(&path, serde_json::to_vec(&old).unwrap()).unwrap();
         let new = train_models(&record(500), &[Dof::Heave], &options(Method::Persistence)).unwrap();
         let e = new.save(&path).unwrap_err().to_string();
-        assert!(e.contains("writing a temporary file in"), "{e}");
+        assert!(e.contains("creating a temporary file in"), "{e}");
         let back = ModelFile::load(&path).unwrap();
         assert_eq!(back.method, Method::Zero, "the old model, whole");
     }

@@ -21,7 +21,12 @@ use std::sync::atomic::{AtomicU64, Ordering};
 /// What failed, and on which path.
 #[derive(Debug, thiserror::Error)]
 pub enum AtomicWriteError {
-    #[error("writing a temporary file in {path}: {error}")]
+    #[error("creating a temporary file in {path}: {error}")]
+    CreateTemporary {
+        path: PathBuf,
+        error: std::io::Error,
+    },
+    #[error("writing the temporary file {path}: {error}")]
     Temporary {
         path: PathBuf,
         error: std::io::Error,
@@ -69,6 +74,41 @@ fn create_temporary(path: &Path) -> std::io::Result<(PathBuf, File)> {
     Err(last_error.unwrap_or_else(|| std::io::Error::other("no temporary name is free")))
 }
 
+/// Remove the temporary files of `path` that writers killed before their rename left (their
+/// process is gone: no `/proc/<pid>`). Regression (review): each name is unique, so nothing
+/// else ever reused or removed them, and model files are large. Best effort: a file that
+/// cannot be listed or removed stays; where there is no `/proc`, nothing is removed.
+fn remove_stale_temporaries(path: &Path) {
+    let proc_root = Path::new("/proc/self");
+    if !proc_root.exists() {
+        return;
+    }
+    let (Some(name), Ok(entries)) = (path.file_name(), std::fs::read_dir(directory_of(path)))
+    else {
+        return;
+    };
+    let mut prefix = std::ffi::OsString::from(".");
+    prefix.push(name);
+    prefix.push(".");
+    let (prefix, own) = (prefix.to_string_lossy().into_owned(), std::process::id());
+    for entry in entries.flatten() {
+        let file_name = entry.file_name();
+        let file_name = file_name.to_string_lossy();
+        let Some(middle) = file_name
+            .strip_prefix(&prefix)
+            .and_then(|rest| rest.strip_suffix(".tmp"))
+        else {
+            continue;
+        };
+        let Some(pid) = middle.split('.').next().and_then(|p| p.parse::<u32>().ok()) else {
+            continue;
+        };
+        if pid != own && !Path::new("/proc").join(pid.to_string()).exists() {
+            let _ = std::fs::remove_file(entry.path());
+        }
+    }
+}
+
 /// Whether a file can be written beside `path` (in its directory): a temporary file is made
 /// and removed, as [`write_atomically`] would. For a long run that writes `path` only at its
 /// end, so that it is refused at start and not after hours of work.
@@ -80,10 +120,11 @@ pub fn check_writable_beside(path: &Path) -> std::io::Result<()> {
 
 /// Replace `path` by `bytes`, or leave it as it was.
 pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), AtomicWriteError> {
-    let (tmp, mut out) = create_temporary(path).map_err(|error| AtomicWriteError::Temporary {
-        path: directory_of(path).to_path_buf(),
-        error,
-    })?;
+    let (tmp, mut out) =
+        create_temporary(path).map_err(|error| AtomicWriteError::CreateTemporary {
+            path: directory_of(path).to_path_buf(),
+            error,
+        })?;
     if let Err(error) = out.write_all(bytes).and_then(|()| out.sync_all()) {
         // A half-written temporary file is no use to anyone.
         drop(out);
@@ -95,6 +136,7 @@ pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), AtomicWriteErro
         let _ = std::fs::remove_file(&tmp);
         return Err(AtomicWriteError::Rename { error });
     }
+    remove_stale_temporaries(path);
     // Flushing a directory is a Unix notion; elsewhere the rename is left to the OS.
     #[cfg(unix)]
     {
@@ -142,9 +184,9 @@ mod tests {
         let path = dir.path().join("m".repeat(250));
         std::fs::write(&path, b"the only copy").unwrap();
         let e = write_atomically(&path, b"new").unwrap_err();
-        assert!(matches!(e, AtomicWriteError::Temporary { .. }), "{e}");
+        assert!(matches!(e, AtomicWriteError::CreateTemporary { .. }), "{e}");
         assert!(
-            e.to_string().starts_with("writing a temporary file in"),
+            e.to_string().starts_with("creating a temporary file in"),
             "{e}"
         );
         assert!(check_writable_beside(&path).is_err());
@@ -175,7 +217,7 @@ mod tests {
         // Links at the old fixed name and at the next names this process would pick.
         std::os::unix::fs::symlink(&victim, dir.path().join("statements.json.tmp")).unwrap();
         let next = NEXT_TEMPORARY.load(Ordering::Relaxed);
-        for n in next..next + 4 {
+        for n in next..next + 64 {
             let name = format!(".statements.json.{}.{n}.tmp", std::process::id());
             std::os::unix::fs::symlink(&victim, dir.path().join(name)).unwrap();
         }
@@ -183,6 +225,27 @@ mod tests {
         assert_eq!(std::fs::read(&path).unwrap(), b"statements");
         assert_eq!(std::fs::read(&victim).unwrap(), b"not yours");
         assert!(!std::fs::symlink_metadata(&path).unwrap().is_symlink());
+    }
+
+    /// A writer killed between its temporary file and the rename leaves the file; the next
+    /// save removes it once its process is gone, and leaves a live writer's alone.
+    #[cfg(target_os = "linux")]
+    #[test]
+    fn a_dead_writers_temporary_file_goes_with_the_next_save() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("model.json");
+        // Beyond any pid the kernel hands out (pid_max is at most 2^22).
+        let dead = dir.path().join(".model.json.999999999.0.tmp");
+        let live = dir
+            .path()
+            .join(format!(".model.json.{}.999.tmp", std::process::id()));
+        let other = dir.path().join(".other.json.999999999.0.tmp");
+        for f in [&dead, &live, &other] {
+            std::fs::write(f, b"half a model").unwrap();
+        }
+        write_atomically(&path, b"model").unwrap();
+        assert!(!dead.exists());
+        assert!(live.exists() && other.exists());
     }
 
     #[test]

@@ -31,6 +31,12 @@ pub enum ResampleError {
         step: f64,
         median: f64,
     },
+    #[error("irregular sampling: the rate drifts: sample {index} is stamped {time_s} s, {grid_s:.3} s on the record's grid (first stamp plus {index} mean steps)")]
+    OffGrid {
+        index: usize,
+        time_s: f64,
+        grid_s: f64,
+    },
     #[error("the record's time does not increase (typical step {0} s)")]
     NotIncreasing(f64),
     #[error("target sample rate {0} Hz must be positive and finite")]
@@ -52,6 +58,12 @@ pub enum ResampleError {
 /// stamps make a step up to one quantum off. Regression (review): a 12, 16 or 24 Hz record
 /// stamped to the millisecond has steps 1.2 to 2.4 % apart (0.083 and 0.084 s) and was
 /// refused as irregular by eval and replay.
+///
+/// The rounding must show in the steps, not only in the stamps: at least a tenth of them a
+/// half quantum or more off the median (a 12 Hz record stamped to the millisecond has a third
+/// of them 1 ms off). Stamps that are exact multiples of the step (2 Hz stamped 0.0, 0.5,
+/// 1.0) are multiples of 0.1 s too, yet not rounded: their tolerance stays 1 %. Regression
+/// (review): one stamp 0.1 s late in such a record passed as rounding.
 pub fn regular_step_tolerance(time: &[f64], median_step: f64) -> f64 {
     let relative = STEP_TOLERANCE * median_step;
     // The coarsest rounding every stamp shows (whole seconds are also whole tenths).
@@ -63,11 +75,20 @@ pub fn regular_step_tolerance(time: &[f64], median_step: f64) -> f64 {
             (units - units.round()).abs() <= 1e-3
         })
     });
-    match quantum {
-        // A hair over one quantum: the two roundings' error can reach it exactly.
-        Some(q) if q <= 0.25 * median_step => relative.max(1.01 * q),
-        _ => relative,
+    let Some(q) = quantum.filter(|&q| q <= 0.25 * median_step) else {
+        return relative;
+    };
+    let steps = time.len().saturating_sub(1);
+    let rounded = time
+        .windows(2)
+        .map(|p| (p[1] - p[0] - median_step).abs())
+        .filter(|off| (0.5 * q..=1.01 * q).contains(off))
+        .count();
+    if rounded * 10 < steps {
+        return relative;
     }
+    // A hair over one quantum: the two roundings' error can reach it exactly.
+    relative.max(1.01 * q)
 }
 
 /// Sample rate [Hz] of regularly sampled times: 1 / mean step. Every step must be within
@@ -91,6 +112,19 @@ pub fn sample_rate(time: &[f64]) -> Result<f64, ResampleError> {
         }
     }
     let mean = (time[time.len() - 1] - time[0]) / (time.len() - 1) as f64;
+    // Each step may be regular while the rate drifts (16 ms steps, then 15 ms ones): every
+    // stamp must lie within half a step of its slot on the record's grid. Regression (review).
+    if let Some((index, &t)) = time
+        .iter()
+        .enumerate()
+        .find(|&(i, &t)| (t - (time[0] + i as f64 * mean)).abs() > 0.5 * mean)
+    {
+        return Err(ResampleError::OffGrid {
+            index,
+            time_s: t,
+            grid_s: time[0] + index as f64 * mean,
+        });
+    }
     Ok(1.0 / mean)
 }
 
@@ -248,6 +282,19 @@ mod tests {
                 "{rate} Hz"
             );
         }
+        // Exact stamps of a 2 Hz record are multiples of 0.1 s, but show no rounding: one
+        // stamp 0.1 s late is irregular (regression, review), and so is a drifting rate.
+        let mut late: Vec<f64> = (0..400).map(|i| i as f64 * 0.5).collect();
+        late[200] += 0.1;
+        assert!(matches!(
+            sample_rate(&late),
+            Err(ResampleError::Irregular { index: 200, .. })
+        ));
+        let mut drift: Vec<f64> = (0..5000).map(|i| ms(i as f64 * 0.016)).collect();
+        let end = drift[4999];
+        drift.extend((1..3000).map(|i| ms(end + i as f64 * 0.015)));
+        let e = sample_rate(&drift).unwrap_err().to_string();
+        assert!(e.starts_with("irregular sampling: the rate drifts"), "{e}");
         // Whole-second stamps at 1 Hz: the rounding is the step itself and widens nothing.
         let mut seconds: Vec<f64> = (0..100).map(f64::from).collect();
         seconds.iter_mut().skip(50).for_each(|t| *t += 0.2);

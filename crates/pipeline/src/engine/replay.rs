@@ -117,12 +117,11 @@ pub fn record_rate(time: &[f64], forecast_hz: f64) -> anyhow::Result<f64> {
     let (measured, uncertainty) = regular_mean_rate(time, median);
     let multiple = (measured / forecast_hz).round();
     let snap = RATE_SNAP + uncertainty;
-    let rate =
-        if multiple >= 1.0 && ((measured - multiple * forecast_hz) / measured).abs() < snap {
-            multiple * forecast_hz
-        } else {
-            (measured * 1e6).round() / 1e6
-        };
+    let rate = if multiple >= 1.0 && ((measured - multiple * forecast_hz) / measured).abs() < snap {
+        multiple * forecast_hz
+    } else {
+        (measured * 1e6).round() / 1e6
+    };
     if crate::config::decimation_factor(rate, forecast_hz).is_err() {
         anyhow::bail!("{}", rate_mismatch(time, rate, forecast_hz));
     }
