@@ -35,7 +35,9 @@ import shutil
 import subprocess
 import sys
 
-BIN = os.environ.get("SHIPCAST_BIN", os.path.join("target", "release", "shipcast"))
+# The repository's release build, wherever the script is run from (SHIPCAST_BIN: another).
+BIN = os.environ.get("SHIPCAST_BIN", os.path.join(
+    os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "target", "release", "shipcast"))
 
 PAPER_SEEDS = [1, 2, 3]
 
@@ -54,7 +56,11 @@ CARRY_SEEDS = [2, 3, 4, 5, 6]
 
 
 def run(args):
-    out = subprocess.run([BIN] + args, capture_output=True, text=True)
+    try:
+        out = subprocess.run([BIN] + args, capture_output=True, text=True)
+    except OSError as e:
+        sys.exit(f"decisions_study: cannot run {BIN} ({e.strerror}): build it with "
+                 "`cargo build --release`, or set SHIPCAST_BIN")
     if out.returncode != 0:
         sys.exit(f"decisions_study: shipcast {' '.join(args)} failed: {out.stderr.strip()}")
     return out.stdout

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Fetch two measured wave records from the WAFO toolbox and convert them to elevation CSVs.
 
-    python3 scripts/fetch_wafo.py [--out data/wafo] [--wheel-dir DIR] [--force]
+    python3 scripts/fetch_wafo.py [--out DIR] [--wheel-dir DIR] [--force]
 
 Downloads the PyPI package py3wafo 0.4.0 (a wheel, i.e. a zip) with `pip download --no-deps`,
 extracts `wafo/data/gfaks89.dat` and `wafo/data/sea.dat` and writes, in --out (default
@@ -31,6 +31,7 @@ when PyPI cannot be reached).
 
 import argparse
 import glob
+import hashlib
 import math
 import os
 import subprocess
@@ -39,6 +40,12 @@ import tempfile
 import zipfile
 
 PACKAGE = "py3wafo==0.4.0"
+# The one wheel py3wafo 0.4.0 has on PyPI (py3wafo-0.4.0-py3-none-any.whl). Whatever pip or
+# --wheel-dir hands over (a mirror, a find-links folder) must be that file.
+WHEEL_SHA256 = "1383469f3d2ab3ec44041c562e97e8c23f638c1fe60ffaff1ca29b2faedd81e8"
+# The repository root: the records go under its data/wafo, which .gitignore covers, wherever
+# the script is run from.
+REPO_ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 RECORDS = {
     # output name: (member in the wheel, expected sample interval [s])
     "gfaks89.csv": ("wafo/data/gfaks89.dat", 0.4),
@@ -64,7 +71,8 @@ def find_or_download_wheel(wheel_dir):
     if found:
         return found[0]
     os.makedirs(wheel_dir, exist_ok=True)
-    cmd = [sys.executable, "-m", "pip", "download", "--no-deps", "--quiet", PACKAGE, "-d", wheel_dir]
+    cmd = [sys.executable, "-m", "pip", "download", "--no-deps", "--only-binary", ":all:",
+           "--quiet", PACKAGE, "-d", wheel_dir]
     try:
         result = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
     except (OSError, subprocess.TimeoutExpired) as e:
@@ -74,6 +82,20 @@ def find_or_download_wheel(wheel_dir):
         last = (result.stderr.strip().splitlines() or ["no output"])[-1]
         fail(f"pip download {PACKAGE} failed (offline or PyPI unreachable?): {last}")
     return found[0]
+
+
+def check_wheel(wheel):
+    """The wheel must be PyPI's, byte for byte."""
+    digest = hashlib.sha256()
+    try:
+        with open(wheel, "rb") as f:
+            for block in iter(lambda: f.read(1 << 20), b""):
+                digest.update(block)
+    except OSError as e:
+        fail(f"cannot read {wheel}: {e}")
+    if digest.hexdigest() != WHEEL_SHA256:
+        fail(f"{wheel} is not PyPI's py3wafo 0.4.0 wheel (sha256 {digest.hexdigest()}, "
+             f"expected {WHEEL_SHA256})")
 
 
 def convert(text, member, expected_dt):
@@ -117,7 +139,8 @@ def write_csv(path, rows):
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--out", default="data/wafo", help="output folder (git-ignored)")
+    parser.add_argument("--out", default=os.path.join(REPO_ROOT, "data", "wafo"),
+                        help="output folder (default: the repository's data/wafo, git-ignored)")
     parser.add_argument("--wheel-dir", help="folder holding or receiving the wheel (default: a temporary folder)")
     parser.add_argument("--force", action="store_true", help="rewrite existing outputs")
     args = parser.parse_args()
@@ -126,9 +149,11 @@ def main():
     if not args.force and all(os.path.isfile(p) and os.path.getsize(p) > 0 for p in outputs):
         print(f"fetch_wafo: {args.out} already holds {', '.join(RECORDS)} (use --force to rewrite)")
         return
-    os.makedirs(args.out, exist_ok=True)
     with tempfile.TemporaryDirectory() as tmp:
         wheel = find_or_download_wheel(args.wheel_dir or tmp)
+        check_wheel(wheel)
+        # Made only now: a download that failed leaves no empty folder behind.
+        os.makedirs(args.out, exist_ok=True)
         try:
             archive = zipfile.ZipFile(wheel)
         except (OSError, zipfile.BadZipFile) as e:
@@ -143,6 +168,9 @@ def main():
                 write_csv(path, rows)
                 gap = f", {dropped} NaN rows left out (a {dropped * dt:.0f} s time jump)" if dropped else ""
                 print(f"fetch_wafo: wrote {path}: {len(rows)} rows at {1 / dt:g} Hz{gap}")
+            missing = [m for m in LICENSE_MEMBERS if m not in names]
+            if missing:
+                fail(f"{wheel} has no {', '.join(missing)}: the licence cannot be kept")
             with open(os.path.join(args.out, "LICENSE-WAFO.txt"), "w", encoding="utf-8") as f:
                 f.write(DATA_TERMS)
                 for member in LICENSE_MEMBERS:

@@ -3,9 +3,10 @@
 
 Issue 11 item 7. Standard library only (the study machine has no numpy).
 
-The predictor decimates 8 Hz -> 2 Hz with the causal linear-phase FIR of
-crates/series/src/fir.rs `design_lowpass(4)` (17 taps, delay exactly 8 input samples = 1.0 s). This
-script
+The study that chose the predictor's filter: the evaluation (`shipcast eval`) decimates 8 Hz ->
+2 Hz with the causal linear-phase FIR of crates/series/src/fir.rs `design_lowpass(4)` (17 taps,
+delay exactly 8 input samples = 1.0 s); the predictor service now uses the minimum-phase twin this
+study derives (`[predictor] filter = "minimum"`). This script
 
 1. reproduces those taps with the Rust formula and prints them;
 2. derives the minimum-phase filter with the same magnitude response (real-cepstrum folding on a

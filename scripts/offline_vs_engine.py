@@ -16,14 +16,20 @@ import os
 import subprocess
 import sys
 
-BIN = os.environ.get("SHIPCAST_BIN", os.path.join("target", "release", "shipcast"))
+# The repository's release build, wherever the script is run from (SHIPCAST_BIN: another).
+BIN = os.environ.get("SHIPCAST_BIN", os.path.join(
+    os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "target", "release", "shipcast"))
 ORDERS = [50, 100, 200]
 TRAIN_S = 2500.0  # = eval's default training segment, 5000 values at 2 Hz
 STEP = 10  # 5 s at 2 Hz
 
 
 def run(args):
-    out = subprocess.run([BIN] + args, capture_output=True, text=True)
+    try:
+        out = subprocess.run([BIN] + args, capture_output=True, text=True)
+    except OSError as e:
+        sys.exit(f"offline_vs_engine: cannot run {BIN} ({e.strerror}): build it with "
+                 "`cargo build --release`, or set SHIPCAST_BIN")
     if out.returncode != 0:
         sys.exit(f"offline_vs_engine: shipcast {' '.join(args)} failed: {out.stderr.strip()}")
     return [json.loads(l) for l in out.stdout.splitlines() if l.strip().startswith("{")]
@@ -46,9 +52,8 @@ def main():
     os.makedirs(a.work, exist_ok=True)
     full = os.path.join(a.work, "gfaks_motion.csv")
     part = os.path.join(a.work, "gfaks_part1.csv")
-    subprocess.run([BIN, "simulate", "--elevation", "data/wafo/gfaks89.csv", "--heading-deg",
-                    "165", "--speed-kn", "0", "--rate", "8", "--out", full],
-                   check=True, capture_output=True)
+    run(["simulate", "--elevation", "data/wafo/gfaks89.csv", "--heading-deg", "165",
+         "--speed-kn", "0", "--rate", "8", "--out", full])
     with open(full) as src, open(part, "w") as dst:
         for i, line in enumerate(src):
             if i == 0 or float(line.split(",", 1)[0]) < 11000.0:

@@ -21,7 +21,7 @@ obeys
     [ -int x Z,    -w^2 I55 + int x^2 Z         ] [theta] = [  int x Z zeta(x) ]
 (z down, pitch bow up, x forward from the centre of gravity), zeta(x) = exp(-k d) exp(i k x) the
 incident wave at the section's depth d. With a fore-aft symmetric waterline and the centre of
-gravity amidships the coupling vanishes and option "current" is exactly src/sim/rao.rs.
+gravity amidships the coupling vanishes and option "current" is exactly crates/sim/src/rao.rs.
 
 Run from the repository root: python3 scripts/rao_closure_options.py
 """
@@ -115,7 +115,7 @@ class Option:
         k = w * w / G
         tm = CB * T / CWP
         if self.sections == "beam_squared":
-            # src/sim/rao.rs: Jensen's equivalent section (mean beam C_WP B, mean depth T_m) for
+            # crates/sim/src/rao.rs: Jensen's equivalent section (mean beam C_WP B, mean depth T_m) for
             # the damping, added mass rho V spread like b^2, one depth T_m for every section.
             bm = CWP * B
             amp = 2 * math.sin(k * bm / 2) * math.exp(-k * tm)
@@ -223,7 +223,7 @@ def haskind_checks():
 def main():
     bem = load_bem()
     options = [
-        Option("current (src/sim/rao.rs)"),
+        Option("current (crates/sim/src/rao.rs)"),
         Option("local Jensen box sections (C_M 0.821)", sections="local_box"),
         Option("current, CG at the published LCB (0.97 m aft)", xg_m=-0.97),
     ]

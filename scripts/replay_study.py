@@ -14,7 +14,9 @@ import os
 import subprocess
 import sys
 
-BIN = os.environ.get("SHIPCAST_BIN", os.path.join("target", "release", "shipcast"))
+# The repository's release build, wherever the script is run from (SHIPCAST_BIN: another).
+BIN = os.environ.get("SHIPCAST_BIN", os.path.join(
+    os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "target", "release", "shipcast"))
 
 RECORDS = [
     # name, simulate arguments, time of the change [s] or None
@@ -34,7 +36,11 @@ LEADS = [5.0, 10.0, 20.0]
 
 
 def run(args):
-    out = subprocess.run([BIN] + args, capture_output=True, text=True)
+    try:
+        out = subprocess.run([BIN] + args, capture_output=True, text=True)
+    except OSError as e:
+        sys.exit(f"replay_study: cannot run {BIN} ({e.strerror}): build it with "
+                 "`cargo build --release`, or set SHIPCAST_BIN")
     if out.returncode != 0:
         sys.exit(f"replay_study: shipcast {' '.join(args)} failed: {out.stderr.strip()}")
     return out.stdout

@@ -23,7 +23,9 @@ import os
 import subprocess
 import sys
 
-BIN = os.environ.get("SHIPCAST_BIN", os.path.join("target", "release", "shipcast"))
+# The repository's release build, wherever the script is run from (SHIPCAST_BIN: another).
+BIN = os.environ.get("SHIPCAST_BIN", os.path.join(
+    os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "target", "release", "shipcast"))
 SEA = ["--scenario", "paper", "--duration", "3600", "--rate", "8"]
 SKIP_S = "1200"
 
@@ -44,7 +46,11 @@ GEOMETRIES = [
 
 
 def run(args):
-    out = subprocess.run([BIN] + args, capture_output=True, text=True)
+    try:
+        out = subprocess.run([BIN] + args, capture_output=True, text=True)
+    except OSError as e:
+        sys.exit(f"two_ship_study: cannot run {BIN} ({e.strerror}): build it with "
+                 "`cargo build --release`, or set SHIPCAST_BIN")
     if out.returncode != 0:
         sys.exit(f"two_ship_study: shipcast {' '.join(args)} failed: {out.stderr.strip()}")
     return out.stdout
