@@ -359,6 +359,9 @@ def report_record(path, raw, linear, minph, lp_delay_samples, mp_delay_samples):
 
 
 if __name__ == "__main__":
+    if any(a in ("-h", "--help") for a in sys.argv[1:]):
+        print(__doc__)
+        sys.exit(0)
     try:
         sys.exit(main(sys.argv[1:]))
     except StudyError as err:
