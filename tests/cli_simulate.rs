@@ -366,7 +366,11 @@ fn bad_elevation_files_exit_with_one_clear_line() {
             "line 3, column 'wave_m': 'x' is not a number",
         ),
         (&["--elevation", &no_wave], "line 1: no 'wave_m' column"),
-        (&["--elevation", &uneven], "line 5: time step"),
+        // Rounded to the microsecond (regression, review: 0.39999999999997726 s).
+        (
+            &["--elevation", &uneven],
+            "elevation record: line 5: time step 0.7 s, but the record is sampled every 0.5 s",
+        ),
         (
             &["--elevation", &all_nan],
             "no segment is longer than twice --edge-s",

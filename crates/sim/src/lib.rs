@@ -63,6 +63,9 @@ pub enum SimError {
     /// A parameter is out of its physical range or unknown.
     #[error("invalid simulation setting: {0}")]
     Config(String),
+    /// A measured record that cannot be used as it is (an uneven step, too few samples).
+    #[error("elevation record: {0}")]
+    Record(String),
     /// An RAO table file could not be opened.
     #[error("RAO table: cannot open {}", path.display())]
     TableOpen {

@@ -80,10 +80,14 @@ pub fn split_segments(time: &[f64], wave: &[f64]) -> Result<Vec<ElevationSegment
             if step > GAP_FACTOR * dt {
                 segments.extend(current.take());
             } else if (step - dt).abs() > DT_TOLERANCE * dt {
-                return Err(SimError::Config(format!(
-                    "line {}: time step {step} s, but the record is sampled every {dt} s \
+                // To the microsecond: 0.4 s, not the 0.39999999999997726 of subtracted stamps.
+                let us = |s: f64| (s * 1e6).round() / 1e6;
+                return Err(SimError::Record(format!(
+                    "line {}: time step {} s, but the record is sampled every {} s \
                      (an uneven step, neither a sample nor a gap)",
-                    i + 2
+                    i + 2,
+                    us(step),
+                    us(dt)
                 )));
             }
         }
