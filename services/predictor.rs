@@ -275,9 +275,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             changed = true;
             tracing::warn!(
                 last_time_s = engine.last_time_s(),
-                "predictor: motion stale (no sample for {:.2} s of wall time = {} s of record time)",
-                stale_after.as_secs_f64(),
-                config.predictor.stale_after_s
+                "predictor: motion stale (no sample for {:.2} s of wall time, predictor.stale_after_s)",
+                stale_after.as_secs_f64()
             );
         }
         engine.poll_models();
