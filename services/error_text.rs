@@ -10,18 +10,21 @@ pub fn without_source_locations(text: &str) -> String {
     while let Some(i) = rest.find(" at /") {
         out.push_str(&rest[..i]);
         let after = &rest[i + 4..];
-        let end = after
-            .find(|c: char| c.is_whitespace() || c == ']')
-            .unwrap_or(after.len());
-        let path = after[..end].trim_end_matches('.');
-        let is_location = path
-            .rsplit_once(".rs:")
-            .is_some_and(|(_, line)| !line.is_empty() && line.chars().all(|c| c.is_ascii_digit()));
-        if is_location {
-            rest = &after[end..];
-        } else {
-            out.push_str(" at ");
-            rest = after;
+        // A location is a path without spaces ending `.rs:LINE`, then an optional '.': what
+        // follows it (`]`, `",` inside a debug-printed error) stays.
+        let token = &after[..after.find(char::is_whitespace).unwrap_or(after.len())];
+        let line_end = token.find(".rs:").and_then(|rs| {
+            let digits = token[rs + 4..]
+                .find(|c: char| !c.is_ascii_digit())
+                .unwrap_or(token.len() - rs - 4);
+            (digits > 0).then_some(rs + 4 + digits)
+        });
+        match line_end {
+            Some(end) => rest = after[end..].strip_prefix('.').unwrap_or(&after[end..]),
+            None => {
+                out.push_str(" at ");
+                rest = after;
+            }
         }
     }
     out.push_str(rest);
@@ -51,6 +54,12 @@ mod tests {
         // A path that is not a source location stays.
         let kept = "tls certificate file /etc/ship/a.pem: expired at /etc time";
         assert_eq!(without_source_locations(kept), kept);
+        // Inside a debug-printed error (the examples' zenoh configuration errors).
+        let debug = "Json5Err(Message { msg: \"Endpoints must be ...: garbage at /root/.cargo/registry/src/x/zenoh-protocol-1.10.2/src/core/endpoint.rs:615.\", location: None })";
+        assert_eq!(
+            without_source_locations(debug),
+            "Json5Err(Message { msg: \"Endpoints must be ...: garbage\", location: None })"
+        );
     }
 
     #[test]

@@ -4,6 +4,10 @@
 
 use std::process::ExitCode;
 
+// The binary's own: errors as one line, without the source locations zenoh writes into them.
+#[path = "../../services/error_text.rs"]
+mod error_text;
+
 pub struct Options {
     pub instance: String,
     pub vessel: String,
@@ -108,34 +112,8 @@ pub fn main_with<E: std::fmt::Display>(
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {}", one_line(&e));
+            eprintln!("error: {}", error_text::one_line(&e));
             ExitCode::FAILURE
         }
     }
-}
-
-/// An error as one line: zenoh's errors carry the source location of every layer (`at
-/// /root/.cargo/registry/.../endpoint.rs:615.`) and may span lines.
-fn one_line(e: &str) -> String {
-    let mut out = String::with_capacity(e.len());
-    let mut rest = e;
-    while let Some(at) = rest.find(" at /") {
-        out.push_str(&rest[..at]);
-        let tail = &rest[at + 4..];
-        // Skip the path up to its ".rs:LINE" and the punctuation after it.
-        match tail.find(".rs:") {
-            Some(rs) => {
-                let after = &tail[rs + 4..];
-                let digits =
-                    after.len() - after.trim_start_matches(|c: char| c.is_ascii_digit()).len();
-                rest = after[digits..].trim_start_matches('.');
-            }
-            None => {
-                out.push_str(" at ");
-                rest = tail;
-            }
-        }
-    }
-    out.push_str(rest);
-    out.split_whitespace().collect::<Vec<_>>().join(" ")
 }

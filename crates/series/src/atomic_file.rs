@@ -51,6 +51,15 @@ pub fn directory_of(path: &Path) -> &Path {
 /// Tells apart the temporary files of one process's writes (threads may save at once).
 static NEXT_TEMPORARY: AtomicU64 = AtomicU64::new(0);
 
+/// `.<name>.`: what every temporary file of `path` (named `name`) starts with, followed by
+/// `<pid>.<n>.tmp`.
+fn temporary_prefix(name: &std::ffi::OsStr) -> std::ffi::OsString {
+    let mut prefix = std::ffi::OsString::from(".");
+    prefix.push(name);
+    prefix.push(".");
+    prefix
+}
+
 /// A new temporary file beside `path`, made by this call: a name that exists (another
 /// writer's, a planted link) is never opened but skipped for the next one.
 fn create_temporary(path: &Path) -> std::io::Result<(PathBuf, File)> {
@@ -61,9 +70,8 @@ fn create_temporary(path: &Path) -> std::io::Result<(PathBuf, File)> {
     // directory, a loop), reported with the last error.
     for _ in 0..16 {
         let n = NEXT_TEMPORARY.fetch_add(1, Ordering::Relaxed);
-        let mut file_name = std::ffi::OsString::from(".");
-        file_name.push(name);
-        file_name.push(format!(".{}.{n}.tmp", std::process::id()));
+        let mut file_name = temporary_prefix(name);
+        file_name.push(format!("{}.{n}.tmp", std::process::id()));
         let tmp = dir.join(file_name);
         match OpenOptions::new().write(true).create_new(true).open(&tmp) {
             Ok(file) => return Ok((tmp, file)),
@@ -87,10 +95,8 @@ fn remove_stale_temporaries(path: &Path) {
     else {
         return;
     };
-    let mut prefix = std::ffi::OsString::from(".");
-    prefix.push(name);
-    prefix.push(".");
-    let (prefix, own) = (prefix.to_string_lossy().into_owned(), std::process::id());
+    let prefix = temporary_prefix(name).to_string_lossy().into_owned();
+    let own = std::process::id();
     for entry in entries.flatten() {
         let file_name = entry.file_name();
         let file_name = file_name.to_string_lossy();
