@@ -37,6 +37,13 @@ pub enum ResampleError {
         time_s: f64,
         grid_s: f64,
     },
+    #[error("time stamps rounded to {quantum} s are too coarse for the record's rate: {off} of its {steps} time steps differ from the typical step {median} s (write the stamps with more decimals)")]
+    CoarseStamps {
+        quantum: f64,
+        median: f64,
+        off: usize,
+        steps: usize,
+    },
     #[error("the record's time does not increase (typical step {0} s)")]
     NotIncreasing(f64),
     #[error("target sample rate {0} Hz must be positive and finite")]
@@ -67,15 +74,7 @@ pub enum ResampleError {
 pub fn regular_step_tolerance(time: &[f64], median_step: f64) -> f64 {
     let relative = STEP_TOLERANCE * median_step;
     // The coarsest rounding every stamp shows (whole seconds are also whole tenths).
-    let quantum = STAMP_QUANTA.into_iter().find(|&q| {
-        time.iter().all(|&t| {
-            let units = t / q;
-            // Within float precision of a whole number of quanta (epoch stamps carry
-            // 1e-7 s of representation error).
-            (units - units.round()).abs() <= 1e-3
-        })
-    });
-    let Some(q) = quantum.filter(|&q| q <= 0.25 * median_step) else {
+    let Some(q) = stamp_quantum(time).filter(|&q| q <= 0.25 * median_step) else {
         return relative;
     };
     let steps = time.len().saturating_sub(1);
@@ -91,6 +90,18 @@ pub fn regular_step_tolerance(time: &[f64], median_step: f64) -> f64 {
     relative.max(1.01 * q)
 }
 
+/// The coarsest rounding (one of [`STAMP_QUANTA`]) every stamp of `time` shows, if any.
+fn stamp_quantum(time: &[f64]) -> Option<f64> {
+    STAMP_QUANTA.into_iter().find(|&q| {
+        time.iter().all(|&t| {
+            let units = t / q;
+            // Within float precision of a whole number of quanta (epoch stamps carry
+            // 1e-7 s of representation error).
+            (units - units.round()).abs() <= 1e-3
+        })
+    })
+}
+
 /// Sample rate [Hz] of regularly sampled times: 1 / mean step. Every step must be within
 /// [`regular_step_tolerance`] of the median step (the typical one, unmoved by a single gap),
 /// otherwise the sampling is irregular and no rate is returned.
@@ -100,6 +111,7 @@ pub fn sample_rate(time: &[f64]) -> Result<f64, ResampleError> {
     }
     let steps: Vec<f64> = time.windows(2).map(|p| p[1] - p[0]).collect();
     let median = median_of(steps.clone());
+    check_stamp_rounding(time, median)?;
     let tolerance = regular_step_tolerance(time, median);
     for (index, &step) in steps.iter().enumerate() {
         if step.is_nan() || step <= 0.0 || (step - median).abs() > tolerance {
@@ -111,21 +123,48 @@ pub fn sample_rate(time: &[f64]) -> Result<f64, ResampleError> {
             });
         }
     }
-    let mean = (time[time.len() - 1] - time[0]) / (time.len() - 1) as f64;
-    // Each step may be regular while the rate drifts (16 ms steps, then 15 ms ones): every
-    // stamp must lie within half a step of its slot on the record's grid. Regression (review).
-    if let Some((index, &t)) = time
+    on_grid(time, 0)?;
+    Ok(1.0 / ((time[time.len() - 1] - time[0]) / (time.len() - 1) as f64))
+}
+
+/// Checks that the stamps of one gap-free run `run` (starting at index `offset` of the
+/// record) lie within half a step of their slots on the run's own grid (first stamp plus
+/// `i` mean steps). Each step may be regular while the rate drifts (16 ms steps, then 15 ms
+/// ones); the samples' count then no longer tells their time. Regression (review).
+fn on_grid(run: &[f64], offset: usize) -> Result<(), ResampleError> {
+    if run.len() < 3 {
+        return Ok(());
+    }
+    let mean = (run[run.len() - 1] - run[0]) / (run.len() - 1) as f64;
+    let grid = |i: usize| run[0] + i as f64 * mean;
+    match run
         .iter()
         .enumerate()
-        .find(|&(i, &t)| (t - (time[0] + i as f64 * mean)).abs() > 0.5 * mean)
+        .find(|&(i, &t)| (t - grid(i)).abs() > 0.5 * mean)
     {
-        return Err(ResampleError::OffGrid {
-            index,
+        Some((i, &t)) => Err(ResampleError::OffGrid {
+            index: offset + i,
             time_s: t,
-            grid_s: time[0] + index as f64 * mean,
-        });
+            grid_s: grid(i),
+        }),
+        None => Ok(()),
     }
-    Ok(1.0 / mean)
+}
+
+/// Checks a record that may hold gaps (steps longer than [`regular_step_tolerance`] of
+/// `median_step`): every gap-free run keeps to its own grid ([`on_grid`]), so a rate that
+/// drifts within a run is refused as in [`sample_rate`].
+pub fn check_runs_on_grid(time: &[f64], median_step: f64) -> Result<(), ResampleError> {
+    let tolerance = regular_step_tolerance(time, median_step);
+    let mut start = 0;
+    for i in 1..=time.len() {
+        let ends = i == time.len() || (time[i] - time[i - 1] - median_step).abs() > tolerance;
+        if ends {
+            on_grid(&time[start..i], start)?;
+            start = i;
+        }
+    }
+    Ok(())
 }
 
 /// The upper median of `values` (at least one).
@@ -144,7 +183,39 @@ pub fn median_rate(time: &[f64]) -> Result<f64, ResampleError> {
     if !(median > 0.0 && median.is_finite()) {
         return Err(ResampleError::NotIncreasing(median));
     }
+    check_stamp_rounding(time, median)?;
     Ok(1.0 / median)
+}
+
+/// Refuses stamps rounded more coarsely than a quarter of the typical step `median`: they
+/// cannot carry the record's rate. 8 Hz stamped to 0.1 s gives steps of 0.1 and 0.2 s and
+/// read as 10 Hz with a gap every fourth sample (review). Their mark: many steps off the
+/// median (a tenth), while every stamp stays within one rounding of a regular grid. Samples
+/// lost from a 10 Hz stream stamped to 0.1 s make steps as long, but push the later stamps
+/// off any such grid.
+fn check_stamp_rounding(time: &[f64], median: f64) -> Result<(), ResampleError> {
+    if let Some(quantum) = stamp_quantum(time).filter(|&q| q > 0.25 * median) {
+        let steps = time.len() - 1;
+        let off = time
+            .windows(2)
+            .filter(|p| (p[1] - p[0] - median).abs() > 0.5 * quantum)
+            .count();
+        let mean = (time[steps] - time[0]) / steps as f64;
+        let regular = time
+            .iter()
+            .enumerate()
+            .all(|(i, &t)| (t - time[0] - i as f64 * mean).abs() <= 1.01 * quantum);
+        if off * 10 >= steps && regular {
+            return Err(ResampleError::CoarseStamps {
+                quantum,
+                // To a microsecond: the step as the stamps give it (0.1, not 0.10000000000002).
+                median: (median * 1e6).round() / 1e6,
+                off,
+                steps,
+            });
+        }
+    }
+    Ok(())
 }
 
 /// Integer factor taking `input` Hz to `target` Hz (1 when they are equal), or an error naming
@@ -304,6 +375,57 @@ mod tests {
         ));
         let whole: Vec<f64> = (0..100).map(f64::from).collect();
         assert_eq!(regular_step_tolerance(&whole, 1.0), 0.01);
+    }
+
+    /// Regression (review): 8 Hz stamped to 0.1 s read as 10 Hz with a gap every fourth
+    /// sample in replay (and as irregular in eval). Samples lost from a true 10 Hz stream
+    /// stamped alike are still a 10 Hz record with gaps.
+    #[test]
+    fn stamps_too_coarse_for_the_rate_are_refused_and_lost_samples_are_not() {
+        let tenth = |t: f64| (t * 10.0).round() / 10.0;
+        let eight: Vec<f64> = (0..4000).map(|i| tenth(i as f64 / 8.0)).collect();
+        for e in [median_rate(&eight), sample_rate(&eight)] {
+            match e {
+                Err(ResampleError::CoarseStamps { quantum, off, .. }) => {
+                    assert_eq!(quantum, 0.1);
+                    assert!((900..=1100).contains(&off), "{off} steps off");
+                }
+                other => panic!("8 Hz at 0.1 s read as {other:?}"),
+            }
+        }
+        // One sample in five lost, at random, from 10 Hz stamped to 0.1 s.
+        let mut state = 12345u64;
+        let mut lossy = Vec::new();
+        for i in 0..5000 {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            if !(state >> 33).is_multiple_of(5) {
+                lossy.push(tenth(i as f64 * 0.1));
+            }
+        }
+        assert!((median_rate(&lossy).unwrap() - 10.0).abs() < 1e-9);
+        // Whole-second stamps of a 1 Hz record: rounded as coarsely as the step, every step alike.
+        let seconds: Vec<f64> = (0..100).map(f64::from).collect();
+        assert_eq!(median_rate(&seconds).unwrap(), 1.0);
+    }
+
+    /// A rate that drifts inside one gap-free stretch is refused even when the record has
+    /// gaps (replay's check); the gaps alone are not a drift.
+    #[test]
+    fn a_drift_within_a_stretch_between_gaps_is_refused() {
+        let ms = |t: f64| (t * 1000.0).round() / 1000.0;
+        let mut time: Vec<f64> = (0..3000).map(|i| ms(i as f64 * 0.016)).collect();
+        let gap_end = time[2999] + 5.0;
+        time.extend((0..3000).map(|i| ms(gap_end + i as f64 * 0.016)));
+        let median = 1.0 / median_rate(&time).unwrap();
+        check_runs_on_grid(&time, median).unwrap();
+        let end = time[5999];
+        time.extend((1..3000).map(|i| ms(end + i as f64 * 0.015)));
+        match check_runs_on_grid(&time, median) {
+            Err(ResampleError::OffGrid { index, .. }) => assert!(index >= 3000, "{index}"),
+            other => panic!("a drift after the gap read as {other:?}"),
+        }
     }
 
     #[test]

@@ -114,6 +114,9 @@ const RATE_SNAP: f64 = 1e-5;
 /// digits than the rate needs).
 pub fn record_rate(time: &[f64], forecast_hz: f64) -> anyhow::Result<f64> {
     let median = shipcast_series::median_rate(time)?;
+    // The engine counts samples, as the service does: a rate that drifts within a gap-free
+    // stretch would shift every forecast off its time (eval refuses it too).
+    shipcast_series::check_runs_on_grid(time, 1.0 / median)?;
     let (measured, uncertainty) = regular_mean_rate(time, median);
     let multiple = (measured / forecast_hz).round();
     let snap = RATE_SNAP + uncertainty;
