@@ -125,7 +125,6 @@ pub struct Engine {
     /// Value index of each DOF's latest detected change.
     change_seen_at: [Option<u64>; NUM_DOF],
     retrain_due: Option<&'static str>,
-    next_version: u32,
     prepared_for: Option<(u64, u32)>,
     last_time_s: f64,
     last_implausible_log: [u64; NUM_DOF],
@@ -168,7 +167,6 @@ impl Engine {
             sea_since: None,
             change_seen_at: [None; NUM_DOF],
             retrain_due: None,
-            next_version: models.as_ref().map_or(1, |m| m.version + 1),
             prepared_for: None,
             last_time_s: f64::NAN,
             last_implausible_log: [0; NUM_DOF],
@@ -462,7 +460,11 @@ impl Engine {
             }
         };
         self.counts.retrains += 1;
-        let new = outcome.set;
+        // Numbered when it is installed, not when it was asked for: a retrained model the
+        // running one outscores must not use up a version (the contract: one more at every
+        // model put in use). Regression (review): versions skipped after a kept model.
+        let mut new = outcome.set;
+        new.version = self.model_version() + 1;
         let Some(running) = self.models.as_ref() else {
             tracing::info!(
                 version = new.version,
@@ -588,7 +590,7 @@ impl Engine {
         };
         let job = Job {
             series,
-            version: self.next_version,
+            version: self.model_version() + 1,
             running: self.models.clone(),
             recent,
             reason,
@@ -599,7 +601,6 @@ impl Engine {
                 self.failed.streak = next_streak(&self.failed, self.longest_input());
                 self.failed.retrain_at = Some(self.values);
             }
-            self.next_version += 1;
             self.last_fit_at = Some(self.values);
             self.retrain_due = None;
             // An inline retrain is done already: use it for this very forecast.

@@ -676,3 +676,34 @@ fn a_record_rate_comes_from_its_regular_steps_whatever_the_rounding_and_gaps() {
         assert_eq!(record_rate(&stamped, 2.0).unwrap(), rate, "{rate} Hz");
     }
 }
+
+/// Regression (review): the version was taken when a retrain was asked for, so a retrained
+/// model that the running one outscored used up a number and the next model put in use
+/// skipped one. Every forecast's version is the previous one or one more, and it rises as
+/// often as a model is put in use.
+#[test]
+fn the_model_version_rises_by_one_at_every_model_put_in_use_and_only_then() {
+    let config = PredictorServiceConfig::default();
+    let mut engine = engine_fitted_on_ar2(&config, 7);
+    let mut seen = engine.model_version();
+    let mut rises = 0u64;
+    for (i, h) in ar2(2 * 3 * 3600, 8, |_| 1.0).into_iter().enumerate() {
+        let sample = MotionSample {
+            seq: i as u64,
+            stamp_ns: 0,
+            time_s: i as f64 / 2.0,
+            dof: [h; 6],
+        };
+        if let Some(f) = engine.push(&sample).unwrap() {
+            if f.model_version != seen {
+                assert_eq!(f.model_version, seen + 1, "after {rises} rises");
+                seen = f.model_version;
+                rises += 1;
+            }
+        }
+    }
+    let counts = &engine.counts;
+    eprintln!("DBG {} {} {}", counts.retrains, counts.swaps, counts.kept_running);
+    assert!(counts.kept_running >= 1, "no retrained model was kept out: the case is not tested");
+    assert_eq!(rises, counts.swaps);
+}
