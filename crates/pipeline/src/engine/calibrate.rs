@@ -152,7 +152,14 @@ impl Calibrator {
         self.window.clear(d);
         self.no_skill_weight[d] = self.prior_cap;
         for (k, p) in self.prior[d].iter_mut().enumerate() {
-            *p = prior.get(k).map(|s| s.capped(self.prior_cap));
+            // Held-out values without variance (a DOF that stood still while the model was
+            // fitted) prove no skill: counted as evidence, their error of 0 kept sigma at 0
+            // once the DOF moved, and the deck called go with certainty (review). They start
+            // from "no skill" instead, which follows the live variance.
+            *p = prior
+                .get(k)
+                .filter(|s| s.0[XX] > 0.0)
+                .map(|s| s.capped(self.prior_cap));
         }
     }
 
@@ -307,5 +314,31 @@ mod tests {
         let cal = c.get(2, 10, 4.0);
         assert!(cal.beta > 0.9, "{cal:?}");
         assert!(cal.sigma < 0.7, "{cal:?}");
+    }
+
+    /// Regression (review): a model fitted while a DOF stood still brought held-out sums
+    /// without variance, counted as 240 values of error 0; sigma stayed 0 once the DOF moved,
+    /// and the deck called go with certainty. Such a prior is no evidence: sigma is the live
+    /// motion's, and a prior with variance is still kept.
+    #[test]
+    fn a_prior_from_a_motion_without_variance_is_no_skill_not_certainty() {
+        let mut still = PairSums::default();
+        for _ in 0..240 {
+            still.add(0.0, 0.0);
+        }
+        let mut c = Calibrator::new(2400, 120.0);
+        c.reset(0, &[still; 3]);
+        for k in 0..3 {
+            let cal = c.get(0, k, 0.25);
+            assert_eq!(cal.beta, 0.0);
+            assert!((cal.sigma - 0.5).abs() < 1e-12, "{cal:?}");
+        }
+        let mut moving = PairSums::default();
+        for i in 0..240 {
+            let x = (i as f64 * 0.3).sin();
+            moving.add(x, x);
+        }
+        c.reset(0, &[moving]);
+        assert!(c.get(0, 0, 0.25).sigma < 1e-6);
     }
 }

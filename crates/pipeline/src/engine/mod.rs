@@ -54,10 +54,17 @@ pub const MAX_FILL: u64 = 8;
 /// skill" start) once live evidence comes in; and what is kept after a change of sea.
 const PRIOR_VALUES: f64 = 240.0;
 const KEPT_AFTER_CHANGE: f64 = 60.0;
+/// An error [m, rad] against a sigma of 0 beyond which the forecast is wrong, not rounded.
+const ERROR_AGAINST_NO_SIGMA: f64 = 1e-9;
+/// The squared standardised error of such a forecast: any value the change detector's bound
+/// (25 times its ratio) cuts to that bound.
+const Z2_AGAINST_NO_SIGMA: f64 = 1e6;
 
 /// Memory of the live RMS of the motion [values] (5 minutes at 2 Hz).
 const RMS_MEMORY: f64 = 600.0;
 const RMS_MEMORY_FAST: f64 = 60.0;
+/// Largest deviation from the level, in live RMS, that one value brings into the live RMS.
+const SPIKE_RMS: f64 = 8.0;
 
 /// Values of live history before the first forecast: the live RMS must mean something.
 pub const MIN_VALUES_TO_PUBLISH: u64 = 60;
@@ -267,8 +274,17 @@ impl Engine {
         // Scored before the value enters the live RMS, which bounds its weight in calibration.
         self.score(index, &x);
         for (d, x) in x.iter().enumerate() {
-            // About the level: what predicting the level would score.
+            // About the level: what predicting the level would score. Clipped once there is
+            // a scale: one spike of 50 m in a sea of 1 m multiplied the live RMS, and with it
+            // the plausibility bound and the no-skill sigma, for minutes (review). 8 RMS lets
+            // a real growth through at twice the variance per value.
+            let rms = self.live_variance(d).sqrt();
             let xd = x - self.ingest.level(d);
+            let xd = if rms > 0.0 {
+                xd.clamp(-SPIKE_RMS * rms, SPIKE_RMS * rms)
+            } else {
+                xd
+            };
             let a = level::running_weight(self.values, RMS_MEMORY);
             self.mean_square[d] += a * (xd * xd - self.mean_square[d]);
             let fast = a.max(1.0 / RMS_MEMORY_FAST);
@@ -365,14 +381,23 @@ impl Engine {
                     self.calib
                         .observe(d, k, f.raw[d][k].clamp(-cap[d], cap[d]), clipped);
                     let e = x[d] - f.mean[d][k];
-                    // A DOF without motion (sigma 0: a record without that column) has
-                    // nothing to say about the sea.
+                    // A DOF without motion (sigma 0 and no error: a record without that
+                    // column) has nothing to say about the sea. An error against sigma 0 is
+                    // as far outside sigma as can be: a DOF that stood still and now moves
+                    // (review: it was skipped, and sigma stayed 0 while the errors grew).
                     let s = f.sigma_calibrated[d][k];
-                    if s > 0.0 {
-                        z2[d] += e * e / (s * s);
+                    if s > 0.0 || e.abs() > ERROR_AGAINST_NO_SIGMA {
+                        let z2_against = |sigma: f64| {
+                            if sigma > 0.0 {
+                                e * e / (sigma * sigma)
+                            } else {
+                                Z2_AGAINST_NO_SIGMA
+                            }
+                        };
+                        z2[d] += z2_against(s);
                         let now = self.calib.get(d, k, variance_now[d]).sigma;
                         let s_now = if now.is_finite() && now > 0.0 { now } else { s };
-                        z2_now[d] += e * e / (s_now * s_now);
+                        z2_now[d] += z2_against(s_now);
                         n[d] += 1;
                     }
                 }

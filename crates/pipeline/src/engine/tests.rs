@@ -703,7 +703,114 @@ fn the_model_version_rises_by_one_at_every_model_put_in_use_and_only_then() {
         }
     }
     let counts = &engine.counts;
-    eprintln!("DBG {} {} {}", counts.retrains, counts.swaps, counts.kept_running);
-    assert!(counts.kept_running >= 1, "no retrained model was kept out: the case is not tested");
+    eprintln!(
+        "DBG {} {} {}",
+        counts.retrains, counts.swaps, counts.kept_running
+    );
+    assert!(
+        counts.kept_running >= 1,
+        "no retrained model was kept out: the case is not tested"
+    );
     assert_eq!(rises, counts.swaps);
+}
+
+/// Regression (review): a DOF that stood still for ten minutes and then moved kept sigma 0
+/// while its errors grew (the change detector skipped forecasts of sigma 0). An error
+/// against sigma 0 is a change, and sigma follows the new motion within half a minute.
+#[test]
+fn a_dof_that_stood_still_and_then_moves_is_a_change_and_gets_its_sigma() {
+    let config = PredictorServiceConfig::default();
+    let mut engine = Engine::new(config.clone(), 2.0, None, Retrainer::inline(config)).unwrap();
+    let onset = 1200;
+    let motion = ar2(onset + 600, 4, |_| 1.0);
+    let std = (motion[onset..].iter().map(|x| x * x).sum::<f64>() / 600.0).sqrt();
+    // The 10 s step's sigma 5 s and 30 s after the onset.
+    let (mut after_5s, mut after_30s) = (None, None);
+    for (i, &m) in motion.iter().enumerate() {
+        let h = if i < onset { 0.0 } else { m };
+        let sample = MotionSample {
+            seq: i as u64,
+            stamp_ns: 0,
+            time_s: i as f64 / 2.0,
+            dof: [0.0, 0.0, h, 0.0, 0.0, 0.0],
+        };
+        if let Some(f) = engine.push(&sample).unwrap() {
+            if i == onset + 10 {
+                after_5s = Some(f.sigma[2][9] as f64);
+            }
+            if i == onset + 60 {
+                after_30s = Some(f.sigma[2][9] as f64);
+            }
+        }
+        if i < onset {
+            assert_eq!(engine.counts.changes, 0, "a change while still, at {i}");
+        }
+    }
+    assert!(engine.counts.changes >= 1);
+    // The live variance grows from 0 over its half-minute memory: 5 s in it holds about a
+    // sixth of the new one (0.4 std); the stillness's errors of 0 must not hold it lower.
+    let (early, later) = (after_5s.unwrap(), after_30s.unwrap());
+    assert!(
+        early > 0.4 * std,
+        "sigma {early} 5 s after the onset, std {std}"
+    );
+    assert!(
+        later > 0.6 * std,
+        "sigma {later} 30 s after the onset, std {std}"
+    );
+}
+
+/// Regression (review): one spike of 50 m in a sea of about 1 m entered the live RMS
+/// unclipped. It multiplied the plausibility bound, so forecasts from the spiked input
+/// (20 m off) passed as plausible, and sigma stayed several times the error for minutes.
+#[test]
+fn one_spike_moves_neither_the_plausibility_bound_nor_sigma_for_minutes() {
+    // No model yet (the first fit comes after `first_fit_s`): sigma is the no-skill one, the
+    // live RMS itself.
+    let config = PredictorServiceConfig {
+        first_fit_s: 1e6,
+        ..PredictorServiceConfig::default()
+    };
+    let mut engine = Engine::new(config.clone(), 2.0, None, Retrainer::inline(config)).unwrap();
+    let mut heave = ar2(2 * 1800, 10, |_| 1.0);
+    let std = (heave.iter().map(|x| x * x).sum::<f64>() / heave.len() as f64).sqrt();
+    let spike = 2 * 1200;
+    heave[spike] = 50.0 * std;
+    let (mut before, mut after) = (Vec::new(), Vec::new());
+    let mut largest_after = 0.0f64;
+    for (i, &h) in heave.iter().enumerate() {
+        let sample = MotionSample {
+            seq: i as u64,
+            stamp_ns: 0,
+            time_s: i as f64 / 2.0,
+            dof: [h; 6],
+        };
+        let Some(f) = engine.push(&sample).unwrap() else {
+            continue;
+        };
+        let s = f.sigma[2][19] as f64;
+        if (spike - 240..spike).contains(&i) {
+            before.push(s);
+        }
+        // From the spike on, for the two minutes its value stays in the models' input.
+        if (spike..spike + 240).contains(&i) {
+            if i >= spike + 10 {
+                after.push(s);
+            }
+            for k in 0..f.steps as usize {
+                largest_after = largest_after.max((f.mean[2][k] as f64).abs());
+            }
+        }
+    }
+    let largest = |v: &[f64]| v.iter().fold(0.0f64, |m, &s| m.max(s));
+    let (b, a) = (largest(&before), largest(&after));
+    assert!(
+        a < 1.5 * b,
+        "10 s sigma up to {a} after the spike, {b} before"
+    );
+    // The bound is 8 live RMS: a forecast beyond 10 std was let through.
+    assert!(
+        largest_after < 10.0 * std,
+        "a forecast of {largest_after} (std {std})"
+    );
 }
