@@ -369,7 +369,6 @@ fn single_vessel(
     Ok(())
 }
 
-/// `<station>.json5` and `<station>.toml` of every station, connecting to `endpoint`.
 /// An unspecified IP address (0.0.0.0, ::): a listener's wildcard, no one's name.
 fn is_wildcard(host: &str) -> bool {
     matches!(host.parse::<std::net::IpAddr>(), Ok(ip) if ip.is_unspecified())
@@ -402,6 +401,7 @@ fn with_host(endpoint: &str, host: &str) -> String {
     }
 }
 
+/// `<station>.json5` and `<station>.toml` of every station, connecting to `endpoint`.
 fn write_stations(
     setup: &Config,
     names: &Names,

@@ -1,5 +1,5 @@
 //! The `shipcast` binary: argument parsing and dispatch to one module per service.
-//! Every service is thin wiring over the `shipcast` library.
+//! Every service is thin wiring over the library crates (`crates/`).
 
 use clap::{Parser, Subcommand};
 use std::io::Write;

@@ -205,7 +205,6 @@ impl Children {
         Ok(())
     }
 
-    /// The first child that has exited, with its status.
     /// A child that exited, unless it is a producer that finished its record.
     fn failed(&mut self) -> Option<(String, std::process::ExitStatus)> {
         self.exited()

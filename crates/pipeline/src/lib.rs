@@ -10,6 +10,9 @@
 //! - [`observed`]: a vessel's observed motion kept by time, which live verification looks
 //!   outcomes up in (the deck, the relative service), and its new-run reset.
 //! - [`limits`]: range checks of numeric command-line values and configuration keys.
+//! - [`pending`]: forecasts waiting for their outcome, the queue the crane's and the relative
+//!   service's verifiers keep.
+//! - [`sigma_scale`]: a sigma's scale per axis and step from verified standardised errors.
 //! - [`child`], [`pacing`]: child processes that are always stopped and reaped, and paced loops.
 //! - [`certs`]: the CA and certificates of a secure setup (`shipcast certs`).
 

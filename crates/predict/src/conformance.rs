@@ -421,6 +421,18 @@ mod tests {
     fn wiener_guarded_conforms() {
         wiener_fitted_by(crate::WienerFit::Guarded);
     }
+    /// MCA as the predictor service runs it by default (`[predictor.mca]`: eigenvalue-weighted,
+    /// window shift 2, ridge validated on held-out training data), not only the paper's rule.
+    #[test]
+    fn mca_as_the_service_runs_it_conforms() {
+        let config = PredictorConfig {
+            mca_weighting: crate::McaWeighting::Inverse,
+            mca_shift: 2,
+            mca_validate_energy: true,
+            ..config()
+        };
+        check_all_with(Method::Mca, &config);
+    }
     #[test]
     fn ar_conforms() {
         check_all(Method::Ar);

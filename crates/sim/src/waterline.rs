@@ -66,12 +66,6 @@ impl Waterline {
         }
     }
 
-    /// int_0^1 w^2 du / int_0^1 w du: how much of the waterplane the beam-squared
-    /// distribution carries (1 for a box).
-    pub fn area_sq_ratio(&self) -> f64 {
-        self.area_sq / self.area
-    }
-
     /// int u^2 w du / int w du: the waterplane's longitudinal radius of gyration squared over
     /// (L/2)^2 (1/3 for a box).
     pub fn inertia_ratio(&self) -> f64 {
