@@ -814,3 +814,17 @@ fn one_spike_moves_neither_the_plausibility_bound_nor_sigma_for_minutes() {
         "a forecast of {largest_after} (std {std})"
     );
 }
+
+/// Regression (review): the wire's f32 rounds a mean of 1e5 m by up to 4 mm, far beyond the
+/// first step's sigma, and +-1 sigma held 23 % of the errors. Sigma carries the rounding.
+#[test]
+fn a_large_offset_rounded_to_the_wire_keeps_sigma_honest() {
+    let heave: Vec<f64> = ar2(2 * 2 * 3600, 12, |_| 0.001)
+        .into_iter()
+        .map(|x| 1e5 + x)
+        .collect();
+    let d = run(&record(heave, 2.0), 1200.0);
+    let (c1, c2) = (d.coverage_1sigma[0], d.coverage_2sigma[0]);
+    assert!(c1 >= 0.6, "1 sigma {c1}");
+    assert!(c2 >= 0.9, "2 sigma {c2}");
+}
