@@ -92,6 +92,15 @@ pub enum ModelError {
     Predict { dof: Dof, error: PredictError },
     #[error("hold-out fraction {0} must lie strictly between 0 and 1")]
     BadHoldout(f64),
+    /// The held-out error dwarfs the motion: a map that diverges (MCA whose minor components
+    /// hold next to no future part), not a model to hand the engine.
+    #[error("{dof}: the model's held-out error at step {step} ({sigma:.3e}) is over {MAX_SIGMA_OVER_STD} times the motion's standard deviation ({std:.3e}): it diverges; try another --method, a --ridge, or more data")]
+    Diverges {
+        dof: Dof,
+        step: usize,
+        sigma: f64,
+        std: f64,
+    },
     #[error("no DOF to train")]
     NoDof,
 }
@@ -156,6 +165,8 @@ pub fn train_models(
         let sigma = forecast_sigma(&mut held_out, &centred_by_fit, split, options.sigma_stride)
             .map_err(eval_err)?;
 
+        let held_out_rms = rms(&centred_by_fit[split..]);
+        check_converges(dof, &sigma, held_out_rms)?;
         let whole_mean = mean(series);
         let centred: Vec<f64> = series.iter().map(|v| v - whole_mean).collect();
         let mut predictor = AnyPredictor::new(options.method, config).map_err(predict_err)?;
@@ -177,6 +188,34 @@ pub fn train_models(
         holdout_fraction: holdout,
         dofs: models,
     })
+}
+
+/// Largest held-out error of a model `train` writes, in standard deviations of the motion.
+const MAX_SIGMA_OVER_STD: f64 = 100.0;
+
+/// A model whose held-out error stays within [`MAX_SIGMA_OVER_STD`] times the motion's RMS
+/// `motion_rms`, at every step. The engine would replace the forecasts of one beyond as
+/// implausible, but a file that only ever forecasts "no skill" is no model (review: MCA wrote
+/// one with sigma 1e17).
+fn check_converges(dof: Dof, sigma: &[f64], motion_rms: f64) -> Result<(), ModelError> {
+    match sigma
+        .iter()
+        .enumerate()
+        .find(|(_, s)| !s.is_finite() || **s > MAX_SIGMA_OVER_STD * motion_rms)
+    {
+        Some((step, &sigma)) => Err(ModelError::Diverges {
+            dof,
+            step: step + 1,
+            sigma,
+            std: motion_rms,
+        }),
+        None => Ok(()),
+    }
+}
+
+/// Root mean square of `values` (0 for none).
+fn rms(values: &[f64]) -> f64 {
+    mean(&values.iter().map(|v| v * v).collect::<Vec<_>>()).sqrt()
 }
 
 /// The mean of `values` (0 for none).
@@ -455,6 +494,29 @@ mod tests {
         for (x, y) in a.iter().zip(&b) {
             assert!((x - y).abs() < 1e-6, "{x} and {y}");
         }
+    }
+
+    #[test]
+    fn a_diverging_model_is_refused_naming_its_dof_and_step() {
+        assert!(check_converges(Dof::Heave, &[0.5, 1.0, 99.0], 1.0).is_ok());
+        let e = check_converges(Dof::Roll, &[0.5, 101.0, 1e17], 1.0).unwrap_err();
+        assert!(
+            matches!(
+                e,
+                ModelError::Diverges {
+                    dof: Dof::Roll,
+                    step: 2,
+                    ..
+                }
+            ),
+            "{e}"
+        );
+        let e = check_converges(Dof::Heave, &[f64::NAN], 1.0).unwrap_err();
+        assert!(
+            e.to_string()
+                .starts_with("heave: the model's held-out error at step 1"),
+            "{e}"
+        );
     }
 
     #[test]

@@ -207,6 +207,9 @@ fn range_vectors(qr: &Qr<f64>, coefficients: MatRef<'_, f64>) -> Mat<f64> {
     v
 }
 
+/// Smallest mean diagonal of M22 (the future's share of the projector) a map is solved from.
+const MIN_FUTURE_SHARE: f64 = 1e-12;
+
 /// P = -(M22 + ridge)^-1 M21 from the projector M that `factor` (n x k) gives: M = B B^T for the
 /// minor eigenvectors B (`Projector::Factor`), or M = I - V V^T for the major ones V
 /// (`Projector::Complement`). The window's first n - horizon values are the past, the last
@@ -240,8 +243,17 @@ fn prediction_matrix(
             gram[(i, i)] += 1.0;
         }
     }
+    // M22's diagonal: the future's share of the projector, at most 1 (B is orthonormal).
+    // Next to none (windows whose minor directions lie in the past alone, such as (a, a, b))
+    // leaves the future undetermined: the ridge, relative to it, cannot help, and the map came
+    // out with gains of 1e16 (review).
+    let mean_diag = (0..horizon).map(|i| gram[(i, i)]).sum::<f64>() / horizon as f64;
+    if !(mean_diag > MIN_FUTURE_SHARE) {
+        return Err(PredictError::Numerical(format!(
+            "MCA: the projector holds next to no future part (mean diagonal of M22 {mean_diag:.1e}): the training windows do not tie the future to the past; more minor components (a larger --energy) or another method"
+        )));
+    }
     if ridge > 0.0 {
-        let mean_diag = (0..horizon).map(|i| gram[(i, i)]).sum::<f64>() / horizon as f64;
         for i in 0..horizon {
             gram[(i, i)] += ridge * mean_diag;
         }

@@ -453,3 +453,28 @@ fn validation_with_inverse_weighting_chooses_the_ridge_and_refits_on_everything(
     let plain = fitted(&inverse(40, 10, 1, ridge), &x);
     assert_same_matrix(&validated, &plain);
 }
+
+/// Regression (review): windows (a, a, b) have a minor direction (1, -1, 0) with no future
+/// part. MCA solved P = -(M22 + ridge)^-1 M21 from an M22 of 1e-34, ridge included (it is
+/// relative to M22), and forecast with gains of 1e16. It must refuse the fit instead.
+#[test]
+fn a_projector_without_a_future_part_is_refused_not_solved() {
+    use rand::{Rng, SeedableRng};
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(21);
+    let mut x = Vec::new();
+    for _ in 0..1000 {
+        let a: f64 = rng.random::<f64>() - 0.5;
+        x.extend([a, a, rng.random::<f64>() - 0.5]);
+    }
+    for ridge in [0.0, 0.1] {
+        let mut p = McaPredictor::new(&PredictorConfig {
+            mca_shift: 3,
+            mca_energy: 1e-4,
+            mca_ridge: ridge,
+            ..config(3, 1)
+        })
+        .unwrap();
+        let err = p.fit(&x).unwrap_err().to_string();
+        assert!(err.contains("no future part"), "ridge {ridge}: {err}");
+    }
+}
