@@ -248,7 +248,7 @@ fn prediction_matrix(
     // leaves the future undetermined: the ridge, relative to it, cannot help, and the map came
     // out with gains of 1e16 (review).
     let mean_diag = (0..horizon).map(|i| gram[(i, i)]).sum::<f64>() / horizon as f64;
-    if !(mean_diag > MIN_FUTURE_SHARE) {
+    if mean_diag.is_nan() || mean_diag <= MIN_FUTURE_SHARE {
         return Err(PredictError::Numerical(format!(
             "MCA: the projector holds next to no future part (mean diagonal of M22 {mean_diag:.1e}): the training windows do not tie the future to the past; more minor components (a larger --energy) or another method"
         )));
