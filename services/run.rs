@@ -8,24 +8,21 @@
 //! predictor's status and verification only from their live publisher; rejections are
 //! counted on the view's `checks` line and logged on one line each.
 
+mod children;
+mod view;
+
 use anyhow::Context;
-use shipcast_pipeline::child::{stop_all, ChildProcess};
+use children::{exited_early, Children, Stage};
 use shipcast_pipeline::config::CommonArgs;
 use shipcast_pipeline::config::PipelineConfig;
 use shipcast_pipeline::deck::Advisory;
-use shipcast_pipeline::relative::RelativeAdvisory;
-use shipcast_pipeline::transport::forecast_check::{
-    check_source, ForecastGate, LivePublishers, PublisherWatch,
-};
+use shipcast_pipeline::transport::forecast_check::{ForecastGate, PublisherWatch};
 use shipcast_pipeline::transport::shutdown;
-use shipcast_pipeline::transport::zenoh::{self as zn, LatestSubscriber, ZenohError};
-use shipcast_wire::payload::Forecast;
+use shipcast_pipeline::transport::zenoh::{self as zn, LatestSubscriber};
 use std::io::{IsTerminal, Write};
-use std::os::unix::process::CommandExt;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
-use zenoh::Session;
+use view::{CheckedJson, View};
 
 #[derive(clap::Args, Debug)]
 pub struct Args {
@@ -120,309 +117,6 @@ fn host_name_of(display: &str) -> Option<String> {
     let host = host.trim_start_matches('[').trim_end_matches(']');
     (host.parse::<std::net::IpAddr>().is_err() && !host.eq_ignore_ascii_case("localhost"))
         .then(|| host.to_string())
-}
-
-/// Grace period between SIGTERM and SIGKILL when stopping children.
-const STOP_GRACE: Duration = Duration::from_secs(5);
-
-/// Where a child stands in the data flow, which decides when it is stopped.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum Stage {
-    /// Reads forecasts (deck, crane, relative, display): stopped first.
-    Consumer,
-    Predictor,
-    Producer,
-}
-
-impl Stage {
-    fn of(command: &str) -> Self {
-        match command {
-            "producer" => Self::Producer,
-            "predictor" => Self::Predictor,
-            _ => Self::Consumer,
-        }
-    }
-}
-
-/// The children, stopped (SIGTERM, then SIGKILL) and reaped when dropped, whatever happened.
-struct Children {
-    list: Vec<(Stage, ChildProcess)>,
-}
-
-impl Children {
-    fn spawn(
-        &mut self,
-        name: &'static str,
-        args: &[&str],
-        config: &Path,
-        logs: &Path,
-    ) -> anyhow::Result<()> {
-        self.spawn_as(name, name, args, config, logs)
-    }
-
-    /// `command` as a child whose log and name are `name` (the target vessel's services).
-    fn spawn_as(
-        &mut self,
-        name: &'static str,
-        command: &str,
-        args: &[&str],
-        config: &Path,
-        logs: &Path,
-    ) -> anyhow::Result<()> {
-        let exe = std::env::current_exe().context("locating the shipcast executable")?;
-        let log = crate::private_files::create_new(&logs.join(format!("{name}.log")), false)
-            .with_context(|| format!("creating the log of {name} in {}", logs.display()))?;
-        let mut cmd = Command::new(exe);
-        cmd.arg(command)
-            .arg("--config")
-            .arg(config)
-            .args(args)
-            .stdin(Stdio::null())
-            .stdout(log.try_clone()?)
-            .stderr(log);
-        // The parent as the child must see it: if `run` died between the fork and the prctl,
-        // the child has been handed to another parent and would outlive it (review).
-        let parent = std::process::id() as libc::pid_t;
-        // SAFETY: prctl and getppid are async-signal-safe, touch no memory of ours and nothing
-        // here allocates (between fork and exec only such calls are sound); prctl
-        // only asks the kernel to send SIGTERM to the child if this process dies (e.g. kill
-        // -9), so no child outlives `shipcast run`, and a child whose parent is already gone
-        // fails its exec instead of running on.
-        unsafe {
-            cmd.pre_exec(move || {
-                libc::prctl(libc::PR_SET_PDEATHSIG, libc::SIGTERM);
-                if libc::getppid() != parent {
-                    // No allocation between fork and exec: a raw OS error only.
-                    return Err(std::io::Error::from_raw_os_error(libc::ESRCH));
-                }
-                Ok(())
-            });
-        }
-        let child = ChildProcess::spawn(name, &mut cmd)
-            .with_context(|| format!("starting the {name} process"))?
-            .with_stop_grace(STOP_GRACE);
-        self.list.push((Stage::of(command), child));
-        Ok(())
-    }
-
-    /// A child that exited, unless it is a producer that finished its record.
-    fn failed(&mut self) -> Option<(String, std::process::ExitStatus)> {
-        self.exited()
-            .filter(|(stage, _, status)| !(*stage == Stage::Producer && status.success()))
-            .map(|(_, name, status)| (name, status))
-    }
-
-    fn exited(&mut self) -> Option<(Stage, String, std::process::ExitStatus)> {
-        self.list.iter_mut().find_map(|(stage, c)| {
-            let status = c.try_exit().ok().flatten()?;
-            Some((*stage, c.name().to_string(), status))
-        })
-    }
-
-    /// Stop every child still running, stage by stage against the data flow: the consumers,
-    /// then the predictors, then the producers; each stage gets SIGTERM, the grace period,
-    /// then SIGKILL, and all are reaped. A consumer stopped while its predictor is alive never
-    /// receives a last forecast after the predictor's liveliness token is gone (stopped all at
-    /// once, the crane used to count and log such a forecast as rejected at a plain stop). A
-    /// child that has exited already is not signalled: its pid may be another process's by now.
-    fn stop(&mut self) {
-        for stage in [Stage::Consumer, Stage::Predictor, Stage::Producer] {
-            stop_all(
-                self.list
-                    .iter_mut()
-                    .filter(|(s, _)| *s == stage)
-                    .map(|(_, c)| c),
-                STOP_GRACE,
-            );
-        }
-        self.list.clear();
-    }
-}
-
-/// Why the run stops when service `name` exited on its own: its status and the last error
-/// line of its log.
-fn exited_early(name: &str, status: std::process::ExitStatus, logs: &Path) -> anyhow::Error {
-    let log = logs.join(format!("{name}.log"));
-    let reason = last_error_line(&log).map_or(String::new(), |e| format!(": {e}"));
-    anyhow::anyhow!(
-        "{name} exited early ({status}){reason}; see {}",
-        log.display()
-    )
-}
-
-impl Drop for Children {
-    fn drop(&mut self) {
-        self.stop();
-    }
-}
-
-/// What the live view shows, updated from zenoh.
-#[derive(Default)]
-struct View {
-    forecast: Option<Forecast>,
-    advisory: Option<Advisory>,
-    /// The relative service's lift advisory (two ships only).
-    lift: Option<Option<RelativeAdvisory>>,
-    status: Option<serde_json::Value>,
-    verification: Option<serde_json::Value>,
-    /// When each of the above last arrived (forecast, advisory, lift, status, verification):
-    /// what has not been heard of for [`VIEW_STALE_AFTER`] is shown as STALE, not as current.
-    heard: Heard,
-    /// Forecasts rejected (by reason) and status or verification documents rejected.
-    rejected: (
-        shipcast_pipeline::transport::forecast_check::RejectionCounts,
-        u64,
-    ),
-}
-
-/// Wall time without news after which the live view shows an item as STALE (the display's
-/// default `--stale-after-s`): every service publishes several times a second or every second.
-const VIEW_STALE_AFTER: Duration = Duration::from_secs(3);
-
-#[derive(Default)]
-struct Heard {
-    forecast: Option<Instant>,
-    advisory: Option<Instant>,
-    lift: Option<Instant>,
-    status: Option<Instant>,
-    verification: Option<Instant>,
-}
-
-/// Seconds since `at` when that is longer than [`VIEW_STALE_AFTER`].
-fn silent_for(at: Option<Instant>, now: Instant) -> Option<f64> {
-    let age = now.saturating_duration_since(at?);
-    (age > VIEW_STALE_AFTER).then_some(age.as_secs_f64())
-}
-
-impl View {
-    /// The view at `now`. Regression: with the predictor stopped (SIGSTOP) the view went on
-    /// printing its last forecast, the last deck advisory and "live" as current.
-    fn lines(&self, header: &str, now: Instant) -> Vec<String> {
-        let mut lines = vec![header.to_string()];
-        let heard = &self.heard;
-        lines.push(match (&self.status, silent_for(heard.status, now)) {
-            (None, _) => "predictor  starting (training on simulated history)".into(),
-            (Some(_), Some(age)) => format!("predictor  STALE: no status for {age:.0} s"),
-            (Some(s), None) => {
-                let c = &s["counters"];
-                format!(
-                    "predictor  model v{}  forecasts {}  history {}/{}  received {} lost {} rejected {}  {}",
-                    s["model_version"],
-                    s["forecasts"],
-                    s["history"],
-                    s["order"],
-                    c["received"],
-                    c["lost"],
-                    c["rejected_nonfinite"].as_u64().unwrap_or(0)
-                        + c["rejected_order"].as_u64().unwrap_or(0)
-                        + c["rejected_source"].as_u64().unwrap_or(0),
-                    if s["stale"] == true { "STALE" } else { "live" }
-                )
-            }
-        });
-        // Leads are shown from the newest sample: step k is at time_s + k dt_s, and time_s
-        // lags the newest sample by the decimation filter's delay.
-        let delay_s = self
-            .status
-            .as_ref()
-            .and_then(|s| s["delay_s"].as_f64())
-            .unwrap_or(0.0);
-        lines.push(match (&self.forecast, silent_for(heard.forecast, now)) {
-            (None, _) => "forecast   none yet (the history fills first)".into(),
-            (Some(_), Some(age)) => format!("forecast   STALE: none for {age:.0} s"),
-            (Some(f), None) if f.valid_steps() == 0 => "forecast   empty (0 steps)".into(),
-            (Some(f), None) => {
-                let at = |d: usize, lead_s: f64| {
-                    let k = (((lead_s + delay_s) / f.dt_s).round() as usize)
-                        .clamp(1, f.valid_steps())
-                        - 1;
-                    (f.mean[d][k], f.sigma[d][k])
-                };
-                let mut line = format!("forecast   t={:.1}s", f.time_s + delay_s);
-                for (name, d, scale, unit) in [
-                    ("heave", 2, 1.0, "m"),
-                    ("roll", 3, 180.0 / std::f32::consts::PI, "deg"),
-                    ("pitch", 4, 180.0 / std::f32::consts::PI, "deg"),
-                ] {
-                    let (m5, s5) = at(d, 5.0);
-                    let (m20, s20) = at(d, 20.0);
-                    line.push_str(&format!(
-                        "  {name} +5s {:+.2}±{:.2} +20s {:+.2}±{:.2} {unit}",
-                        m5 * scale,
-                        s5 * scale,
-                        m20 * scale,
-                        s20 * scale
-                    ));
-                }
-                line
-            }
-        });
-        match silent_for(heard.verification, now) {
-            Some(age) => lines.push(format!("skill      STALE: no verification for {age:.0} s")),
-            None => lines.extend(self.skill_lines(delay_s)),
-        }
-        lines.push(match (&self.advisory, silent_for(heard.advisory, now)) {
-            (None, _) => "deck       no advisory yet".into(),
-            (Some(_), Some(age)) => format!("deck       STALE: no advisory for {age:.0} s"),
-            (Some(a), None) => a.summary(),
-        });
-        match (&self.lift, silent_for(heard.lift, now)) {
-            (None, _) => {}
-            (Some(None), _) => lines.push("lift       no relative forecast yet".into()),
-            (Some(Some(_)), Some(age)) => {
-                lines.push(format!("lift       STALE: no advisory for {age:.0} s"))
-            }
-            (Some(Some(a)), None) => lines.push(a.summary()),
-        }
-        let (f, other) = self.rejected;
-        lines.push(format!(
-            "checks     rejected forecasts {} ({} source, {} seq, {} payload), status/verification/advisories {other}",
-            f.total(),
-            f.source,
-            f.seq,
-            f.payload
-        ));
-        lines
-    }
-}
-
-impl View {
-    /// One line per DOF of the live verification: error relative to predicting zero, coverage
-    /// of the sigma bands, and the longest lead that can be trusted right now.
-    fn skill_lines(&self, delay_s: f64) -> Vec<String> {
-        let Some(v) = &self.verification else {
-            return vec![
-                "skill      not verified yet (forecasts are scored as their values arrive)".into(),
-            ];
-        };
-        let dt = v["dt_s"].as_f64().unwrap_or(0.5);
-        let mut out = Vec::new();
-        for d in v["dofs"].as_array().into_iter().flatten() {
-            let name = d["dof"].as_str().unwrap_or("?");
-            if !["heave", "roll", "pitch"].contains(&name) {
-                continue;
-            }
-            let at = |key: &str, lead_s: f64| -> String {
-                let k = ((lead_s + delay_s) / dt).round() as usize;
-                d[key]
-                    .as_array()
-                    .and_then(|a| a.get(k.saturating_sub(1)))
-                    .and_then(serde_json::Value::as_f64)
-                    .map_or("-".into(), |x| format!("{x:.2}"))
-            };
-            let horizon = d["skill_horizon_s"].as_f64().unwrap_or(0.0) - delay_s;
-            out.push(format!(
-                "skill      {name:<5} trust to +{:.0}s  error/zero +5s {} +10s {} +20s {}  within 1 sigma {} 2 sigma {}  (+10s)",
-                horizon.max(0.0),
-                at("nrmse_zero", 5.0),
-                at("nrmse_zero", 10.0),
-                at("nrmse_zero", 20.0),
-                at("coverage_1sigma", 10.0),
-                at("coverage_2sigma", 10.0),
-            ));
-        }
-        out
-    }
 }
 
 /// The target vessel's configuration of a two-ship run: its vessel name and station, its
@@ -571,7 +265,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         );
     }
 
-    let mut children = Children { list: Vec::new() };
+    let mut children = Children::new();
     // The predictor first: the producer waits until it has subscribed (its start-up training
     // takes a moment), so the backfill reaches it.
     children.spawn("predictor", &[], &config_path, &logs)?;
@@ -759,67 +453,6 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// The last `error: ...` line a child wrote to its log (its own one-line reason for stopping).
-fn last_error_line(log: &Path) -> Option<String> {
-    let text = std::fs::read_to_string(log).ok()?;
-    let line = text.lines().rev().find(|l| l.starts_with("error: "))?;
-    let line = crate::error_text::without_source_locations(line.trim_start_matches("error: "));
-    const MOST: usize = 300;
-    Some(if line.chars().count() > MOST {
-        format!("{}...", line.chars().take(MOST).collect::<String>())
-    } else {
-        line
-    })
-}
-
-/// The newest JSON document of one key whose publisher is the key's one live publisher; others
-/// are rejected, counted and logged.
-struct CheckedJson {
-    key: String,
-    subscriber: LatestSubscriber,
-    watch: PublisherWatch,
-    live: LivePublishers,
-    rejected: u64,
-}
-
-impl CheckedJson {
-    fn new(session: &Session, key: &str) -> Result<Self, ZenohError> {
-        Ok(Self {
-            key: key.to_string(),
-            subscriber: LatestSubscriber::new(session, key)?,
-            watch: PublisherWatch::new(session, key)?,
-            live: LivePublishers::default(),
-            rejected: 0,
-        })
-    }
-
-    fn latest(&mut self) -> Result<Option<serde_json::Value>, ZenohError> {
-        self.latest_as()
-    }
-
-    /// The newest document that comes from the live publisher and decodes as `T`; every other
-    /// one is rejected, counted and logged.
-    fn latest_as<T: serde::de::DeserializeOwned>(&mut self) -> Result<Option<T>, ZenohError> {
-        let mut newest = None;
-        while let Some(received) = self.subscriber.try_recv_with_source()? {
-            self.watch.update(&mut self.live);
-            let checked = check_source(&self.live, &received)
-                .map_err(|e| e.to_string())
-                .and_then(|_| {
-                    serde_json::from_slice(&received.payload).map_err(|e| format!("JSON: {e}"))
-                });
-            match checked {
-                Ok(v) => newest = Some(v),
-                Err(e) => {
-                    self.rejected += 1;
-                    tracing::warn!(rejected = self.rejected, "run: {} rejected: {e}", self.key);
-                }
-            }
-        }
-        Ok(newest)
-    }
-}
-
 #[cfg(test)]
 mod config_tests {
     use super::*;
@@ -910,40 +543,5 @@ mod config_tests {
             e.starts_with("--two-ship simulates both vessels in one sea"),
             "{e}"
         );
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn what_has_not_been_heard_of_for_the_stale_limit_is_shown_stale() {
-        let now = Instant::now();
-        let ten_ago = now.checked_sub(Duration::from_secs(10));
-        let status = serde_json::json!({"model_version": 2, "forecasts": 5, "history": 50,
-            "order": 50, "counters": {"received": 9, "lost": 0}, "stale": false});
-        let mut view = View {
-            forecast: Some(Forecast::default()),
-            status: Some(status),
-            ..View::default()
-        };
-        view.heard.forecast = ten_ago;
-        view.heard.status = ten_ago;
-        let lines = view.lines("header", now);
-        assert!(
-            lines.contains(&"forecast   STALE: none for 10 s".to_string()),
-            "{lines:?}"
-        );
-        assert!(
-            lines.contains(&"predictor  STALE: no status for 10 s".to_string()),
-            "{lines:?}"
-        );
-        // Heard just now: shown as it is.
-        view.heard.forecast = Some(now);
-        view.heard.status = Some(now);
-        let lines = view.lines("header", now);
-        assert!(!lines.iter().any(|l| l.contains("STALE")), "{lines:?}");
-        assert!(lines.iter().any(|l| l.contains("model v2")), "{lines:?}");
     }
 }
