@@ -5,18 +5,18 @@
 //! retrains from recent live data and hands over new models without pausing the forecasts.
 
 use crate::checked;
-use serde::Serialize;
 use shipcast_bench::pinning::pin_current;
 use shipcast_bench::stamps::{PublishStages, ReceiveStamp, StampPublisher};
 use shipcast_pipeline::config::{CommonArgs, PipelineConfig};
 use shipcast_pipeline::engine::models::ModelSet;
 use shipcast_pipeline::engine::retrain::Retrainer;
-use shipcast_pipeline::engine::{Engine, EngineCounts};
+use shipcast_pipeline::engine::Engine;
 use shipcast_pipeline::limits;
 use shipcast_pipeline::transport::forecast_check::IoxFollowedPort;
 use shipcast_pipeline::transport::iox::{self, IoxPublisher, IoxSubscriber, Sizing, WaitMode};
+use shipcast_pipeline::transport::status::PredictorStatus;
 use shipcast_pipeline::transport::zenoh::{self as zn, JsonPublisher};
-use shipcast_pipeline::transport::{monotonic_ns, shutdown, Counters, Names};
+use shipcast_pipeline::transport::{monotonic_ns, shutdown, Names};
 use shipcast_wire::payload::{Forecast, MotionSample};
 use shipcast_wire::payload_json::{ForecastJsonEncoder, MotionJsonEncoder};
 use std::path::PathBuf;
@@ -55,27 +55,6 @@ const SPIN_SLICE: Duration = Duration::from_micros(20);
 
 /// Shortest wall-clock silence reported as stale.
 const MIN_STALE_WALL: Duration = Duration::from_millis(100);
-
-/// What the predictor reports about itself on zenoh `.../status/predictor` (the live view of
-/// `shipcast run` shows it).
-#[derive(Debug, Serialize)]
-struct Status {
-    counters: Counters,
-    engine: EngineCounts,
-    stale: bool,
-    model_version: u32,
-    forecasts: u64,
-    history: usize,
-    order: usize,
-    models: String,
-    last_time_s: f64,
-    /// Delay of a forecast's `time_s` behind the newest sample (the decimation filter's): the
-    /// lead of step k after the newest sample is `k * dt_s - delay_s`.
-    delay_s: f64,
-    /// zenoh clients refused by this process, per reason (TLS or user/password;
-    /// `zenoh_refusals`).
-    refused_clients: std::collections::BTreeMap<&'static str, u64>,
-}
 
 /// What the predictor runs with, every value checked: built from [`Args`] by
 /// [`Config::try_from`] (the configuration file, the flags over it, then the checks).
@@ -304,8 +283,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     Ok(())
 }
 
-fn status(engine: &Engine, stale: bool) -> Status {
-    Status {
+fn status(engine: &Engine, stale: bool) -> PredictorStatus {
+    PredictorStatus {
         counters: engine.counters,
         engine: engine.counts,
         stale,
@@ -320,6 +299,7 @@ fn status(engine: &Engine, stale: bool) -> Status {
         delay_s: engine.delay_s(),
         refused_clients: shipcast_pipeline::transport::zenoh_refusals::refusals()
             .into_iter()
+            .map(|(reason, n)| (reason.to_string(), n))
             .collect(),
     }
 }

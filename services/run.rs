@@ -18,6 +18,7 @@ use shipcast_pipeline::config::PipelineConfig;
 use shipcast_pipeline::deck::Advisory;
 use shipcast_pipeline::transport::forecast_check::{ForecastGate, PublisherWatch};
 use shipcast_pipeline::transport::shutdown;
+use shipcast_pipeline::transport::status::PredictorStatus;
 use shipcast_pipeline::transport::zenoh::{self as zn, LatestSubscriber};
 use std::io::{IsTerminal, Write};
 use std::path::{Path, PathBuf};
@@ -392,7 +393,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             view.advisory = Some(a);
             view.heard.advisory = Some(Instant::now());
         }
-        if let Some(v) = status.latest()? {
+        if let Some(v) = status.latest_as::<PredictorStatus>()? {
             view.status = Some(v);
             view.heard.status = Some(Instant::now());
         }

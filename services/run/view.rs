@@ -4,6 +4,7 @@
 use shipcast_pipeline::deck::Advisory;
 use shipcast_pipeline::relative::RelativeAdvisory;
 use shipcast_pipeline::transport::forecast_check::{check_source, LivePublishers, PublisherWatch};
+use shipcast_pipeline::transport::status::PredictorStatus;
 use shipcast_pipeline::transport::zenoh::{LatestSubscriber, ZenohError};
 use shipcast_wire::payload::Forecast;
 use std::time::{Duration, Instant};
@@ -16,7 +17,7 @@ pub(super) struct View {
     pub(super) advisory: Option<Advisory>,
     /// The relative service's lift advisory (two ships only).
     pub(super) lift: Option<Option<RelativeAdvisory>>,
-    pub(super) status: Option<serde_json::Value>,
+    pub(super) status: Option<PredictorStatus>,
     pub(super) verification: Option<serde_json::Value>,
     /// When each of the above last arrived (forecast, advisory, lift, status, verification):
     /// what has not been heard of for [`VIEW_STALE_AFTER`] is shown as STALE, not as current.
@@ -56,30 +57,21 @@ impl View {
         lines.push(match (&self.status, silent_for(heard.status, now)) {
             (None, _) => "predictor  starting (training on simulated history)".into(),
             (Some(_), Some(age)) => format!("predictor  STALE: no status for {age:.0} s"),
-            (Some(s), None) => {
-                let c = &s["counters"];
-                format!(
-                    "predictor  model v{}  forecasts {}  history {}/{}  received {} lost {} rejected {}  {}",
-                    s["model_version"],
-                    s["forecasts"],
-                    s["history"],
-                    s["order"],
-                    c["received"],
-                    c["lost"],
-                    c["rejected_nonfinite"].as_u64().unwrap_or(0)
-                        + c["rejected_order"].as_u64().unwrap_or(0)
-                        + c["rejected_source"].as_u64().unwrap_or(0),
-                    if s["stale"] == true { "STALE" } else { "live" }
-                )
-            }
+            (Some(s), None) => format!(
+                "predictor  model v{}  forecasts {}  history {}/{}  received {} lost {} rejected {}  {}",
+                s.model_version,
+                s.forecasts,
+                s.history,
+                s.order,
+                s.counters.received,
+                s.counters.lost,
+                s.counters.rejected(),
+                if s.stale { "STALE" } else { "live" }
+            ),
         });
         // Leads are shown from the newest sample: step k is at time_s + k dt_s, and time_s
         // lags the newest sample by the decimation filter's delay.
-        let delay_s = self
-            .status
-            .as_ref()
-            .and_then(|s| s["delay_s"].as_f64())
-            .unwrap_or(0.0);
+        let delay_s = self.status.as_ref().map_or(0.0, |s| s.delay_s);
         lines.push(match (&self.forecast, silent_for(heard.forecast, now)) {
             (None, _) => "forecast   none yet (the history fills first)".into(),
             (Some(_), Some(age)) => format!("forecast   STALE: none for {age:.0} s"),
@@ -236,8 +228,13 @@ mod tests {
     fn what_has_not_been_heard_of_for_the_stale_limit_is_shown_stale() {
         let now = Instant::now();
         let ten_ago = now.checked_sub(Duration::from_secs(10));
-        let status = serde_json::json!({"model_version": 2, "forecasts": 5, "history": 50,
-            "order": 50, "counters": {"received": 9, "lost": 0}, "stale": false});
+        let status = PredictorStatus {
+            model_version: 2,
+            forecasts: 5,
+            history: 50,
+            order: 50,
+            ..PredictorStatus::default()
+        };
         let mut view = View {
             forecast: Some(Forecast::default()),
             status: Some(status),

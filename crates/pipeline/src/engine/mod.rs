@@ -79,7 +79,7 @@ const CHANGE_REFRACTORY: u64 = 240;
 const CHANGE_REFIT_EVERY_S: f64 = 60.0;
 
 /// Counts of what the engine did, for status, logs and replay.
-#[derive(Debug, Clone, Copy, Default, Serialize)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, serde::Deserialize)]
 pub struct EngineCounts {
     pub forecasts: u64,
     /// DOF forecasts replaced by the fallback because they were implausible.

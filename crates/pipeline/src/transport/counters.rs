@@ -39,13 +39,18 @@ impl Counters {
         }
     }
 
+    /// Samples rejected, for whatever reason.
+    pub fn rejected(&self) -> u64 {
+        self.rejected_nonfinite + self.rejected_order + self.rejected_source
+    }
+
     /// One-line summary for logs and the live view.
     pub fn summary(&self) -> String {
         format!(
             "received {} lost {} rejected {} (non-finite or out of range {}, out-of-order {}, foreign {}) published {} restarts {}",
             self.received,
             self.lost,
-            self.rejected_nonfinite + self.rejected_order + self.rejected_source,
+            self.rejected(),
             self.rejected_nonfinite,
             self.rejected_order,
             self.rejected_source,

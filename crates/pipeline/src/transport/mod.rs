@@ -11,6 +11,7 @@ pub mod motion_gate;
 pub mod naming;
 pub mod shutdown;
 pub mod silence;
+pub mod status;
 pub mod zenoh;
 pub mod zenoh_refusals;
 pub mod zenoh_router;
