@@ -106,11 +106,14 @@ pub struct Forecast {
     pub dt_s: f64,
     /// Valid steps, at most MAX_STEPS.
     pub steps: u32,
-    /// Increments at every retrain.
+    /// One more at every model put in use (a retrained model that the running one outscores
+    /// takes no number).
     pub model_version: u32,
     /// Predicted motion per DOF, same units as MotionSample.
     pub mean: [[f32; MAX_STEPS]; NUM_DOF],
-    /// Expected RMS error per DOF and step, measured on held-out data.
+    /// Expected RMS error per DOF and step: from the errors verified live (held-out data until
+    /// there are enough of them), times the shape factor that matches +-1 and +-2 sigma
+    /// coverage (docs/forecasting.md).
     pub sigma: [[f32; MAX_STEPS]; NUM_DOF],
 }
 
