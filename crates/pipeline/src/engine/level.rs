@@ -220,6 +220,23 @@ mod tests {
         assert!((l.get(0) - 30.0).abs() < 1.0, "level {}", l.get(0));
     }
 
+    /// Regression (review): a step test that read each deviation clipped at 20 RMS (to find
+    /// a large jump in 3 s instead of 13-20) took the crests of a sea grown eight-fold for
+    /// steps, 14 to 77 times over 8 seeds, and moved the level by up to 2.4 of the new RMS.
+    /// A sea that grows, however much, is no step.
+    #[test]
+    fn a_sea_that_grows_many_fold_is_no_step() {
+        for factor in [3.0, 8.0, 20.0] {
+            for seed in 0..4 {
+                let mut l = Level::default();
+                for (i, y) in sea(2400, seed).into_iter().enumerate() {
+                    l.remove(1, if i >= 1200 { factor * y } else { y });
+                }
+                assert_eq!(l.steps(1), 0, "x{factor}, seed {seed}");
+            }
+        }
+    }
+
     #[test]
     fn a_small_new_list_is_followed_within_the_memory() {
         // A list that grows by half the sea's RMS is no step: the level follows it over its
