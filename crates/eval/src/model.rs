@@ -156,7 +156,15 @@ pub fn train_models(
         // 0.5 mm to 0.14 m (the relative ridge grows with the offset squared), and the map
         // was then applied to other values than it was fitted on (review). The held-out part
         // is centred by the mean of the values before it: nothing from it is used to fit.
-        let fit_mean = mean(&series[..split]);
+        // A constant series (a column held at 0.5) is fitted as it is: centred it is all
+        // zeros, on which a Wiener fit has no power to work with (review), and the engine
+        // forecasts its level anyway.
+        let constant = |x: &[f64]| x.iter().all(|&v| v == x[0]);
+        let fit_mean = if constant(&series[..split]) {
+            0.0
+        } else {
+            mean(&series[..split])
+        };
         let centred_by_fit: Vec<f64> = series.iter().map(|v| v - fit_mean).collect();
         let mut held_out = AnyPredictor::new(options.method, config).map_err(predict_err)?;
         held_out
@@ -167,7 +175,7 @@ pub fn train_models(
 
         let held_out_rms = rms(&centred_by_fit[split..]);
         check_converges(dof, &sigma, held_out_rms)?;
-        let whole_mean = mean(series);
+        let whole_mean = if constant(series) { 0.0 } else { mean(series) };
         let centred: Vec<f64> = series.iter().map(|v| v - whole_mean).collect();
         let mut predictor = AnyPredictor::new(options.method, config).map_err(predict_err)?;
         predictor.fit(&centred).map_err(predict_err)?;
@@ -193,6 +201,9 @@ pub fn train_models(
 /// Largest held-out error of a model `train` writes, in standard deviations of the motion.
 const MAX_SIGMA_OVER_STD: f64 = 100.0;
 
+/// The smallest motion [m, rad] that [`MAX_SIGMA_OVER_STD`] is a multiple of.
+const MOTION_FLOOR: f64 = 1e-6;
+
 /// A model whose held-out error stays within [`MAX_SIGMA_OVER_STD`] times the motion's RMS
 /// `motion_rms`, at every step. The engine would replace the forecasts of one beyond as
 /// implausible, but a file that only ever forecasts "no skill" is no model (review: MCA wrote
@@ -201,7 +212,8 @@ fn check_converges(dof: Dof, sigma: &[f64], motion_rms: f64) -> Result<(), Model
     match sigma
         .iter()
         .enumerate()
-        .find(|(_, s)| !s.is_finite() || **s > MAX_SIGMA_OVER_STD * motion_rms)
+        // Floored: a motion of no size (a constant column) has no scale to diverge from.
+        .find(|(_, s)| !s.is_finite() || **s > MAX_SIGMA_OVER_STD * motion_rms.max(MOTION_FLOOR))
     {
         Some((step, &sigma)) => Err(ModelError::Diverges {
             dof,
@@ -494,6 +506,22 @@ mod tests {
         for (x, y) in a.iter().zip(&b) {
             assert!((x - y).abs() < 1e-6, "{x} and {y}");
         }
+    }
+
+    /// Regression (review): centred, a constant column became all zeros and the Wiener fit
+    /// failed for want of power, so `train` refused a record it used to take.
+    #[test]
+    fn a_constant_column_still_trains() {
+        let mut data = record(600);
+        data.columns[1].values.iter_mut().for_each(|v| *v = 0.5);
+        let model =
+            train_models(&data, &[Dof::Heave, Dof::Roll], &options(Method::Wiener)).unwrap();
+        assert!(model
+            .dof(Dof::Roll)
+            .unwrap()
+            .sigma
+            .iter()
+            .all(|s| s.is_finite()));
     }
 
     #[test]

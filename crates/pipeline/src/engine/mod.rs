@@ -113,6 +113,9 @@ pub struct Engine {
     /// about 5 minutes and over about 30 s: a growing sea shows in the short one first.
     mean_square: [f64; NUM_DOF],
     mean_square_fast: [f64; NUM_DOF],
+    /// The two newest deviations from the level per DOF, older first (what tells a spike
+    /// from motion that goes on).
+    last_deviation: [[f64; 2]; NUM_DOF],
     forecast: Box<Forecast>,
     raw: [[f64; MAX_STEPS]; NUM_DOF],
     pub counters: Counters,
@@ -163,6 +166,7 @@ impl Engine {
             change: ChangeDetector::new(CHANGE_MEMORY, config.change_ratio, CHANGE_REFRACTORY),
             mean_square: [0.0; NUM_DOF],
             mean_square_fast: [0.0; NUM_DOF],
+            last_deviation: [[0.0; 2]; NUM_DOF],
             forecast: Box::default(),
             raw: [[0.0; MAX_STEPS]; NUM_DOF],
             counters: Counters::default(),
@@ -278,10 +282,20 @@ impl Engine {
             // a scale: one spike of 50 m in a sea of 1 m multiplied the live RMS, and with it
             // the plausibility bound and the no-skill sigma, for minutes (review). 8 RMS lets
             // a real growth through at twice the variance per value.
-            let rms = self.live_variance(d).sqrt();
+            //
+            // A spike is one or two values; motion that resumes after hours of stillness
+            // (a live RMS decayed towards 0) goes on: a value counts in full once the two
+            // before it were as large. Clipped against the RMS alone, resumed motion took
+            // 15 s to show in sigma after two still hours (review).
             let xd = x - self.ingest.level(d);
-            let xd = if rms > 0.0 {
-                xd.clamp(-SPIKE_RMS * rms, SPIKE_RMS * rms)
+            let [older, newer] = self.last_deviation[d];
+            let scale = self
+                .live_variance(d)
+                .sqrt()
+                .max(older.abs().min(newer.abs()));
+            self.last_deviation[d] = [newer, xd];
+            let xd = if scale > 0.0 {
+                xd.clamp(-SPIKE_RMS * scale, SPIKE_RMS * scale)
             } else {
                 xd
             };
