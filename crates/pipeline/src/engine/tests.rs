@@ -49,6 +49,16 @@ fn engine_fitted_on_ar2(config: &PredictorServiceConfig, seed: u64) -> Engine {
     .unwrap()
 }
 
+/// Sample `i` of a 2 Hz record that moves in heave alone, by `h`.
+fn heave_only(i: usize, h: f64) -> MotionSample {
+    MotionSample {
+        seq: i as u64,
+        stamp_ns: 0,
+        time_s: i as f64 / 2.0,
+        dof: [0.0, 0.0, h, 0.0, 0.0, 0.0],
+    }
+}
+
 fn run(data: &MotionData, skip_s: f64) -> DofReplay {
     let config = PredictorServiceConfig::default();
     let (report, _) = replay(data, &config, None, skip_s, false, &|_| {}).unwrap();
@@ -727,12 +737,7 @@ fn a_dof_that_stood_still_and_then_moves_is_a_change_and_gets_its_sigma() {
     let (mut after_5s, mut after_30s) = (None, None);
     for (i, &m) in motion.iter().enumerate() {
         let h = if i < onset { 0.0 } else { m };
-        let sample = MotionSample {
-            seq: i as u64,
-            stamp_ns: 0,
-            time_s: i as f64 / 2.0,
-            dof: [0.0, 0.0, h, 0.0, 0.0, 0.0],
-        };
+        let sample = heave_only(i, h);
         if let Some(f) = engine.push(&sample).unwrap() {
             if i == onset + 10 {
                 after_5s = Some(f.sigma[2][9] as f64);
@@ -836,12 +841,7 @@ fn motion_that_resumes_after_hours_of_stillness_gets_its_sigma_within_seconds() 
         } else {
             m
         };
-        let sample = MotionSample {
-            seq: i as u64,
-            stamp_ns: 0,
-            time_s: i as f64 / 2.0,
-            dof: [0.0, 0.0, h, 0.0, 0.0, 0.0],
-        };
+        let sample = heave_only(i, h);
         if let Some(f) = engine.push(&sample).unwrap() {
             if i == restart + 10 {
                 after_5s = Some(f.sigma[2][19] as f64);
