@@ -562,7 +562,8 @@ fn heave_csv(
 /// 0.13 s) was refused as "config: input rate 7.692308 Hz is not an integer multiple", blaming
 /// the configuration for the record's stamps. Stamps rounded to a quarter of the step or less
 /// are now read at their rate (eval does the same); rounded more coarsely (a 4 Hz record to
-/// 0.1 s: steps of 0.2 and 0.3 s), the record is refused and its stamps named.
+/// 0.1 s: steps of 0.2 and 0.3 s), the record is refused and its stamps named, with the
+/// rounding that is too coarse (it used to be read as 3.33 Hz, "rounded or jittered").
 #[test]
 fn replay_of_a_record_with_rounded_time_stamps_says_so_of_the_record() {
     let dir = tempfile::tempdir().unwrap();
@@ -572,9 +573,10 @@ fn replay_of_a_record_with_rounded_time_stamps_says_so_of_the_record() {
     assert!(output.status.success(), "{stderr}");
     let coarse = heave_csv(dir.path(), "coarse.csv", 4.0, 1000, |t| format!("{t:.1}"));
     let output = shipcast(&["replay", "--input", coarse.to_str().unwrap()]);
-    assert_one_line_error(&output, "time stamps rounded or jittered");
+    assert_one_line_error(&output, "time stamps rounded to 0.1 s are too coarse");
     let stderr = String::from_utf8_lossy(&output.stderr);
-    assert!(stderr.contains("typical time step is 0.3 s"), "{stderr}");
+    assert!(stderr.contains("typical step 0.3 s"), "{stderr}");
+    assert!(stderr.contains("coarse.csv"), "{stderr}");
     assert!(!stderr.contains("config"), "{stderr}");
 }
 
