@@ -21,6 +21,6 @@ pub mod resample;
 pub use decimator::{decimate, decimate_with, decimated_len, decimation_inputs_for, Decimator};
 pub use fir::FilterPhase;
 pub use resample::{
-    check_runs_on_grid, decimation_factor, median_rate, regular_step_tolerance, resample_motion,
-    sample_rate, ResampleError,
+    check_runs_on_grid, decimation_factor, gap_free_runs, median_rate, regular_step_tolerance,
+    resample_motion, sample_rate, ResampleError,
 };

@@ -128,7 +128,23 @@ pub fn sample_rate(time: &[f64]) -> Result<f64, ResampleError> {
         }
     }
     on_grid(time, 0)?;
-    Ok(1.0 / ((time[time.len() - 1] - time[0]) / (time.len() - 1) as f64))
+    Ok(1.0 / mean_step(time))
+}
+
+/// The mean step of `run` (at least two stamps): its span over its steps.
+fn mean_step(run: &[f64]) -> f64 {
+    (run[run.len() - 1] - run[0]) / (run.len() - 1) as f64
+}
+
+/// The first stamp of `run` (at least two) farther than `tolerance` from its slot on the
+/// run's own grid (first stamp plus `i` mean steps), with that slot.
+fn first_off_grid(run: &[f64], tolerance: f64) -> Option<(usize, f64)> {
+    let mean = mean_step(run);
+    run.iter()
+        .enumerate()
+        .map(|(i, &t)| (i, t, run[0] + i as f64 * mean))
+        .find(|&(_, t, slot)| (t - slot).abs() > tolerance)
+        .map(|(i, _, slot)| (i, slot))
 }
 
 /// Checks that the stamps of one gap-free run `run` (starting at index `offset` of the
@@ -139,21 +155,34 @@ fn on_grid(run: &[f64], offset: usize) -> Result<(), ResampleError> {
     if run.len() < 3 {
         return Ok(());
     }
-    let mean = (run[run.len() - 1] - run[0]) / (run.len() - 1) as f64;
-    let grid = |i: usize| run[0] + i as f64 * mean;
-    match run
-        .iter()
-        .enumerate()
-        .find(|&(i, &t)| (t - grid(i)).abs() > 0.5 * mean)
-    {
-        Some((i, &t)) => Err(ResampleError::OffGrid {
+    match first_off_grid(run, 0.5 * mean_step(run)) {
+        Some((i, slot)) => Err(ResampleError::OffGrid {
             index: offset + i,
-            time_s: t,
-            grid_s: grid(i),
+            time_s: run[i],
+            grid_s: slot,
             stretch_from_s: run[0],
         }),
         None => Ok(()),
     }
+}
+
+/// The index ranges of the gap-free stretches of `time`: maximal runs of stamps whose steps
+/// lie within `tolerance` of `median_step` (a stamp after a gap starts a new one).
+pub fn gap_free_runs(
+    time: &[f64],
+    median_step: f64,
+    tolerance: f64,
+) -> impl Iterator<Item = std::ops::Range<usize>> + '_ {
+    let regular = move |step: f64| (step - median_step).abs() <= tolerance;
+    let mut start = 0;
+    (1..=time.len()).filter_map(move |i| {
+        let ends = i == time.len() || !regular(time[i] - time[i - 1]);
+        ends.then(|| {
+            let run = start..i;
+            start = i;
+            run
+        })
+    })
 }
 
 /// Checks a record that may hold gaps (steps longer than [`regular_step_tolerance`] of
@@ -161,13 +190,8 @@ fn on_grid(run: &[f64], offset: usize) -> Result<(), ResampleError> {
 /// drifts within a run is refused as in [`sample_rate`].
 pub fn check_runs_on_grid(time: &[f64], median_step: f64) -> Result<(), ResampleError> {
     let tolerance = regular_step_tolerance(time, median_step);
-    let mut start = 0;
-    for i in 1..=time.len() {
-        let ends = i == time.len() || (time[i] - time[i - 1] - median_step).abs() > tolerance;
-        if ends {
-            on_grid(&time[start..i], start)?;
-            start = i;
-        }
+    for run in gap_free_runs(time, median_step, tolerance) {
+        on_grid(&time[run.clone()], run.start)?;
     }
     Ok(())
 }
@@ -205,11 +229,7 @@ fn check_stamp_rounding(time: &[f64], median: f64) -> Result<(), ResampleError> 
             .windows(2)
             .filter(|p| (p[1] - p[0] - median).abs() > 0.5 * quantum)
             .count();
-        let mean = (time[steps] - time[0]) / steps as f64;
-        let regular = time
-            .iter()
-            .enumerate()
-            .all(|(i, &t)| (t - time[0] - i as f64 * mean).abs() <= 1.01 * quantum);
+        let regular = first_off_grid(time, 1.01 * quantum).is_none();
         // At least MIN_ROUNDED_STEPS of them: in a short record one lost sample is a tenth.
         if off * 10 >= steps && off >= MIN_ROUNDED_STEPS && regular {
             return Err(ResampleError::CoarseStamps {

@@ -140,15 +140,11 @@ pub fn record_rate(time: &[f64], forecast_hz: f64) -> anyhow::Result<f64> {
 fn regular_mean_rate(time: &[f64], median_hz: f64) -> (f64, f64) {
     let median = 1.0 / median_hz;
     let tolerance = shipcast_series::regular_step_tolerance(time, median);
-    let (mut sum, mut n, mut runs, mut in_run) = (0.0, 0usize, 0usize, false);
-    for step in time.windows(2).map(|p| p[1] - p[0]) {
-        let regular = (step - median).abs() <= tolerance;
-        if regular {
-            sum += step;
-            n += 1;
-            runs += usize::from(!in_run);
-        }
-        in_run = regular;
+    let (mut sum, mut n, mut runs) = (0.0, 0usize, 0usize);
+    for run in shipcast_series::gap_free_runs(time, median, tolerance).filter(|r| r.len() >= 2) {
+        sum += time[run.end - 1] - time[run.start];
+        n += run.len() - 1;
+        runs += 1;
     }
     if n == 0 {
         (median_hz, 0.0)
