@@ -49,14 +49,19 @@ fn engine_fitted_on_ar2(config: &PredictorServiceConfig, seed: u64) -> Engine {
     .unwrap()
 }
 
-/// Sample `i` of a 2 Hz record that moves in heave alone, by `h`.
-fn heave_only(i: usize, h: f64) -> MotionSample {
+/// Sample `i` of a 2 Hz record with the six DOF values `dof`.
+fn at_2hz(i: usize, dof: [f64; 6]) -> MotionSample {
     MotionSample {
         seq: i as u64,
         stamp_ns: 0,
         time_s: i as f64 / 2.0,
-        dof: [0.0, 0.0, h, 0.0, 0.0, 0.0],
+        dof,
     }
+}
+
+/// Sample `i` of a 2 Hz record that moves in heave alone, by `h`.
+fn heave_only(i: usize, h: f64) -> MotionSample {
+    at_2hz(i, [0.0, 0.0, h, 0.0, 0.0, 0.0])
 }
 
 fn run(data: &MotionData, skip_s: f64) -> DofReplay {
@@ -169,12 +174,7 @@ fn an_implausible_forecast_is_never_published() {
     let mut engine = engine_fitted_on_ar2(&config, 30);
     let mut published = 0;
     for (i, v) in x.iter().enumerate() {
-        let mut sample = MotionSample {
-            seq: i as u64,
-            time_s: i as f64 * 0.5,
-            ..MotionSample::default()
-        };
-        sample.dof[2] = *v;
+        let sample = heave_only(i, *v);
         if engine.push(&sample).unwrap().is_none() {
             continue;
         }
@@ -281,12 +281,7 @@ fn spiked_ar_run(spikes: &[usize]) -> SpikedRun {
     let engine = &mut run.engine;
     let mut retrain_at = None;
     for (i, v) in x.iter().enumerate() {
-        let mut sample = MotionSample {
-            seq: i as u64,
-            time_s: i as f64 * 0.5,
-            ..MotionSample::default()
-        };
-        sample.dof[2] = if spikes.contains(&i) { 1e5 } else { *v };
+        let mut sample = heave_only(i, if spikes.contains(&i) { 1e5 } else { *v });
         sample.dof[3] = *v;
         if engine.push(&sample).unwrap().is_none() {
             continue;
@@ -700,12 +695,7 @@ fn the_model_version_rises_by_one_at_every_model_put_in_use_and_only_then() {
     // The case the old numbering failed: a model put in use after one was kept out.
     let (mut kept_seen, mut rise_after_kept) = (0u64, false);
     for (i, h) in ar2(2 * 3 * 3600, 8, |_| 1.0).into_iter().enumerate() {
-        let sample = MotionSample {
-            seq: i as u64,
-            stamp_ns: 0,
-            time_s: i as f64 / 2.0,
-            dof: [h; 6],
-        };
+        let sample = at_2hz(i, [h; 6]);
         if let Some(f) = engine.push(&sample).unwrap() {
             if f.model_version != seen {
                 assert_eq!(f.model_version, seen + 1, "after {rises} rises");
@@ -782,12 +772,7 @@ fn one_spike_does_not_inflate_the_live_rms_behind_the_no_skill_sigma() {
     heave[spike] = 50.0 * std;
     let (mut before, mut after) = (Vec::new(), Vec::new());
     for (i, &h) in heave.iter().enumerate() {
-        let sample = MotionSample {
-            seq: i as u64,
-            stamp_ns: 0,
-            time_s: i as f64 / 2.0,
-            dof: [h; 6],
-        };
+        let sample = at_2hz(i, [h; 6]);
         let Some(f) = engine.push(&sample).unwrap() else {
             continue;
         };
