@@ -250,10 +250,13 @@ impl DeckAdvisor {
     }
 }
 
-/// P(|X| <= limit) for X ~ N(mean, sigma^2); a zero sigma means certainty.
+/// P(|X| <= limit) for X ~ N(mean, sigma^2); a zero sigma means certainty. An unknown (NaN)
+/// sigma or mean gives 0: nothing known is no licence for a go.
 pub fn prob_within(mean: f64, sigma: f64, limit: f64) -> f64 {
-    // NaN sigma (unknown) counts as certainty, like zero.
-    if sigma.is_nan() || sigma <= 0.0 {
+    if sigma.is_nan() || mean.is_nan() {
+        return 0.0;
+    }
+    if sigma <= 0.0 {
         return if mean.abs() <= limit { 1.0 } else { 0.0 };
     }
     (normal_cdf((limit - mean) / sigma) - normal_cdf((-limit - mean) / sigma)).clamp(0.0, 1.0)
@@ -305,6 +308,9 @@ pub(crate) mod tests {
         assert!((prob_within(0.0, 1.0, 1.0) - 0.682689).abs() < 1e-6);
         assert_eq!(prob_within(0.5, 0.0, 1.0), 1.0);
         assert_eq!(prob_within(1.5, 0.0, 1.0), 0.0);
+        // Unknown is not certain: a NaN sigma or mean never reads as "within".
+        assert_eq!(prob_within(0.0, f64::NAN, 1.0), 0.0);
+        assert_eq!(prob_within(f64::NAN, 0.1, 1.0), 0.0);
     }
 
     /// A forecast at 2 Hz with roll following `roll_deg(k)`, everything else still, and the

@@ -83,13 +83,18 @@ fn conditional_band(mean: f64, sigma: f64, limit: f64, centre: f64, scale: f64) 
 }
 
 /// P(|mean_k + sigma_k z_k| <= limit for every k) for the AR(1) chain z with correlation
-/// `rho` between neighbouring steps. A step with zero or unknown sigma counts as certain (it
-/// holds or fails on its mean alone) and does not break the chain. Steps beyond the lattice's
-/// dimension are not computed: callers size the lattice to the longest window.
+/// `rho` between neighbouring steps. A step with zero sigma counts as certain (it holds or fails
+/// on its mean alone) and does not break the chain. A step whose sigma is unknown (NaN) cannot be
+/// shown to hold, so the window's probability is 0: an unknown error is no licence for a go.
+/// Steps beyond the lattice's dimension are not computed: callers size the lattice to the
+/// longest window.
 pub fn chain_within(mean: &[f64], sigma: &[f64], limit: f64, rho: f64, lattice: &Lattice) -> f64 {
     let n = mean.len().min(sigma.len());
     if n == 0 {
         return 1.0;
+    }
+    if sigma[..n].iter().any(|s| s.is_nan()) {
+        return 0.0;
     }
     // Certain steps decide alone; the chain only sees the uncertain ones.
     if (0..n).any(|k| certain(sigma[k]) && (mean[k].is_nan() || mean[k].abs() > limit)) {
@@ -146,7 +151,7 @@ pub fn correlated_within(
     if chol.len() < n * n
         || y.len() < n
         || lattice.dims() < n
-        || sigma[..n].iter().any(|&s| certain(s))
+        || sigma[..n].iter().any(|&s| s.is_nan() || certain(s))
     {
         return None;
     }
@@ -203,9 +208,10 @@ pub fn cholesky_block(
     true
 }
 
-/// Zero or unknown (NaN) sigma: the step holds or fails on its mean alone.
+/// Zero sigma: the step holds or fails on its mean alone. (NaN is not certainty; callers refuse
+/// it first.)
 fn certain(sigma: f64) -> bool {
-    sigma.is_nan() || sigma <= 0.0
+    sigma <= 0.0
 }
 
 /// Standard normal quantile (Acklam's rational approximation, relative error below 1.2e-9),
@@ -296,8 +302,14 @@ mod tests {
             0.0
         );
         assert_eq!(
-            chain_within(&[0.0, 0.5], &[0.0, f64::NAN], 1.0, 0.5, &lattice),
+            chain_within(&[0.0, 0.5], &[0.0, 0.0], 1.0, 0.5, &lattice),
             1.0
+        );
+        // An unknown sigma is no certainty: the window cannot be shown to hold, even with a
+        // mean well inside the limit.
+        assert_eq!(
+            chain_within(&[0.0, 0.5], &[0.1, f64::NAN], 1.0, 0.5, &lattice),
+            0.0
         );
     }
 
