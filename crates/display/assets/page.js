@@ -121,7 +121,9 @@ function render(s) {
       const go = d.go && d.probability_now !== null;
       verdict.className = go ? "go" : "nogo";
       verdict.textContent = d.probability_now === null
-        ? (d.awaiting_verified_errors
+        ? (d.frozen_dof
+          ? `NO-GO (the ${d.frozen_dof} sensor repeats its value; MOT ${fmt(d.mot_s, 0)} s)`
+          : d.awaiting_verified_errors
           ? `NO-GO (no probability until forecasts are verified; MOT ${fmt(d.mot_s, 0)} s)`
           : `NO-GO (MOT ${fmt(d.mot_s, 0)} s beyond the horizon)`)
         : `${go ? "GO" : "NO-GO"} ${fmt(100 * d.probability_now, 0)} % over ${fmt(d.mot_s, 0)} s`;

@@ -87,6 +87,9 @@ pub struct DecisionView {
     /// The station states no probability yet: no verified errors back one.
     #[serde(default)]
     pub awaiting_verified_errors: bool,
+    /// The deck states no probability: this DOF's sensor repeats its value (a frozen sensor).
+    #[serde(default)]
+    pub frozen_dof: Option<Dof>,
 }
 
 /// A station's advisory, as published on `.../advisory/<station>`; parsing it into this type

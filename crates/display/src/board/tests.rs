@@ -214,6 +214,38 @@ fn the_deck_advisory_the_deck_publishes_parses_with_its_decision() {
 }
 
 #[test]
+fn a_frozen_sensor_named_by_the_deck_reaches_the_page_and_a_made_up_one_is_refused() {
+    use shipcast_pipeline::config::DeckConfig;
+    use shipcast_pipeline::deck::DeckAdvisor;
+    let mut advisor = DeckAdvisor::new(&DeckConfig {
+        go_needs_verified_errors: false,
+        ..DeckConfig::default()
+    });
+    // Heave moves, then repeats its value for a minute: the deck names it.
+    let mut json = Vec::new();
+    for i in 0..300 {
+        let t = 100.0 + 0.5 * i as f64;
+        let heave = if i < 100 { (0.1 * i as f64).sin() } else { 0.5 };
+        let f = Forecast {
+            time_s: t,
+            ..calm_forecast(50)
+        };
+        json =
+            serde_json::to_vec(&advisor.advise_from(&f, Some(&[0.0, 0.0, heave, 0.0, 0.0, 0.0])))
+                .unwrap();
+    }
+    let a: AdvisoryView = serde_json::from_slice(&json).unwrap();
+    a.check().unwrap();
+    assert_eq!(a.decision.frozen_dof, Some(Dof::Heave));
+    assert!(!a.decision.go && a.decision.probability_now.is_none());
+    // Only a DOF's name is taken: anything else in the field is a forged advisory.
+    let text = String::from_utf8(json).unwrap();
+    let forged = text.replace("\"frozen_dof\":\"heave\"", "\"frozen_dof\":\"<b>deck</b>\"");
+    assert_ne!(forged, text);
+    assert!(serde_json::from_str::<AdvisoryView>(&forged).is_err());
+}
+
+#[test]
 fn a_lift_advisory_parses_and_a_message_without_a_decision_is_refused() {
     let lift = serde_json::json!({
         "crane_vessel": "a", "target_vessel": "b", "time_s": 12.5,
@@ -274,6 +306,7 @@ fn a_vessel_without_forecasts_for_longer_than_the_limit_is_stale_and_shows_none(
                 next_exceedance_s: None,
                 ensemble_members: Some(300),
                 awaiting_verified_errors: false,
+                frozen_dof: None,
             },
             stale_s: None,
         },

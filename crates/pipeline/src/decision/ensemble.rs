@@ -90,6 +90,15 @@ impl<const Q: usize> ErrorEnsemble<Q> {
         self.members.len()
     }
 
+    /// Forget every member (keeping the storage): the errors came from a motion that is gone.
+    pub fn clear(&mut self) {
+        self.members.clear();
+        self.next = 0;
+        self.offered = 0;
+        self.uz = [[0.0; MAX_STEPS]; Q];
+        self.zz = [[0.0; MAX_STEPS]; Q];
+    }
+
     pub fn is_empty(&self) -> bool {
         self.members.is_empty()
     }

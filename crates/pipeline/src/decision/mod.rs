@@ -18,6 +18,7 @@ pub mod recalibrate;
 pub mod reliability;
 pub mod score;
 pub mod statements_file;
+pub mod still;
 pub mod window;
 
 use crate::config::DeckConfig;
@@ -28,6 +29,7 @@ use recalibrate::StatementRecord;
 use serde::{Deserialize, Serialize};
 use shipcast_wire::payload::{DecisionSample, Forecast, MAX_STEPS};
 use shipcast_wire::Dof;
+use still::{StillWatch, Stillness};
 use window::{chain_within, cholesky_block, correlated_within, Lattice};
 
 /// The limited quantities, in the order of every per-quantity array here.
@@ -72,6 +74,10 @@ pub struct Decision {
     /// (`deck.go_needs_verified_errors`).
     #[serde(default)]
     pub awaiting_verified_errors: bool,
+    /// A DOF the deck's quantities are made of has repeated its recorded value for
+    /// [`still::STILL_AFTER_S`] after moving: a frozen sensor, so no probability and no go.
+    #[serde(default)]
+    pub frozen_dof: Option<Dof>,
 }
 
 /// The NO-GO a station publishes for its local readers when its forecasts stop: no
@@ -131,6 +137,10 @@ impl Decision {
             });
         let now = match self.probability_now {
             Some(p) => format!("{:.0}%", 100.0 * p),
+            None if self.frozen_dof.is_some() => format!(
+                "{} sensor repeats its value",
+                self.frozen_dof.map_or("a", Dof::name)
+            ),
             None if self.awaiting_verified_errors => "no probability before verified errors".into(),
             None => "MOT beyond the horizon".into(),
         };
@@ -326,6 +336,10 @@ pub struct Decider {
     in_use: Vec<usize>,
     /// The recorded values at the loaded forecast's `time_s`, if it was loaded with them.
     origin: Option<[f64; 6]>,
+    /// How long the recorded heave, roll and pitch have repeated their values, and the DOF
+    /// that is frozen now, if any ([`still`]).
+    still: StillWatch,
+    frozen: Option<Dof>,
 }
 
 /// Window lengths whose statements are recorded (a deck decides for one MOT; replay scores two).
@@ -359,6 +373,8 @@ impl Decider {
             in_use: Vec::with_capacity(MAX_RECORDS),
             raw_now: None,
             origin: None,
+            still: StillWatch::default(),
+            frozen: None,
         }
     }
 
@@ -469,6 +485,12 @@ impl Decider {
         self.tracks.fill(&self.point, forecast, self.rho[2]);
         self.tracks.central_ends(&self.point, origin, None);
         self.origin = origin.copied();
+        if let Some(values) = origin {
+            if let Stillness::Resumed(dof) = self.still.observe(forecast.time_s, values) {
+                self.forget_evidence(dof, forecast.time_s);
+            }
+            self.frozen = self.still.frozen();
+        }
         let t = &self.tracks;
         for k in 0..t.steps {
             let breaks = (0..NUM_QUANTITIES)
@@ -644,9 +666,28 @@ impl Decider {
     }
 
     /// Whether the loaded forecast's probabilities may say go: they come from verified
-    /// errors, or the configuration lets the Gaussian model decide.
+    /// errors, or the configuration lets the Gaussian model decide, and no sensor behind them
+    /// is frozen.
     pub fn may_go(&self) -> bool {
-        self.from_ensemble || !self.go_needs_verified
+        (self.from_ensemble || !self.go_needs_verified) && self.frozen.is_none()
+    }
+
+    /// A DOF moved again after repeating its value for minutes: the verified errors and
+    /// statements gathered so far describe a motion that is gone (errors of nothing), so they
+    /// are dropped and go waits for errors verified on the motion as it is now ([`still`]).
+    fn forget_evidence(&mut self, dof: Dof, time_s: f64) {
+        tracing::warn!(
+            "deck: {} moves again at t={time_s:.1}s after repeating its value for at least \
+             {}s; the verified errors and statements gathered so far are dropped and go waits \
+             for new ones",
+            dof.name(),
+            still::STILL_AFTER_S
+        );
+        self.ensemble.clear();
+        for (_, r) in &mut self.records {
+            r.clear();
+        }
+        self.raw_now = None;
     }
 
     /// First step at which a mean breaks a limit.
@@ -681,12 +722,17 @@ impl Decider {
                 0
             },
             awaiting_verified_errors: false,
+            frozen_dof: None,
         };
         self.raw_now = None;
         // Before verified errors back it (unless the configuration lets the Gaussian model
         // decide) no probability is stated: the model's, with the no-skill sigma of the first
         // minutes, was off by up to 68 points on replayed records (docs/decisions.md).
         if n > steps {
+            return decision;
+        }
+        if let Some(dof) = self.frozen {
+            decision.frozen_dof = Some(dof);
             return decision;
         }
         if !self.may_go() {

@@ -230,3 +230,66 @@ fn a_statement_is_corrected_below_the_threshold_it_is_compared_with() {
         at_default
     );
 }
+
+#[test]
+fn a_frozen_sensor_withholds_go_and_its_thaw_drops_the_evidence_of_its_stillness() {
+    let config = DeckConfig {
+        go_needs_verified_errors: true,
+        ..config(5.0)
+    };
+    let mut decider = Decider::new(&config);
+    let no_error = [[0.0; MAX_STEPS]; NUM_QUANTITIES];
+    for _ in 0..ensemble::MIN_MEMBERS * ensemble::DEFAULT_STRIDE {
+        decider.add_verified(&no_error, &no_error, 40);
+    }
+    let n = window_steps(5.0, 0.5);
+    for _ in 0..500 {
+        decider.add_outcome(n, 0.99, true);
+    }
+    let quiet = |time_s: f64| Forecast {
+        time_s,
+        ..forecast(40, |_| 1.0, 0.1f64.to_radians() as f32)
+    };
+    let heave = |h: f64| [0.0, 0.0, h, 0.01, 0.0, 0.0];
+    // Heave moves for a minute, roll sits at a constant it never leaves (an absent channel
+    // feeding a constant): go, from the verified errors.
+    let mut t = 0.0;
+    while t < 60.0 {
+        let d = decider.decide_from(&quiet(t), Some(&heave((0.8 * t).sin())));
+        assert!(d.go && d.frozen_dof.is_none(), "t={t}: {d:?}");
+        t += 0.5;
+    }
+    // The heave sensor sticks: go holds for less than STILL_AFTER_S of repeats, then the
+    // deck says no go and names the sensor, with no probability.
+    let stuck = heave((0.8 * (t - 0.5)).sin());
+    while t < 60.0 + 2.0 * still::STILL_AFTER_S {
+        let d = decider.decide_from(&quiet(t), Some(&stuck));
+        let frozen = t - 59.5 >= still::STILL_AFTER_S;
+        assert_eq!(d.go, !frozen, "t={t}: {d:?}");
+        assert_eq!(d.frozen_dof, frozen.then_some(Dof::Heave), "t={t}: {d:?}");
+        assert_eq!(d.probability_now.is_none(), frozen, "t={t}: {d:?}");
+        assert!(!decider.may_go() || !frozen);
+        t += 0.5;
+    }
+    let d = decider.decide_from(&quiet(t), Some(&stuck));
+    assert!(
+        d.summary().contains("heave sensor repeats its value"),
+        "{}",
+        d.summary()
+    );
+    // It moves again: the errors and statements of the stillness are gone, so no go until
+    // errors of the motion now are verified.
+    let d = decider.decide_from(&quiet(t + 0.5), Some(&heave(0.2)));
+    assert!(
+        d.frozen_dof.is_none() && d.awaiting_verified_errors && !d.go,
+        "{d:?}"
+    );
+    assert!(decider.ensemble().is_empty());
+    assert_eq!(decider.statement_calls(), 0.0);
+    // A decision without recorded values (a deck that gets no motion) neither freezes nor thaws.
+    let d = decider.decide(&quiet(t + 1000.0));
+    assert!(
+        d.frozen_dof.is_none() && d.awaiting_verified_errors,
+        "{d:?}"
+    );
+}
