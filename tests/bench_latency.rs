@@ -1,5 +1,5 @@
-//! The latency harness end to end: every path and mode reports a count, nothing is lost, and
-//! the percentiles are ordered. No timing thresholds: the figures depend on the machine.
+//! The latency harness end to end: every path and mode reports a count, every loss is counted
+//! (none on iceoryx2, a rare one on zenoh), and the percentiles are ordered. No timing thresholds: the figures depend on the machine.
 
 use shipcast_bench::latency;
 use shipcast_bench::plan::{Mode, Path, Plan, Source};
@@ -24,7 +24,7 @@ fn plan(samples: u64) -> Plan {
 }
 
 #[test]
-fn every_path_and_mode_reports_counts_without_loss_and_ordered_percentiles() {
+fn every_path_and_mode_reports_counts_its_losses_and_ordered_percentiles() {
     let plan = plan(300);
     let modes = [Mode::Event, Mode::Poll];
     let report = latency::run(&plan, &modes, &NoProgress).expect("benchmark runs");
@@ -81,8 +81,10 @@ fn every_path_and_mode_reports_counts_without_loss_and_ordered_percentiles() {
     }
     assert_eq!(row(Path::Iceoryx2Raw, Source::Raw).count, 2 * plan.samples);
     // The inter-process floor: this side's legs and the ones the child wrote back.
+    // Zenoh may drop (above): what arrived and what was counted lost make up what was sent.
+    let received_or_lost = |r: &shipcast_bench::PathStats| r.count + r.lost;
     assert_eq!(
-        row(Path::ZenohRaw, Source::RawProcesses).count,
+        received_or_lost(row(Path::ZenohRaw, Source::RawProcesses)),
         2 * plan.samples
     );
     for source in [Source::Services, Source::InProcess] {
@@ -93,7 +95,10 @@ fn every_path_and_mode_reports_counts_without_loss_and_ordered_percentiles() {
             "{forecasts}"
         );
         assert_eq!(row(Path::SampleToForecastLocal, source).count, forecasts);
-        assert_eq!(row(Path::SampleToForecastZenoh, source).count, forecasts);
+        assert_eq!(
+            received_or_lost(row(Path::SampleToForecastZenoh, source)),
+            forecasts
+        );
     }
     assert!(report
         .header()

@@ -41,10 +41,12 @@ fn chromium() -> PathBuf {
     );
 }
 
-/// A free TCP port on 127.0.0.1 (bound, read, released).
+/// A free TCP port on 127.0.0.1, outside the ephemeral range: the display is restarted on it
+/// while Chromium keeps opening connections, whose source ports an ephemeral one could collide
+/// with ("Address already in use").
 fn free_port() -> u16 {
-    let listener = std::net::TcpListener::bind("127.0.0.1:0").expect("bind a free port");
-    listener.local_addr().expect("local address").port()
+    shipcast_pipeline::transport::zenoh::free_port(std::net::Ipv4Addr::LOCALHOST.into())
+        .expect("a free port")
 }
 
 /// A headless Chromium with one page, driven over its DevTools protocol; killed on drop.

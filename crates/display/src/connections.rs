@@ -427,7 +427,8 @@ mod tests {
 
     #[tokio::test]
     async fn a_connection_whose_client_reads_is_not_cut_by_the_write_timeout() {
-        let (served, mut client) = connection(Duration::from_secs(2)).await;
+        // A write timeout far longer than any pause of the reading thread on a loaded machine.
+        let (served, mut client) = connection(Duration::from_secs(6)).await;
         let reader = std::thread::spawn(move || {
             let mut response = Vec::new();
             client.read_to_end(&mut response).map(|_| response.len())

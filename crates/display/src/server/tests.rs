@@ -336,7 +336,9 @@ fn the_allowed_host_names_are_served_with_or_without_a_port() {
 fn a_connection_without_a_complete_request_head_is_closed_after_the_head_timeout() {
     let server = Server::start(ConnectionLimits {
         max_connections: 64,
-        head_timeout: Duration::from_millis(200),
+        // Long enough that the served client below, on a loaded machine, sends its head in
+        // time; the silent ones are closed after it all the same.
+        head_timeout: Duration::from_millis(1500),
         ..ConnectionLimits::default()
     });
     // Sends nothing at all.
@@ -374,10 +376,12 @@ fn a_connection_without_a_complete_request_head_is_closed_after_the_head_timeout
 
 #[test]
 fn the_cap_closes_new_connections_and_a_slot_is_freed_when_a_client_leaves() {
+    const HEAD_TIMEOUT: Duration = Duration::from_millis(1500);
     let server = Server::start(ConnectionLimits {
         max_connections: 2,
-        // Short, to show that it does not cut an event stream that runs longer.
-        head_timeout: Duration::from_millis(200),
+        // Long enough for the clients' heads on a loaded machine; the streams are then kept
+        // open past it, to show that it does not cut an event stream that runs longer.
+        head_timeout: HEAD_TIMEOUT,
         ..ConnectionLimits::default()
     });
     let mut first = server.open_events();
@@ -389,6 +393,7 @@ fn the_cap_closes_new_connections_and_a_slot_is_freed_when_a_client_leaves() {
         "a third connection is closed unserved"
     );
     // The two streams go on, past the head timeout too.
+    std::thread::sleep(HEAD_TIMEOUT + Duration::from_millis(500));
     next_snapshot(&mut first);
     next_snapshot(&mut second);
 

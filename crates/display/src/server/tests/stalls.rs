@@ -97,7 +97,7 @@ fn an_event_stream_whose_client_stops_reading_is_closed_and_its_slot_freed() {
 #[test]
 fn a_client_that_reads_is_served_on_while_a_stalled_one_next_to_it_is_closed() {
     // A timeout far longer than any pause of a reading thread, even on a loaded machine.
-    let server = busy_server(2, Duration::from_secs(2));
+    let server = busy_server(2, Duration::from_secs(6));
     let mut reader = server.open_events();
     let stop = Arc::new(AtomicBool::new(false));
     let reading = std::thread::spawn({
