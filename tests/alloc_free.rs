@@ -292,3 +292,23 @@ fn the_lift_decision_and_its_verification_do_not_allocate_once_warm() {
     assert!(verifier.lift.statements.calls() > 0.0);
     assert_eq!(allocations, 0);
 }
+
+#[test]
+fn a_forged_row_of_a_million_values_is_refused_without_being_kept() {
+    // A received forecast whose sigma row 1 holds a million values: the parser counts them
+    // and refuses the row by its length. Kept in a growing vector, it took some twenty
+    // allocations (and 4 MB); the refusal's message takes a few.
+    let mut text = String::from(
+        r#"{"seq":1,"source_seq":1,"source_stamp_ns":1,"issued_stamp_ns":1,"time_s":1.0,"dt_s":0.5,"steps":3,"model_version":1,"mean":[[0,0,0],[0,0,0],[0,0,0],[0,0,0],[0,0,0],[0,0,0]],"sigma":[[1,1,1],["#,
+    );
+    text.push_str(&vec!["0.5"; 1_000_000].join(","));
+    text.push_str("],[1,1,1],[1,1,1],[1,1,1],[1,1,1]]}");
+    let (result, n) = counted(|| Forecast::from_json(text.as_bytes()));
+    let err = result.expect_err("a row of a million values");
+    assert!(
+        err.to_string()
+            .contains("'sigma' row 1 has 1000000 values, expected steps = 3"),
+        "{err}"
+    );
+    assert!(n <= 4, "{n} allocations refusing the forged row");
+}

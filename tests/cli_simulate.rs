@@ -349,7 +349,11 @@ fn bad_elevation_files_exit_with_one_clear_line() {
     };
     let not_number = write("a.csv", "time_s,wave_m\n0,1\n0.5,x\n1.0,2\n");
     let no_wave = write("b.csv", "time_s,heave_m\n0,1\n0.5,2\n");
-    let uneven = write("c.csv", "time_s,wave_m\n0,1\n0.5,2\n1.0,1\n1.7,2\n2.0,1\n");
+    // 101.5 - 101.1 is 0.4000000000000057 in f64: the message must show it as 0.4.
+    let uneven = write(
+        "c.csv",
+        "time_s,wave_m\n100.1,1\n100.6,2\n101.1,1\n101.5,2\n102.0,1\n102.5,2\n",
+    );
     let all_nan = write("d.csv", "time_s,wave_m\n0,NaN\n0.5,nan\n1.0,NaN\n");
     let short = write("e.csv", "time_s,wave_m\n0,1\n0.5,2\n1.0,1\n1.5,0\n");
     let infinite = write("f.csv", "time_s,wave_m\n0,1\n0.5,inf\n");
@@ -369,7 +373,7 @@ fn bad_elevation_files_exit_with_one_clear_line() {
         // Rounded to the microsecond (regression, review: 0.39999999999997726 s).
         (
             &["--elevation", &uneven],
-            "elevation record: line 5: time step 0.7 s, but the record is sampled every 0.5 s",
+            "elevation record: line 5: time step 0.4 s, but the record is sampled every 0.5 s",
         ),
         (
             &["--elevation", &all_nan],

@@ -305,9 +305,10 @@ fn rust_examples_read_forecasts_over_zenoh_and_iceoryx2() {
 /// examples/local_decision_reader.rs reads the deck's decisions over iceoryx2: it exits 0 after
 /// `--count 5` with five decision lines whose verdict agrees with their probability and
 /// threshold. A fresh deck has verified nothing yet, so the Gaussian model is let decide
-/// (`go_needs_verified_errors = false`): every line then states a probability, from no
-/// verified errors. (With the default it states none, and a check of the probability against
-/// the verdict never ran: test-quality review.)
+/// (`go_needs_verified_errors = false`): every line then states a probability, from the
+/// Gaussian model or, for a reader that subscribed late, from verified errors. (With the
+/// default it states none, and a check of the probability against the verdict never ran:
+/// test-quality review.)
 #[test]
 fn the_rust_decision_reader_reads_the_deck_over_iceoryx2() {
     let p = TestPipeline::new(

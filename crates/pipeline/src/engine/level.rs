@@ -255,7 +255,10 @@ mod tests {
     #[test]
     fn a_step_on_a_still_record_is_found() {
         // A DOF that does not move (a constant column) and then jumps: the jump is beyond
-        // three times an RMS of (nearly) zero, so the level restarts within a few seconds.
+        // three times an RMS of (nearly) zero, so the level restarts within 20 s. Not within
+        // 3 s: each value counts at most 4 RMS, an RMS that only the jump's own values raise,
+        // so the 10 s recent mean needs some 28 values to pass 3 RMS (the clip is what keeps
+        // a grown sea's crests from passing for a step).
         let mut l = Level::default();
         for _ in 0..2000 {
             l.remove(4, 0.0);

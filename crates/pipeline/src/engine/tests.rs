@@ -805,6 +805,12 @@ fn a_large_offset_rounded_to_the_wire_keeps_sigma_honest() {
     let (c1, c2) = (d.coverage_1sigma[0], d.coverage_2sigma[0]);
     assert!(c1 >= 0.6, "1 sigma {c1}");
     assert!(c2 >= 0.9, "2 sigma {c2}");
+    // Honest, not merely wide: sigma stays near the error it has to cover.
+    let (sigma, rms) = (d.mean_sigma[0], d.rms[0]);
+    assert!(
+        sigma <= 1.5 * rms,
+        "sigma {sigma} against an RMS error of {rms}"
+    );
 }
 
 /// Regression (review): with the live RMS clipped at 8 times itself against spikes, a DOF
