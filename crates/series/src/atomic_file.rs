@@ -63,13 +63,19 @@ fn temporary_prefix(name: &std::ffi::OsStr) -> std::ffi::OsString {
 /// A new temporary file beside `path`, made by this call: a name that exists (another
 /// writer's, a planted link) is never opened but skipped for the next one.
 fn create_temporary(path: &Path) -> std::io::Result<(PathBuf, File)> {
+    create_temporary_numbered(path, &NEXT_TEMPORARY)
+}
+
+/// [`create_temporary`] numbering its names from `next` (tests give their own counter: the
+/// process's is shared by every test that writes).
+fn create_temporary_numbered(path: &Path, next: &AtomicU64) -> std::io::Result<(PathBuf, File)> {
     let name = path.file_name().unwrap_or(path.as_os_str());
     let dir = directory_of(path);
     let mut last_error = None;
     // A few names taken at once is a crowded directory; more is something else (a full
     // directory, a loop), reported with the last error.
     for _ in 0..16 {
-        let n = NEXT_TEMPORARY.fetch_add(1, Ordering::Relaxed);
+        let n = next.fetch_add(1, Ordering::Relaxed);
         let mut file_name = temporary_prefix(name);
         file_name.push(format!("{}.{n}.tmp", std::process::id()));
         let tmp = dir.join(file_name);
@@ -220,18 +226,26 @@ mod tests {
         let path = dir.path().join("statements.json");
         let victim = dir.path().join("victim");
         std::fs::write(&victim, b"not yours").unwrap();
-        // Links at the old fixed name and at the next names this process would pick (fewer
-        // than the 16 names a write tries: more and the write gives up, rightly).
+        // A link at the old fixed name.
         std::os::unix::fs::symlink(&victim, dir.path().join("statements.json.tmp")).unwrap();
-        let next = NEXT_TEMPORARY.load(Ordering::Relaxed);
-        for n in next..next + 8 {
-            let name = format!(".statements.json.{}.{n}.tmp", std::process::id());
-            std::os::unix::fs::symlink(&victim, dir.path().join(name)).unwrap();
-        }
         write_atomically(&path, b"statements").unwrap();
         assert_eq!(std::fs::read(&path).unwrap(), b"statements");
         assert_eq!(std::fs::read(&victim).unwrap(), b"not yours");
         assert!(!std::fs::symlink_metadata(&path).unwrap().is_symlink());
+        // Links at the first 8 names a writer picks (fewer than the 16 it tries: more and it
+        // gives up, rightly), with a counter of the test's own so that no other test's write
+        // moves it past them: each is skipped, and the ninth name is made.
+        let next = AtomicU64::new(0);
+        for n in 0..8 {
+            let name = format!(".statements.json.{}.{n}.tmp", std::process::id());
+            std::os::unix::fs::symlink(&victim, dir.path().join(name)).unwrap();
+        }
+        let (tmp, mut file) = create_temporary_numbered(&path, &next).unwrap();
+        let expected = format!(".statements.json.{}.8.tmp", std::process::id());
+        assert_eq!(tmp, dir.path().join(expected));
+        file.write_all(b"mine").unwrap();
+        assert_eq!(std::fs::read(&victim).unwrap(), b"not yours");
+        assert!(!std::fs::symlink_metadata(&tmp).unwrap().is_symlink());
     }
 
     /// A writer killed between its temporary file and the rename leaves the file; the next

@@ -427,8 +427,7 @@ impl JsonPublisher {
                 .json_buffer
                 .lock()
                 .unwrap_or_else(std::sync::PoisonError::into_inner);
-            buffer.clear();
-            buffer.shrink_to(KEPT_PAYLOAD_BYTES);
+            reuse(&mut buffer);
             serde_json::to_writer(&mut *buffer, value).map_err(err("serialise JSON"))?;
             // zenoh's copy; the lock is not held across the put, which may wait.
             ZBytes::from(&buffer[..])
@@ -487,14 +486,19 @@ fn received(sample: &Sample) -> Received {
 /// The largest receive buffer kept from one message to the next [bytes].
 const KEPT_PAYLOAD_BYTES: usize = 64 * 1024;
 
+/// Empty `buffer` for the next message. A forecast's JSON is about 9 KB: a buffer grown past
+/// [`KEPT_PAYLOAD_BYTES`] by one oversized (forged) message is given back, not kept for the
+/// rest of the process; one within it is kept, so that steady traffic allocates nothing.
+fn reuse(buffer: &mut Vec<u8>) {
+    buffer.clear();
+    buffer.shrink_to(KEPT_PAYLOAD_BYTES);
+}
+
 /// `sample` into `into`, reusing its buffers: once they have grown to the largest payload and
 /// the publisher's id, receiving allocates nothing of ours (a motion sample arrives 8 times a
 /// second per followed vessel).
 fn receive_into(sample: &Sample, into: &mut Received) {
-    into.payload.clear();
-    // A forecast's JSON is about 9 KB: a buffer grown past this by one oversized (forged)
-    // message is given back, not kept for the rest of the process.
-    into.payload.shrink_to(KEPT_PAYLOAD_BYTES);
+    reuse(&mut into.payload);
     into.payload.extend_from_slice(&sample.payload().to_bytes());
     let publisher = sample.attachment().and_then(|a| a.try_to_string().ok());
     match (publisher, &mut into.publisher) {
@@ -601,6 +605,26 @@ impl LivelinessWatch {
 
 #[cfg(test)]
 mod tests {
+
+    /// Regression (review): one forged message of megabytes grew the receive buffer, and the
+    /// buffer kept that size for the life of the process.
+    #[test]
+    fn a_buffer_grown_by_one_oversized_message_is_given_back_and_a_normal_one_kept() {
+        let mut buffer = Vec::new();
+        buffer.extend_from_slice(&[b'x'; 9000]);
+        let normal = buffer.capacity();
+        reuse(&mut buffer);
+        assert!(buffer.is_empty() && buffer.capacity() == normal);
+        buffer.extend_from_slice(&vec![b'x'; 8 << 20]);
+        reuse(&mut buffer);
+        assert!(buffer.is_empty());
+        assert!(
+            buffer.capacity() <= KEPT_PAYLOAD_BYTES,
+            "{}",
+            buffer.capacity()
+        );
+    }
+
     use super::*;
 
     /// Regression: a port from `bind(0)` lies in the ephemeral range, where an outgoing
