@@ -94,7 +94,7 @@ pub enum ModelError {
     BadHoldout(f64),
     /// The held-out error dwarfs the motion: a map that diverges (MCA whose minor components
     /// hold next to no future part), not a model to hand the engine.
-    #[error("{dof}: the model's held-out error at step {step} ({sigma:.3e}) is over {MAX_SIGMA_OVER_STD} times the motion's standard deviation ({std:.3e}): it diverges; try another --method, a --ridge, or more data")]
+    #[error("{dof}: the model's held-out error at step {step} ({sigma:.3e}) is over {MAX_SIGMA_OVER_STD} times the held-out motion's RMS about the training mean ({std:.3e}): it diverges; try another --method, a --ridge, or more data")]
     Diverges {
         dof: Dof,
         step: usize,
