@@ -80,12 +80,14 @@ impl CsvSource {
     /// The record at `path`, which must be sampled at `rate_hz`: the predictor takes the
     /// producer's configured rate for the rate of what it receives, so a record at another
     /// rate would be decimated wrongly and its forecasts' steps would not be `dt_s` apart.
-    fn open(path: &std::path::Path, rate_hz: f64) -> anyhow::Result<Self> {
+    fn open(path: &std::path::Path, rate_hz: f64, forecast_hz: f64) -> anyhow::Result<Self> {
         let data =
             MotionData::read_path(path).with_context(|| format!("reading {}", path.display()))?;
-        let rate = shipcast_series::median_rate(&data.time)
+        // The rate as replay and eval read it (regular steps, within the same tolerance of a
+        // multiple of the forecast rate); the producer took anything within 1 % of its rate.
+        let rate = shipcast_pipeline::engine::replay::record_rate(&data.time, forecast_hz)
             .with_context(|| format!("{}: sample rate", path.display()))?;
-        if ((rate - rate_hz) / rate_hz).abs() > 0.01 {
+        if ((rate - rate_hz) / rate_hz).abs() > shipcast_series::RATE_TOLERANCE {
             anyhow::bail!(
                 "{} is sampled at {rate:.4} Hz but producer.rate_hz is {rate_hz} Hz: set producer.rate_hz to the record's rate (a multiple of the predictor's sample_rate_hz)",
                 path.display()
@@ -239,7 +241,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let csv = p
         .input
         .as_ref()
-        .map(|path| CsvSource::open(path, p.rate_hz).map(|source| (path, source)))
+        .map(|path| {
+            CsvSource::open(path, p.rate_hz, config.predictor.sample_rate_hz)
+                .map(|source| (path, source))
+        })
         .transpose()?;
     let names = config.names()?;
     // One producer per vessel and instance on a host: a second one under these names would

@@ -22,5 +22,5 @@ pub use decimator::{decimate, decimate_with, decimated_len, decimation_inputs_fo
 pub use fir::FilterPhase;
 pub use resample::{
     check_runs_on_grid, decimation_factor, gap_free_runs, median_rate, regular_step_tolerance,
-    resample_motion, sample_rate, ResampleError,
+    resample_motion, sample_rate, ResampleError, RATE_TOLERANCE,
 };

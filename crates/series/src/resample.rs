@@ -13,8 +13,10 @@ const STEP_TOLERANCE: f64 = 0.01;
 const STAMP_QUANTA: [f64; 4] = [1.0, 0.1, 0.01, 0.001];
 /// Fewest steps off the typical one that [`check_stamp_rounding`] takes for rounding.
 const MIN_ROUNDED_STEPS: usize = 20;
-/// Largest relative deviation of input rate / target rate from an integer.
-const RATIO_TOLERANCE: f64 = 1e-3;
+/// Largest relative deviation of a record's rate from the integer multiple of the forecast rate
+/// it is taken as: eval, replay and the producer's `--input` all take a record within it and
+/// refuse one beyond it. Within it, a 25 s forecast's last step lands within 25 ms of its time.
+pub const RATE_TOLERANCE: f64 = 1e-3;
 
 /// Why a record could not be resampled.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -252,7 +254,7 @@ pub fn decimation_factor(input: f64, target: f64) -> Result<usize, ResampleError
     }
     let ratio = input / target;
     let factor = ratio.round();
-    if factor < 1.0 || ((ratio - factor) / ratio).abs() > RATIO_TOLERANCE {
+    if factor < 1.0 || ((ratio - factor) / ratio).abs() > RATE_TOLERANCE {
         return Err(ResampleError::NotMultiple { input, target });
     }
     Ok(factor as usize)

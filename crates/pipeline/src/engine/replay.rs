@@ -102,14 +102,9 @@ pub fn replay(
     replay_scored(data, config, models, skip_s, keep_forecasts, None, progress)
 }
 
-/// How close a record's rate must come to an integer multiple of the forecast rate to be
-/// taken as that multiple (relative): stamps in epoch seconds (1.7e9 s) are quantised to
-/// 2.4e-7 s, so a 10 Hz record's median step may read 0.0999999 s.
-const RATE_SNAP: f64 = 1e-5;
-
-/// The sample rate of a record with time stamps `time` (one over its median step, snapped to
-/// the integer multiple of `forecast_hz` it lies within [`RATE_SNAP`] of), checked to feed an
-/// engine forecasting at `forecast_hz`. The error speaks of the record, not of a
+/// The sample rate of a record with time stamps `time` (the mean of its regular steps, snapped
+/// to the integer multiple of `forecast_hz` it lies within [`shipcast_series::RATE_TOLERANCE`]
+/// of, as eval takes it), checked to feed an engine forecasting at `forecast_hz`. The error speaks of the record, not of a
 /// configuration, and says when its steps are not even regular (stamps rounded to fewer
 /// digits than the rate needs).
 pub fn record_rate(time: &[f64], forecast_hz: f64) -> anyhow::Result<f64> {
@@ -119,7 +114,9 @@ pub fn record_rate(time: &[f64], forecast_hz: f64) -> anyhow::Result<f64> {
     shipcast_series::check_runs_on_grid(time, 1.0 / median)?;
     let (measured, uncertainty) = regular_mean_rate(time, median);
     let multiple = (measured / forecast_hz).round();
-    let snap = RATE_SNAP + uncertainty;
+    // Regression (review): replay snapped within 1e-5 only, so a record at 8.004 Hz that eval
+    // took (within 1e-3) was refused here.
+    let snap = shipcast_series::RATE_TOLERANCE + uncertainty;
     let rate = if multiple >= 1.0 && ((measured - multiple * forecast_hz) / measured).abs() < snap {
         multiple * forecast_hz
     } else {

@@ -682,6 +682,33 @@ fn a_record_rate_comes_from_its_regular_steps_whatever_the_rounding_and_gaps() {
     }
 }
 
+/// Regression (review): eval took a record at 8.004 Hz (within 1e-3 of 8 Hz) while replay
+/// refused it (within 1e-5 only), and the producer's `--input` took anything within 1 %. Eval
+/// and replay now take and refuse the same rates, at the shared tolerance.
+#[test]
+fn eval_and_replay_take_and_refuse_the_same_record_rates() {
+    use super::replay::record_rate;
+    use shipcast_series::{decimation_factor, sample_rate, RATE_TOLERANCE};
+    for (rate, taken) in [
+        (8.0, true),
+        (8.004, true),
+        (7.9965, true),
+        (8.0 * (1.0 + 0.9 * RATE_TOLERANCE), true),
+        (8.0 * (1.0 + 1.5 * RATE_TOLERANCE), false),
+        (8.02, false),
+        (7.9, false),
+    ] {
+        let time: Vec<f64> = (0..4000).map(|i| 50.0 + i as f64 / rate).collect();
+        let eval = sample_rate(&time).and_then(|r| decimation_factor(r, 2.0));
+        let replay = record_rate(&time, 2.0);
+        assert_eq!(eval.is_ok(), taken, "eval at {rate} Hz: {eval:?}");
+        assert_eq!(replay.is_ok(), taken, "replay at {rate} Hz: {replay:?}");
+        if taken {
+            assert_eq!((eval.unwrap(), replay.unwrap()), (4, 8.0), "{rate} Hz");
+        }
+    }
+}
+
 /// Regression (review): the version was taken when a retrain was asked for, so a retrained
 /// model that the running one outscored used up a number and the next model put in use
 /// skipped one. Every forecast's version is the previous one or one more, and it rises as
