@@ -12,6 +12,11 @@
 //!
 //! Used for the files a long run produces and a later run depends on: model files (`shipcast
 //! train`) and the deck's statements file.
+//!
+//! A path that is not a regular file (`/dev/null`, `/dev/stdout`, a named pipe) is written
+//! into, not replaced. Regression: `train --out /dev/null`, run as root, renamed a regular file
+//! over `/dev/null`, and every later reader of it (cargo's own probe of rustc among them) read
+//! the model back.
 
 use std::fs::{File, OpenOptions};
 use std::io::Write;
@@ -33,6 +38,11 @@ pub enum AtomicWriteError {
     },
     #[error("{error}")]
     Rename { error: std::io::Error },
+    #[error("writing {path}: {error}")]
+    Special {
+        path: PathBuf,
+        error: std::io::Error,
+    },
     #[error("flushing its directory {path}: {error}")]
     Directory {
         path: PathBuf,
@@ -132,6 +142,9 @@ pub fn check_writable_beside(path: &Path) -> std::io::Result<()> {
 
 /// Replace `path` by `bytes`, or leave it as it was.
 pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), AtomicWriteError> {
+    if std::fs::metadata(path).is_ok_and(|m| !m.is_file() && !m.is_dir()) {
+        return write_into_special(path, bytes);
+    }
     let (tmp, mut out) =
         create_temporary(path).map_err(|error| AtomicWriteError::CreateTemporary {
             path: directory_of(path).to_path_buf(),
@@ -163,9 +176,49 @@ pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), AtomicWriteErro
     Ok(())
 }
 
+/// Write `bytes` into the device or pipe at `path`: there is nothing to keep safe there, and
+/// replacing it would break it for every other user of the system.
+fn write_into_special(path: &Path, bytes: &[u8]) -> Result<(), AtomicWriteError> {
+    OpenOptions::new()
+        .write(true)
+        .open(path)
+        .and_then(|mut out| out.write_all(bytes))
+        .map_err(|error| AtomicWriteError::Special {
+            path: path.to_path_buf(),
+            error,
+        })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Regression: a device or pipe given as the path (`--out /dev/null`) was replaced by a
+    /// regular file. A named pipe stands in for the device: the bytes reach its reader, and it
+    /// is still a pipe afterwards.
+    #[cfg(unix)]
+    #[test]
+    fn a_pipe_or_device_is_written_into_not_replaced() {
+        use std::os::unix::fs::FileTypeExt;
+        let dir = tempfile::tempdir().unwrap();
+        let fifo = dir.path().join("pipe");
+        let made = std::process::Command::new("mkfifo")
+            .arg(&fifo)
+            .status()
+            .expect("mkfifo runs");
+        assert!(made.success());
+        let reader = std::thread::spawn({
+            let fifo = fifo.clone();
+            move || std::fs::read(fifo).unwrap()
+        });
+        write_atomically(&fifo, b"model").unwrap();
+        // Checked before the reader is joined: had the pipe been replaced, the reader would wait
+        // on it for ever.
+        assert!(std::fs::metadata(&fifo).unwrap().file_type().is_fifo());
+        assert_eq!(reader.join().unwrap(), b"model");
+        // Nothing was left beside it.
+        assert_eq!(files_in(dir.path()), ["pipe".to_string()]);
+    }
 
     /// The names of the files in `dir`, sorted.
     fn files_in(dir: &Path) -> Vec<String> {
