@@ -14,9 +14,9 @@
 //! train`) and the deck's statements file.
 //!
 //! A path that is not a regular file (`/dev/null`, `/dev/stdout`, a named pipe) is written
-//! into, not replaced. Regression: `train --out /dev/null`, run as root, renamed a regular file
-//! over `/dev/null`, and every later reader of it (cargo's own probe of rustc among them) read
-//! the model back.
+//! into, not replaced. Regression: a file written to `/dev/null` by a process running as root
+//! renamed a regular file over it, and every later reader of `/dev/null` (cargo's own probe of
+//! rustc among them) read back what had been written there.
 
 use std::fs::{File, OpenOptions};
 use std::io::Write;
