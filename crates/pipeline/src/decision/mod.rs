@@ -19,6 +19,8 @@ pub mod reliability;
 pub mod score;
 pub mod statements_file;
 pub mod still;
+mod tracks;
+mod verdict;
 pub mod window;
 
 use crate::config::DeckConfig;
@@ -26,10 +28,11 @@ use crate::deck::ShipPoint;
 pub use correlation::ErrorCorrelation;
 pub use ensemble::ErrorEnsemble;
 use recalibrate::StatementRecord;
-use serde::{Deserialize, Serialize};
-use shipcast_wire::payload::{DecisionSample, Forecast, MAX_STEPS};
+use shipcast_wire::payload::{Forecast, MAX_STEPS};
 use shipcast_wire::Dof;
 use still::{StillWatch, Stillness};
+pub use tracks::{standardised_errors, standardised_means, Tracks};
+pub use verdict::{withdrawn_sample, Decision};
 use window::{chain_within, cholesky_block, correlated_within, Lattice};
 
 /// The limited quantities, in the order of every per-quantity array here.
@@ -44,240 +47,6 @@ const PITCH: usize = Dof::Pitch.index();
 /// exact value (window::tests measure it against a Monte Carlo) at a cost the live service
 /// and replay can afford for every candidate window.
 pub const LATTICE_POINTS: usize = 128;
-
-/// The decision for one forecast (inside the advisory JSON on `.../advisory/<station>`).
-/// Times are seconds after the forecast's `time_s`; step k of a forecast is at (k + 1) dt.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct Decision {
-    pub mot_s: f64,
-    /// Go threshold on the window probability.
-    pub go_probability: f64,
-    /// Go now: the window of MOT starting at the first step holds with at least
-    /// `go_probability`.
-    pub go: bool,
-    /// Probability that every limit holds over the window of MOT from the first step; None
-    /// when the forecast horizon is shorter than MOT (nothing can be decided), or before
-    /// verified forecast errors back a probability (`ensemble_members` 0, with
-    /// `deck.go_needs_verified_errors`).
-    pub probability_now: Option<f64>,
-    /// Start of the first window of MOT whose probability reaches `go_probability`.
-    pub next_window_s: Option<f64>,
-    pub next_window_probability: Option<f64>,
-    /// First step at which the predicted mean breaks a limit (None: not within the horizon).
-    pub next_exceedance_s: Option<f64>,
-    /// Step-to-step error correlation used, per quantity ([`QUANTITIES`]).
-    pub error_correlation: [f64; NUM_QUANTITIES],
-    /// Verified error paths the probabilities come from (0: the Gaussian model).
-    #[serde(default)]
-    pub ensemble_members: usize,
-    /// No probability is stated yet because no verified errors back one
-    /// (`deck.go_needs_verified_errors`).
-    #[serde(default)]
-    pub awaiting_verified_errors: bool,
-    /// A DOF the deck's quantities are made of has repeated its recorded value for
-    /// [`still::STILL_AFTER_S`] after moving: a frozen sensor, so no probability and no go.
-    #[serde(default)]
-    pub frozen_dof: Option<Dof>,
-}
-
-/// The NO-GO a station publishes for its local readers when its forecasts stop: no
-/// probability, no window, nothing verified behind it, tied to the last forecast decided on
-/// (`forecast_seq`, `time_s`) and stamped now. Local readers keep the newest decision; without
-/// it they kept the last GO for as long as the silence lasted (review).
-pub fn withdrawn_sample(
-    mot_s: f64,
-    go_probability: f64,
-    forecast_seq: u64,
-    time_s: f64,
-    stamp_ns: u64,
-) -> DecisionSample {
-    DecisionSample {
-        forecast_seq,
-        stamp_ns,
-        time_s,
-        mot_s,
-        go_probability,
-        probability_now: f64::NAN,
-        next_window_s: f64::NAN,
-        next_window_probability: f64::NAN,
-        next_exceedance_s: f64::NAN,
-        go: 0,
-        ensemble_members: 0,
-    }
-}
-
-impl Decision {
-    /// The decision as the iceoryx2 payload for local readers (NaN for absent values).
-    pub fn sample(&self, forecast_seq: u64, time_s: f64, stamp_ns: u64) -> DecisionSample {
-        let nan = |v: Option<f64>| v.unwrap_or(f64::NAN);
-        DecisionSample {
-            forecast_seq,
-            stamp_ns,
-            time_s,
-            mot_s: self.mot_s,
-            go_probability: self.go_probability,
-            probability_now: nan(self.probability_now),
-            next_window_s: nan(self.next_window_s),
-            next_window_probability: nan(self.next_window_probability),
-            next_exceedance_s: nan(self.next_exceedance_s),
-            go: u32::from(self.go),
-            ensemble_members: u32::try_from(self.ensemble_members).unwrap_or(u32::MAX),
-        }
-    }
-
-    pub fn summary(&self) -> String {
-        let next = match (self.next_window_s, self.next_window_probability) {
-            (Some(s), Some(p)) => format!("next go window in {s:.1}s ({:.0}%)", 100.0 * p),
-            _ => "no go window in the horizon".into(),
-        };
-        let exceed = self
-            .next_exceedance_s
-            .map_or("no exceedance predicted".into(), |s| {
-                format!("exceedance in {s:.1}s")
-            });
-        let now = match self.probability_now {
-            Some(p) => format!("{:.0}%", 100.0 * p),
-            None if self.frozen_dof.is_some() => format!(
-                "{} sensor repeats its value",
-                self.frozen_dof.map_or("a", Dof::name)
-            ),
-            None if self.awaiting_verified_errors => "no probability before verified errors".into(),
-            None => "MOT beyond the horizon".into(),
-        };
-        format!(
-            "{} (MOT {:.0}s, {now}), {next}, {exceed}",
-            if self.go { "GO" } else { "NO-GO" },
-            self.mot_s
-        )
-    }
-}
-
-/// Means and sigmas of the limited quantities at every step of one forecast.
-#[derive(Debug, Clone)]
-pub struct Tracks {
-    pub steps: usize,
-    pub dt_s: f64,
-    pub mean: [[f64; MAX_STEPS]; NUM_QUANTITIES],
-    pub sigma: [[f64; MAX_STEPS]; NUM_QUANTITIES],
-}
-
-impl Default for Tracks {
-    fn default() -> Self {
-        Self {
-            steps: 0,
-            dt_s: 0.0,
-            mean: [[0.0; MAX_STEPS]; NUM_QUANTITIES],
-            sigma: [[0.0; MAX_STEPS]; NUM_QUANTITIES],
-        }
-    }
-}
-
-impl Tracks {
-    /// Fill from a forecast. The deck point's vertical sigma takes heave, roll and pitch errors
-    /// as independent; its velocity is the central difference over neighbouring steps, whose
-    /// sigma uses the displacement's error correlation `rho_z` between the two steps.
-    pub fn fill(&mut self, point: &ShipPoint, forecast: &Forecast, rho_z: f64) {
-        let steps = forecast.valid_steps();
-        self.steps = steps;
-        self.dt_s = forecast.dt_s;
-        for k in 0..steps {
-            let dof: [f64; 6] = std::array::from_fn(|d| f64::from(forecast.mean[d][k]));
-            let sig = |d: usize| f64::from(forecast.sigma[d][k]);
-            self.mean[0][k] = dof[ROLL];
-            self.sigma[0][k] = sig(ROLL);
-            self.mean[1][k] = dof[PITCH];
-            self.sigma[1][k] = sig(PITCH);
-            self.mean[2][k] = -point.displacement(dof).z;
-            self.sigma[2][k] = point.vertical_sigma(sig(HEAVE), sig(ROLL), sig(PITCH));
-        }
-        for k in 0..steps {
-            let (a, b) = match (k.checked_sub(1), k + 1 < steps) {
-                (Some(a), true) => (a, k + 1),
-                (None, true) => (k, k + 1),
-                (Some(a), false) => (a, k),
-                (None, false) => (k, k),
-            };
-            if a == b {
-                self.mean[3][k] = 0.0;
-                self.sigma[3][k] = 0.0;
-                continue;
-            }
-            let span = (b - a) as f64 * self.dt_s;
-            let (za, zb) = (self.mean[2][a], self.mean[2][b]);
-            let (sa, sb) = (self.sigma[2][a], self.sigma[2][b]);
-            let r = rho_z.clamp(0.0, 1.0).powi((b - a) as i32);
-            let var = sa * sa + sb * sb - 2.0 * r * sa * sb;
-            self.mean[3][k] = (zb - za) / span;
-            self.sigma[3][k] = var.max(0.0).sqrt() / span;
-        }
-    }
-
-    /// Central differences for the deck velocity at the first and last step (filled by
-    /// [`Self::fill`]), from the recorded DOF values one step before the first (`before`, at
-    /// the forecast's `time_s`, known when it is issued) and one after the last (`after`),
-    /// where given. A one-sided difference at an end is the velocity half a step away from
-    /// that step's time, so a limit there would be checked at another instant than the step's.
-    /// A forecast's tracks take `before` (a recorded value: no error of its own, so the first
-    /// step's velocity sigma is the second step's displacement sigma over 2 dt), and the
-    /// recorded tracks its errors are taken against take the same; whether a limit held is
-    /// judged with `after` too.
-    pub fn central_ends(
-        &mut self,
-        point: &ShipPoint,
-        before: Option<&[f64; 6]>,
-        after: Option<&[f64; 6]>,
-    ) {
-        let steps = self.steps;
-        if steps < 2 || self.dt_s.is_nan() || self.dt_s <= 0.0 {
-            return;
-        }
-        let z = |dof: &[f64; 6]| -point.displacement(*dof).z;
-        if let Some(b) = before {
-            self.mean[3][0] = (self.mean[2][1] - z(b)) / (2.0 * self.dt_s);
-            self.sigma[3][0] = self.sigma[2][1] / (2.0 * self.dt_s);
-        }
-        if let Some(a) = after {
-            self.mean[3][steps - 1] = (z(a) - self.mean[2][steps - 2]) / (2.0 * self.dt_s);
-        }
-    }
-}
-
-/// The standardised errors u = (actual - mean) / sigma of a forecast's tracks against what
-/// happened (`actual` filled from the record's values at the same steps; its sigma unused),
-/// over the steps both cover; NaN where sigma is zero. Returns the steps filled.
-pub fn standardised_errors(
-    predicted: &Tracks,
-    actual: &Tracks,
-    u: &mut [[f64; MAX_STEPS]; NUM_QUANTITIES],
-) -> usize {
-    let steps = predicted.steps.min(actual.steps);
-    for (q, row) in u.iter_mut().enumerate() {
-        for (k, x) in row.iter_mut().enumerate().take(steps) {
-            let s = predicted.sigma[q][k];
-            *x = if s > 0.0 {
-                (actual.mean[q][k] - predicted.mean[q][k]) / s
-            } else {
-                f64::NAN
-            };
-        }
-    }
-    steps
-}
-
-/// The standardised means z = mean / sigma of a forecast's tracks (NaN where sigma is zero),
-/// over its steps: what the ensemble regresses the errors on ([`ensemble`]).
-pub fn standardised_means(predicted: &Tracks, z: &mut [[f64; MAX_STEPS]; NUM_QUANTITIES]) {
-    for (q, row) in z.iter_mut().enumerate() {
-        for (k, x) in row.iter_mut().enumerate().take(predicted.steps) {
-            let s = predicted.sigma[q][k];
-            *x = if s > 0.0 {
-                predicted.mean[q][k] / s
-            } else {
-                f64::NAN
-            };
-        }
-    }
-}
 
 /// Steps in a window of `mot_s` at step `dt_s` (usize::MAX for a step that is not positive).
 pub fn window_steps(mot_s: f64, dt_s: f64) -> usize {
