@@ -140,11 +140,22 @@ pub fn check_writable_beside(path: &Path) -> std::io::Result<()> {
     std::fs::remove_file(&tmp)
 }
 
-/// Replace `path` by `bytes`, or leave it as it was.
+/// Replace `path` by `bytes`, or leave it as it was. A symbolic link is followed: the file it
+/// leads to is replaced, never the link (a link to `/proc/self/fd/1`, as `/dev/stdout` is, was
+/// replaced by a regular file). A character device or a pipe is written into; a block device or
+/// a socket is refused.
 pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), AtomicWriteError> {
-    if std::fs::metadata(path).is_ok_and(|m| !m.is_file() && !m.is_dir()) {
-        return write_into_special(path, bytes);
-    }
+    let target = match what_is_at(path) {
+        Target::Stream => return write_into_special(path, bytes),
+        Target::Refused(kind) => {
+            return Err(AtomicWriteError::Special {
+                path: path.to_path_buf(),
+                error: std::io::Error::other(format!("{kind}, not a file to write into")),
+            })
+        }
+        Target::File(target) => target,
+    };
+    let path = target.as_path();
     let (tmp, mut out) =
         create_temporary(path).map_err(|error| AtomicWriteError::CreateTemporary {
             path: directory_of(path).to_path_buf(),
@@ -176,6 +187,44 @@ pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), AtomicWriteErro
     Ok(())
 }
 
+/// What a write to a path meets.
+enum Target {
+    /// A regular file, or nothing yet: replaced atomically at this path (a link's target).
+    File(PathBuf),
+    /// A character device or a pipe: written into.
+    Stream,
+    /// Anything else that exists and is no directory (a directory fails at the rename).
+    Refused(&'static str),
+}
+
+fn what_is_at(path: &Path) -> Target {
+    let Ok(meta) = std::fs::metadata(path) else {
+        return Target::File(path.to_path_buf());
+    };
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::FileTypeExt;
+        let kind = meta.file_type();
+        if kind.is_char_device() || kind.is_fifo() {
+            return Target::Stream;
+        }
+        if kind.is_block_device() {
+            return Target::Refused("a block device");
+        }
+        if kind.is_socket() {
+            return Target::Refused("a socket");
+        }
+    }
+    if !meta.is_file() {
+        return Target::File(path.to_path_buf());
+    }
+    let is_link = std::fs::symlink_metadata(path).is_ok_and(|m| m.file_type().is_symlink());
+    match is_link.then(|| std::fs::canonicalize(path)) {
+        Some(Ok(real)) => Target::File(real),
+        _ => Target::File(path.to_path_buf()),
+    }
+}
+
 /// Write `bytes` into the device or pipe at `path`: there is nothing to keep safe there, and
 /// replacing it would break it for every other user of the system.
 fn write_into_special(path: &Path, bytes: &[u8]) -> Result<(), AtomicWriteError> {
@@ -192,6 +241,21 @@ fn write_into_special(path: &Path, bytes: &[u8]) -> Result<(), AtomicWriteError>
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Regression (review): a link to a regular file (as `/dev/stdout` is when stdout goes to a
+    /// file) was replaced by a regular file; the file it leads to is replaced now.
+    #[cfg(unix)]
+    #[test]
+    fn a_link_to_a_file_keeps_its_link_and_the_file_gets_the_bytes() {
+        let dir = tempfile::tempdir().unwrap();
+        let real = dir.path().join("real.json");
+        std::fs::write(&real, b"old").unwrap();
+        let link = dir.path().join("link.json");
+        std::os::unix::fs::symlink(&real, &link).unwrap();
+        write_atomically(&link, b"new").unwrap();
+        assert!(std::fs::symlink_metadata(&link).unwrap().is_symlink());
+        assert_eq!(std::fs::read(&real).unwrap(), b"new");
+    }
 
     /// Regression: a device or pipe given as the path (`--out /dev/null`) was replaced by a
     /// regular file. A named pipe stands in for the device: the bytes reach its reader, and it
