@@ -30,7 +30,7 @@ pub use ensemble::ErrorEnsemble;
 use recalibrate::StatementRecord;
 use shipcast_wire::payload::{Forecast, MAX_STEPS};
 use shipcast_wire::Dof;
-use still::{StillWatch, Stillness};
+use still::{StillWatch, Stillness, WATCHED};
 pub use tracks::{standardised_errors, standardised_means, Tracks};
 pub use verdict::{withdrawn_sample, Decision};
 use window::{chain_within, cholesky_block, correlated_within, Lattice};
@@ -109,6 +109,9 @@ pub struct Decider {
     /// that is frozen now, if any ([`still`]).
     still: StillWatch,
     frozen: Option<Dof>,
+    /// Per watched DOF, the verified statements as they were when its current stillness
+    /// began: what a thaw goes back to (those of earlier runs included).
+    records_before_still: [Option<Vec<(usize, StatementRecord)>>; WATCHED.len()],
 }
 
 /// Window lengths whose statements are recorded (a deck decides for one MOT; replay scores two).
@@ -144,6 +147,7 @@ impl Decider {
             origin: None,
             still: StillWatch::default(),
             frozen: None,
+            records_before_still: Default::default(),
         }
     }
 
@@ -255,10 +259,7 @@ impl Decider {
         self.tracks.central_ends(&self.point, origin, None);
         self.origin = origin.copied();
         if let Some(values) = origin {
-            if let Stillness::Resumed(dof) = self.still.observe(forecast.time_s, values) {
-                self.forget_evidence(dof, forecast.time_s);
-            }
-            self.frozen = self.still.frozen();
+            self.watch_stillness(forecast.time_s, values);
         }
         let t = &self.tracks;
         for k in 0..t.steps {
@@ -441,20 +442,47 @@ impl Decider {
         (self.from_ensemble || !self.go_needs_verified) && self.frozen.is_none()
     }
 
-    /// A DOF moved again after repeating its value for minutes: the verified errors and
-    /// statements gathered so far describe a motion that is gone (errors of nothing), so they
-    /// are dropped and go waits for errors verified on the motion as it is now ([`still`]).
-    fn forget_evidence(&mut self, dof: Dof, time_s: f64) {
+    /// Tell the watch of the recorded heave, roll and pitch that the record has these DOFs
+    /// (replay knows; [`still::StillWatch::set_present`]).
+    pub fn set_present_dofs(&mut self, dofs: &[Dof]) {
+        self.still.set_present(dofs);
+    }
+
+    /// Look at the recorded values at `time_s` for sensors that repeat their value ([`still`]):
+    /// keep the statements as they are when a stillness begins, and go back to them when it
+    /// ends.
+    fn watch_stillness(&mut self, time_s: f64, values: &[f64; 6]) {
+        let look = self.still.observe(time_s, values);
+        if look.restarted {
+            // A new run: a stillness of the old one is no longer to be undone.
+            self.records_before_still = Default::default();
+        }
+        for (i, found) in look.dofs.into_iter().enumerate() {
+            match found {
+                // Rare (a stillness starts), so the copy is no burden on deciding.
+                Stillness::Began => self.records_before_still[i] = Some(self.records.clone()),
+                Stillness::Resumed => self.forget_stillness(i, time_s),
+                Stillness::Moving | Stillness::Still => {}
+            }
+        }
+        self.frozen = self.still.frozen();
+    }
+
+    /// Watched DOF `i` moved again after repeating its value for minutes: the verified errors
+    /// describe a motion that is gone (errors of nothing) and are dropped, so go waits for
+    /// errors verified on the motion as it is now; the statements go back to what they were
+    /// when the stillness began, those verified during it being statements about nothing.
+    fn forget_stillness(&mut self, i: usize, time_s: f64) {
         tracing::warn!(
             "deck: {} moves again at t={time_s:.1}s after repeating its value for at least \
-             {}s; the verified errors and statements gathered so far are dropped and go waits \
-             for new ones",
-            dof.name(),
+             {}s; the verified errors gathered so far and the statements verified since it \
+             stopped are dropped, and go waits for new ones",
+            WATCHED[i].name(),
             still::STILL_AFTER_S
         );
         self.ensemble.clear();
-        for (_, r) in &mut self.records {
-            r.clear();
+        if let Some(records) = self.records_before_still[i].take() {
+            self.records = records;
         }
         self.raw_now = None;
     }

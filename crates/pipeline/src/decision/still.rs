@@ -8,16 +8,21 @@
 //!
 //! So the deck watches the recorded values its quantities are made of (heave, roll, pitch) at
 //! each forecast's time:
-//! - a DOF that has moved before and then repeats its value for [`STILL_AFTER_S`] is frozen,
-//!   and the deck says no go while it is (a sensor fault, not a licence to land);
+//! - a DOF that repeats its value for [`STILL_AFTER_S`] is frozen, and the deck says no go while
+//!   it is (a sensor fault, not a licence to land), if it moved before or the record is known to
+//!   have that column ([`StillWatch::set_present`]: replay knows; the live deck does not);
 //! - a DOF that moves again after such a stillness (whether it had moved before it or not)
-//!   makes the evidence gathered so far worthless, and the deck forgets it: go waits for
-//!   verified errors of the motion as it is now.
+//!   makes the evidence gathered during the stillness worthless: the deck drops its verified
+//!   errors and goes back to the verified statements it had when the stillness began, so go
+//!   waits for verified errors of the motion as it is now;
+//! - a time that goes back (a new producer run) starts the watch afresh.
 //!
-//! A DOF that has never moved is taken as absent (a record without that column feeds zeros) and
-//! withholds nothing until it moves. A real sea never repeats a value to the last bit over
-//! several wave periods; a quantised sensor in flat calm may, and then the deck is merely
-//! cautious.
+//! A DOF that has never moved, in a record not known to have it, is taken as absent (a
+//! producer sends zeros for a missing column) and withholds nothing until it moves.
+//!
+//! Not caught: a frozen sensor that adds noise of its own (it does not repeat its value), and
+//! a sensor quantised so coarsely that a flat calm repeats one value for 30 s is taken for a
+//! frozen one (the deck is then idle on the calmest days: docs/decisions.md).
 
 use shipcast_wire::Dof;
 
@@ -27,13 +32,33 @@ pub const STILL_AFTER_S: f64 = 30.0;
 /// The DOFs the deck's quantities are made of.
 pub const WATCHED: [Dof; 3] = [Dof::Heave, Dof::Roll, Dof::Pitch];
 
-/// What one look at the recorded values found.
+/// What one look found for one watched DOF.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Stillness {
-    /// Nothing to act on.
+    /// It changed, or has repeated its value for less than [`STILL_AFTER_S`].
     Moving,
-    /// A DOF moved again after being still for at least [`STILL_AFTER_S`]: forget the evidence.
-    Resumed(Dof),
+    /// It has now repeated its value for [`STILL_AFTER_S`]: a stillness begins.
+    Began,
+    /// It goes on repeating its value.
+    Still,
+    /// It moved again after repeating its value for at least [`STILL_AFTER_S`].
+    Resumed,
+}
+
+/// What one look at the recorded values found.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Look {
+    /// Per watched DOF, in the order of [`WATCHED`].
+    pub dofs: [Stillness; WATCHED.len()],
+    /// The time went back (a new run): the watch started afresh with this look.
+    pub restarted: bool,
+}
+
+impl Look {
+    const NOTHING: Look = Look {
+        dofs: [Stillness::Moving; WATCHED.len()],
+        restarted: false,
+    };
 }
 
 #[derive(Debug, Clone, Copy)]
@@ -50,36 +75,57 @@ pub struct StillWatch {
     /// The time of the last look, and what it saw (None before the first).
     last_s: f64,
     watches: Option<[Watch; WATCHED.len()]>,
+    /// Which watched DOFs the record is known to have (None: not known).
+    present: Option<[bool; WATCHED.len()]>,
 }
 
 impl StillWatch {
-    /// Look at the recorded values at `time_s` (forecast times, in order). A time that does not
-    /// move forward, or a non-finite value, is ignored.
-    pub fn observe(&mut self, time_s: f64, values: &[f64; 6]) -> Stillness {
+    /// The record is known to have these DOFs' columns: one of them that never moves is a
+    /// frozen sensor, not an absent column.
+    pub fn set_present(&mut self, dofs: &[Dof]) {
+        self.present = Some(WATCHED.map(|d| dofs.contains(&d)));
+    }
+
+    /// Look at the recorded values at `time_s` (forecast times, in order). The same time again,
+    /// or a non-finite value, is ignored; a time before the last starts the watch afresh.
+    pub fn observe(&mut self, time_s: f64, values: &[f64; 6]) -> Look {
         if !time_s.is_finite() || WATCHED.iter().any(|d| !values[d.index()].is_finite()) {
-            return Stillness::Moving;
+            return Look::NOTHING;
         }
-        let Some(watches) = self.watches.as_mut() else {
-            self.watches = Some(WATCHED.map(|d| Watch {
-                value: values[d.index()],
-                since_s: time_s,
-                moved: false,
-            }));
-            self.last_s = time_s;
-            return Stillness::Moving;
+        let restarted = self.watches.is_some() && time_s < self.last_s;
+        let watches = match self.watches.as_mut() {
+            Some(w) if !restarted => w,
+            _ => {
+                self.watches = Some(WATCHED.map(|d| Watch {
+                    value: values[d.index()],
+                    since_s: time_s,
+                    moved: false,
+                }));
+                self.last_s = time_s;
+                return Look {
+                    restarted,
+                    ..Look::NOTHING
+                };
+            }
         };
-        if time_s <= self.last_s {
-            return Stillness::Moving;
+        if time_s == self.last_s {
+            return Look::NOTHING;
         }
-        let mut found = Stillness::Moving;
-        for (w, dof) in watches.iter_mut().zip(WATCHED) {
+        let mut look = Look::NOTHING;
+        for ((w, dof), found) in watches.iter_mut().zip(WATCHED).zip(&mut look.dofs) {
+            // Still for as long as it was seen unchanged: up to the last look, not up to now.
+            let was_still = self.last_s - w.since_s >= STILL_AFTER_S;
             let v = values[dof.index()];
             if v == w.value {
+                *found = match (was_still, time_s - w.since_s >= STILL_AFTER_S) {
+                    (true, _) => Stillness::Still,
+                    (false, true) => Stillness::Began,
+                    (false, false) => Stillness::Moving,
+                };
                 continue;
             }
-            // Still for as long as it was seen unchanged: up to the last look, not up to now.
-            if self.last_s - w.since_s >= STILL_AFTER_S {
-                found = Stillness::Resumed(dof);
+            if was_still {
+                *found = Stillness::Resumed;
             }
             *w = Watch {
                 value: v,
@@ -88,26 +134,35 @@ impl StillWatch {
             };
         }
         self.last_s = time_s;
-        found
+        look
     }
 
-    /// A DOF that moved before and has now repeated its value for [`STILL_AFTER_S`].
+    /// A DOF that has repeated its value for [`STILL_AFTER_S`], and moved before or is known to
+    /// be in the record.
     pub fn frozen(&self) -> Option<Dof> {
         let watches = self.watches.as_ref()?;
+        let present = self.present.unwrap_or([false; WATCHED.len()]);
         watches
             .iter()
             .zip(WATCHED)
-            .find(|(w, _)| w.moved && self.last_s - w.since_s >= STILL_AFTER_S)
-            .map(|(_, d)| d)
+            .zip(present)
+            .find(|((w, _), known)| (w.moved || *known) && self.last_s - w.since_s >= STILL_AFTER_S)
+            .map(|((_, d), _)| d)
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use Stillness::*;
 
     fn at(heave: f64, roll: f64) -> [f64; 6] {
         [0.0, 0.0, heave, roll, 0.0, 0.0]
+    }
+
+    /// The heave entry (first watched DOF) of a look.
+    fn heave(look: Look) -> Stillness {
+        look.dofs[0]
     }
 
     #[test]
@@ -116,42 +171,82 @@ mod tests {
         let mut t = 0.0;
         // Heave moves for a minute; roll and pitch never do (absent columns).
         while t < 60.0 {
-            assert_eq!(w.observe(t, &at(t.sin(), 0.0)), Stillness::Moving);
+            assert_eq!(w.observe(t, &at(t.sin(), 0.0)).dofs[0], Moving);
             assert_eq!(w.frozen(), None, "t={t}");
             t += 0.5;
         }
-        // Heave sticks: frozen once it has repeated its value for STILL_AFTER_S, not before.
+        // Heave sticks: frozen once it has repeated its value for STILL_AFTER_S, not before,
+        // and the look that gets there says the stillness began.
         let stuck = (t - 0.5f64).sin();
+        let mut began = 0;
         while t < 60.0 + 2.0 * STILL_AFTER_S {
-            assert_eq!(w.observe(t, &at(stuck, 0.0)), Stillness::Moving);
+            let look = heave(w.observe(t, &at(stuck, 0.0)));
             let still_for = t - 59.5;
+            let expected = match still_for {
+                s if s < STILL_AFTER_S => Moving,
+                s if s < STILL_AFTER_S + 0.5 => Began,
+                _ => Still,
+            };
+            assert_eq!(look, expected, "still for {still_for} s");
+            began += usize::from(look == Began);
             assert_eq!(
                 w.frozen().is_some(),
                 still_for >= STILL_AFTER_S,
-                "still for {still_for} s"
+                "{still_for} s"
             );
             t += 0.5;
         }
-        assert_eq!(w.frozen(), Some(Dof::Heave));
+        assert_eq!((began, w.frozen()), (1, Some(Dof::Heave)));
         // It moves again: the evidence must go, and it is no longer frozen.
-        assert_eq!(w.observe(t, &at(0.3, 0.0)), Stillness::Resumed(Dof::Heave));
+        assert_eq!(heave(w.observe(t, &at(0.3, 0.0))), Resumed);
         assert_eq!(w.frozen(), None);
-        assert_eq!(w.observe(t + 0.5, &at(0.4, 0.0)), Stillness::Moving);
+        assert_eq!(heave(w.observe(t + 0.5, &at(0.4, 0.0))), Moving);
     }
 
     #[test]
-    fn a_dof_that_never_moved_is_absent_until_it_starts_and_then_resets_the_evidence() {
-        let mut w = StillWatch::default();
-        for i in 0..1200 {
-            let t = i as f64 * 0.5;
-            assert_eq!(w.observe(t, &at((t * 0.7).sin(), 0.0)), Stillness::Moving);
-            // Ten minutes of zero roll: an absent column, not a frozen sensor.
+    fn a_dof_that_never_moved_is_absent_unless_the_record_is_known_to_have_it() {
+        let run = |w: &mut StillWatch| {
+            for i in 0..1200 {
+                let t = i as f64 * 0.5;
+                w.observe(t, &at((t * 0.7).sin(), 0.0));
+            }
+        };
+        // Ten minutes of zero roll: an absent column, not a frozen sensor...
+        let mut unknown = StillWatch::default();
+        run(&mut unknown);
+        assert_eq!(unknown.frozen(), None);
+        // ... unless the record has a roll column: then it is a sensor stuck from the start.
+        let mut known = StillWatch::default();
+        known.set_present(&[Dof::Heave, Dof::Roll]);
+        run(&mut known);
+        assert_eq!(known.frozen(), Some(Dof::Roll));
+        // Either way, when it starts to move the stillness is over.
+        for w in [&mut unknown, &mut known] {
+            assert_eq!(w.observe(600.0, &at(0.1, 0.01)).dofs[1], Resumed);
             assert_eq!(w.frozen(), None);
         }
-        assert_eq!(
-            w.observe(600.0, &at(0.1, 0.01)),
-            Stillness::Resumed(Dof::Roll)
-        );
+    }
+
+    #[test]
+    fn a_time_that_goes_back_starts_the_watch_afresh() {
+        let mut w = StillWatch::default();
+        for i in 0..200 {
+            w.observe(
+                3000.0 + i as f64 * 0.5,
+                &at(if i < 50 { i as f64 } else { 1.0 }, 0.0),
+            );
+        }
+        assert_eq!(w.frozen(), Some(Dof::Heave));
+        // A new producer run from t = 0: nothing of the old run's stillness is carried over.
+        let look = w.observe(0.0, &at(2.0, 0.0));
+        assert!(look.restarted);
+        assert_eq!(w.frozen(), None);
+        // ... and a sensor stuck in the new run is found after STILL_AFTER_S of it.
+        w.observe(0.5, &at(3.0, 0.0));
+        for i in 2..=62 {
+            w.observe(i as f64 * 0.5, &at(3.0, 0.0));
+        }
+        assert_eq!(w.frozen(), Some(Dof::Heave));
     }
 
     #[test]
@@ -162,22 +257,22 @@ mod tests {
         w.observe(0.5, &at(2.0, 0.0));
         w.observe(STILL_AFTER_S, &at(2.0, 0.0));
         assert_eq!(w.frozen(), None);
-        assert_eq!(
-            w.observe(STILL_AFTER_S + 0.5, &at(3.0, 0.0)),
-            Stillness::Moving
-        );
+        assert_eq!(heave(w.observe(STILL_AFTER_S + 0.5, &at(3.0, 0.0))), Moving);
         // Ten minutes without a look (a gap in the forecasts), then a new value: nothing was
         // seen still.
         assert_eq!(
-            w.observe(STILL_AFTER_S + 600.0, &at(4.0, 0.0)),
-            Stillness::Moving
+            heave(w.observe(STILL_AFTER_S + 600.0, &at(4.0, 0.0))),
+            Moving
         );
-        // Times that do not move forward and non-finite values are ignored.
-        assert_eq!(w.observe(0.0, &at(9.0, 0.0)), Stillness::Moving);
-        assert_eq!(w.observe(1e9, &at(f64::NAN, 0.0)), Stillness::Moving);
+        // The same time again and non-finite values are ignored.
         assert_eq!(
-            w.observe(STILL_AFTER_S + 600.5, &at(4.0, 0.0)),
-            Stillness::Moving
+            w.observe(STILL_AFTER_S + 600.0, &at(9.0, 0.0)),
+            Look::NOTHING
+        );
+        assert_eq!(w.observe(1e9, &at(f64::NAN, 0.0)), Look::NOTHING);
+        assert_eq!(
+            heave(w.observe(STILL_AFTER_S + 600.5, &at(4.0, 0.0))),
+            Moving
         );
         assert_eq!(w.frozen(), None);
     }

@@ -277,15 +277,20 @@ fn a_frozen_sensor_withholds_go_and_its_thaw_drops_the_evidence_of_its_stillness
         "{}",
         d.summary()
     );
-    // It moves again: the errors and statements of the stillness are gone, so no go until
-    // errors of the motion now are verified.
+    // Statements verified during the stillness are statements about nothing.
+    for _ in 0..300 {
+        decider.add_outcome(n, 0.99, true);
+    }
+    assert_eq!(decider.statement_calls(), 800.0);
+    // It moves again: the verified errors are gone, so no go until errors of the motion now
+    // are verified, and the statements are those from before the stillness began.
     let d = decider.decide_from(&quiet(t + 0.5), Some(&heave(0.2)));
     assert!(
         d.frozen_dof.is_none() && d.awaiting_verified_errors && !d.go,
         "{d:?}"
     );
     assert!(decider.ensemble().is_empty());
-    assert_eq!(decider.statement_calls(), 0.0);
+    assert_eq!(decider.statement_calls(), 500.0);
     // A decision without recorded values (a deck that gets no motion) neither freezes nor thaws.
     let d = decider.decide(&quiet(t + 1000.0));
     assert!(

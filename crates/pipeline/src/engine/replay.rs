@@ -82,10 +82,14 @@ struct StepSums {
     in2: f64,
 }
 
-/// Index of the sample at time `t`, if one was recorded there (within a quarter step).
+/// Index of the sample at time `t`, if one was recorded there: the sample within half a step
+/// of it (none in a gap). Not a quarter step: a record up to [`shipcast_series::RATE_TOLERANCE`]
+/// off its snapped rate drifts from the forecast's steps by up to 25 ms over a 25 s horizon,
+/// beyond a quarter of a 24 Hz step, and replay took such a record and then scored none of its
+/// forecasts (review).
 fn sample_at(time: &[f64], t: f64, step: f64) -> Option<usize> {
-    let i = time.partition_point(|&x| x < t - 0.25 * step);
-    (i < time.len() && (time[i] - t).abs() <= 0.25 * step).then_some(i)
+    let i = time.partition_point(|&x| x <= t - 0.5 * step);
+    (i < time.len() && (time[i] - t).abs() < 0.5 * step).then_some(i)
 }
 
 /// Run the engine over `data` from `models` (None: no skill until the first live fit).
@@ -204,6 +208,11 @@ pub fn replay_scored(
     let step_in = 1.0 / rate;
     let delay = engine.delay_s();
     let mut scorer = deck.map(|d| DecisionScorer::new("deck", d, &DECISION_MOTS_S, delay));
+    // The record's columns are known here: a deck DOF among them that never moves is a
+    // frozen sensor, not an absent column (the live deck cannot tell the two apart).
+    if let Some(scorer) = scorer.as_mut() {
+        scorer.decider_mut().set_present_dofs(&present);
+    }
     // A deck that keeps its statements across runs starts from them here too, and leaves
     // this run's behind (docs/decisions.md).
     let mut keeper = match (deck.and_then(|d| d.statements_file.as_deref()), &mut scorer) {

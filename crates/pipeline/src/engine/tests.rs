@@ -709,6 +709,21 @@ fn eval_and_replay_take_and_refuse_the_same_record_rates() {
     }
 }
 
+/// Regression (review): a 24 Hz record 0.05 % off its rate was taken (within the shared
+/// tolerance) but none of its forecasts was scored, their far steps drifting beyond the quarter
+/// step that scoring matched samples within.
+#[test]
+fn a_record_taken_within_the_rate_tolerance_is_scored_at_every_lead() {
+    let rate = 24.0 * 1.0005;
+    let heave: Vec<f64> = (0..(rate * 1200.0) as usize)
+        .map(|i| (std::f64::consts::TAU * i as f64 / rate / 9.0).sin())
+        .collect();
+    let d = run(&record(heave, rate), 600.0);
+    // Forecasts issued over the last ten minutes less a horizon, two a second.
+    assert!(d.scored > 2 * 500, "{}", d.scored);
+    assert!(d.rms.iter().all(|r| r.is_finite()), "{:?}", d.rms);
+}
+
 /// Regression (review): the version was taken when a retrain was asked for, so a retrained
 /// model that the running one outscored used up a number and the next model put in use
 /// skipped one. Every forecast's version is the previous one or one more, and it rises as
