@@ -20,14 +20,26 @@
 //! A DOF that has never moved, in a record not known to have it, is taken as absent (a
 //! producer sends zeros for a missing column) and withholds nothing until it moves.
 //!
+//! A sensor quantised coarsely repeats one value for 30 s in a flat calm (heave to 1 cm in
+//! +-7 mm). Such a stillness does not count: only one that follows motion whose typical change
+//! between looks was more than [`RESOLVED_STEPS`] of the sensor's resolution (the smallest
+//! change it has shown). Review: counted, it left the deck frozen or waiting for 3469 s of a
+//! simulated calm hour.
+//!
 //! Not caught: a frozen sensor that adds noise of its own (it does not repeat its value), and
-//! a sensor quantised so coarsely that a flat calm repeats one value for 30 s is taken for a
-//! frozen one (the deck is then idle on the calmest days: docs/decisions.md).
+//! a coarsely quantised sensor that freezes while the motion is within a few of its steps.
 
 use shipcast_wire::Dof;
 
 /// Seconds a DOF must repeat its value before it counts as still: several wave periods.
 pub const STILL_AFTER_S: f64 = 30.0;
+
+/// How many of the sensor's resolution steps the motion's typical change between looks must
+/// exceed for a stillness after it to count.
+pub const RESOLVED_STEPS: f64 = 4.0;
+
+/// Looks over which the typical change is averaged (2 minutes of forecasts at 2 Hz).
+const CHANGE_MEMORY: f64 = 240.0;
 
 /// The DOFs the deck's quantities are made of.
 pub const WATCHED: [Dof; 3] = [Dof::Heave, Dof::Roll, Dof::Pitch];
@@ -67,6 +79,42 @@ struct Watch {
     value: f64,
     since_s: f64,
     moved: bool,
+    /// The smallest change seen (the sensor's resolution, as far as it has shown it), the mean
+    /// square change between looks before the current stillness, and the looks it averages.
+    resolution: f64,
+    change_ms: f64,
+    looks: f64,
+    /// Whether the current stillness counts (decided when it begins).
+    counts: bool,
+}
+
+impl Watch {
+    fn new(value: f64, time_s: f64) -> Self {
+        Self {
+            value,
+            since_s: time_s,
+            moved: false,
+            resolution: f64::INFINITY,
+            change_ms: 0.0,
+            looks: 0.0,
+            counts: false,
+        }
+    }
+
+    /// Count one look's change `delta` into the typical change.
+    fn count_change(&mut self, delta: f64) {
+        self.looks += 1.0;
+        self.change_ms += (delta * delta - self.change_ms) / self.looks.min(CHANGE_MEMORY);
+        if delta != 0.0 {
+            self.resolution = self.resolution.min(delta.abs());
+        }
+    }
+
+    /// A stillness beginning now counts: the DOF never moved (a column stuck from the start, or
+    /// an absent one), or it moved by well more than its resolution.
+    fn stillness_counts(&self) -> bool {
+        !self.moved || self.change_ms.sqrt() > RESOLVED_STEPS * self.resolution
+    }
 }
 
 /// Per watched DOF, how long its recorded value has stayed the same.
@@ -96,11 +144,7 @@ impl StillWatch {
         let watches = match self.watches.as_mut() {
             Some(w) if !restarted => w,
             _ => {
-                self.watches = Some(WATCHED.map(|d| Watch {
-                    value: values[d.index()],
-                    since_s: time_s,
-                    moved: false,
-                }));
+                self.watches = Some(WATCHED.map(|d| Watch::new(values[d.index()], time_s)));
                 self.last_s = time_s;
                 return Look {
                     restarted,
@@ -118,20 +162,31 @@ impl StillWatch {
             let v = values[dof.index()];
             if v == w.value {
                 *found = match (was_still, time_s - w.since_s >= STILL_AFTER_S) {
-                    (true, _) => Stillness::Still,
-                    (false, true) => Stillness::Began,
-                    (false, false) => Stillness::Moving,
+                    (true, _) if w.counts => Stillness::Still,
+                    (true, _) => Stillness::Moving,
+                    (false, true) => {
+                        w.counts = w.stillness_counts();
+                        if w.counts {
+                            Stillness::Began
+                        } else {
+                            Stillness::Moving
+                        }
+                    }
+                    (false, false) => {
+                        w.count_change(0.0);
+                        Stillness::Moving
+                    }
                 };
                 continue;
             }
-            if was_still {
+            if was_still && w.counts {
                 *found = Stillness::Resumed;
             }
-            *w = Watch {
-                value: v,
-                since_s: time_s,
-                moved: true,
-            };
+            w.count_change(v - w.value);
+            w.value = v;
+            w.since_s = time_s;
+            w.moved = true;
+            w.counts = false;
         }
         self.last_s = time_s;
         look
@@ -146,7 +201,9 @@ impl StillWatch {
             .iter()
             .zip(WATCHED)
             .zip(present)
-            .find(|((w, _), known)| (w.moved || *known) && self.last_s - w.since_s >= STILL_AFTER_S)
+            .find(|((w, _), known)| {
+                (w.moved || *known) && w.counts && self.last_s - w.since_s >= STILL_AFTER_S
+            })
             .map(|((_, d), _)| d)
     }
 }
@@ -242,11 +299,57 @@ mod tests {
         assert!(look.restarted);
         assert_eq!(w.frozen(), None);
         // ... and a sensor stuck in the new run is found after STILL_AFTER_S of it.
-        w.observe(0.5, &at(3.0, 0.0));
-        for i in 2..=62 {
-            w.observe(i as f64 * 0.5, &at(3.0, 0.0));
+        for i in 1..=60 {
+            w.observe(i as f64 * 0.5, &at((i as f64 * 0.4).sin(), 0.0));
+        }
+        for i in 61..=122 {
+            w.observe(i as f64 * 0.5, &at(24f64.sin(), 0.0));
         }
         assert_eq!(w.frozen(), Some(Dof::Heave));
+    }
+
+    #[test]
+    fn a_coarsely_quantised_sensor_in_a_flat_calm_is_not_frozen_but_one_in_a_sea_is() {
+        let cm = |x: f64| (x * 100.0).round() / 100.0;
+        // Heave within +-7 mm rounded to 1 cm, an hour: it repeats 0 for 30 s now and then.
+        let mut calm = StillWatch::default();
+        let mut repeats_of_30_s = 0;
+        let (mut run, mut moved) = (0, false);
+        let mut last = f64::NAN;
+        for i in 0..7200 {
+            let t = i as f64 * 0.5;
+            let h = cm(0.007 * (t / 9.0).sin() * (t / 97.0).sin());
+            run = if h == 0.0 { run + 1 } else { 0 };
+            repeats_of_30_s += usize::from(moved && run == 61);
+            let look = calm.observe(t, &at(h, 0.0));
+            // Up to its first change the channel may be an absent one switched on late (whose
+            // start resets the evidence once): the calm is judged after it.
+            let had_moved = moved;
+            moved |= i > 0 && h != last;
+            last = h;
+            if had_moved {
+                assert_eq!(look.dofs[0], Moving, "t={t}");
+            }
+            assert_eq!(calm.frozen(), None, "t={t}");
+        }
+        // The case is real: the calm does repeat its value for 30 s, several times.
+        assert!(repeats_of_30_s >= 3, "{repeats_of_30_s}");
+        // The same sensor on a sea of 1 m, then stuck: frozen, and its thaw resets.
+        let mut sea = StillWatch::default();
+        let mut t = 0.0;
+        while t < 300.0 {
+            sea.observe(t, &at(cm((t * 0.8).sin()), 0.0));
+            t += 0.5;
+        }
+        let stuck = cm((t * 0.8).sin());
+        let mut began = false;
+        while t < 360.0 {
+            began |= heave(sea.observe(t, &at(stuck, 0.0))) == Began;
+            t += 0.5;
+        }
+        assert!(began);
+        assert_eq!(sea.frozen(), Some(Dof::Heave));
+        assert_eq!(heave(sea.observe(t, &at(stuck + 0.5, 0.0))), Resumed);
     }
 
     #[test]
