@@ -114,6 +114,11 @@ pub struct Decider {
     records_before_still: [Option<Vec<(usize, StatementRecord)>>; WATCHED.len()],
 }
 
+/// Verified calls in a set of statement records.
+fn calls(records: &[(usize, StatementRecord)]) -> f64 {
+    records.iter().map(|(_, r)| r.calls()).sum()
+}
+
 /// Window lengths whose statements are recorded (a deck decides for one MOT; replay scores two).
 pub const MAX_RECORDS: usize = 8;
 
@@ -367,7 +372,7 @@ impl Decider {
 
     /// Verified statements recorded so far, over every window length.
     pub fn statement_calls(&self) -> f64 {
-        self.records.iter().map(|(_, r)| r.calls()).sum()
+        calls(&self.records)
     }
 
     /// Start from the verified statements of an earlier run (a statements file's, checked),
@@ -454,13 +459,31 @@ impl Decider {
     fn watch_stillness(&mut self, time_s: f64, values: &[f64; 6]) {
         let look = self.still.observe(time_s, values);
         if look.restarted {
-            // A new run: a stillness of the old one is no longer to be undone.
+            // A new run. One that starts while a sensor was frozen ends that stillness as a
+            // thaw would (the watch finds the sensor again if it is still stuck); after it no
+            // stillness of the old run is left to undo.
+            if let Some(dof) = self.frozen {
+                if let Some(i) = WATCHED.iter().position(|&d| d == dof) {
+                    self.forget_stillness(i, time_s);
+                }
+            }
             self.records_before_still = Default::default();
         }
         for (i, found) in look.dofs.into_iter().enumerate() {
             match found {
-                // Rare (a stillness starts), so the copy is no burden on deciding.
-                Stillness::Began => self.records_before_still[i] = Some(self.records.clone()),
+                // Rare (a stillness starts), so the copy is no burden on deciding. A stillness
+                // that begins during another one goes back as far as that one does: the
+                // statements since it began are statements about nothing too.
+                Stillness::Began => {
+                    let earliest = self
+                        .records_before_still
+                        .iter()
+                        .flatten()
+                        .min_by(|a, b| calls(a).total_cmp(&calls(b)))
+                        .cloned();
+                    self.records_before_still[i] =
+                        Some(earliest.unwrap_or_else(|| self.records.clone()));
+                }
                 Stillness::Resumed => self.forget_stillness(i, time_s),
                 Stillness::Moving | Stillness::Still => {}
             }
@@ -468,7 +491,7 @@ impl Decider {
         self.frozen = self.still.frozen();
     }
 
-    /// Watched DOF `i` moved again after repeating its value for minutes: the verified errors
+    /// Watched DOF `i` moved again (or a new run began) after repeating its value for minutes: the verified errors
     /// describe a motion that is gone (errors of nothing) and are dropped, so go waits for
     /// errors verified on the motion as it is now; the statements go back to what they were
     /// when the stillness began, those verified during it being statements about nothing.

@@ -21,10 +21,10 @@
 //! producer sends zeros for a missing column) and withholds nothing until it moves.
 //!
 //! A sensor quantised coarsely repeats one value for 30 s in a flat calm (heave to 1 cm in
-//! +-7 mm). Such a stillness does not count: only one that follows motion whose typical change
-//! between looks was more than [`RESOLVED_STEPS`] of the sensor's resolution (the smallest
-//! change it has shown). Review: counted, it left the deck frozen or waiting for 3469 s of a
-//! simulated calm hour.
+//! +-7 mm). Such a stillness does not count: only one that follows motion whose standard
+//! deviation over the last two minutes was more than [`RESOLVED_STEPS`] of the sensor's
+//! resolution (the smallest change it has shown in the last few minutes). Review: counted, it
+//! left the deck frozen or waiting for 3469 s of a simulated calm hour.
 //!
 //! Not caught: a frozen sensor that adds noise of its own (it does not repeat its value), and
 //! a coarsely quantised sensor that freezes while the motion is within a few of its steps.
@@ -34,12 +34,19 @@ use shipcast_wire::Dof;
 /// Seconds a DOF must repeat its value before it counts as still: several wave periods.
 pub const STILL_AFTER_S: f64 = 30.0;
 
-/// How many of the sensor's resolution steps the motion's typical change between looks must
+/// How many of the sensor's resolution steps the motion's standard deviation must
 /// exceed for a stillness after it to count.
 pub const RESOLVED_STEPS: f64 = 4.0;
 
-/// Looks over which the typical change is averaged (2 minutes of forecasts at 2 Hz).
-const CHANGE_MEMORY: f64 = 240.0;
+/// Looks over which the motion's spread is averaged (2 minutes of forecasts at 2 Hz).
+const MOTION_MEMORY: f64 = 240.0;
+
+/// Looks per block, and blocks, of the resolution's memory (2.5 minutes at 2 Hz).
+const RESOLUTION_BLOCK: u32 = 60;
+const RESOLUTION_BLOCKS: usize = 5;
+
+/// Changes a DOF must have shown before its resolution is judged.
+const MIN_CHANGES: u32 = 8;
 
 /// The DOFs the deck's quantities are made of.
 pub const WATCHED: [Dof; 3] = [Dof::Heave, Dof::Roll, Dof::Pitch];
@@ -79,11 +86,17 @@ struct Watch {
     value: f64,
     since_s: f64,
     moved: bool,
-    /// The smallest change seen (the sensor's resolution, as far as it has shown it), the mean
-    /// square change between looks before the current stillness, and the looks it averages.
-    resolution: f64,
-    change_ms: f64,
+    /// The value's mean and variance over about the last [`MOTION_MEMORY`] looks before the
+    /// current stillness, and the looks they average.
+    mean: f64,
+    variance: f64,
     looks: f64,
+    /// Changes seen, and the smallest change in each of the last blocks of
+    /// [`RESOLUTION_BLOCK`] looks (newest first): the sensor's resolution as it shows it now, a
+    /// glitch or an earlier, finer sensor forgotten after a few minutes.
+    changes: u32,
+    smallest: [f64; RESOLUTION_BLOCKS],
+    in_block: u32,
     /// Whether the current stillness counts (decided when it begins).
     counts: bool,
 }
@@ -94,26 +107,45 @@ impl Watch {
             value,
             since_s: time_s,
             moved: false,
-            resolution: f64::INFINITY,
-            change_ms: 0.0,
+            mean: value,
+            variance: 0.0,
             looks: 0.0,
+            changes: 0,
+            smallest: [f64::INFINITY; RESOLUTION_BLOCKS],
+            in_block: 0,
             counts: false,
         }
     }
 
-    /// Count one look's change `delta` into the typical change.
-    fn count_change(&mut self, delta: f64) {
+    /// Count one look at `value` (the current stillness not begun) into the motion and the
+    /// resolution.
+    fn count_look(&mut self, value: f64) {
+        let delta = value - self.value;
         self.looks += 1.0;
-        self.change_ms += (delta * delta - self.change_ms) / self.looks.min(CHANGE_MEMORY);
+        let k = self.looks.min(MOTION_MEMORY);
+        let d = value - self.mean;
+        self.mean += d / k;
+        self.variance += (d * (value - self.mean) - self.variance) / k;
         if delta != 0.0 {
-            self.resolution = self.resolution.min(delta.abs());
+            self.changes = self.changes.saturating_add(1);
+            self.smallest[0] = self.smallest[0].min(delta.abs());
+        }
+        self.in_block += 1;
+        if self.in_block == RESOLUTION_BLOCK {
+            self.in_block = 0;
+            self.smallest.rotate_right(1);
+            self.smallest[0] = f64::INFINITY;
         }
     }
 
-    /// A stillness beginning now counts: the DOF never moved (a column stuck from the start, or
-    /// an absent one), or it moved by well more than its resolution.
+    /// A stillness beginning now counts: the DOF never moved, or changed too few times to show
+    /// its resolution (a column stuck from the start, an absent one, or one that changed once
+    /// and stuck), or it moved by well more than its resolution.
     fn stillness_counts(&self) -> bool {
-        !self.moved || self.change_ms.sqrt() > RESOLVED_STEPS * self.resolution
+        let resolution = self.smallest.iter().copied().fold(f64::INFINITY, f64::min);
+        !self.moved
+            || self.changes < MIN_CHANGES
+            || self.variance.sqrt() > RESOLVED_STEPS * resolution
     }
 }
 
@@ -144,7 +176,21 @@ impl StillWatch {
         let watches = match self.watches.as_mut() {
             Some(w) if !restarted => w,
             _ => {
-                self.watches = Some(WATCHED.map(|d| Watch::new(values[d.index()], time_s)));
+                // What a sensor has shown of itself (that it moves, its resolution, its motion)
+                // outlives a producer run; only the stillness starts afresh.
+                let old = self.watches;
+                self.watches = Some(std::array::from_fn(|i| {
+                    let fresh = Watch::new(values[WATCHED[i].index()], time_s);
+                    match old {
+                        Some(o) => Watch {
+                            value: fresh.value,
+                            since_s: time_s,
+                            counts: false,
+                            ..o[i]
+                        },
+                        None => fresh,
+                    }
+                }));
                 self.last_s = time_s;
                 return Look {
                     restarted,
@@ -173,7 +219,7 @@ impl StillWatch {
                         }
                     }
                     (false, false) => {
-                        w.count_change(0.0);
+                        w.count_look(v);
                         Stillness::Moving
                     }
                 };
@@ -182,7 +228,7 @@ impl StillWatch {
             if was_still && w.counts {
                 *found = Stillness::Resumed;
             }
-            w.count_change(v - w.value);
+            w.count_look(v);
             w.value = v;
             w.since_s = time_s;
             w.moved = true;
@@ -350,6 +396,72 @@ mod tests {
         assert!(began);
         assert_eq!(sea.frozen(), Some(Dof::Heave));
         assert_eq!(heave(sea.observe(t, &at(stuck + 0.5, 0.0))), Resumed);
+    }
+
+    /// Heave of a 10 s sea with RMS `rms`, rounded to 1 cm, at time `t`.
+    fn sea_cm(t: f64, rms: f64) -> f64 {
+        let h = rms * std::f64::consts::SQRT_2 * (std::f64::consts::TAU * t / 10.0).sin();
+        (h * 100.0).round() / 100.0
+    }
+
+    /// Seconds of `0..end_s` (looks every 0.5 s) in which heave is frozen, heave at `t` given.
+    fn frozen_seconds(w: &mut StillWatch, from_s: f64, end_s: f64, h: impl Fn(f64) -> f64) -> f64 {
+        let mut frozen = 0.0;
+        let mut t = from_s;
+        while t < end_s {
+            w.observe(t, &at(h(t), 0.0));
+            if w.frozen().is_some() {
+                frozen += 0.5;
+            }
+            t += 0.5;
+        }
+        frozen
+    }
+
+    /// Regressions (review of the resolution test): a sea of a few resolution steps, a glitch
+    /// finer than the sensor, a column that changed once, a stuck sensor through a restart.
+    #[test]
+    fn the_resolution_is_recent_and_the_motion_is_judged_by_its_spread() {
+        // 1 cm heave of RMS 0.10 m (10 steps), stuck from 600 s: frozen (its change between
+        // looks was judged before, and fell short).
+        let mut w = StillWatch::default();
+        let stuck = sea_cm(599.5, 0.1);
+        let h = |t: f64| if t < 600.0 { sea_cm(t, 0.1) } else { stuck };
+        assert!(frozen_seconds(&mut w, 0.0, 900.0, h) >= 900.0 - 600.0 - STILL_AFTER_S - 1.0);
+        // The calm hour with one glitch of 0.2 mm at 200 s: the glitch is forgotten within
+        // minutes, not kept as the resolution for the rest of the hour.
+        let mut w = StillWatch::default();
+        let calm = |t: f64| {
+            let h = ((0.007 * (t / 9.0).sin() * (t / 97.0).sin()) * 100.0).round() / 100.0;
+            if t == 200.0 {
+                h + 0.0002
+            } else {
+                h
+            }
+        };
+        frozen_seconds(&mut w, 0.0, 600.0, calm);
+        assert_eq!(frozen_seconds(&mut w, 600.0, 3600.0, calm), 0.0);
+        // A column that changes once (0 until its first reading) and then sticks, in a record
+        // known to have it: frozen, though one change shows no resolution.
+        let mut w = StillWatch::default();
+        w.set_present(&[Dof::Heave]);
+        let once = |t: f64| if t < 60.0 { 0.0 } else { 0.37 };
+        let f = frozen_seconds(&mut w, 0.0, 300.0, once);
+        assert!(f >= 300.0 - 60.0 - STILL_AFTER_S - 1.0, "{f}");
+        // A sensor stuck through a producer restart, on a live deck that does not know the
+        // columns: the new run's watch remembers that it moved, and finds it frozen again.
+        let mut w = StillWatch::default();
+        frozen_seconds(&mut w, 1000.0, 1300.0, |t| {
+            if t < 1200.0 {
+                (t * 0.8).sin()
+            } else {
+                0.4
+            }
+        });
+        assert!(w.frozen().is_some());
+        assert!(w.observe(0.0, &at(0.4, 0.0)).restarted);
+        let f = frozen_seconds(&mut w, 0.5, 120.0, |_| 0.4);
+        assert!(f >= 120.0 - STILL_AFTER_S - 1.0, "{f}");
     }
 
     #[test]

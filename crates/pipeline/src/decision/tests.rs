@@ -298,3 +298,54 @@ fn a_frozen_sensor_withholds_go_and_its_thaw_drops_the_evidence_of_its_stillness
         "{d:?}"
     );
 }
+
+/// Regressions (review): a stillness that began during another restored the statements made
+/// during the first; a producer restart during a stillness kept the statements made in it.
+#[test]
+fn overlapping_stillnesses_and_a_restart_go_back_to_the_statements_before_any_of_them() {
+    let config = DeckConfig {
+        go_needs_verified_errors: true,
+        ..config(5.0)
+    };
+    let mut decider = Decider::new(&config);
+    let n = window_steps(5.0, 0.5);
+    for _ in 0..500 {
+        decider.add_outcome(n, 0.9, true);
+    }
+    let quiet = |time_s: f64| Forecast {
+        time_s,
+        ..forecast(40, |_| 1.0, 0.1f64.to_radians() as f32)
+    };
+    let look = |decider: &mut Decider, t: f64, heave: f64, roll: f64| {
+        decider.decide_from(&quiet(t), Some(&[0.0, 0.0, heave, roll, 0.0, 0.0]));
+    };
+    // Heave and roll move; heave sticks at 60 s, roll at 80 s.
+    let mut t: f64 = 0.0;
+    while t < 200.0 {
+        let heave = if t < 60.0 { (0.8 * t).sin() } else { 0.3 };
+        let roll = if t < 80.0 {
+            0.02 * (0.7 * t).sin()
+        } else {
+            0.01
+        };
+        look(&mut decider, t, heave, roll);
+        // Statements verified while heave is frozen (from 90 s), before roll's stillness began.
+        if (95.0..105.0).contains(&t) {
+            for _ in 0..10 {
+                decider.add_outcome(n, 0.9, true);
+            }
+        }
+        t += 0.5;
+    }
+    assert_eq!(decider.statement_calls(), 700.0);
+    // Roll thaws first: back to before heave's stillness, not to roll's later copy.
+    look(&mut decider, t, 0.3, 0.015);
+    assert_eq!(decider.statement_calls(), 500.0);
+    // Statements during heave's remaining stillness, then a new producer run while it is
+    // frozen: they go as at a thaw.
+    for _ in 0..50 {
+        decider.add_outcome(n, 0.9, true);
+    }
+    look(&mut decider, 0.0, 0.3, 0.015);
+    assert_eq!(decider.statement_calls(), 500.0);
+}
