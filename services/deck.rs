@@ -125,7 +125,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     } else {
         None
     };
-    let mut advisor = DeckAdvisor::new(&config.deck);
+    let mut advisor = DeckAdvisor::live(&config.deck);
     let dt_s = 1.0 / config.predictor.sample_rate_hz;
     // A file that cannot be kept where asked stops the deck now, not its statements at the
     // end of the watch; an existing file that cannot be read is left alone (below).

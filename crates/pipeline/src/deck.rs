@@ -177,6 +177,19 @@ impl DeckAdvisor {
         (v, s)
     }
 
+    /// The advisor of the live deck service: heave, roll and pitch are taken as present in
+    /// the motion it verifies against, so one that never moves is a frozen sensor. A producer
+    /// sends 0 for a column its record lacks, and a deck deciding on a roll of 0 that was never
+    /// measured would call go on a calm deck that never was (replay does not score a deck
+    /// without those columns, for the same reason).
+    pub fn live(config: &DeckConfig) -> Self {
+        let mut advisor = Self::new(config);
+        advisor
+            .decider
+            .set_present_dofs(&crate::decision::still::WATCHED);
+        advisor
+    }
+
     /// The decider behind the advisory's `decision` (to verify its forecasts).
     pub fn decider(&self) -> &Decider {
         &self.decider
@@ -335,6 +348,33 @@ pub(crate) mod tests {
             }
         }
         f
+    }
+
+    #[test]
+    fn the_live_deck_takes_a_roll_that_never_moves_for_a_frozen_sensor() {
+        let config = DeckConfig {
+            go_needs_verified_errors: false,
+            ..DeckConfig::default()
+        };
+        let quiet = |time_s: f64| Forecast {
+            time_s,
+            ..forecast_with_roll(40, |_| 0.5, 1e-3)
+        };
+        // Heave moves; roll and pitch are 0 throughout (a producer without those columns).
+        let origin = |t: f64| [0.0, 0.0, 0.001 * (0.8 * t).sin(), 0.0, 0.0, 0.0];
+        let (mut live, mut plain) = (DeckAdvisor::live(&config), DeckAdvisor::new(&config));
+        for i in 0..200 {
+            let t = 0.5 * i as f64;
+            let (a, b) = (
+                live.advise_from(&quiet(t), Some(&origin(t))),
+                plain.advise_from(&quiet(t), Some(&origin(t))),
+            );
+            // The library's advisor, not told the columns, takes them as absent.
+            assert!(b.decision.go && b.decision.frozen_dof.is_none(), "t={t}");
+            let frozen = t >= crate::decision::still::STILL_AFTER_S;
+            assert_eq!(a.decision.frozen_dof.is_some(), frozen, "t={t}");
+            assert_eq!(a.decision.go, !frozen, "t={t}");
+        }
     }
 
     #[test]
