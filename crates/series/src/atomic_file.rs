@@ -13,8 +13,9 @@
 //! Used for the files a long run produces and a later run depends on: model files (`shipcast
 //! train`) and the deck's statements file.
 //!
-//! A path that is not a regular file (`/dev/null`, `/dev/stdout`, a named pipe) is written
-//! into, not replaced. Regression: a file written to `/dev/null` by a process running as root
+//! A character device or a named pipe (`/dev/null`, a terminal's `/dev/stdout`) is written
+//! into, not replaced; a symbolic link's target is replaced, never the link; a block device or
+//! a socket is refused. Regression: a file written to `/dev/null` by a process running as root
 //! renamed a regular file over it, and every later reader of `/dev/null` (cargo's own probe of
 //! rustc among them) read back what had been written there.
 
@@ -218,11 +219,8 @@ fn what_is_at(path: &Path) -> Target {
     if !meta.is_file() {
         return Target::File(path.to_path_buf());
     }
-    let is_link = std::fs::symlink_metadata(path).is_ok_and(|m| m.file_type().is_symlink());
-    match is_link.then(|| std::fs::canonicalize(path)) {
-        Some(Ok(real)) => Target::File(real),
-        _ => Target::File(path.to_path_buf()),
-    }
+    // The file itself, wherever links lead: the rename replaces it, not a link to it.
+    Target::File(std::fs::canonicalize(path).unwrap_or_else(|_| path.to_path_buf()))
 }
 
 /// Write `bytes` into the device or pipe at `path`: there is nothing to keep safe there, and

@@ -105,10 +105,8 @@ pub struct Decider {
     in_use: Vec<usize>,
     /// The recorded values at the loaded forecast's `time_s`, if it was loaded with them.
     origin: Option<[f64; 6]>,
-    /// How long the recorded heave, roll and pitch have repeated their values, and the DOF
-    /// that is frozen now, if any ([`still`]).
+    /// How long the recorded heave, roll and pitch have repeated their values ([`still`]).
     still: StillWatch,
-    frozen: Option<Dof>,
     /// Per watched DOF, the verified statements as they were when its current stillness
     /// began: what a thaw goes back to (those of earlier runs included).
     records_before_still: [Option<Vec<(usize, StatementRecord)>>; WATCHED.len()],
@@ -151,7 +149,6 @@ impl Decider {
             raw_now: None,
             origin: None,
             still: StillWatch::default(),
-            frozen: None,
             records_before_still: Default::default(),
         }
     }
@@ -444,7 +441,7 @@ impl Decider {
     /// errors, or the configuration lets the Gaussian model decide, and no sensor behind them
     /// is frozen.
     pub fn may_go(&self) -> bool {
-        (self.from_ensemble || !self.go_needs_verified) && self.frozen.is_none()
+        (self.from_ensemble || !self.go_needs_verified) && self.still.frozen().is_none()
     }
 
     /// Tell the watch of the recorded heave, roll and pitch that the record has these DOFs
@@ -457,12 +454,13 @@ impl Decider {
     /// keep the statements as they are when a stillness begins, and go back to them when it
     /// ends.
     fn watch_stillness(&mut self, time_s: f64, values: &[f64; 6]) {
+        let frozen_before = self.still.frozen();
         let look = self.still.observe(time_s, values);
         if look.restarted {
             // A new run. One that starts while a sensor was frozen ends that stillness as a
             // thaw would (the watch finds the sensor again if it is still stuck); after it no
             // stillness of the old run is left to undo.
-            if let Some(dof) = self.frozen {
+            if let Some(dof) = frozen_before {
                 if let Some(i) = WATCHED.iter().position(|&d| d == dof) {
                     self.forget_stillness(i, time_s);
                 }
@@ -488,13 +486,13 @@ impl Decider {
                 Stillness::Moving | Stillness::Still => {}
             }
         }
-        self.frozen = self.still.frozen();
     }
 
-    /// Watched DOF `i` moved again (or a new run began) after repeating its value for minutes: the verified errors
-    /// describe a motion that is gone (errors of nothing) and are dropped, so go waits for
-    /// errors verified on the motion as it is now; the statements go back to what they were
-    /// when the stillness began, those verified during it being statements about nothing.
+    /// Watched DOF `i` moved again (or a new run began) after repeating its value for minutes:
+    /// the verified errors describe a motion that is gone (errors of nothing) and are dropped,
+    /// so go waits for errors verified on the motion as it is now; the statements go back to
+    /// what they were when the stillness began, those verified during it being statements about
+    /// nothing.
     fn forget_stillness(&mut self, i: usize, time_s: f64) {
         tracing::warn!(
             "deck: {} moves again at t={time_s:.1}s after repeating its value for at least \
@@ -551,7 +549,7 @@ impl Decider {
         if n > steps {
             return decision;
         }
-        if let Some(dof) = self.frozen {
+        if let Some(dof) = self.still.frozen() {
             decision.frozen_dof = Some(dof);
             return decision;
         }

@@ -180,15 +180,15 @@ impl StillWatch {
                 // outlives a producer run; only the stillness starts afresh.
                 let old = self.watches;
                 self.watches = Some(std::array::from_fn(|i| {
-                    let fresh = Watch::new(values[WATCHED[i].index()], time_s);
+                    let value = values[WATCHED[i].index()];
                     match old {
                         Some(o) => Watch {
-                            value: fresh.value,
+                            value,
                             since_s: time_s,
                             counts: false,
                             ..o[i]
                         },
-                        None => fresh,
+                        None => Watch::new(value, time_s),
                     }
                 }));
                 self.last_s = time_s;

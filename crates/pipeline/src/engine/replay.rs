@@ -108,9 +108,9 @@ pub fn replay(
 
 /// The sample rate of a record with time stamps `time` (the mean of its regular steps, snapped
 /// to the integer multiple of `forecast_hz` it lies within [`shipcast_series::RATE_TOLERANCE`]
-/// of, as eval takes it), checked to feed an engine forecasting at `forecast_hz`. The error speaks of the record, not of a
-/// configuration, and says when its steps are not even regular (stamps rounded to fewer
-/// digits than the rate needs).
+/// of, as eval takes it), checked to feed an engine forecasting at `forecast_hz`. The error
+/// speaks of the record, not of a configuration, and says when its steps are not even regular
+/// (stamps rounded to fewer digits than the rate needs).
 pub fn record_rate(time: &[f64], forecast_hz: f64) -> anyhow::Result<f64> {
     let median = shipcast_series::median_rate(time)?;
     // The engine counts samples, as the service does: a rate that drifts within a gap-free
