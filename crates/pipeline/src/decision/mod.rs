@@ -31,7 +31,9 @@ use recalibrate::StatementRecord;
 use shipcast_wire::payload::{Forecast, MAX_STEPS};
 use shipcast_wire::Dof;
 use still::{StillWatch, Stillness, WATCHED};
-pub use tracks::{standardised_errors, standardised_means, Tracks};
+pub use tracks::{
+    standardised_error, standardised_errors, standardised_means, Tracks, UNBOUNDED_ERROR,
+};
 pub use verdict::{withdrawn_sample, Decision};
 use window::{chain_within, cholesky_block, correlated_within, Lattice};
 
@@ -110,6 +112,10 @@ pub struct Decider {
     /// Per watched DOF, the verified statements as they were when its current stillness
     /// began: what a thaw goes back to (those of earlier runs included).
     records_before_still: [Option<Vec<(usize, StatementRecord)>>; WATCHED.len()],
+    /// Record time of the last thaw: forecasts issued before it were waiting for their
+    /// horizon while the sensor was still, so their errors and outcomes are not evidence
+    /// ([`Self::takes_evidence_from`]). Minus infinity until a thaw.
+    evidence_since_s: f64,
 }
 
 /// Verified calls in a set of statement records.
@@ -150,6 +156,7 @@ impl Decider {
             origin: None,
             still: StillWatch::default(),
             records_before_still: Default::default(),
+            evidence_since_s: f64::NEG_INFINITY,
         }
     }
 
@@ -444,6 +451,18 @@ impl Decider {
         (self.from_ensemble || !self.go_needs_verified) && self.still.frozen().is_none()
     }
 
+    /// Whether the errors and outcome of a forecast issued at record time `issued_s` may be
+    /// verified into this decider (its ensemble and statements): not if it was issued before
+    /// the last thaw. Such a forecast was decided while a sensor repeated its value, and its
+    /// horizon straddles the thaw, so what it verifies is partly the stillness. The live
+    /// deck's outcomes and replay's scorer ask before [`Self::verify`], [`Self::add_verified`]
+    /// and [`Self::add_outcome`]. Review: forecasts waiting at a thaw still added their
+    /// evidence after the thaw had dropped the rest.
+    pub fn takes_evidence_from(&self, issued_s: f64) -> bool {
+        // A non-finite time is the caller's to judge (it cannot be verified anyway).
+        issued_s.is_nan() || issued_s >= self.evidence_since_s
+    }
+
     /// Tell the watch of the recorded heave, roll and pitch that the record has these DOFs
     /// (replay knows; [`still::StillWatch::set_present`]).
     pub fn set_present_dofs(&mut self, dofs: &[Dof]) {
@@ -457,6 +476,8 @@ impl Decider {
         let frozen_before = self.still.frozen();
         let look = self.still.observe(time_s, values);
         if look.restarted {
+            // The old run's clock says nothing about the new one's forecasts.
+            self.evidence_since_s = f64::NEG_INFINITY;
             // A new run. One that starts while a sensor was frozen ends that stillness as a
             // thaw would (the watch finds the sensor again if it is still stuck); after it no
             // stillness of the old run is left to undo.
@@ -492,16 +513,18 @@ impl Decider {
     /// the verified errors describe a motion that is gone (errors of nothing) and are dropped,
     /// so go waits for errors verified on the motion as it is now; the statements go back to
     /// what they were when the stillness began, those verified during it being statements about
-    /// nothing.
+    /// nothing; and forecasts issued before now are no evidence when their horizon has passed.
     fn forget_stillness(&mut self, i: usize, time_s: f64) {
         tracing::warn!(
             "deck: {} moves again at t={time_s:.1}s after repeating its value for at least \
-             {}s; the verified errors gathered so far and the statements verified since it \
-             stopped are dropped, and go waits for new ones",
+             {}s; the verified errors gathered so far, the statements verified since it \
+             stopped and the decisions still waiting for their horizon are dropped, and go \
+             waits for new ones",
             WATCHED[i].name(),
             still::STILL_AFTER_S
         );
         self.ensemble.clear();
+        self.evidence_since_s = time_s;
         if let Some(records) = self.records_before_still[i].take() {
             self.records = records;
         }

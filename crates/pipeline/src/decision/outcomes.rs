@@ -38,6 +38,10 @@ pub struct OutcomeCounts {
     /// Motion samples not kept: a non-finite value, or seq or time not moving forward.
     #[serde(default)]
     pub rejected_samples: u64,
+    /// Decisions dropped because they were made before a sensor moved again after repeating
+    /// its value: their horizon is partly the stillness ([`Decider::takes_evidence_from`]).
+    #[serde(default)]
+    pub before_a_thaw: u64,
     /// Record time (`time_s`) of the newest verified decision: on which producer run's clock
     /// the deck verifies.
     #[serde(default)]
@@ -143,7 +147,9 @@ impl Outcomes {
             let Some(w) = self.waiting.pop_front() else {
                 break;
             };
-            if self.fill_actual(&w) {
+            if !decider.takes_evidence_from(w.time_s) {
+                self.counts.before_a_thaw += 1;
+            } else if self.fill_actual(&w) {
                 // The origin the forecast was decided with (the errors at its first step are
                 // taken as its tracks were made), and the value past its horizon if here yet.
                 let dt = w.predicted.dt_s;
@@ -198,6 +204,7 @@ mod tests {
     use crate::decision::{ensemble, standardised_errors, standardised_means};
     use crate::deck::tests::forecast_with_roll;
     use shipcast_wire::payload::MAX_STEPS;
+    use shipcast_wire::Dof;
 
     /// Roll of a slow swell [deg] sampled at 8 Hz; forecasts at 2 Hz whose mean is 0.8 of
     /// it, so the errors are not what the Gaussian model assumes.
@@ -285,6 +292,52 @@ mod tests {
         assert_eq!(last.ensemble_members, live.ensemble().len(), "{last:?}");
     }
 
+    /// Regression (review): the decisions waiting for their horizon when a stuck sensor moved
+    /// again were verified after the thaw had dropped the evidence of the stillness, so their
+    /// errors and outcomes (partly of the stillness) were the first evidence of the new motion.
+    #[test]
+    fn decisions_waiting_at_a_thaw_are_not_evidence() {
+        let mut decider = Decider::new(&DeckConfig::default());
+        decider.set_present_dofs(&[Dof::Roll]);
+        let mut outcomes = Outcomes::new(8.0, 25.0, 2.0);
+        // Roll moves, repeats one value from 60 s, moves again from 120 s.
+        let roll = |t: f64| {
+            if (60.0..120.0).contains(&t) {
+                roll_at(65.0)
+            } else {
+                roll_at(t)
+            }
+        };
+        let mut i = 0u64;
+        let (mut thaw_s, mut was_frozen) = (None, false);
+        for step in 0..(2 * 200) {
+            let t0 = step as f64 * 0.5;
+            while (i as f64) / 8.0 <= t0 + 1e-9 {
+                let mut s = sample(i);
+                s.dof[3] = roll(s.time_s);
+                outcomes.push_sample(&s);
+                i += 1;
+            }
+            outcomes.verify_ready(&mut decider);
+            let f = forecast_at(t0);
+            let d = decider.decide_from(&f, outcomes.recorded_at(t0).as_ref());
+            if was_frozen && d.frozen_dof.is_none() && thaw_s.is_none() {
+                thaw_s = Some(t0);
+            }
+            was_frozen = d.frozen_dof.is_some();
+            outcomes.push_decision(&f, &decider);
+        }
+        // The thaw is seen at the first forecast of the moving roll; the 49 decisions issued
+        // in the 25 s before it were waiting and are dropped, those after it are verified.
+        assert_eq!(thaw_s, Some(120.0));
+        let c = outcomes.counts;
+        assert_eq!(c.before_a_thaw, 49, "{c:?}");
+        assert_eq!(c.unverifiable, 0, "{c:?}");
+        let waiting = outcomes.waiting.len() as u64;
+        assert_eq!(c.verified + c.before_a_thaw + waiting, 400, "{c:?}");
+        assert!(decider.takes_evidence_from(120.0) && !decider.takes_evidence_from(119.5));
+    }
+
     #[test]
     fn a_gap_in_the_motion_makes_a_decision_unverifiable() {
         let mut decider = Decider::new(&DeckConfig::default());
@@ -313,6 +366,7 @@ mod tests {
                 unverifiable: 1,
                 restarts: 0,
                 rejected_samples: 2,
+                before_a_thaw: 0,
                 newest_verified_s: None,
             }
         );
@@ -355,6 +409,7 @@ mod tests {
                 unverifiable: 1,
                 restarts: 1,
                 rejected_samples: 0,
+                before_a_thaw: 0,
                 newest_verified_s: None,
             }
         );

@@ -144,6 +144,8 @@ pub struct Happened<'a> {
 }
 
 struct Pending {
+    /// The forecast's `time_s` (whether it is evidence after a thaw).
+    time_s: f64,
     ready_s: f64,
     u: Box<[[f64; MAX_STEPS]; NUM_QUANTITIES]>,
     z: Box<[[f64; MAX_STEPS]; NUM_QUANTITIES]>,
@@ -249,6 +251,9 @@ impl DecisionScorer {
                 for q in 0..NUM_QUANTITIES {
                     self.correlation.add(q, &p.u[q][..p.steps]);
                 }
+                if !self.decider.takes_evidence_from(p.time_s) {
+                    continue;
+                }
                 self.decider.add_verified(&p.u, &p.z, p.steps);
                 for &(n, p_raw, held) in &p.calls {
                     self.decider.add_outcome(n, p_raw, held);
@@ -346,6 +351,7 @@ impl DecisionScorer {
             }
         }
         self.pending.push_back(Pending {
+            time_s: t0,
             ready_s: t0 + (steps as f64 + 1.0) * dt,
             u,
             z,

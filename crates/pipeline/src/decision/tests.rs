@@ -349,3 +349,49 @@ fn overlapping_stillnesses_and_a_restart_go_back_to_the_statements_before_any_of
     look(&mut decider, 0.0, 0.3, 0.015);
     assert_eq!(decider.statement_calls(), 500.0);
 }
+
+/// Regression (review): a miss by a forecast that stated sigma 0 was taken as no error, so a
+/// source of sigma-0 forecasts filled the ensemble with perfect forecasts and the deck said go
+/// on them.
+#[test]
+fn a_miss_at_sigma_zero_is_an_error_beyond_any_limit_not_none() {
+    let config = DeckConfig {
+        go_needs_verified_errors: true,
+        ..config(5.0)
+    };
+    let certain = forecast(40, |_| 1.0, 0.0);
+    // What happened: roll 0.5 deg off at every step; the other DOFs as forecast (0), so
+    // their sigma-0 tracks were exact.
+    let happened = forecast(40, |_| 1.5, 0.0);
+    let mut errors = Tracks::default();
+    let mut miss = Decider::new(&config);
+    let mut exact = Decider::new(&config);
+    for _ in 0..ensemble::MIN_MEMBERS * ensemble::DEFAULT_STRIDE {
+        for (decider, actual) in [(&mut miss, &happened), (&mut exact, &certain)] {
+            decider.decide(&certain);
+            let predicted = decider.tracks().clone();
+            decider.fill_tracks(actual, &mut errors);
+            decider.verify(&predicted, &errors);
+        }
+    }
+    let mut u = [[f64::NAN; MAX_STEPS]; NUM_QUANTITIES];
+    miss.decide(&certain);
+    miss.fill_tracks(&happened, &mut errors);
+    assert_eq!(standardised_errors(miss.tracks(), &errors, &mut u), 40);
+    assert!(
+        u[0][..40].iter().all(|&x| x == UNBOUNDED_ERROR),
+        "{:?}",
+        &u[0][..3]
+    );
+    assert!(u[1][..40].iter().all(|&x| x == 0.0), "{:?}", &u[1][..3]);
+    // A forecast of 1 deg with sigma 0.1 deg (limit 2.5 deg): under errors that broke
+    // sigma's promise every member breaks the limit; under exact ones every member holds.
+    let quiet = forecast(40, |_| 1.0, 0.1f64.to_radians() as f32);
+    let all = ensemble::MIN_MEMBERS as f64;
+    let d = miss.decide(&quiet);
+    assert_eq!(d.probability_now, Some(1.0 / (all + 2.0)), "{d:?}");
+    assert!(!d.go, "{d:?}");
+    let d = exact.decide(&quiet);
+    assert_eq!(d.probability_now, Some((all + 1.0) / (all + 2.0)), "{d:?}");
+    assert!(d.go, "{d:?}");
+}

@@ -98,7 +98,7 @@ impl Tracks {
 
 /// The standardised errors u = (actual - mean) / sigma of a forecast's tracks against what
 /// happened (`actual` filled from the record's values at the same steps; its sigma unused),
-/// over the steps both cover; NaN where sigma is zero. Returns the steps filled.
+/// over the steps both cover ([`standardised_error`]). Returns the steps filled.
 pub fn standardised_errors(
     predicted: &Tracks,
     actual: &Tracks,
@@ -107,16 +107,35 @@ pub fn standardised_errors(
     let steps = predicted.steps.min(actual.steps);
     for (q, row) in u.iter_mut().enumerate() {
         for (k, x) in row.iter_mut().enumerate().take(steps) {
-            let s = predicted.sigma[q][k];
-            *x = if s > 0.0 {
-                (actual.mean[q][k] - predicted.mean[q][k]) / s
-            } else {
-                f64::NAN
-            };
+            *x = standardised_error(
+                actual.mean[q][k],
+                predicted.mean[q][k],
+                predicted.sigma[q][k],
+            );
         }
     }
     steps
 }
+
+/// The standardised error (actual - mean) / sigma of one value, as the error ensembles take
+/// it. Where sigma is zero: 0 if the forecast was exact, else [`UNBOUNDED_ERROR`] with the
+/// error's sign (a miss the forecast said could not happen); NaN where a value is missing.
+pub fn standardised_error(actual: f64, mean: f64, sigma: f64) -> f64 {
+    let error = actual - mean;
+    if sigma > 0.0 {
+        error / sigma
+    } else if error == 0.0 || error.is_nan() {
+        error
+    } else {
+        UNBOUNDED_ERROR.copysign(error)
+    }
+}
+
+/// The standardised error of a miss where the forecast stated sigma 0: large enough that
+/// any forecast with a positive sigma breaks every limit under it, finite so that the
+/// ensemble keeps it (it counts a non-finite error as none). Review: such a miss was taken
+/// as no error, so a sigma-0 forecast source filled the ensemble with perfect forecasts.
+pub const UNBOUNDED_ERROR: f64 = 1e30;
 
 /// The standardised means z = mean / sigma of a forecast's tracks (NaN where sigma is zero),
 /// over its steps: what the ensemble regresses the errors on ([`super::ensemble`]).

@@ -27,7 +27,7 @@ use crate::config::RelativeConfig;
 use crate::decision::ensemble::{share_within, ErrorEnsemble};
 use crate::decision::recalibrate::StatementRecord;
 use crate::decision::window::{chain_within, Lattice};
-use crate::decision::LATTICE_POINTS;
+use crate::decision::{standardised_error, LATTICE_POINTS};
 use serde::{Deserialize, Serialize};
 use shipcast_wire::payload::MAX_STEPS;
 
@@ -133,7 +133,7 @@ impl LiftEvidence {
 
     /// Learns from a verified forecast, `actual[k]` its true relative displacement at step k:
     /// its standardised errors u = (actual - mean) / sigma and means z = mean / sigma (sigma as
-    /// issued; a step without sigma gives a non-finite u, which the ensemble takes as no error)
+    /// issued; a miss at sigma 0 is an error beyond any limit, [`standardised_error`])
     /// join the ensemble, and its statement, if it made one from verified errors, is recorded
     /// against whether its window held.
     pub fn learn(&mut self, track: &RelativeTrack, actual: &[[f64; 3]]) {
@@ -141,7 +141,7 @@ impl LiftEvidence {
         for (k, value) in actual.iter().enumerate().take(steps) {
             for (axis, &v) in value.iter().enumerate() {
                 let (mean, sigma) = (track.raw_mean[axis][k], track.raw_sigma[axis][k]);
-                self.u[axis][k] = (v - mean) / sigma;
+                self.u[axis][k] = standardised_error(v, mean, sigma);
                 self.z[axis][k] = mean / sigma;
             }
         }

@@ -650,3 +650,36 @@ fn verification_records_a_lift_statement_against_whether_its_window_held() {
         (evidence.statements.correct(0.7, limits.go_probability) - (0.7 + mean_miss)).abs() < 1e-12
     );
 }
+
+/// Regression (review): a lift forecast that stated sigma 0 and missed gave an infinite
+/// standardised error, which the ensemble takes as none, so its misses taught the lift that
+/// forecasts are exact and it said go.
+#[test]
+fn a_lift_miss_at_sigma_zero_is_an_error_beyond_any_limit_not_none() {
+    use crate::decision::ensemble::MIN_MEMBERS;
+    let config = RelativeConfig::default();
+    let mut lift = LiftDecider::new(LiftLimits::new(&config));
+    let g = geometry([0.0; 3], [0.0; 3], 0.0);
+    let still = forecast(0.0, 50, NONE, NONE);
+    let certain = relative(&g, &still, &still);
+    assert!(certain.raw_sigma[2][..50].iter().all(|&s| s == 0.0));
+    let mut missed = LiftEvidence::new(*lift.limits());
+    let mut exact = LiftEvidence::new(*lift.limits());
+    for _ in 0..MIN_MEMBERS * 4 {
+        missed.learn(&certain, &[[0.0, 0.0, 0.3]; 50]);
+        exact.learn(&certain, &[[0.0; 3]; 50]);
+    }
+    let n = MIN_MEMBERS as f64;
+    let mut calm = relative(&g, &forecast(0.0, 50, NONE, [0.05; 6]), &still);
+    let d = lift.decide(&mut calm, &missed);
+    assert_eq!(d.ensemble_members, MIN_MEMBERS, "{d:?}");
+    assert!(
+        (d.probability_now.unwrap() - 1.0 / (n + 2.0)).abs() < 1e-12 && !d.go,
+        "{d:?}"
+    );
+    let d = lift.decide(&mut calm, &exact);
+    assert!(
+        (d.probability_now.unwrap() - (n + 1.0) / (n + 2.0)).abs() < 1e-12 && d.go,
+        "{d:?}"
+    );
+}
