@@ -4,7 +4,7 @@
 //! lag-one summary rho (the AR(1)-in-lead model used before enough evidence exists and for
 //! the deck velocity's sigma).
 
-use super::NUM_QUANTITIES;
+use super::{NUM_QUANTITIES, UNBOUNDED_ERROR};
 
 use shipcast_wire::payload::MAX_STEPS;
 
@@ -60,10 +60,12 @@ impl ErrorCorrelation {
     }
 
     /// Add one verified forecast's standardised errors of quantity `q` (consecutive steps;
-    /// non-finite entries, from steps without sigma, break the run).
+    /// non-finite entries, from missing values, and misses at sigma 0 ([`UNBOUNDED_ERROR`]:
+    /// no scale to standardise by) break the run). Review: a miss at sigma 0 entered the
+    /// products as 1e60 and made the matrix that one forecast's for good.
     pub fn add(&mut self, q: usize, u: &[f64]) {
         let steps = u.len().min(MAX_STEPS);
-        if steps > 0 && u[..steps].iter().all(|v| v.is_finite()) {
+        if steps > 0 && u[..steps].iter().all(|&v| scaled(v)) {
             if self.steps[q] != steps {
                 // A new horizon: the products were about other steps.
                 self.products[q].iter_mut().for_each(|v| *v = 0.0);
@@ -81,7 +83,7 @@ impl ErrorCorrelation {
         let s = &mut self.sums[q];
         for pair in u.windows(2) {
             let (a, b) = (pair[0], pair[1]);
-            if a.is_finite() && b.is_finite() {
+            if scaled(a) && scaled(b) {
                 s[0] += a * b;
                 s[1] += a * a;
                 s[2] += b * b;
@@ -107,6 +109,11 @@ impl ErrorCorrelation {
             }
         })
     }
+}
+
+/// Whether a standardised error has a scale: finite, and not a miss at sigma 0.
+fn scaled(u: f64) -> bool {
+    u.is_finite() && u.abs() < UNBOUNDED_ERROR
 }
 
 #[cfg(test)]
@@ -153,5 +160,18 @@ mod tests {
         let mut e = ErrorCorrelation::new([0.0; NUM_QUANTITIES]);
         e.add(0, &[1.0, f64::NAN, 1.0]);
         assert_eq!(e.pairs(0), 0.0);
+        // Nor across a miss at sigma 0, and a forecast with one is not in the matrix.
+        e.add(0, &[1.0, -UNBOUNDED_ERROR, 1.0]);
+        assert_eq!(e.pairs(0), 0.0);
+        for _ in 0..MIN_FORECASTS as usize {
+            e.add(1, &[1.0, 0.5, -1.0]);
+        }
+        let mut before = vec![0.0; 9];
+        assert!(e.matrix(1, 3, &mut before));
+        e.add(1, &[1.0, UNBOUNDED_ERROR, -1.0]);
+        let mut after = vec![0.0; 9];
+        assert!(e.matrix(1, 3, &mut after));
+        assert_eq!(before, after);
+        assert_eq!(e.pairs(1), 2.0 * MIN_FORECASTS);
     }
 }
