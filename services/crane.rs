@@ -9,8 +9,9 @@
 //! independent, which the sea does not honour. Until enough are verified the line says
 //! "sigma independent DOF errors".
 
+use crate::common_args::CommonArgs;
 use crate::followed_motion::FollowedMotion;
-use shipcast_pipeline::config::{CommonArgs, PipelineConfig, MAX_LEVER_M};
+use shipcast_pipeline::config::{PipelineConfig, MAX_LEVER_M};
 use shipcast_pipeline::crane::verify::{TipVerifier, MAX_PENDING};
 use shipcast_pipeline::crane::{summary, tip_track};
 use shipcast_pipeline::deck::ShipPoint;

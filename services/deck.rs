@@ -12,7 +12,8 @@
 //! Motion samples count only from the port the deck follows (`IoxFollowedPort`, as for the
 //! forecasts); others are counted (`motion_rejected` in the status) and logged.
 
-use shipcast_pipeline::config::{CommonArgs, PipelineConfig};
+use crate::common_args::CommonArgs;
+use shipcast_pipeline::config::PipelineConfig;
 use shipcast_pipeline::decision::outcomes::{OutcomeCounts, Outcomes};
 use shipcast_pipeline::decision::statements_file::{self, StatementsKeeper};
 use shipcast_pipeline::decision::withdrawn_sample;

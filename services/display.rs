@@ -2,10 +2,11 @@
 //! process and fed over zenoh by every vessel of the instance (crates/display).
 
 use crate::checked;
+use crate::common_args::CommonArgs;
 use anyhow::Context;
 use shipcast_display::board::{Board, Limits};
 use shipcast_display::{feed, server};
-use shipcast_pipeline::config::{CommonArgs, PipelineConfig};
+use shipcast_pipeline::config::PipelineConfig;
 use shipcast_pipeline::limits;
 use shipcast_pipeline::transport::shutdown;
 use shipcast_pipeline::transport::zenoh as zn;

@@ -7,6 +7,7 @@ use std::process::ExitCode;
 
 mod bench;
 mod certs;
+mod common_args;
 mod crane;
 mod deck;
 mod display;

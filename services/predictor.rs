@@ -5,9 +5,10 @@
 //! retrains from recent live data and hands over new models without pausing the forecasts.
 
 use crate::checked;
+use crate::common_args::CommonArgs;
 use shipcast_bench::pinning::pin_current;
 use shipcast_bench::stamps::{PublishStages, ReceiveStamp, StampPublisher};
-use shipcast_pipeline::config::{CommonArgs, PipelineConfig};
+use shipcast_pipeline::config::PipelineConfig;
 use shipcast_pipeline::engine::models::ModelSet;
 use shipcast_pipeline::engine::retrain::Retrainer;
 use shipcast_pipeline::engine::Engine;

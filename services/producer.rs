@@ -2,8 +2,9 @@
 //! paced in real time, faster by `--speed F`, or as fast as possible (`--speed 0`).
 
 use crate::checked;
+use crate::common_args::CommonArgs;
 use anyhow::Context;
-use shipcast_pipeline::config::{CommonArgs, PipelineConfig, ProducerConfig};
+use shipcast_pipeline::config::{PipelineConfig, ProducerConfig};
 use shipcast_pipeline::limits;
 use shipcast_pipeline::pacing;
 use shipcast_pipeline::transport::iox::{self, IoxPublisher, Sizing};

@@ -15,10 +15,11 @@
 //! engine, the relative forecast scored against the records' true relative motion beside each
 //! ship's own forecast, with the sigma calibrated causally from verified relative errors.
 
+use crate::common_args::CommonArgs;
 use crate::followed_motion::FollowedMotion;
 use crate::progress;
 use anyhow::Context;
-use shipcast_pipeline::config::{CommonArgs, PipelineConfig};
+use shipcast_pipeline::config::PipelineConfig;
 use shipcast_pipeline::engine::startup::initial_models;
 use shipcast_pipeline::limits;
 use shipcast_pipeline::relative::calls_csv::LiftCallsCsv;

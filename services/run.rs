@@ -11,9 +11,9 @@
 mod children;
 mod view;
 
+use crate::common_args::CommonArgs;
 use anyhow::Context;
 use children::{exited_early, Children, Stage};
-use shipcast_pipeline::config::CommonArgs;
 use shipcast_pipeline::config::PipelineConfig;
 use shipcast_pipeline::deck::Advisory;
 use shipcast_pipeline::transport::forecast_check::{ForecastGate, PublisherWatch};

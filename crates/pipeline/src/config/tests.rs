@@ -109,31 +109,6 @@ fn toml_round_trip_and_flags_override_the_file() {
     c.predictor.model = Some("/tmp/m.json".into());
     let text = c.to_toml().unwrap();
     assert_eq!(PipelineConfig::from_toml(&text, Path::new("t")).unwrap(), c);
-
-    let dir = tempfile::tempdir().unwrap();
-    let path = dir.path().join("p.toml");
-    std::fs::write(&path, "vessel = \"s175\"\n[producer]\nspeed = 5.0\n").unwrap();
-    let args = CommonArgs {
-        config: Some(path),
-        instance: Some("i1".into()),
-        zenoh_listen: vec!["tcp/127.0.0.1:9".into()],
-        speed: Some(100.0),
-        ..CommonArgs::default()
-    };
-    let c = args.load().unwrap();
-    assert_eq!(c.vessel, "s175");
-    assert_eq!(c.instance.as_deref(), Some("i1"));
-    assert_eq!(c.producer.speed, 100.0);
-    assert_eq!(c.zenoh.listen, vec!["tcp/127.0.0.1:9"]);
-    let bad = CommonArgs {
-        duration: Some(-1.0),
-        ..CommonArgs::default()
-    };
-    assert!(bad
-        .duration()
-        .unwrap_err()
-        .to_string()
-        .contains("--duration"));
 }
 
 #[test]
