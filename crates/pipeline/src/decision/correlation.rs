@@ -4,7 +4,7 @@
 //! lag-one summary rho (the AR(1)-in-lead model used before enough evidence exists and for
 //! the deck velocity's sigma).
 
-use super::{NUM_QUANTITIES, UNBOUNDED_ERROR};
+use super::NUM_QUANTITIES;
 
 use shipcast_wire::payload::MAX_STEPS;
 
@@ -60,9 +60,10 @@ impl ErrorCorrelation {
     }
 
     /// Add one verified forecast's standardised errors of quantity `q` (consecutive steps;
-    /// non-finite entries, from missing values, and misses at sigma 0 ([`UNBOUNDED_ERROR`]:
-    /// no scale to standardise by) break the run). Review: a miss at sigma 0 entered the
-    /// products as 1e60 and made the matrix that one forecast's for good.
+    /// non-finite entries, from missing values, and errors beyond [`MAX_CORRELATED_U`] sigma
+    /// break the run). Review: a miss at sigma 0 (1e30 sigma) entered the products as 1e60
+    /// and made the matrix that one forecast's for good; errors of 1e12 sigma, from a sigma
+    /// that collapsed while a sensor was frozen, did the same.
     pub fn add(&mut self, q: usize, u: &[f64]) {
         let steps = u.len().min(MAX_STEPS);
         if steps > 0 && u[..steps].iter().all(|&v| scaled(v)) {
@@ -111,9 +112,15 @@ impl ErrorCorrelation {
     }
 }
 
-/// Whether a standardised error has a scale: finite, and not a miss at sigma 0.
+/// Standardised errors beyond this many sigma say the sigma was wrong, not how errors at
+/// neighbouring steps go together: one such forecast would outweigh thousands of others in
+/// the sums. An honest Gaussian error passes 1000 sigma never.
+pub const MAX_CORRELATED_U: f64 = 1e3;
+
+/// Whether a standardised error tells about the correlation: finite and within
+/// [`MAX_CORRELATED_U`].
 fn scaled(u: f64) -> bool {
-    u.is_finite() && u.abs() < UNBOUNDED_ERROR
+    u.is_finite() && u.abs() <= MAX_CORRELATED_U
 }
 
 #[cfg(test)]
@@ -160,15 +167,17 @@ mod tests {
         let mut e = ErrorCorrelation::new([0.0; NUM_QUANTITIES]);
         e.add(0, &[1.0, f64::NAN, 1.0]);
         assert_eq!(e.pairs(0), 0.0);
-        // Nor across a miss at sigma 0, and a forecast with one is not in the matrix.
-        e.add(0, &[1.0, -UNBOUNDED_ERROR, 1.0]);
+        // Nor across a miss at sigma 0 or a sigma far too small, and a forecast with one is
+        // not in the matrix.
+        e.add(0, &[1.0, -super::super::UNBOUNDED_ERROR, 1.0]);
+        e.add(0, &[1.0, 2e12, 1.0]);
         assert_eq!(e.pairs(0), 0.0);
         for _ in 0..MIN_FORECASTS as usize {
             e.add(1, &[1.0, 0.5, -1.0]);
         }
         let mut before = vec![0.0; 9];
         assert!(e.matrix(1, 3, &mut before));
-        e.add(1, &[1.0, UNBOUNDED_ERROR, -1.0]);
+        e.add(1, &[1.0, 1.5 * MAX_CORRELATED_U, -1.0]);
         let mut after = vec![0.0; 9];
         assert!(e.matrix(1, 3, &mut after));
         assert_eq!(before, after);

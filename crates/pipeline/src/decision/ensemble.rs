@@ -25,7 +25,7 @@
 //! standardised mean. With errors independent of the mean, c is 0 up to noise and nothing
 //! changes.
 
-use super::NUM_QUANTITIES;
+use super::{is_unbounded, NUM_QUANTITIES};
 use shipcast_wire::payload::MAX_STEPS;
 
 /// Members before the ensemble replaces the Gaussian model: fewer verified error paths
@@ -121,7 +121,7 @@ impl<const Q: usize> ErrorEnsemble<Q> {
     /// Offer the standardised errors of one verified forecast (`u[q][k]`, `steps` steps) and
     /// its standardised means (`z[q][k]`). A non-finite u (a missing value) counts as no
     /// error; a non-finite z as a zero mean. A miss at sigma 0 arrives finite
-    /// ([`super::UNBOUNDED_ERROR`]), so it breaks every limit. One offer in `stride` is kept.
+    /// ([`super::UNBOUNDED_ERROR`]), and [`Self::failures`] counts it as broken. One offer in `stride` is kept.
     /// Never allocates: the ring's storage is reserved by `new`.
     pub fn offer(&mut self, u: &[[f64; MAX_STEPS]; Q], z: &[[f64; MAX_STEPS]; Q], steps: usize) {
         let keep = self.offered.is_multiple_of(self.stride as u64);
@@ -241,9 +241,13 @@ impl<const Q: usize> ErrorEnsemble<Q> {
             counts[0] = 0;
             for k in 0..steps {
                 let breaks = (0..Q).any(|q| {
-                    let residual = f64::from(m.u[q][k]) - c[q][k] * f64::from(m.z[q][k]);
+                    let u = f64::from(m.u[q][k]);
+                    let residual = u - c[q][k] * f64::from(m.z[q][k]);
                     let value = mean[q][k] + sigma[q][k] * (shift[q][k] + residual);
-                    value.is_nan() || value.abs() > limits[q]
+                    // A miss where sigma was 0 breaks the limit whatever this forecast's sigma
+                    // is: put on a sigma of 0 it would vanish, and a source that always states
+                    // 0 would be told its misses hold (review).
+                    value.is_nan() || value.abs() > limits[q] || is_unbounded(u)
                 });
                 counts[k + 1] = counts[k] + u16::from(breaks);
             }

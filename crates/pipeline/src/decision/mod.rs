@@ -32,7 +32,8 @@ use shipcast_wire::payload::{Forecast, MAX_STEPS};
 use shipcast_wire::Dof;
 use still::{StillWatch, Stillness, WATCHED};
 pub use tracks::{
-    standardised_error, standardised_errors, standardised_means, Tracks, UNBOUNDED_ERROR,
+    is_unbounded, standardised_error, standardised_errors, standardised_means, Tracks,
+    UNBOUNDED_ERROR,
 };
 pub use verdict::{withdrawn_sample, Decision};
 use window::{chain_within, cholesky_block, correlated_within, Lattice};

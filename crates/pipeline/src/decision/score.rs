@@ -248,11 +248,13 @@ impl DecisionScorer {
         // Errors of forecasts whose horizon has now happened join the correlation estimate.
         while self.pending.front().is_some_and(|p| p.ready_s <= t0) {
             if let Some(p) = self.pending.pop_front() {
-                for q in 0..NUM_QUANTITIES {
-                    self.correlation.add(q, &p.u[q][..p.steps]);
-                }
+                // Issued before a thaw: its horizon was partly a frozen sensor's (the live deck
+                // drops it alike, decision/outcomes.rs).
                 if !self.decider.takes_evidence_from(p.time_s) {
                     continue;
+                }
+                for q in 0..NUM_QUANTITIES {
+                    self.correlation.add(q, &p.u[q][..p.steps]);
                 }
                 self.decider.add_verified(&p.u, &p.z, p.steps);
                 for &(n, p_raw, held) in &p.calls {
@@ -499,6 +501,7 @@ mod tests {
     use crate::decision::ensemble;
     use crate::decision::reliability::BINS;
     use crate::deck::tests::forecast_with_roll;
+    use shipcast_wire::Dof;
 
     /// The deck tests' forecast issued at `t0`, roll `roll_deg(t)` at each step's time t, and
     /// sigma `sigma_deg` (on every DOF).
@@ -578,6 +581,54 @@ mod tests {
         let three_s = HIT_LEADS_S.iter().position(|&l| l == 3.0).unwrap();
         assert_eq!(by_lead(late)[three_s], by_lead(on_time)[three_s]);
         assert_eq!(by_lead(on_time)[three_s], on_time.hit_rate);
+    }
+
+    /// Regression (review): replay's scorer still handed the errors of forecasts issued before
+    /// a thaw, and waiting for their horizon, to the fresh ensemble; only the live path's
+    /// test covered the rule.
+    #[test]
+    fn replay_drops_the_forecasts_waiting_at_a_thaw_as_the_live_deck_does() {
+        let config = DeckConfig {
+            point_m: [0.0; 3],
+            ..DeckConfig::default()
+        };
+        let mut scorer = DecisionScorer::new("deck", &config, &[10.0], 0.0);
+        scorer.decider_mut().set_present_dofs(&[Dof::Roll]);
+        // Roll moves, repeats one value from 60 s to 120 s, then moves again.
+        let roll = |t: f64| {
+            if (60.0..120.0).contains(&t) {
+                0.3
+            } else {
+                1.0 + 0.5 * (0.7 * t).sin()
+            }
+        };
+        // Observe up to 140 s: the forecasts due by then were issued up to 119.5 s (40 steps
+        // of 0.5 s and one more), so every one verified after the thaw at 120 s is from
+        // before it.
+        let mut t0 = 0.0;
+        while t0 <= 140.0 {
+            let f = roll_forecast(t0, roll, 0.05);
+            let truth = roll_forecast(t0, roll, 0.0);
+            let mut before = [0.0; 6];
+            before[Dof::Roll.index()] = roll(t0).to_radians();
+            let happened = Happened {
+                at_steps: &truth,
+                before: Some(before),
+                after: None,
+            };
+            scorer.observe(&f, &happened, true);
+            if t0 == 119.5 {
+                assert!(!scorer.decider().ensemble().is_empty());
+            }
+            t0 += 0.5;
+        }
+        assert!(scorer.decider().takes_evidence_from(120.0));
+        assert!(!scorer.decider().takes_evidence_from(119.5));
+        assert!(
+            scorer.decider().ensemble().is_empty(),
+            "{} members",
+            scorer.decider().ensemble().len()
+        );
     }
 
     #[test]

@@ -394,4 +394,18 @@ fn a_miss_at_sigma_zero_is_an_error_beyond_any_limit_not_none() {
     let d = exact.decide(&quiet);
     assert_eq!(d.probability_now, Some((all + 1.0) / (all + 2.0)), "{d:?}");
     assert!(d.go, "{d:?}");
+    // The source's next forecast states sigma 0 again: its misses still break the limit (put
+    // on a sigma of 0 they would vanish).
+    let d = miss.decide(&certain);
+    assert_eq!(d.probability_now, Some(1.0 / (all + 2.0)), "{d:?}");
+    assert!(!d.go, "{d:?}");
+    let d = exact.decide(&certain);
+    assert!(d.go, "{d:?}");
+    // What counts as a miss at sigma 0: more than the values' rounding (a zero motion's deck
+    // displacement is 0 or 9e-16 m by yaw); a missing value or sigma is no error.
+    assert_eq!(standardised_error(8.9e-16, 0.0, 0.0), 0.0);
+    assert_eq!(standardised_error(1.0 + 1e-7, 1.0, 0.0), 0.0);
+    assert_eq!(standardised_error(0.0, 1e-3, 0.0), -UNBOUNDED_ERROR);
+    assert!(standardised_error(0.5, 0.0, f64::NAN).is_nan());
+    assert!(standardised_error(f64::NAN, 0.0, 0.0).is_nan());
 }

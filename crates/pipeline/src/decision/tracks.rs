@@ -118,24 +118,41 @@ pub fn standardised_errors(
 }
 
 /// The standardised error (actual - mean) / sigma of one value, as the error ensembles take
-/// it. Where sigma is zero: 0 if the forecast was exact, else [`UNBOUNDED_ERROR`] with the
-/// error's sign (a miss the forecast said could not happen); NaN where a value is missing.
+/// it. Where sigma is zero: 0 if the forecast was exact (to the rounding of its values), else
+/// [`UNBOUNDED_ERROR`] with the error's sign (a miss the forecast said could not happen);
+/// NaN where a value or sigma is missing.
 pub fn standardised_error(actual: f64, mean: f64, sigma: f64) -> f64 {
     let error = actual - mean;
     if sigma > 0.0 {
         error / sigma
-    } else if error == 0.0 || error.is_nan() {
-        error
+    } else if error.is_nan() || sigma.is_nan() {
+        f64::NAN
+    } else if error.abs() <= ROUNDING * actual.abs().max(mean.abs()) + ROUNDING_FLOOR {
+        // Review: the deck point's displacement of a zero motion is 0 or +-9e-16 m by yaw,
+        // and that rounding counted as a miss beyond every limit.
+        0.0
     } else {
         UNBOUNDED_ERROR.copysign(error)
     }
 }
+
+/// Relative rounding within which a value forecast with sigma 0 counts as hit: a few units
+/// of f32's precision, the wire's.
+const ROUNDING: f64 = 4.0 * f32::EPSILON as f64;
+/// Absolute floor of it (m, rad, m/s): far below any sensor's resolution.
+const ROUNDING_FLOOR: f64 = 1e-9;
 
 /// The standardised error of a miss where the forecast stated sigma 0: large enough that
 /// any forecast with a positive sigma breaks every limit under it, finite so that the
 /// ensemble keeps it (it counts a non-finite error as none). Review: such a miss was taken
 /// as no error, so a sigma-0 forecast source filled the ensemble with perfect forecasts.
 pub const UNBOUNDED_ERROR: f64 = 1e30;
+
+/// Whether a standardised error is such a miss (kept as f32 by the ensembles: compared with
+/// room to spare).
+pub fn is_unbounded(u: f64) -> bool {
+    u.abs() >= 0.5 * UNBOUNDED_ERROR
+}
 
 /// The standardised means z = mean / sigma of a forecast's tracks (NaN where sigma is zero),
 /// over its steps: what the ensemble regresses the errors on ([`super::ensemble`]).

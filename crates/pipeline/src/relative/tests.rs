@@ -682,4 +682,11 @@ fn a_lift_miss_at_sigma_zero_is_an_error_beyond_any_limit_not_none() {
         (d.probability_now.unwrap() - (n + 1.0) / (n + 2.0)).abs() < 1e-12 && d.go,
         "{d:?}"
     );
+    // The next forecast states sigma 0 again: the misses still break the limit.
+    let mut again = certain.clone();
+    let d = lift.decide(&mut again, &missed);
+    assert!(
+        (d.probability_now.unwrap() - 1.0 / (n + 2.0)).abs() < 1e-12 && !d.go,
+        "{d:?}"
+    );
 }
