@@ -32,6 +32,26 @@ pub fn create_new(path: &Path, secret: bool) -> anyhow::Result<std::fs::File> {
         .with_context(|| format!("write {}", path.display()))
 }
 
+/// Create the log `path` anew (see [`create_new`]), first keeping a regular file already
+/// there as `<path>.1` (replacing an older one). Returns the name it was kept under, if any.
+///
+/// Why: a `run` pointed at a fixed `--log-dir` (as on a ship) deleted the logs of the run
+/// before it, the one that crashed or was restarted after days (soak review). Keeping one
+/// previous log bounds what a restart loop can fill. A symlink at the name is not kept (it
+/// is replaced, as by `create_new`): renaming moves the link, never its target.
+pub fn create_log(path: &Path) -> anyhow::Result<(std::fs::File, Option<PathBuf>)> {
+    let mut kept = None;
+    if path.symlink_metadata().is_ok_and(|m| m.is_file()) {
+        let mut previous = path.as_os_str().to_owned();
+        previous.push(".1");
+        let previous = PathBuf::from(previous);
+        std::fs::rename(path, &previous)
+            .with_context(|| format!("keeping {} as {}", path.display(), previous.display()))?;
+        kept = Some(previous);
+    }
+    Ok((create_new(path, false)?, kept))
+}
+
 /// A new directory `<temp dir>/<prefix>-<pid>-<suffix>` that only this user can enter. Made
 /// with `mkdir` (never an existing one, which another user could own or have filled with
 /// symlinks), trying another suffix when the name is taken.
@@ -78,6 +98,37 @@ mod tests {
         let meta = std::fs::symlink_metadata(&path).unwrap();
         assert!(meta.is_file());
         assert_eq!(meta.permissions().mode() & 0o777, 0o600);
+    }
+
+    /// Regression (soak review): a second run in the same `--log-dir` deleted the first run's
+    /// logs.
+    #[test]
+    fn a_log_keeps_the_previous_runs_as_dot_1_and_only_one() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("predictor.log");
+        let (mut f, kept) = create_log(&path).unwrap();
+        assert_eq!(kept, None);
+        f.write_all(b"run 1").unwrap();
+        let (mut f, kept) = create_log(&path).unwrap();
+        let previous = dir.path().join("predictor.log.1");
+        assert_eq!(kept.as_deref(), Some(previous.as_path()));
+        f.write_all(b"run 2").unwrap();
+        assert_eq!(std::fs::read_to_string(&previous).unwrap(), "run 1");
+        assert_eq!(std::fs::read_to_string(&path).unwrap(), "run 2");
+        create_log(&path).unwrap();
+        assert_eq!(std::fs::read_to_string(&previous).unwrap(), "run 2");
+        assert_eq!(std::fs::read_to_string(&path).unwrap(), "");
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 2);
+        // A link at the name is replaced, its target neither kept nor written.
+        let victim = dir.path().join("victim.txt");
+        std::fs::write(&victim, "ORIGINAL").unwrap();
+        let link = dir.path().join("deck.log");
+        std::os::unix::fs::symlink(&victim, &link).unwrap();
+        let (mut f, kept) = create_log(&link).unwrap();
+        f.write_all(b"deck").unwrap();
+        assert_eq!(kept, None);
+        assert_eq!(std::fs::read_to_string(&victim).unwrap(), "ORIGINAL");
+        assert!(std::fs::symlink_metadata(&link).unwrap().is_file());
     }
 
     #[test]

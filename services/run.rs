@@ -29,7 +29,8 @@ use view::{CheckedJson, View};
 pub struct Args {
     #[command(flatten)]
     pub common: CommonArgs,
-    /// Directory for the children's logs (default: a new directory under the temp dir).
+    /// Directory for the children's logs (default: a new directory under the temp dir). A log
+    /// already there is kept as `<service>.log.1` (one previous run's).
     #[arg(long, value_name = "DIR")]
     pub log_dir: Option<PathBuf>,
     /// Address of the live display's web page; port 0 picks a free one. Without this flag the

@@ -60,8 +60,14 @@ impl Children {
         logs: &Path,
     ) -> anyhow::Result<()> {
         let exe = std::env::current_exe().context("locating the shipcast executable")?;
-        let log = crate::private_files::create_new(&logs.join(format!("{name}.log")), false)
+        let (log, kept) = crate::private_files::create_log(&logs.join(format!("{name}.log")))
             .with_context(|| format!("creating the log of {name} in {}", logs.display()))?;
+        if let Some(previous) = kept {
+            tracing::info!(
+                "run: the previous {name} log is kept as {}",
+                previous.display()
+            );
+        }
         let mut cmd = Command::new(exe);
         cmd.arg(command)
             .arg("--config")
