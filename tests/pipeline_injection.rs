@@ -251,7 +251,14 @@ fn the_live_view_of_run_rejects_a_second_publisher() {
     let logs = p.path("logs");
     let run = p.spawn(
         "run",
-        &["--duration", "120", "--log-dir", logs.to_str().unwrap()],
+        &[
+            "--duration",
+            "120",
+            "--log-dir",
+            logs.to_str().unwrap(),
+            "--view-every",
+            "1",
+        ],
     );
     run.wait_for("forecast   t=");
     let outsider = plain_client(&p.endpoint);

@@ -25,6 +25,9 @@ fn run_shows_forecasts_and_advisory_and_stops_after_duration() {
         dir.path().to_str().unwrap(),
         "--display",
         "127.0.0.1:0",
+        // Captured, stdout is no terminal: the view would print once a minute.
+        "--view-every",
+        "1",
     ]);
     // The live view names the display's page, on the free port chosen for it.
     assert!(stdout.contains("display http://127.0.0.1:"), "{stdout}");
