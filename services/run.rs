@@ -60,6 +60,9 @@ pub struct Args {
 /// lines to the log or journal. Soak review: at once a second, 85 MB and 683,000 lines a day.
 const VIEW_EVERY_LOGGED: Duration = Duration::from_secs(60);
 
+/// The shortest `--view-every`: the view's values arrive at 2 Hz at most.
+const MIN_VIEW_EVERY_S: f64 = 0.5;
+
 /// `HOST:PORT` split, when it has that shape (a host, a colon, a port number).
 fn host_and_port(text: &str) -> Option<(&str, u16)> {
     let (host, port) = text.rsplit_once(':')?;
@@ -219,7 +222,15 @@ impl TryFrom<Args> for Config {
         let limit = args.common.duration()?;
         let view_every = args
             .view_every
-            .map(|s| shipcast_pipeline::limits::seconds("--view-every", s))
+            .map(|s| {
+                if s < MIN_VIEW_EVERY_S {
+                    return Err(format!(
+                        "--view-every must be at least {MIN_VIEW_EVERY_S} s (its values arrive \
+                         at 2 Hz at most), got {s}"
+                    ));
+                }
+                shipcast_pipeline::limits::seconds("--view-every", s)
+            })
             .transpose()
             .map_err(anyhow::Error::msg)?;
         // Created last: a refused flag must not leave an empty directory behind.
@@ -379,7 +390,19 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         ..View::default()
     };
     let mut drawn = 0usize;
-    let mut last_draw: Option<Instant> = None;
+    // On a terminal the first block shows at once and is redrawn in place. In a log the first
+    // one waits an interval: printed at once it says only that nothing has arrived yet.
+    let mut last_draw: Option<Instant> = (!tty).then(Instant::now);
+    let header = |elapsed: f64| {
+        let page = display
+            .map(|a| format!("  display http://{a}/"))
+            .unwrap_or_default();
+        format!(
+            "shipcast run  {}  +{elapsed:.0}s{page}  (Ctrl-C stops; logs in {})",
+            names,
+            logs.display()
+        )
+    };
     let outcome = loop {
         if limit.reached() {
             break Ok(if shutdown::stop_requested() {
@@ -441,30 +464,17 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 + lift.as_ref().map_or(0, |l| l.rejected),
         );
         if last_draw.is_none_or(|t| t.elapsed() >= view_every) {
-            let page = display
-                .map(|a| format!("  display http://{a}/"))
-                .unwrap_or_default();
-            let header = format!(
-                "shipcast run  {}  +{:.0}s{page}  (Ctrl-C stops; logs in {})",
-                names,
-                limit.elapsed().as_secs_f64(),
-                logs.display()
-            );
-            let lines = view.lines(&header, Instant::now());
-            let mut out = std::io::stdout().lock();
-            if tty && drawn > 0 {
-                // Redraw the block in place.
-                let _ = write!(out, "\x1b[{drawn}A\x1b[J");
-            }
-            for l in &lines {
-                let _ = writeln!(out, "{l}");
-            }
-            let _ = out.flush();
-            drawn = lines.len();
+            let lines = view.lines(&header(limit.elapsed().as_secs_f64()), Instant::now());
+            drawn = print_view(&lines, if tty { drawn } else { 0 });
             last_draw = Some(Instant::now());
         }
         std::thread::sleep(Duration::from_millis(50));
     };
+    if !tty {
+        // The state at the stop, for the log: up to an interval newer than the last block.
+        let lines = view.lines(&header(limit.elapsed().as_secs_f64()), Instant::now());
+        print_view(&lines, 0);
+    }
     children.stop();
     let _ = std::fs::remove_file(&config_path);
     let _ = std::fs::remove_file(&target_path);
@@ -475,6 +485,21 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         logs.display()
     );
     Ok(())
+}
+
+/// Print the live view's lines, over the `drawn` lines of the block before (0: below it);
+/// returns how many were printed.
+fn print_view(lines: &[String], drawn: usize) -> usize {
+    let mut out = std::io::stdout().lock();
+    if drawn > 0 {
+        // Redraw the block in place.
+        let _ = write!(out, "\x1b[{drawn}A\x1b[J");
+    }
+    for l in lines {
+        let _ = writeln!(out, "{l}");
+    }
+    let _ = out.flush();
+    lines.len()
 }
 
 #[cfg(test)]
@@ -539,6 +564,7 @@ mod config_tests {
             &["--display", "localhost"][..],
             &["--duration", "nan"],
             &["--view-every", "0"],
+            &["--view-every", "0.1"],
             &["--no-display", "--config", missing.to_str().unwrap()],
         ] {
             let argv = [&["--log-dir", dir][..], bad].concat();

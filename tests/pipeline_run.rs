@@ -109,4 +109,14 @@ fn run_ends_cleanly_when_the_producer_finishes_its_record() {
         ),
         "{stdout}"
     );
+    // Regression (review): with stdout captured (no terminal) the view is printed once a
+    // minute, and the run ended before the first: the log showed no state at all. It now
+    // prints the state at the stop, just before the line above.
+    let view = stdout
+        .find("(Ctrl-C stops; logs in")
+        .unwrap_or_else(|| panic!("no view at the stop: {stdout}"));
+    assert!(
+        view < stdout.find("the producer finished").unwrap(),
+        "{stdout}"
+    );
 }

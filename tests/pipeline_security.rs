@@ -301,6 +301,9 @@ fn run_uses_the_generated_config_as_it_is() {
         logs.path().to_str().unwrap(),
         "--display",
         "127.0.0.1:0",
+        // Captured, stdout is no terminal: the view would print once a minute.
+        "--view-every",
+        "1",
     ]);
     // The view shows the predictor's status and the deck's advisory, both received over zenoh.
     assert!(stdout.contains("predictor  model v1"), "{stdout}");

@@ -34,6 +34,9 @@ fn a_two_ship_run_publishes_the_relative_forecast_of_both_vessels() {
             "--no-display",
             "--log-dir",
             logs.path().to_str().unwrap(),
+            // Piped, stdout is no terminal: the view would print once a minute.
+            "--view-every",
+            "1",
         ],
     );
     let names = p.names();

@@ -100,7 +100,7 @@ fn a_wrong_type_or_a_duplicate_key_names_its_line() {
 }
 
 #[test]
-fn toml_round_trip_and_flags_override_the_file() {
+fn toml_round_trip() {
     let mut c = PipelineConfig {
         instance: Some("abc".into()),
         ..PipelineConfig::default()

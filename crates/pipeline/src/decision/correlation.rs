@@ -113,9 +113,11 @@ impl ErrorCorrelation {
 }
 
 /// Standardised errors beyond this many sigma say the sigma was wrong, not how errors at
-/// neighbouring steps go together: one such forecast would outweigh thousands of others in
-/// the sums. An honest Gaussian error passes 1000 sigma never.
-pub const MAX_CORRELATED_U: f64 = 1e3;
+/// neighbouring steps go together: one forecast at u adds u^2 to every product, where an
+/// ordinary one adds about 1 and the matrix is used after 600 (review: at the first bound,
+/// 1000, one forecast at 500 sigma made the matrix all ones). An honest Gaussian error
+/// passes 8 sigma about never; 20 leaves room for heavy tails.
+pub const MAX_CORRELATED_U: f64 = 20.0;
 
 /// Whether a standardised error tells about the correlation: finite and within
 /// [`MAX_CORRELATED_U`].

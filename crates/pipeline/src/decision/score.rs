@@ -583,9 +583,9 @@ mod tests {
         assert_eq!(by_lead(on_time)[three_s], on_time.hit_rate);
     }
 
-    /// Regression (review): replay's scorer still handed the errors of forecasts issued before
-    /// a thaw, and waiting for their horizon, to the fresh ensemble; only the live path's
-    /// test covered the rule.
+    /// Replay's scorer drops the forecasts issued before a thaw and waiting for their horizon,
+    /// as the live deck does: from the fresh ensemble, and (regression, review) from the
+    /// correlation estimate, which still took their errors.
     #[test]
     fn replay_drops_the_forecasts_waiting_at_a_thaw_as_the_live_deck_does() {
         let config = DeckConfig {
@@ -605,7 +605,7 @@ mod tests {
         // Observe up to 140 s: the forecasts due by then were issued up to 119.5 s (40 steps
         // of 0.5 s and one more), so every one verified after the thaw at 120 s is from
         // before it.
-        let mut t0 = 0.0;
+        let (mut t0, mut pairs_at_thaw) = (0.0, 0.0);
         while t0 <= 140.0 {
             let f = roll_forecast(t0, roll, 0.05);
             let truth = roll_forecast(t0, roll, 0.0);
@@ -620,8 +620,14 @@ mod tests {
             if t0 == 119.5 {
                 assert!(!scorer.decider().ensemble().is_empty());
             }
+            if t0 == 120.0 {
+                pairs_at_thaw = scorer.correlation.pairs(0);
+            }
             t0 += 0.5;
         }
+        // Nor do their errors join the correlation estimate.
+        assert!(pairs_at_thaw > 0.0);
+        assert_eq!(scorer.correlation.pairs(0), pairs_at_thaw);
         assert!(scorer.decider().takes_evidence_from(120.0));
         assert!(!scorer.decider().takes_evidence_from(119.5));
         assert!(

@@ -408,4 +408,10 @@ fn a_miss_at_sigma_zero_is_an_error_beyond_any_limit_not_none() {
     assert_eq!(standardised_error(0.0, 1e-3, 0.0), -UNBOUNDED_ERROR);
     assert!(standardised_error(0.5, 0.0, f64::NAN).is_nan());
     assert!(standardised_error(f64::NAN, 0.0, 0.0).is_nan());
+    // A velocity from two rounded displacements of a metre (review), and an infinite mean.
+    assert_eq!(standardised_error(1.2e-7, 0.0, 0.0), 0.0);
+    assert_eq!(
+        standardised_error(0.3, f64::INFINITY, 0.0),
+        -UNBOUNDED_ERROR
+    );
 }

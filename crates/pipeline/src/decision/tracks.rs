@@ -127,7 +127,9 @@ pub fn standardised_error(actual: f64, mean: f64, sigma: f64) -> f64 {
         error / sigma
     } else if error.is_nan() || sigma.is_nan() {
         f64::NAN
-    } else if error.abs() <= ROUNDING * actual.abs().max(mean.abs()) + ROUNDING_FLOOR {
+    } else if error.is_finite()
+        && error.abs() <= ROUNDING * actual.abs().max(mean.abs()) + ROUNDING_FLOOR
+    {
         // Review: the deck point's displacement of a zero motion is 0 or +-9e-16 m by yaw,
         // and that rounding counted as a miss beyond every limit.
         0.0
@@ -139,8 +141,10 @@ pub fn standardised_error(actual: f64, mean: f64, sigma: f64) -> f64 {
 /// Relative rounding within which a value forecast with sigma 0 counts as hit: a few units
 /// of f32's precision, the wire's.
 const ROUNDING: f64 = 4.0 * f32::EPSILON as f64;
-/// Absolute floor of it (m, rad, m/s): far below any sensor's resolution.
-const ROUNDING_FLOOR: f64 = 1e-9;
+/// Absolute floor of it (m, rad, m/s): far below any sensor's resolution, and above the
+/// rounding a derived quantity carries from its inputs (the deck velocity is a difference of
+/// two displacements of up to metres, each rounded to f32, over 1 s: about 1e-6).
+const ROUNDING_FLOOR: f64 = 1e-5;
 
 /// The standardised error of a miss where the forecast stated sigma 0: large enough that
 /// any forecast with a positive sigma breaks every limit under it, finite so that the
