@@ -393,15 +393,18 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     // On a terminal the first block shows at once and is redrawn in place. In a log the first
     // one waits an interval: printed at once it says only that nothing has arrived yet.
     let mut last_draw: Option<Instant> = (!tty).then(Instant::now);
-    let header = |elapsed: f64| {
+    // The view's lines now: a header, then what each service last said.
+    let block = |view: &View| {
         let page = display
             .map(|a| format!("  display http://{a}/"))
             .unwrap_or_default();
-        format!(
-            "shipcast run  {}  +{elapsed:.0}s{page}  (Ctrl-C stops; logs in {})",
+        let header = format!(
+            "shipcast run  {}  +{:.0}s{page}  (Ctrl-C stops; logs in {})",
             names,
+            limit.elapsed().as_secs_f64(),
             logs.display()
-        )
+        );
+        view.lines(&header, Instant::now())
     };
     let outcome = loop {
         if limit.reached() {
@@ -464,16 +467,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 + lift.as_ref().map_or(0, |l| l.rejected),
         );
         if last_draw.is_none_or(|t| t.elapsed() >= view_every) {
-            let lines = view.lines(&header(limit.elapsed().as_secs_f64()), Instant::now());
-            drawn = print_view(&lines, if tty { drawn } else { 0 });
+            drawn = print_view(&block(&view), if tty { drawn } else { 0 });
             last_draw = Some(Instant::now());
         }
         std::thread::sleep(Duration::from_millis(50));
     };
     if !tty {
         // The state at the stop, for the log: up to an interval newer than the last block.
-        let lines = view.lines(&header(limit.elapsed().as_secs_f64()), Instant::now());
-        print_view(&lines, 0);
+        print_view(&block(&view), 0);
     }
     children.stop();
     let _ = std::fs::remove_file(&config_path);

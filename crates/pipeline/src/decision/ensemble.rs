@@ -121,8 +121,8 @@ impl<const Q: usize> ErrorEnsemble<Q> {
     /// Offer the standardised errors of one verified forecast (`u[q][k]`, `steps` steps) and
     /// its standardised means (`z[q][k]`). A non-finite u (a missing value) counts as no
     /// error; a non-finite z as a zero mean. A miss at sigma 0 arrives finite
-    /// ([`super::UNBOUNDED_ERROR`]), and [`Self::failures`] counts it as broken. One offer in `stride` is kept.
-    /// Never allocates: the ring's storage is reserved by `new`.
+    /// ([`super::UNBOUNDED_ERROR`]), and [`Self::failures`] counts it as broken. One offer in
+    /// `stride` is kept. Never allocates: the ring's storage is reserved by `new`.
     pub fn offer(&mut self, u: &[[f64; MAX_STEPS]; Q], z: &[[f64; MAX_STEPS]; Q], steps: usize) {
         let keep = self.offered.is_multiple_of(self.stride as u64);
         self.offered += 1;
