@@ -445,7 +445,7 @@ fn run_live(config: &PipelineConfig, limit: Option<Duration>) -> anyhow::Result<
         FollowedMotion::new("relative", &session, &crane_names, keep_s, rate_hz)?;
     let mut target_motion =
         FollowedMotion::new("relative", &session, &target_names, keep_s, rate_hz)?;
-    let mut verifier = RelativeVerifier::from_config(r, MAX_PENDING);
+    let mut verifier = RelativeVerifier::from_config(r, MAX_PENDING).watching_live();
     let mut warned_no_motion = false;
     let mut track = Box::<RelativeTrack>::default();
     tracing::info!(
@@ -531,6 +531,13 @@ fn run_live(config: &PipelineConfig, limit: Option<Duration>) -> anyhow::Result<
             tracing::warn!(misaligned, "relative: cannot combine the forecasts: {e}");
             continue;
         }
+        // A frozen sensor on either ship: no go while it lasts, and its evidence dropped
+        // when it moves again.
+        verifier.watch_sensors(
+            track.alignment.time_s,
+            &crane_motion.history,
+            &target_motion.history,
+        );
         let decision = lift.decide(&mut track, &verifier.lift);
         verifier.push(&track);
         // Forecasts of two full horizons and still no motion from a vessel: say why the
@@ -559,9 +566,10 @@ fn run_live(config: &PipelineConfig, limit: Option<Duration>) -> anyhow::Result<
     }
     let (ra, rb) = (crane.gate.stream.rejected, target.gate.stream.rejected);
     tracing::info!(
-        "relative: stopped after {count} relative forecasts ({} verified, {} unverifiable); rejected {} forecasts and {} motion samples from {}, {} and {} from {}, {misaligned} pairs not combinable, {stale} not current",
+        "relative: stopped after {count} relative forecasts ({} verified, {} unverifiable, of them {} waiting at a thaw); rejected {} forecasts and {} motion samples from {}, {} and {} from {}, {misaligned} pairs not combinable, {stale} not current",
         verifier.verified,
         verifier.unverifiable(),
+        verifier.dropped_at_thaw,
         ra.total(),
         crane_motion.gate.rejected,
         crane.name,

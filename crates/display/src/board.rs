@@ -87,9 +87,12 @@ pub struct DecisionView {
     /// The station states no probability yet: no verified errors back one.
     #[serde(default)]
     pub awaiting_verified_errors: bool,
-    /// The deck states no probability: this DOF's sensor repeats its value (a frozen sensor).
+    /// The station states no probability: this DOF's sensor repeats its value (a frozen sensor).
     #[serde(default)]
     pub frozen_dof: Option<Dof>,
+    /// A lift decision's frozen sensor is on this ship (the deck's is on its own).
+    #[serde(default)]
+    pub frozen_ship: Option<shipcast_pipeline::relative::still::Ship>,
 }
 
 /// A station's advisory, as published on `.../advisory/<station>`; parsing it into this type

@@ -256,6 +256,25 @@ fn a_lift_advisory_parses_and_a_message_without_a_decision_is_refused() {
     assert!(!a.decision.go);
     assert_eq!(a.decision.next_window_s, None);
     assert_eq!(a.max_roll_deg, None);
+    // A lift stopped by a frozen sensor names the ship; any other ship is a forged advisory.
+    let frozen = serde_json::json!({
+        "crane_vessel": "a", "target_vessel": "b", "time_s": 12.5,
+        "decision": {"mot_s": 10.0, "go_probability": 0.9, "go": false,
+                     "probability_now": null, "next_exceedance_s": null,
+                     "frozen_ship": "target", "frozen_dof": "roll"}
+    });
+    let a: AdvisoryView = serde_json::from_value(frozen.clone()).unwrap();
+    a.check().unwrap();
+    assert_eq!(
+        (a.decision.frozen_ship, a.decision.frozen_dof),
+        (
+            Some(shipcast_pipeline::relative::still::Ship::Target),
+            Some(Dof::Roll)
+        )
+    );
+    let mut forged = frozen;
+    forged["decision"]["frozen_ship"] = serde_json::json!("<b>b</b>");
+    assert!(serde_json::from_value::<AdvisoryView>(forged).is_err());
     let old = serde_json::json!({"forecast_seq": 1, "time_s": 1.0, "windows": []});
     assert!(serde_json::from_value::<AdvisoryView>(old).is_err());
 }
@@ -307,6 +326,7 @@ fn a_vessel_without_forecasts_for_longer_than_the_limit_is_stale_and_shows_none(
                 ensemble_members: Some(300),
                 awaiting_verified_errors: false,
                 frozen_dof: None,
+                frozen_ship: None,
             },
             stale_s: None,
         },

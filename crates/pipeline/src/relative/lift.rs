@@ -22,6 +22,7 @@
 //!   of forecasts not yet verified, its go calls failed 42 % of the time on one sea. So by
 //!   default (`relative.go_needs_verified_errors`) it states nothing and never says go.
 
+use super::still::{FrozenSensor, Ship};
 use super::RelativeTrack;
 use crate::config::RelativeConfig;
 use crate::decision::ensemble::{share_within, ErrorEnsemble};
@@ -30,6 +31,7 @@ use crate::decision::window::{chain_within, Lattice};
 use crate::decision::{standardised_error, LATTICE_POINTS};
 use serde::{Deserialize, Serialize};
 use shipcast_wire::payload::MAX_STEPS;
+use shipcast_wire::Dof;
 
 /// The three relative axes (x, y, z of the crane vessel) are the ensemble's quantities.
 pub type LiftEnsemble = ErrorEnsemble<3>;
@@ -103,6 +105,12 @@ pub struct LiftDecision {
     /// (`relative.go_needs_verified_errors`).
     #[serde(default)]
     pub awaiting_verified_errors: bool,
+    /// A sensor of this ship repeats its recorded value (`frozen_dof`, [`super::still`]): no
+    /// probability and no go. Both absent in the advisories of a service older than this.
+    #[serde(default)]
+    pub frozen_ship: Option<Ship>,
+    #[serde(default)]
+    pub frozen_dof: Option<Dof>,
 }
 
 /// Per axis and step: a verified forecast's standardised errors or means.
@@ -116,6 +124,9 @@ pub struct LiftEvidence {
     pub ensemble: LiftEnsemble,
     /// The uncorrected statements from the ensemble and whether their windows held.
     pub statements: StatementRecord,
+    /// A sensor of either ship that repeats its value now ([`super::still`]): set by the
+    /// verifier's watch before each decision.
+    pub frozen: Option<FrozenSensor>,
     u: Box<PerAxis>,
     z: Box<PerAxis>,
 }
@@ -126,6 +137,7 @@ impl LiftEvidence {
             limits,
             ensemble: LiftEnsemble::default(),
             statements: StatementRecord::default(),
+            frozen: None,
             u: Box::new([[0.0; MAX_STEPS]; 3]),
             z: Box::new([[0.0; MAX_STEPS]; 3]),
         }
@@ -200,8 +212,9 @@ impl LiftDecider {
         })
     }
 
-    /// Decides on `track`: from the evidence's ensemble once it is ready (corrected by the
-    /// earlier statements' outcomes), else from the Gaussian model. The uncorrected statement
+    /// Decides on `track`: no probability while a sensor of either ship is frozen
+    /// (`evidence.frozen`), else from the evidence's ensemble once it is ready (corrected by
+    /// the earlier statements' outcomes), else from the Gaussian model. The uncorrected statement
     /// from verified errors is noted in `track.lift_statement`, so that verification records
     /// its outcome.
     pub fn decide(&mut self, track: &mut RelativeTrack, evidence: &LiftEvidence) -> LiftDecision {
@@ -212,7 +225,8 @@ impl LiftDecider {
         let from_ensemble = ensemble.ready();
         let mut usable = 0;
         track.lift_statement = None;
-        let probability_now = if window > steps {
+        let frozen = evidence.frozen.filter(|_| window <= steps);
+        let probability_now = if window > steps || frozen.is_some() {
             None
         } else if from_ensemble {
             usable = ensemble.failures(
@@ -246,6 +260,8 @@ impl LiftDecider {
             probability_now,
             next_exceedance_s,
             // The paths the probability comes from: those as long as the window.
+            frozen_ship: frozen.map(|f| f.ship),
+            frozen_dof: frozen.map(|f| f.dof),
             ensemble_members: if from_ensemble && probability_now.is_some() {
                 usable
             } else {
@@ -254,6 +270,7 @@ impl LiftDecider {
             // No member long enough for the window (the horizon grew) is no verified errors
             // for it either.
             awaiting_verified_errors: window <= steps
+                && frozen.is_none()
                 && probability_now.is_none()
                 && (from_ensemble || limits.needs_verified_errors),
         }

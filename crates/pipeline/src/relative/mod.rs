@@ -31,6 +31,7 @@ pub mod calibrate;
 pub mod calls_csv;
 pub mod lift;
 pub mod shrink;
+pub mod still;
 pub mod study;
 pub mod verify;
 
@@ -463,6 +464,11 @@ impl RelativeAdvisory {
             d.mot_s,
             match d.probability_now {
                 Some(p) => format!("{:.0}%", 100.0 * p),
+                None if d.frozen_dof.is_some() => format!(
+                    "the {} vessel's {} sensor repeats its value",
+                    d.frozen_ship.map_or("?", still::Ship::name),
+                    d.frozen_dof.map_or("?", Dof::name)
+                ),
                 None if d.awaiting_verified_errors =>
                     "no probability before verified errors".into(),
                 None => "MOT beyond the horizon".into(),

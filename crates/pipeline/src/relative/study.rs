@@ -5,6 +5,7 @@
 //! motion of the two records, beside each ship's own point forecast (the tip on A, the spot on
 //! B) at the same leads.
 
+use super::still::Ship;
 use super::verify::{observed, RelativeVerifier, MAX_PENDING};
 use super::{Geometry, LiftDecider, LiftLimits, RelativeTrack, AXES};
 use crate::config::PipelineConfig;
@@ -296,6 +297,10 @@ pub fn study_calls(
     let r = &config.relative;
     let mut decider = LiftDecider::new(LiftLimits::new(r));
     let mut verifier = RelativeVerifier::from_config(r, MAX_PENDING);
+    // The records' columns are known: a watched DOF among them that never moves is a frozen
+    // sensor, not an absent column.
+    verifier.set_present_dofs(Ship::Crane, &crane.dofs());
+    verifier.set_present_dofs(Ship::Target, &target.dofs());
     let c = &config.crane;
     let mut tip_verifier = TipVerifier::new(
         geometry.tip,
@@ -342,6 +347,7 @@ pub fn study_calls(
             continue;
         }
         pairs += 1;
+        verifier.watch_sensors(track.alignment.time_s, &ta, &tb);
         // Decided on every forecast, as the live service does, so its statement's outcome
         // teaches the later ones whether it is scored or not.
         let issued = decider.decide(&mut track, &verifier.lift);

@@ -690,3 +690,95 @@ fn a_lift_miss_at_sigma_zero_is_an_error_beyond_any_limit_not_none() {
         "{d:?}"
     );
 }
+
+/// A ship whose recorded heave is `h(t)` at every time asked, roll and pitch following it.
+struct HeaveRecord<F: Fn(f64) -> f64>(F);
+
+impl<F: Fn(f64) -> f64> crate::observed::ObservedMotion for HeaveRecord<F> {
+    fn dof_at(&self, t: f64) -> Option<[f64; 6]> {
+        let h = (self.0)(t);
+        Some([0.0, 0.0, h, 0.1 * h, 0.05 * h, 0.0])
+    }
+}
+
+/// Regression: the lift had no watch of frozen sensors (the deck has had one since
+/// 2026-12-04). A target whose heave sensor stuck left the lift saying go on verified errors
+/// of a motion that was not there, and kept that evidence when the sensor moved again.
+#[test]
+fn a_frozen_sensor_on_either_ship_stops_the_lift_and_its_thaw_drops_the_evidence() {
+    use super::still::Ship;
+    use super::verify::RelativeVerifier;
+    use crate::decision::ensemble::MIN_MEMBERS;
+    use crate::decision::still::STILL_AFTER_S;
+    let config = RelativeConfig::default();
+    let g = geometry([0.0; 3], [0.0; 3], 0.0);
+    let mut lift = LiftDecider::new(LiftLimits::new(&config));
+    let mut verifier = RelativeVerifier::from_config(&config, 64).watching_live();
+    // Verified errors of zero on every axis and step: a calm forecast is a go.
+    let zeros = [[0.0; MAX_STEPS]; 3];
+    for _ in 0..MIN_MEMBERS * 4 {
+        verifier.lift.ensemble.offer(&zeros, &zeros, 50);
+    }
+    // Calls verified before the stillness, which its thaw must keep.
+    for _ in 0..5 {
+        verifier.lift.statements.add(0.99, true);
+    }
+    let crane = HeaveRecord(|t: f64| (0.7 * t).sin());
+    // The target's heave holds one value from 100 s until it moves again at 200 s.
+    let target = HeaveRecord(|t: f64| (0.7 * t.clamp(0.0, 100.0)).sin() + (t - 200.0).max(0.0));
+    let calm = |t: f64| {
+        let f = forecast(t, 50, NONE, [0.05; 6]);
+        relative(&g, &f, &f)
+    };
+    let mut t = 0.0;
+    while t <= 200.0 {
+        verifier.watch_sensors(t, &crane, &target);
+        let mut track = calm(t);
+        let d = lift.decide(&mut track, &verifier.lift);
+        if (100.0 + STILL_AFTER_S..=200.0).contains(&t) {
+            assert!(
+                !d.go && d.probability_now.is_none() && !d.awaiting_verified_errors,
+                "t={t}: {d:?}"
+            );
+            assert_eq!(
+                (d.frozen_ship, d.frozen_dof),
+                (Some(Ship::Target), Some(Dof::Heave)),
+                "t={t}"
+            );
+            assert!(track.lift_statement.is_none());
+            // A call verified during the stillness: a statement about nothing.
+            verifier.lift.statements.add(0.99, true);
+        } else {
+            assert!(d.go && d.frozen_dof.is_none(), "t={t}: {d:?}");
+        }
+        verifier.push(&track);
+        t += 0.5;
+    }
+    assert_eq!(verifier.pending(), 64);
+    // The target moves again: the verified errors go, the statements go back to the five of
+    // before the stillness, the forecasts waiting for their horizon are dropped, and go waits
+    // for errors verified on the motion as it is now.
+    verifier.watch_sensors(200.5, &crane, &target);
+    assert!(verifier.lift.ensemble.is_empty());
+    assert_eq!(verifier.lift.statements.calls(), 5.0);
+    assert_eq!((verifier.pending(), verifier.dropped_at_thaw), (0, 64));
+    let d = lift.decide(&mut calm(200.5), &verifier.lift);
+    assert!(
+        !d.go && d.awaiting_verified_errors && d.frozen_dof.is_none(),
+        "{d:?}"
+    );
+    // The summary says why there is no go while frozen.
+    let mut frozen = calm(150.0);
+    verifier.lift.frozen = Some(super::still::FrozenSensor {
+        ship: Ship::Target,
+        dof: Dof::Roll,
+    });
+    let d = lift.decide(&mut frozen, &verifier.lift);
+    let adv = advisory(&frozen, &g, ("a", "b"), (0, 0), d);
+    assert!(
+        adv.summary()
+            .contains("NO-GO (MOT 10s, the target vessel's roll sensor repeats its value)"),
+        "{}",
+        adv.summary()
+    );
+}

@@ -10,6 +10,7 @@
 use super::calibrate::SigmaCalibration;
 use super::lift::{LiftEvidence, LiftLimits};
 use super::shrink::MeanShrinkage;
+use super::still::{Ship, ShipsStillWatch};
 use super::{point_displacement, Geometry, RelativeTrack};
 use crate::config::RelativeConfig;
 use crate::observed::ObservedMotion;
@@ -34,6 +35,12 @@ pub struct RelativeVerifier {
     /// The true relative displacement of the forecast being verified, per step.
     actual: Vec<[f64; 3]>,
     pub verified: u64,
+    /// Both ships' frozen sensors ([`super::still`]), and the lift's statements as they were
+    /// when the current stillness began.
+    sensors: ShipsStillWatch,
+    statements_before_still: Option<crate::decision::recalibrate::StatementRecord>,
+    /// Forecasts dropped unverified because a frozen sensor moved again while they waited.
+    pub dropped_at_thaw: u64,
 }
 
 impl RelativeVerifier {
@@ -69,6 +76,59 @@ impl RelativeVerifier {
             lift: LiftEvidence::new(lift),
             actual: Vec::with_capacity(shipcast_wire::payload::MAX_STEPS),
             verified: 0,
+            sensors: ShipsStillWatch::default(),
+            statements_before_still: None,
+            dropped_at_thaw: 0,
+        }
+    }
+
+    /// Watch both ships' sensors as the live service does: heave, roll and pitch taken as
+    /// present ([`ShipsStillWatch::live`]).
+    pub fn watching_live(mut self) -> Self {
+        self.sensors = ShipsStillWatch::live();
+        self
+    }
+
+    /// `ship`'s record is known to have these DOFs (a study knows its records' columns).
+    pub fn set_present_dofs(&mut self, ship: Ship, dofs: &[shipcast_wire::Dof]) {
+        self.sensors.set_present(ship, dofs);
+    }
+
+    /// Look at both ships' recorded values at `time_s`, the origin of the relative forecast
+    /// about to be decided, before it is decided ([`super::still`]): the lift's evidence learns
+    /// which sensor is frozen now; at a thaw the verified errors go, the statements go back to
+    /// those of before the stillness and the forecasts waiting for their horizon are dropped.
+    pub fn watch_sensors(
+        &mut self,
+        time_s: f64,
+        crane: &impl ObservedMotion,
+        target: &impl ObservedMotion,
+    ) {
+        let look = self.sensors.observe(time_s, crane, target);
+        if look.began && self.statements_before_still.is_none() {
+            // Rare (a stillness starts): the copy is no burden on deciding.
+            self.statements_before_still = Some(self.lift.statements.clone());
+        }
+        if look.thawed {
+            let waiting = self.pending.len();
+            tracing::warn!(
+                "relative: a frozen sensor moves again at t={time_s:.1}s; the verified \
+                 relative errors, the lift statements verified since it stopped and the \
+                 {waiting} forecasts waiting for their horizon are dropped, and go waits for \
+                 new ones"
+            );
+            self.lift.ensemble.clear();
+            if let Some(before) = self.statements_before_still.take() {
+                self.lift.statements = before;
+            }
+            self.dropped_at_thaw += waiting as u64;
+            self.pending.drop_all();
+        }
+        self.lift.frozen = self.sensors.frozen();
+        if self.lift.frozen.is_some() && self.statements_before_still.is_none() {
+            // Another sensor is still frozen after the thaw: its stillness goes back as far as
+            // the one that ended (statements verified during it are about nothing too).
+            self.statements_before_still = Some(self.lift.statements.clone());
         }
     }
 

@@ -1,0 +1,201 @@
+//! Frozen sensors on either ship: the lift's counterpart of the deck's watch
+//! ([`crate::decision::still`], whose rules it applies to each ship).
+//!
+//! Why: the relative motion is made of both ships' heave, roll and pitch (and surge, sway and
+//! yaw, whose sensors fail alike but matter less to the excursion). A sensor on either ship
+//! that repeats its value makes that ship's forecasts and verified errors those of a motion
+//! that is not there: the lift then learns from errors of nothing and says go on a calm that
+//! never was. So, as the deck does:
+//! - while a watched DOF of either ship is frozen the lift states no probability and says no
+//!   go, and the advisory names the ship and the DOF;
+//! - when it moves again (or that ship's record restarts while it was frozen) the verified
+//!   relative errors are dropped, the lift's statements go back to what they were when the
+//!   stillness began, and the relative forecasts still waiting for their horizon are dropped
+//!   unverified (their horizons straddle the thaw), so go waits for errors verified on the
+//!   motion as it is now.
+//!
+//! The sigma calibration and the mean's shrinkage are not reset: they are ratios of the
+//! verified errors to the forecasts' own variance, which a stillness shrinks alike, and they
+//! forget with their half-life.
+
+use crate::decision::still::{StillWatch, Stillness, WATCHED};
+use crate::observed::ObservedMotion;
+use serde::{Deserialize, Serialize};
+use shipcast_wire::Dof;
+
+/// Which of the two ships.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Ship {
+    /// Ship A, with the crane.
+    Crane,
+    /// Ship B, with the landing spot.
+    Target,
+}
+
+impl Ship {
+    pub const BOTH: [Ship; 2] = [Ship::Crane, Ship::Target];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Ship::Crane => "crane",
+            Ship::Target => "target",
+        }
+    }
+}
+
+/// A watched DOF of one ship that repeats its recorded value.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct FrozenSensor {
+    pub ship: Ship,
+    pub dof: Dof,
+}
+
+/// What one look at both ships found.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct ShipsLook {
+    /// A stillness began on either ship.
+    pub began: bool,
+    /// A frozen sensor moved again, or the record of a ship with a frozen sensor restarted:
+    /// the evidence gathered since the stillness began is worthless.
+    pub thawed: bool,
+}
+
+/// The deck's watch of the recorded heave, roll and pitch, once per ship.
+#[derive(Debug, Clone, Default)]
+pub struct ShipsStillWatch {
+    watches: [StillWatch; 2],
+}
+
+impl ShipsStillWatch {
+    /// Heave, roll and pitch are taken as present in both ships' motion, so one that never
+    /// moves is a frozen sensor (the live service: a producer sends 0 for a column its record
+    /// lacks, and a lift decided on a roll of 0 that was never measured would be a guess).
+    pub fn live() -> Self {
+        let mut watch = Self::default();
+        for ship in Ship::BOTH {
+            watch.set_present(ship, &WATCHED);
+        }
+        watch
+    }
+
+    /// `ship`'s record is known to have these DOFs' columns
+    /// ([`StillWatch::set_present`]).
+    pub fn set_present(&mut self, ship: Ship, dofs: &[Dof]) {
+        self.watches[ship as usize].set_present(dofs);
+    }
+
+    /// Look at both ships' recorded values at record time `time_s` (relative forecasts'
+    /// origins, in order). A ship without a sample there is not looked at this time.
+    pub fn observe(
+        &mut self,
+        time_s: f64,
+        crane: &impl ObservedMotion,
+        target: &impl ObservedMotion,
+    ) -> ShipsLook {
+        let mut found = ShipsLook::default();
+        for (watch, values) in self
+            .watches
+            .iter_mut()
+            .zip([crane.dof_at(time_s), target.dof_at(time_s)])
+        {
+            let Some(values) = values else { continue };
+            let frozen_before = watch.frozen().is_some();
+            let look = watch.observe(time_s, &values);
+            found.began |= look.dofs.contains(&Stillness::Began);
+            found.thawed |=
+                look.dofs.contains(&Stillness::Resumed) || (look.restarted && frozen_before);
+        }
+        found
+    }
+
+    /// The first frozen sensor, the crane ship's first.
+    pub fn frozen(&self) -> Option<FrozenSensor> {
+        Ship::BOTH.into_iter().find_map(|ship| {
+            self.watches[ship as usize]
+                .frozen()
+                .map(|dof| FrozenSensor { ship, dof })
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A record whose heave follows `heave(t)` (one sample every 0.125 s).
+    struct Record<F: Fn(f64) -> f64>(F);
+
+    impl<F: Fn(f64) -> f64> ObservedMotion for Record<F> {
+        fn dof_at(&self, t: f64) -> Option<[f64; 6]> {
+            let h = (self.0)(t);
+            Some([0.0, 0.0, h, 0.1 * h, 0.05 * h, 0.0])
+        }
+    }
+
+    struct Nothing;
+
+    impl ObservedMotion for Nothing {
+        fn dof_at(&self, _: f64) -> Option<[f64; 6]> {
+            None
+        }
+    }
+
+    #[test]
+    fn a_sensor_frozen_on_either_ship_is_named_until_it_moves_again() {
+        let moving = Record(|t: f64| (0.7 * t).sin());
+        // The target's heave holds its value from 60 s to 120 s (rounded to the sample).
+        let stuck =
+            Record(|t: f64| (0.7 * t.clamp(0.0, 60.0)).sin() + if t > 120.0 { t } else { 0.0 });
+        let mut watch = ShipsStillWatch::live();
+        let (mut began, mut thawed) = (0, 0);
+        let mut t = 0.0;
+        while t <= 150.0 {
+            let look = watch.observe(t, &moving, &stuck);
+            began += usize::from(look.began);
+            thawed += usize::from(look.thawed);
+            let frozen = watch.frozen();
+            // Frozen once it has repeated its value for STILL_AFTER_S, until it moves.
+            let expected = (60.0 + crate::decision::still::STILL_AFTER_S..=120.0).contains(&t);
+            assert_eq!(frozen.is_some(), expected, "t={t}: {frozen:?}");
+            if let Some(f) = frozen {
+                assert_eq!(f.ship, Ship::Target);
+                // Roll and pitch are made of heave here: the first watched DOF is named.
+                assert_eq!(f.dof, Dof::Heave);
+            }
+            t += 0.5;
+        }
+        assert_eq!((began, thawed), (1, 1));
+        // The same on the crane's side names the crane.
+        let mut watch = ShipsStillWatch::live();
+        let mut t = 0.0;
+        while t <= 100.0 {
+            watch.observe(t, &stuck, &moving);
+            t += 0.5;
+        }
+        assert_eq!(watch.frozen().map(|f| f.ship), Some(Ship::Crane));
+    }
+
+    #[test]
+    fn a_restart_while_frozen_is_a_thaw_and_a_ship_without_samples_is_not_looked_at() {
+        let moving = Record(|t: f64| (0.7 * t).sin());
+        let stuck = Record(|t: f64| (0.7 * t.min(30.0)).sin());
+        let mut watch = ShipsStillWatch::live();
+        let mut t = 0.0;
+        while t <= 90.0 {
+            watch.observe(t, &stuck, &moving);
+            t += 0.5;
+        }
+        assert!(watch.frozen().is_some());
+        // No samples from either ship: nothing changes.
+        assert_eq!(
+            watch.observe(95.0, &Nothing, &Nothing),
+            ShipsLook::default()
+        );
+        assert!(watch.frozen().is_some());
+        // The crane's record starts again (its time goes back): the stillness is over.
+        let look = watch.observe(1.0, &moving, &moving);
+        assert!(look.thawed && !look.began, "{look:?}");
+        assert_eq!(watch.frozen(), None);
+    }
+}
