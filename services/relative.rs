@@ -534,7 +534,7 @@ fn run_live(config: &PipelineConfig, limit: Option<Duration>) -> anyhow::Result<
         // A frozen sensor on either ship: no go while it lasts, and its evidence dropped
         // when it moves again.
         verifier.watch_sensors(
-            track.alignment.time_s,
+            [a.time_s, b.time_s],
             &crane_motion.history,
             &target_motion.history,
         );

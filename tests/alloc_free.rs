@@ -244,7 +244,8 @@ fn the_lift_decision_and_its_verification_do_not_allocate_once_warm() {
     let geometry = Geometry::new([0.0, 15.0, -20.0], &config);
     let limits = LiftLimits::new(&config);
     let mut decider = LiftDecider::new(limits);
-    let mut verifier = RelativeVerifier::from_config(&config, MAX_PENDING);
+    // Watching both ships' sensors as the live service does (a frozen sensor stops the lift).
+    let mut verifier = RelativeVerifier::from_config(&config, MAX_PENDING).watching_live();
     let (mut a, mut b) = (MotionHistory::new(8.0, 74.0), MotionHistory::new(8.0, 74.0));
     let mut track = Box::<RelativeTrack>::default();
     let full = ensemble::DEFAULT_CAPACITY * ensemble::DEFAULT_STRIDE + 60;
@@ -258,6 +259,10 @@ fn the_lift_decision_and_its_verification_do_not_allocate_once_warm() {
                 for (history, lag_s) in [(&mut a, 0.0), (&mut b, 2.0)] {
                     let mut dof = [0.0; 6];
                     dof[2] = heave(t - lag_s);
+                    // Roll and pitch move a little: watched sensors that never move are
+                    // frozen ones.
+                    dof[3] = 1e-4 * heave(t - lag_s - 1.0);
+                    dof[4] = 1e-4 * heave(t - lag_s - 2.0);
                     history.push(&MotionSample {
                         seq: sample,
                         stamp_ns: sample,
@@ -279,6 +284,7 @@ fn the_lift_decision_and_its_verification_do_not_allocate_once_warm() {
                     &verifier.shrinkage,
                 )
                 .expect("one clock, one step");
+            verifier.watch_sensors([fa.time_s, fb.time_s], &a, &b);
             let decision = decider.decide(&mut track, &verifier.lift);
             verifier.push(&track);
             decision
@@ -290,6 +296,7 @@ fn the_lift_decision_and_its_verification_do_not_allocate_once_warm() {
     }
     assert_eq!(verifier.unverifiable(), 0);
     assert!(verifier.lift.statements.calls() > 0.0);
+    assert!(verifier.lift.frozen.is_none());
     assert_eq!(allocations, 0);
 }
 

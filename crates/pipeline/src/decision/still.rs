@@ -26,9 +26,14 @@
 //! resolution (the smallest change it has shown in the last few minutes). Review: counted, it
 //! left the deck frozen or waiting for 3469 s of a simulated calm hour.
 //!
-//! Not caught: a frozen sensor that adds noise of its own (it does not repeat its value), and
-//! a coarsely quantised sensor that freezes while the motion is within a few of its steps.
+//! A sensor that shows only noise after motion ([`super::noise_only`]: its spread collapses and
+//! what is left has no memory from one look to the next) counts as frozen too, with the same
+//! consequences: it begins when the noise is found and ends when motion is back.
+//!
+//! Not caught: a coarsely quantised sensor that freezes while the motion is within a few of its
+//! steps, and the failures `noise_only` names.
 
+use super::noise_only::{NoiseChange, NoiseWatch};
 use shipcast_wire::Dof;
 
 /// Seconds a DOF must repeat its value before it counts as still: several wave periods.
@@ -99,6 +104,8 @@ struct Watch {
     in_block: u32,
     /// Whether the current stillness counts (decided when it begins).
     counts: bool,
+    /// Whether the recent values are noise rather than motion.
+    noise: NoiseWatch,
 }
 
 impl Watch {
@@ -114,6 +121,17 @@ impl Watch {
             smallest: [f64::INFINITY; RESOLUTION_BLOCKS],
             in_block: 0,
             counts: false,
+            noise: NoiseWatch::default(),
+        }
+    }
+
+    /// The spread of the motion seen before now (held while the DOF repeats its value or shows
+    /// noise); 0 until it has moved for a minute.
+    fn motion_sd(&self) -> f64 {
+        if self.moved && self.looks >= MOTION_MEMORY / 2.0 {
+            self.variance.sqrt()
+        } else {
+            0.0
         }
     }
 
@@ -186,6 +204,7 @@ impl StillWatch {
                             value,
                             since_s: time_s,
                             counts: false,
+                            noise: NoiseWatch::default(),
                             ..o[i]
                         },
                         None => Watch::new(value, time_s),
@@ -206,6 +225,32 @@ impl StillWatch {
             // Still for as long as it was seen unchanged: up to the last look, not up to now.
             let was_still = self.last_s - w.since_s >= STILL_AFTER_S;
             let v = values[dof.index()];
+            // Noise instead of motion: its looks are no part of the motion's spread or
+            // resolution, which stay as they were before it.
+            let was_noisy = w.noise.is_noisy();
+            match w.noise.look(v, w.motion_sd()) {
+                NoiseChange::Began => {
+                    *found = Stillness::Began;
+                    w.value = v;
+                    w.since_s = time_s;
+                    continue;
+                }
+                NoiseChange::None if was_noisy => {
+                    *found = Stillness::Still;
+                    w.value = v;
+                    w.since_s = time_s;
+                    continue;
+                }
+                NoiseChange::Ended => {
+                    *found = Stillness::Resumed;
+                    w.count_look(v);
+                    w.value = v;
+                    w.since_s = time_s;
+                    w.counts = false;
+                    continue;
+                }
+                NoiseChange::None => {}
+            }
             if v == w.value {
                 *found = match (was_still, time_s - w.since_s >= STILL_AFTER_S) {
                     (true, _) if w.counts => Stillness::Still,
@@ -248,7 +293,8 @@ impl StillWatch {
             .zip(WATCHED)
             .zip(present)
             .find(|((w, _), known)| {
-                (w.moved || *known) && w.counts && self.last_s - w.since_s >= STILL_AFTER_S
+                w.noise.is_noisy()
+                    || ((w.moved || *known) && w.counts && self.last_s - w.since_s >= STILL_AFTER_S)
             })
             .map(|((_, d), _)| d)
     }

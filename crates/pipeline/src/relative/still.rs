@@ -10,13 +10,13 @@
 //!   go, and the advisory names the ship and the DOF;
 //! - when it moves again (or that ship's record restarts while it was frozen) the verified
 //!   relative errors are dropped, the lift's statements go back to what they were when the
-//!   stillness began, and the relative forecasts still waiting for their horizon are dropped
-//!   unverified (their horizons straddle the thaw), so go waits for errors verified on the
-//!   motion as it is now.
+//!   stillness began, the relative forecasts still waiting for their horizon are dropped
+//!   unverified (their horizons straddle the thaw), and the sigma calibration and the mean's
+//!   shrinkage start afresh, as at start-up: learnt while one ship's errors were those of
+//!   nothing, they would leave the relative sigma too narrow after it (review). So go waits
+//!   for errors verified on the motion as it is now.
 //!
-//! The sigma calibration and the mean's shrinkage are not reset: they are ratios of the
-//! verified errors to the forecasts' own variance, which a stillness shrinks alike, and they
-//! forget with their half-life.
+//! Each ship is looked at at its own forecast's origin: the two may be steps apart.
 
 use crate::decision::still::{StillWatch, Stillness, WATCHED};
 use crate::observed::ObservedMotion;
@@ -54,8 +54,6 @@ pub struct FrozenSensor {
 /// What one look at both ships found.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct ShipsLook {
-    /// A stillness began on either ship.
-    pub began: bool,
     /// A frozen sensor moved again, or the record of a ship with a frozen sensor restarted:
     /// the evidence gathered since the stillness began is worthless.
     pub thawed: bool,
@@ -85,24 +83,23 @@ impl ShipsStillWatch {
         self.watches[ship as usize].set_present(dofs);
     }
 
-    /// Look at both ships' recorded values at record time `time_s` (relative forecasts'
-    /// origins, in order). A ship without a sample there is not looked at this time.
+    /// Look at each ship's recorded values at its own forecast's origin (`times_s`: the
+    /// crane's, the target's; each ship's in order, the same again ignored). Each at its own:
+    /// the two may be steps apart, on clocks or sample grids out of phase, and a ship looked up
+    /// at the other's origin was never found (review). A ship without a sample there is not
+    /// looked at this time.
     pub fn observe(
         &mut self,
-        time_s: f64,
+        times_s: [f64; 2],
         crane: &impl ObservedMotion,
         target: &impl ObservedMotion,
     ) -> ShipsLook {
         let mut found = ShipsLook::default();
-        for (watch, values) in self
-            .watches
-            .iter_mut()
-            .zip([crane.dof_at(time_s), target.dof_at(time_s)])
-        {
+        let values = [crane.dof_at(times_s[0]), target.dof_at(times_s[1])];
+        for ((watch, values), time_s) in self.watches.iter_mut().zip(values).zip(times_s) {
             let Some(values) = values else { continue };
             let frozen_before = watch.frozen().is_some();
             let look = watch.observe(time_s, &values);
-            found.began |= look.dofs.contains(&Stillness::Began);
             found.thawed |=
                 look.dofs.contains(&Stillness::Resumed) || (look.restarted && frozen_before);
         }
@@ -148,11 +145,10 @@ mod tests {
         let stuck =
             Record(|t: f64| (0.7 * t.clamp(0.0, 60.0)).sin() + if t > 120.0 { t } else { 0.0 });
         let mut watch = ShipsStillWatch::live();
-        let (mut began, mut thawed) = (0, 0);
+        let mut thawed = 0;
         let mut t = 0.0;
         while t <= 150.0 {
-            let look = watch.observe(t, &moving, &stuck);
-            began += usize::from(look.began);
+            let look = watch.observe([t, t], &moving, &stuck);
             thawed += usize::from(look.thawed);
             let frozen = watch.frozen();
             // Frozen once it has repeated its value for STILL_AFTER_S, until it moves.
@@ -165,15 +161,51 @@ mod tests {
             }
             t += 0.5;
         }
-        assert_eq!((began, thawed), (1, 1));
+        assert_eq!(thawed, 1);
         // The same on the crane's side names the crane.
         let mut watch = ShipsStillWatch::live();
         let mut t = 0.0;
         while t <= 100.0 {
-            watch.observe(t, &stuck, &moving);
+            watch.observe([t, t], &stuck, &moving);
             t += 0.5;
         }
         assert_eq!(watch.frozen().map(|f| f.ship), Some(Ship::Crane));
+    }
+
+    /// A record that has samples only on its own grid of 0.125 s, shifted by `offset_s`.
+    struct Grid(f64, fn(f64) -> f64);
+
+    impl ObservedMotion for Grid {
+        fn dof_at(&self, t: f64) -> Option<[f64; 6]> {
+            let i = ((t - self.0) / 0.125).round();
+            ((t - self.0 - i * 0.125).abs() < 0.01).then(|| {
+                let h = (self.1)(t);
+                [0.0, 0.0, h, 0.1 * h, 0.05 * h, 0.0]
+            })
+        }
+    }
+
+    /// Regression (review): both ships were looked up at the later forecast's origin, where a
+    /// ship whose samples lie out of phase, or whose forecast is steps older, has no sample: its
+    /// frozen sensor was never found.
+    #[test]
+    fn each_ship_is_looked_at_at_its_own_origin() {
+        let crane = Grid(0.0, |t| (0.7 * t).sin());
+        // The target samples 1/16 s later and runs 1 s behind; its heave sticks from 60 s.
+        let target = Grid(0.0625, |t| (0.7 * t.min(60.0)).sin());
+        let mut watch = ShipsStillWatch::live();
+        let mut t = 0.0;
+        while t < 120.0 {
+            watch.observe([t, t - 1.0 + 0.0625], &crane, &target);
+            t += 0.5;
+        }
+        assert_eq!(
+            watch.frozen(),
+            Some(FrozenSensor {
+                ship: Ship::Target,
+                dof: Dof::Heave
+            })
+        );
     }
 
     #[test]
@@ -183,19 +215,19 @@ mod tests {
         let mut watch = ShipsStillWatch::live();
         let mut t = 0.0;
         while t <= 90.0 {
-            watch.observe(t, &stuck, &moving);
+            watch.observe([t, t], &stuck, &moving);
             t += 0.5;
         }
         assert!(watch.frozen().is_some());
         // No samples from either ship: nothing changes.
         assert_eq!(
-            watch.observe(95.0, &Nothing, &Nothing),
+            watch.observe([95.0, 95.0], &Nothing, &Nothing),
             ShipsLook::default()
         );
         assert!(watch.frozen().is_some());
         // The crane's record starts again (its time goes back): the stillness is over.
-        let look = watch.observe(1.0, &moving, &moving);
-        assert!(look.thawed && !look.began, "{look:?}");
+        let look = watch.observe([1.0, 96.0], &moving, &moving);
+        assert!(look.thawed, "{look:?}");
         assert_eq!(watch.frozen(), None);
     }
 }

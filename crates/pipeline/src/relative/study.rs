@@ -347,7 +347,7 @@ pub fn study_calls(
             continue;
         }
         pairs += 1;
-        verifier.watch_sensors(track.alignment.time_s, &ta, &tb);
+        verifier.watch_sensors([a.time_s, b.time_s], &ta, &tb);
         // Decided on every forecast, as the live service does, so its statement's outcome
         // teaches the later ones whether it is scored or not.
         let issued = decider.decide(&mut track, &verifier.lift);

@@ -732,7 +732,7 @@ fn a_frozen_sensor_on_either_ship_stops_the_lift_and_its_thaw_drops_the_evidence
     };
     let mut t = 0.0;
     while t <= 200.0 {
-        verifier.watch_sensors(t, &crane, &target);
+        verifier.watch_sensors([t, t], &crane, &target);
         let mut track = calm(t);
         let d = lift.decide(&mut track, &verifier.lift);
         if (100.0 + STILL_AFTER_S..=200.0).contains(&t) {
@@ -758,7 +758,7 @@ fn a_frozen_sensor_on_either_ship_stops_the_lift_and_its_thaw_drops_the_evidence
     // The target moves again: the verified errors go, the statements go back to the five of
     // before the stillness, the forecasts waiting for their horizon are dropped, and go waits
     // for errors verified on the motion as it is now.
-    verifier.watch_sensors(200.5, &crane, &target);
+    verifier.watch_sensors([200.5, 200.5], &crane, &target);
     assert!(verifier.lift.ensemble.is_empty());
     assert_eq!(verifier.lift.statements.calls(), 5.0);
     assert_eq!((verifier.pending(), verifier.dropped_at_thaw), (0, 64));
@@ -777,8 +777,48 @@ fn a_frozen_sensor_on_either_ship_stops_the_lift_and_its_thaw_drops_the_evidence
     let adv = advisory(&frozen, &g, ("a", "b"), (0, 0), d);
     assert!(
         adv.summary()
-            .contains("NO-GO (MOT 10s, the target vessel's roll sensor repeats its value)"),
+            .contains("NO-GO (MOT 10s, the target vessel's roll sensor frozen (repeats its value or shows only noise))"),
         "{}",
         adv.summary()
     );
+}
+
+/// Regression (review): a stillness of a column the record lacks (0 throughout, never frozen)
+/// left a snapshot of the lift's statements from its first 30 s, and the first real thaw hours
+/// later went back to it, dropping every statement verified since.
+#[test]
+fn a_column_the_record_lacks_leaves_no_statements_for_a_later_thaw_to_go_back_to() {
+    use super::still::Ship;
+    use super::verify::RelativeVerifier;
+    let config = RelativeConfig::default();
+    let mut verifier = RelativeVerifier::from_config(&config, 64);
+    for ship in Ship::BOTH {
+        verifier.set_present_dofs(ship, &[Dof::Heave]);
+    }
+    // Heave only: roll and pitch read 0 (absent columns). The target's heave sticks from
+    // 1000 s to 1100 s.
+    struct HeaveOnly(fn(f64) -> f64);
+    impl crate::observed::ObservedMotion for HeaveOnly {
+        fn dof_at(&self, t: f64) -> Option<[f64; 6]> {
+            Some([0.0, 0.0, (self.0)(t), 0.0, 0.0, 0.0])
+        }
+    }
+    let crane = HeaveOnly(|t| (0.7 * t).sin());
+    let target = HeaveOnly(|t| (0.7 * t.clamp(0.0, 1000.0)).sin() + (t - 1100.0).max(0.0));
+    let mut t = 0.0;
+    while t < 1100.0 {
+        verifier.watch_sensors([t, t], &crane, &target);
+        // One verified call per look while nothing is frozen.
+        if verifier.lift.frozen.is_none() {
+            verifier.lift.statements.add(0.95, true);
+        }
+        t += 0.5;
+    }
+    let before = verifier.lift.statements.calls();
+    // Calls up to the freeze were found (1000 s and its 30 s of stillness: 2060 looks).
+    assert_eq!(before, 2060.0);
+    verifier.lift.statements.add(0.95, true);
+    verifier.watch_sensors([1100.5, 1100.5], &crane, &target);
+    assert_eq!(verifier.lift.frozen, None);
+    assert_eq!(verifier.lift.statements.calls(), before);
 }

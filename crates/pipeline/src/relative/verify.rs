@@ -38,6 +38,9 @@ pub struct RelativeVerifier {
     /// Both ships' frozen sensors ([`super::still`]), and the lift's statements as they were
     /// when the current stillness began.
     sensors: ShipsStillWatch,
+    /// The calibration and shrinkage as they were before any forecast was verified: what a
+    /// thaw starts them afresh from.
+    fresh: Box<(SigmaCalibration, MeanShrinkage)>,
     statements_before_still: Option<crate::decision::recalibrate::StatementRecord>,
     /// Forecasts dropped unverified because a frozen sensor moved again while they waited.
     pub dropped_at_thaw: u64,
@@ -68,6 +71,7 @@ impl RelativeVerifier {
         max_pending: usize,
     ) -> Self {
         Self {
+            fresh: Box::new((calibration.clone(), shrinkage.clone())),
             pending: PendingQueue::new(max_pending),
             tip: Vec::with_capacity(shipcast_wire::payload::MAX_STEPS),
             spot: Vec::with_capacity(shipcast_wire::payload::MAX_STEPS),
@@ -94,40 +98,45 @@ impl RelativeVerifier {
         self.sensors.set_present(ship, dofs);
     }
 
-    /// Look at both ships' recorded values at `time_s`, the origin of the relative forecast
-    /// about to be decided, before it is decided ([`super::still`]): the lift's evidence learns
-    /// which sensor is frozen now; at a thaw the verified errors go, the statements go back to
-    /// those of before the stillness and the forecasts waiting for their horizon are dropped.
+    /// Look at each ship's recorded values at its own forecast's origin (`times_s`: the crane's
+    /// and the target's, [`ShipsStillWatch::observe`]) before the relative forecast of the two
+    /// is decided ([`super::still`]): the lift's evidence learns which sensor is frozen now. At
+    /// a thaw the verified errors go, the statements go back to those of before the stillness,
+    /// the forecasts waiting for their horizon are dropped, and the sigma calibration and the
+    /// mean's shrinkage start afresh (learnt while one ship's errors were those of nothing,
+    /// they would leave the relative sigma too narrow after it).
     pub fn watch_sensors(
         &mut self,
-        time_s: f64,
+        times_s: [f64; 2],
         crane: &impl ObservedMotion,
         target: &impl ObservedMotion,
     ) {
-        let look = self.sensors.observe(time_s, crane, target);
-        if look.began && self.statements_before_still.is_none() {
-            // Rare (a stillness starts): the copy is no burden on deciding.
-            self.statements_before_still = Some(self.lift.statements.clone());
-        }
+        let look = self.sensors.observe(times_s, crane, target);
         if look.thawed {
             let waiting = self.pending.len();
             tracing::warn!(
-                "relative: a frozen sensor moves again at t={time_s:.1}s; the verified \
-                 relative errors, the lift statements verified since it stopped and the \
-                 {waiting} forecasts waiting for their horizon are dropped, and go waits for \
-                 new ones"
+                "relative: a frozen sensor moves again at t={:.1}s; the verified relative \
+                 errors, the sigma calibration, the lift statements verified since it stopped \
+                 and the {waiting} forecasts waiting for their horizon are dropped, and go \
+                 waits for new ones",
+                times_s[0].max(times_s[1])
             );
             self.lift.ensemble.clear();
             if let Some(before) = self.statements_before_still.take() {
                 self.lift.statements = before;
             }
+            self.calibration.clone_from(&self.fresh.0);
+            self.shrinkage.clone_from(&self.fresh.1);
             self.dropped_at_thaw += waiting as u64;
             self.pending.drop_all();
         }
         self.lift.frozen = self.sensors.frozen();
+        // The statements as they are when a sensor is first found frozen (rare: the copy is no
+        // burden on deciding). After a thaw with another sensor still frozen, the statements
+        // just restored: that stillness goes back as far as the one that ended. Review: taken
+        // at any stillness that began, a column absent from a record left a snapshot of its
+        // first 30 s that the first real thaw went back to.
         if self.lift.frozen.is_some() && self.statements_before_still.is_none() {
-            // Another sensor is still frozen after the thaw: its stillness goes back as far as
-            // the one that ended (statements verified during it are about nothing too).
             self.statements_before_still = Some(self.lift.statements.clone());
         }
     }
