@@ -526,18 +526,19 @@ fn run_live(config: &PipelineConfig, limit: Option<Duration>) -> anyhow::Result<
             tracing::info!(stale, "relative: both vessels' forecasts are current again");
             was_stale = false;
         }
-        if let Err(e) = track.fill(&geometry, a, b, &verifier.calibration, &verifier.shrinkage) {
-            misaligned += 1;
-            tracing::warn!(misaligned, "relative: cannot combine the forecasts: {e}");
-            continue;
-        }
-        // A frozen sensor on either ship: no go while it lasts, and its evidence dropped
-        // when it moves again.
+        // A frozen sensor on either ship: no go while it lasts, and its evidence dropped when
+        // it moves again (before the pair is combined: a thaw restarts the calibration it is
+        // combined with).
         verifier.watch_sensors(
             [a.time_s, b.time_s],
             &crane_motion.history,
             &target_motion.history,
         );
+        if let Err(e) = track.fill(&geometry, a, b, &verifier.calibration, &verifier.shrinkage) {
+            misaligned += 1;
+            tracing::warn!(misaligned, "relative: cannot combine the forecasts: {e}");
+            continue;
+        }
         let decision = lift.decide(&mut track, &verifier.lift);
         verifier.push(&track);
         // Forecasts of two full horizons and still no motion from a vessel: say why the

@@ -275,6 +275,7 @@ fn the_lift_decision_and_its_verification_do_not_allocate_once_warm() {
             if let (Some(ta), Some(tb)) = (a.newest_s(), b.newest_s()) {
                 verifier.verify_until(ta.min(tb), &geometry, &a, &b);
             }
+            verifier.watch_sensors([fa.time_s, fb.time_s], &a, &b);
             track
                 .fill(
                     &geometry,
@@ -284,7 +285,6 @@ fn the_lift_decision_and_its_verification_do_not_allocate_once_warm() {
                     &verifier.shrinkage,
                 )
                 .expect("one clock, one step");
-            verifier.watch_sensors([fa.time_s, fb.time_s], &a, &b);
             let decision = decider.decide(&mut track, &verifier.lift);
             verifier.push(&track);
             decision

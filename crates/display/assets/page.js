@@ -122,7 +122,7 @@ function render(s) {
       verdict.className = go ? "go" : "nogo";
       verdict.textContent = d.probability_now === null
         ? (d.frozen_dof
-          ? `NO-GO (the ${d.frozen_ship ? `${d.frozen_ship} vessel's ` : ""}${d.frozen_dof} sensor is frozen: it repeats its value or shows only noise; MOT ${fmt(d.mot_s, 0)} s)`
+          ? `NO-GO (the ${d.frozen_ship ? `${d.frozen_ship} vessel's ` : ""}${d.frozen_dof} sensor repeats its value; MOT ${fmt(d.mot_s, 0)} s)`
           : d.awaiting_verified_errors
           ? `NO-GO (no probability until forecasts are verified; MOT ${fmt(d.mot_s, 0)} s)`
           : `NO-GO (MOT ${fmt(d.mot_s, 0)} s beyond the horizon)`)

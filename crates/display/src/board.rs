@@ -87,7 +87,7 @@ pub struct DecisionView {
     /// The station states no probability yet: no verified errors back one.
     #[serde(default)]
     pub awaiting_verified_errors: bool,
-    /// The station states no probability: this DOF's sensor is frozen (it repeats its value or shows only noise).
+    /// The station states no probability: this DOF's sensor repeats its value (a frozen sensor).
     #[serde(default)]
     pub frozen_dof: Option<Dof>,
     /// A lift decision's frozen sensor is on this ship (the deck's is on its own).

@@ -13,7 +13,6 @@
 
 pub mod correlation;
 pub mod ensemble;
-pub mod noise_only;
 pub mod outcomes;
 pub mod recalibrate;
 pub mod reliability;
@@ -518,8 +517,8 @@ impl Decider {
     /// nothing; and forecasts issued before now are no evidence when their horizon has passed.
     fn forget_stillness(&mut self, i: usize, time_s: f64) {
         tracing::warn!(
-            "deck: {} moves again at t={time_s:.1}s after repeating its value (or showing only \
-             noise) for at least {}s; the verified errors gathered so far, the statements verified since it \
+            "deck: {} moves again at t={time_s:.1}s after repeating its value for at least \
+             {}s; the verified errors gathered so far, the statements verified since it \
              stopped and the decisions still waiting for their horizon are dropped, and go \
              waits for new ones",
             WATCHED[i].name(),

@@ -26,14 +26,13 @@
 //! resolution (the smallest change it has shown in the last few minutes). Review: counted, it
 //! left the deck frozen or waiting for 3469 s of a simulated calm hour.
 //!
-//! A sensor that shows only noise after motion ([`super::noise_only`]: its spread collapses and
-//! what is left has no memory from one look to the next) counts as frozen too, with the same
-//! consequences: it begins when the noise is found and ends when motion is back.
-//!
-//! Not caught: a coarsely quantised sensor that freezes while the motion is within a few of its
-//! steps, and the failures `noise_only` names.
+//! Not caught: a frozen sensor that adds noise of its own (it does not repeat its value), and
+//! a coarsely quantised sensor that freezes while the motion is within a few of its steps. A
+//! watch of noise after motion (a spread collapsed to a fifth with no lag-one autocorrelation
+//! left, 2026-12-07) was tried and taken out: a real calm seen through a noisy sensor (a
+//! harbour entry, the end of a passing wake, a trim change) met its tests and left the deck
+//! frozen for the rest of the calm, and at a look rate of 1 Hz a 4-5 s sea did too.
 
-use super::noise_only::{NoiseChange, NoiseWatch};
 use shipcast_wire::Dof;
 
 /// Seconds a DOF must repeat its value before it counts as still: several wave periods.
@@ -53,8 +52,11 @@ const RESOLUTION_BLOCKS: usize = 5;
 /// Changes a DOF must have shown before its resolution is judged.
 const MIN_CHANGES: u32 = 8;
 
-/// The DOFs the deck's quantities are made of.
+/// The DOFs the deck's quantities are made of: what a watch watches by default.
 pub const WATCHED: [Dof; 3] = [Dof::Heave, Dof::Roll, Dof::Pitch];
+
+/// The other three, which the lift's horizontal excursion is made of too.
+pub const HORIZONTAL: [Dof; 3] = [Dof::Surge, Dof::Sway, Dof::Yaw];
 
 /// What one look found for one watched DOF.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -72,7 +74,7 @@ pub enum Stillness {
 /// What one look at the recorded values found.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Look {
-    /// Per watched DOF, in the order of [`WATCHED`].
+    /// Per watched DOF, in the order of the watch's DOFs ([`WATCHED`] by default).
     pub dofs: [Stillness; WATCHED.len()],
     /// The time went back (a new run): the watch started afresh with this look.
     pub restarted: bool,
@@ -104,8 +106,6 @@ struct Watch {
     in_block: u32,
     /// Whether the current stillness counts (decided when it begins).
     counts: bool,
-    /// Whether the recent values are noise rather than motion.
-    noise: NoiseWatch,
 }
 
 impl Watch {
@@ -121,17 +121,6 @@ impl Watch {
             smallest: [f64::INFINITY; RESOLUTION_BLOCKS],
             in_block: 0,
             counts: false,
-            noise: NoiseWatch::default(),
-        }
-    }
-
-    /// The spread of the motion seen before now (held while the DOF repeats its value or shows
-    /// noise); 0 until it has moved for a minute.
-    fn motion_sd(&self) -> f64 {
-        if self.moved && self.looks >= MOTION_MEMORY / 2.0 {
-            self.variance.sqrt()
-        } else {
-            0.0
         }
     }
 
@@ -168,8 +157,10 @@ impl Watch {
 }
 
 /// Per watched DOF, how long its recorded value has stayed the same.
-#[derive(Debug, Clone, Default)]
+#[derive(Debug, Clone)]
 pub struct StillWatch {
+    /// The DOFs watched ([`WATCHED`] unless made with [`StillWatch::of`]).
+    dofs: [Dof; WATCHED.len()],
     /// The time of the last look, and what it saw (None before the first).
     last_s: f64,
     watches: Option<[Watch; WATCHED.len()]>,
@@ -177,17 +168,33 @@ pub struct StillWatch {
     present: Option<[bool; WATCHED.len()]>,
 }
 
+impl Default for StillWatch {
+    fn default() -> Self {
+        Self::of(WATCHED)
+    }
+}
+
 impl StillWatch {
+    /// A watch of these three DOFs (the deck's are [`WATCHED`]).
+    pub fn of(dofs: [Dof; WATCHED.len()]) -> Self {
+        Self {
+            dofs,
+            last_s: 0.0,
+            watches: None,
+            present: None,
+        }
+    }
+
     /// The record is known to have these DOFs' columns: one of them that never moves is a
     /// frozen sensor, not an absent column.
     pub fn set_present(&mut self, dofs: &[Dof]) {
-        self.present = Some(WATCHED.map(|d| dofs.contains(&d)));
+        self.present = Some(self.dofs.map(|d| dofs.contains(&d)));
     }
 
     /// Look at the recorded values at `time_s` (forecast times, in order). The same time again,
     /// or a non-finite value, is ignored; a time before the last starts the watch afresh.
     pub fn observe(&mut self, time_s: f64, values: &[f64; 6]) -> Look {
-        if !time_s.is_finite() || WATCHED.iter().any(|d| !values[d.index()].is_finite()) {
+        if !time_s.is_finite() || self.dofs.iter().any(|d| !values[d.index()].is_finite()) {
             return Look::NOTHING;
         }
         let restarted = self.watches.is_some() && time_s < self.last_s;
@@ -198,13 +205,12 @@ impl StillWatch {
                 // outlives a producer run; only the stillness starts afresh.
                 let old = self.watches;
                 self.watches = Some(std::array::from_fn(|i| {
-                    let value = values[WATCHED[i].index()];
+                    let value = values[self.dofs[i].index()];
                     match old {
                         Some(o) => Watch {
                             value,
                             since_s: time_s,
                             counts: false,
-                            noise: NoiseWatch::default(),
                             ..o[i]
                         },
                         None => Watch::new(value, time_s),
@@ -221,36 +227,10 @@ impl StillWatch {
             return Look::NOTHING;
         }
         let mut look = Look::NOTHING;
-        for ((w, dof), found) in watches.iter_mut().zip(WATCHED).zip(&mut look.dofs) {
+        for ((w, dof), found) in watches.iter_mut().zip(self.dofs).zip(&mut look.dofs) {
             // Still for as long as it was seen unchanged: up to the last look, not up to now.
             let was_still = self.last_s - w.since_s >= STILL_AFTER_S;
             let v = values[dof.index()];
-            // Noise instead of motion: its looks are no part of the motion's spread or
-            // resolution, which stay as they were before it.
-            let was_noisy = w.noise.is_noisy();
-            match w.noise.look(v, w.motion_sd()) {
-                NoiseChange::Began => {
-                    *found = Stillness::Began;
-                    w.value = v;
-                    w.since_s = time_s;
-                    continue;
-                }
-                NoiseChange::None if was_noisy => {
-                    *found = Stillness::Still;
-                    w.value = v;
-                    w.since_s = time_s;
-                    continue;
-                }
-                NoiseChange::Ended => {
-                    *found = Stillness::Resumed;
-                    w.count_look(v);
-                    w.value = v;
-                    w.since_s = time_s;
-                    w.counts = false;
-                    continue;
-                }
-                NoiseChange::None => {}
-            }
             if v == w.value {
                 *found = match (was_still, time_s - w.since_s >= STILL_AFTER_S) {
                     (true, _) if w.counts => Stillness::Still,
@@ -290,11 +270,10 @@ impl StillWatch {
         let present = self.present.unwrap_or([false; WATCHED.len()]);
         watches
             .iter()
-            .zip(WATCHED)
+            .zip(self.dofs)
             .zip(present)
             .find(|((w, _), known)| {
-                w.noise.is_noisy()
-                    || ((w.moved || *known) && w.counts && self.last_s - w.since_s >= STILL_AFTER_S)
+                (w.moved || *known) && w.counts && self.last_s - w.since_s >= STILL_AFTER_S
             })
             .map(|((_, d), _)| d)
     }

@@ -100,7 +100,7 @@ impl Decision {
         let now = match self.probability_now {
             Some(p) => format!("{:.0}%", 100.0 * p),
             None if self.frozen_dof.is_some() => format!(
-                "{} sensor frozen (repeats its value or shows only noise)",
+                "{} sensor repeats its value",
                 self.frozen_dof.map_or("a", Dof::name)
             ),
             None if self.awaiting_verified_errors => "no probability before verified errors".into(),

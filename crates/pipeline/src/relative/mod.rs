@@ -465,7 +465,7 @@ impl RelativeAdvisory {
             match d.probability_now {
                 Some(p) => format!("{:.0}%", 100.0 * p),
                 None if d.frozen_dof.is_some() => format!(
-                    "the {} vessel's {} sensor frozen (repeats its value or shows only noise)",
+                    "the {} vessel's {} sensor repeats its value",
                     d.frozen_ship.map_or("?", still::Ship::name),
                     d.frozen_dof.map_or("?", Dof::name)
                 ),

@@ -336,8 +336,10 @@ pub fn study_calls(
             unpaired += 1;
             continue;
         };
-        // Verify what has fully passed by now: causal.
+        // Verify what has fully passed by now: causal. Then the sensors, before the pair is
+        // combined (a thaw restarts the calibration it is combined with).
         verifier.verify_until(a.time_s, &geometry, &ta, &tb);
+        verifier.watch_sensors([a.time_s, b.time_s], &ta, &tb);
         let mut track = Box::<RelativeTrack>::default();
         if track
             .fill(&geometry, a, b, &verifier.calibration, &verifier.shrinkage)
@@ -347,7 +349,6 @@ pub fn study_calls(
             continue;
         }
         pairs += 1;
-        verifier.watch_sensors([a.time_s, b.time_s], &ta, &tb);
         // Decided on every forecast, as the live service does, so its statement's outcome
         // teaches the later ones whether it is scored or not.
         let issued = decider.decide(&mut track, &verifier.lift);

@@ -730,6 +730,18 @@ fn a_frozen_sensor_on_either_ship_stops_the_lift_and_its_thaw_drops_the_evidence
         let f = forecast(t, 50, NONE, [0.05; 6]);
         relative(&g, &f, &f)
     };
+    // A relative sigma calibrated on verified forecasts (of 1 cm errors).
+    let observed = vec![[0.01; 3]; 50];
+    for _ in 0..2 * config.calibration_min_verified as usize {
+        let c = &mut verifier.calibration;
+        c.observe(
+            &calm(0.0),
+            &observed,
+            &vec![[0.0; 3]; 50],
+            &verifier.shrinkage,
+        );
+    }
+    assert!(verifier.calibration.scale(2, 0).is_some());
     let mut t = 0.0;
     while t <= 200.0 {
         verifier.watch_sensors([t, t], &crane, &target);
@@ -762,6 +774,10 @@ fn a_frozen_sensor_on_either_ship_stops_the_lift_and_its_thaw_drops_the_evidence
     assert!(verifier.lift.ensemble.is_empty());
     assert_eq!(verifier.lift.statements.calls(), 5.0);
     assert_eq!((verifier.pending(), verifier.dropped_at_thaw), (0, 64));
+    // The calibration learnt before and during the stillness starts afresh (review: learnt
+    // while one ship's errors were those of nothing, it left the relative sigma too narrow).
+    assert_eq!(verifier.calibration.scale(2, 0), None);
+    assert_eq!(verifier.calibration.verified(), 0);
     let d = lift.decide(&mut calm(200.5), &verifier.lift);
     assert!(
         !d.go && d.awaiting_verified_errors && d.frozen_dof.is_none(),
@@ -777,7 +793,7 @@ fn a_frozen_sensor_on_either_ship_stops_the_lift_and_its_thaw_drops_the_evidence
     let adv = advisory(&frozen, &g, ("a", "b"), (0, 0), d);
     assert!(
         adv.summary()
-            .contains("NO-GO (MOT 10s, the target vessel's roll sensor frozen (repeats its value or shows only noise))"),
+            .contains("NO-GO (MOT 10s, the target vessel's roll sensor repeats its value)"),
         "{}",
         adv.summary()
     );
