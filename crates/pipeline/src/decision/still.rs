@@ -10,7 +10,8 @@
 //! each forecast's time:
 //! - a DOF that repeats its value for [`STILL_AFTER_S`] is frozen, and the deck says no go while
 //!   it is (a sensor fault, not a licence to land), if it moved before or the record is known to
-//!   have that column ([`StillWatch::set_present`]: replay knows; the live deck does not);
+//!   have that column ([`StillWatch::set_present`]: replay knows its record's columns, and the
+//!   live deck takes heave, roll and pitch as present, `DeckAdvisor::live`);
 //! - a DOF that moves again after such a stillness (whether it had moved before it or not)
 //!   makes the evidence gathered during the stillness worthless: the deck drops its verified
 //!   errors and goes back to the verified statements it had when the stillness began, so go
@@ -52,11 +53,8 @@ const RESOLUTION_BLOCKS: usize = 5;
 /// Changes a DOF must have shown before its resolution is judged.
 const MIN_CHANGES: u32 = 8;
 
-/// The DOFs the deck's quantities are made of: what a watch watches by default.
+/// The DOFs the deck's quantities are made of.
 pub const WATCHED: [Dof; 3] = [Dof::Heave, Dof::Roll, Dof::Pitch];
-
-/// The other three, which the lift's horizontal excursion is made of too.
-pub const HORIZONTAL: [Dof; 3] = [Dof::Surge, Dof::Sway, Dof::Yaw];
 
 /// What one look found for one watched DOF.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -74,7 +72,7 @@ pub enum Stillness {
 /// What one look at the recorded values found.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Look {
-    /// Per watched DOF, in the order of the watch's DOFs ([`WATCHED`] by default).
+    /// Per watched DOF, in the order of [`WATCHED`].
     pub dofs: [Stillness; WATCHED.len()],
     /// The time went back (a new run): the watch started afresh with this look.
     pub restarted: bool,
@@ -157,10 +155,8 @@ impl Watch {
 }
 
 /// Per watched DOF, how long its recorded value has stayed the same.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, Default)]
 pub struct StillWatch {
-    /// The DOFs watched ([`WATCHED`] unless made with [`StillWatch::of`]).
-    dofs: [Dof; WATCHED.len()],
     /// The time of the last look, and what it saw (None before the first).
     last_s: f64,
     watches: Option<[Watch; WATCHED.len()]>,
@@ -168,33 +164,17 @@ pub struct StillWatch {
     present: Option<[bool; WATCHED.len()]>,
 }
 
-impl Default for StillWatch {
-    fn default() -> Self {
-        Self::of(WATCHED)
-    }
-}
-
 impl StillWatch {
-    /// A watch of these three DOFs (the deck's are [`WATCHED`]).
-    pub fn of(dofs: [Dof; WATCHED.len()]) -> Self {
-        Self {
-            dofs,
-            last_s: 0.0,
-            watches: None,
-            present: None,
-        }
-    }
-
     /// The record is known to have these DOFs' columns: one of them that never moves is a
     /// frozen sensor, not an absent column.
     pub fn set_present(&mut self, dofs: &[Dof]) {
-        self.present = Some(self.dofs.map(|d| dofs.contains(&d)));
+        self.present = Some(WATCHED.map(|d| dofs.contains(&d)));
     }
 
     /// Look at the recorded values at `time_s` (forecast times, in order). The same time again,
     /// or a non-finite value, is ignored; a time before the last starts the watch afresh.
     pub fn observe(&mut self, time_s: f64, values: &[f64; 6]) -> Look {
-        if !time_s.is_finite() || self.dofs.iter().any(|d| !values[d.index()].is_finite()) {
+        if !time_s.is_finite() || WATCHED.iter().any(|d| !values[d.index()].is_finite()) {
             return Look::NOTHING;
         }
         let restarted = self.watches.is_some() && time_s < self.last_s;
@@ -205,7 +185,7 @@ impl StillWatch {
                 // outlives a producer run; only the stillness starts afresh.
                 let old = self.watches;
                 self.watches = Some(std::array::from_fn(|i| {
-                    let value = values[self.dofs[i].index()];
+                    let value = values[WATCHED[i].index()];
                     match old {
                         Some(o) => Watch {
                             value,
@@ -227,7 +207,7 @@ impl StillWatch {
             return Look::NOTHING;
         }
         let mut look = Look::NOTHING;
-        for ((w, dof), found) in watches.iter_mut().zip(self.dofs).zip(&mut look.dofs) {
+        for ((w, dof), found) in watches.iter_mut().zip(WATCHED).zip(&mut look.dofs) {
             // Still for as long as it was seen unchanged: up to the last look, not up to now.
             let was_still = self.last_s - w.since_s >= STILL_AFTER_S;
             let v = values[dof.index()];
@@ -270,7 +250,7 @@ impl StillWatch {
         let present = self.present.unwrap_or([false; WATCHED.len()]);
         watches
             .iter()
-            .zip(self.dofs)
+            .zip(WATCHED)
             .zip(present)
             .find(|((w, _), known)| {
                 (w.moved || *known) && w.counts && self.last_s - w.since_s >= STILL_AFTER_S

@@ -1,8 +1,8 @@
 //! Frozen sensors on either ship: the lift's counterpart of the deck's watch
 //! ([`crate::decision::still`], whose rules it applies to each ship).
 //!
-//! Why: the relative motion is made of both ships' six DOF (heave, roll and pitch above all
-//! for the vertical excursion; surge, sway and yaw enter the horizontal one). A sensor on either ship
+//! Why: the relative motion is made of both ships' heave, roll and pitch (and surge, sway and
+//! yaw, which are not watched: below). A sensor on either ship
 //! that repeats its value makes that ship's forecasts and verified errors those of a motion
 //! that is not there: the lift then learns from errors of nothing and says go on a calm that
 //! never was. So, as the deck does:
@@ -16,12 +16,16 @@
 //!   nothing, they would leave the relative sigma too narrow after it (review). So go waits
 //!   for errors verified on the motion as it is now.
 //!
-//! Each ship is looked at at its own forecast's origin: the two may be steps apart. Surge, sway
-//! and yaw are watched as the deck's DOFs are, except that one that never moved is taken as
-//! absent even live (a ship in head seas may show no sway at all): only a sensor that moved
-//! and then froze counts.
+//! Each ship is looked at at its own forecast's origin: the two may be steps apart.
+//!
+//! Surge, sway and yaw are not watched. Watched with the same rules (2026-12-07, taken out after
+//! its review), a heading sensor that reports 0.1 deg on a ship holding station in a calm, its
+//! heading wandering slowly by 0.5-1 deg, stays within one step for 30 s near each turn of the
+//! wander: in simulation the lift was frozen 7-53 % of the time, with 3-12 thaws an hour (each
+//! restarting its evidence), and a position held to 1 cm without dither 14-39 %. The deck's
+//! rule assumes motion at wave frequency, which these DOFs do not keep to.
 
-use crate::decision::still::{StillWatch, Stillness, HORIZONTAL, WATCHED};
+use crate::decision::still::{StillWatch, Stillness, WATCHED};
 use crate::observed::ObservedMotion;
 use serde::{Deserialize, Serialize};
 use shipcast_wire::Dof;
@@ -62,21 +66,10 @@ pub struct ShipsLook {
     pub thawed: bool,
 }
 
-/// The deck's watch, per ship, of the recorded heave, roll and pitch and of its surge, sway and
-/// yaw.
-#[derive(Debug, Clone)]
+/// The deck's watch of the recorded heave, roll and pitch, once per ship.
+#[derive(Debug, Clone, Default)]
 pub struct ShipsStillWatch {
-    /// Per ship ([`Ship`] order), the watch of [`WATCHED`] and of [`HORIZONTAL`].
-    watches: [[StillWatch; 2]; 2],
-}
-
-impl Default for ShipsStillWatch {
-    fn default() -> Self {
-        let ship = || [StillWatch::of(WATCHED), StillWatch::of(HORIZONTAL)];
-        Self {
-            watches: [ship(), ship()],
-        }
-    }
+    watches: [StillWatch; 2],
 }
 
 impl ShipsStillWatch {
@@ -94,9 +87,7 @@ impl ShipsStillWatch {
     /// `ship`'s record is known to have these DOFs' columns
     /// ([`StillWatch::set_present`]).
     pub fn set_present(&mut self, ship: Ship, dofs: &[Dof]) {
-        for watch in &mut self.watches[ship as usize] {
-            watch.set_present(dofs);
-        }
+        self.watches[ship as usize].set_present(dofs);
     }
 
     /// Look at each ship's recorded values at its own forecast's origin (`times_s`: the
@@ -112,24 +103,21 @@ impl ShipsStillWatch {
     ) -> ShipsLook {
         let mut found = ShipsLook::default();
         let values = [crane.dof_at(times_s[0]), target.dof_at(times_s[1])];
-        for ((watches, values), time_s) in self.watches.iter_mut().zip(values).zip(times_s) {
+        for ((watch, values), time_s) in self.watches.iter_mut().zip(values).zip(times_s) {
             let Some(values) = values else { continue };
-            for watch in watches {
-                let frozen_before = watch.frozen().is_some();
-                let look = watch.observe(time_s, &values);
-                found.thawed |=
-                    look.dofs.contains(&Stillness::Resumed) || (look.restarted && frozen_before);
-            }
+            let frozen_before = watch.frozen().is_some();
+            let look = watch.observe(time_s, &values);
+            found.thawed |=
+                look.dofs.contains(&Stillness::Resumed) || (look.restarted && frozen_before);
         }
         found
     }
 
-    /// The first frozen sensor, the crane ship's first, heave, roll and pitch before the others.
+    /// The first frozen sensor, the crane ship's first.
     pub fn frozen(&self) -> Option<FrozenSensor> {
         Ship::BOTH.into_iter().find_map(|ship| {
             self.watches[ship as usize]
-                .iter()
-                .find_map(StillWatch::frozen)
+                .frozen()
                 .map(|dof| FrozenSensor { ship, dof })
         })
     }
@@ -225,46 +213,6 @@ mod tests {
                 dof: Dof::Heave
             })
         );
-    }
-
-    /// A record whose sway follows `sway(t)`, heave, roll and pitch moving as a sea.
-    struct Sway(fn(f64) -> f64);
-
-    impl ObservedMotion for Sway {
-        fn dof_at(&self, t: f64) -> Option<[f64; 6]> {
-            let h = (0.7 * t).sin();
-            Some([0.0, (self.0)(t), h, 0.1 * h, 0.05 * h, 0.0])
-        }
-    }
-
-    #[test]
-    fn surge_sway_and_yaw_are_watched_once_they_have_moved() {
-        // The target's sway moves, then sticks from 60 s: frozen, named.
-        let moving = Sway(|t| 0.3 * (0.5 * t).sin());
-        let stuck = Sway(|t| 0.3 * (0.5 * t.min(60.0)).sin());
-        let mut watch = ShipsStillWatch::live();
-        let mut t = 0.0;
-        while t < 120.0 {
-            watch.observe([t, t], &moving, &stuck);
-            t += 0.5;
-        }
-        assert_eq!(
-            watch.frozen(),
-            Some(FrozenSensor {
-                ship: Ship::Target,
-                dof: Dof::Sway
-            })
-        );
-        // A sway that never moves (head seas, or no sway column) is absent, even live; and
-        // surge and yaw, 0 throughout here, are too.
-        let none = Sway(|_| 0.0);
-        let mut watch = ShipsStillWatch::live();
-        let mut t = 0.0;
-        while t < 600.0 {
-            watch.observe([t, t], &none, &none);
-            t += 0.5;
-        }
-        assert_eq!(watch.frozen(), None);
     }
 
     #[test]
