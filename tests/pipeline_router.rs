@@ -31,12 +31,31 @@ fn start_router(endpoint: &str, forecasts: &str) -> Proc {
     router
 }
 
+/// A router on a loopback port that was free, and its endpoint. The port is released before
+/// the router binds it, and a test beside this one may bind it first (CI, 2026-12-07: the
+/// router refused 127.0.0.1:29018, "Address already in use"): then another port is tried.
+fn start_router_on_a_free_port(forecasts: &str) -> (Proc, String) {
+    const IN_USE: &str = "Address already in use";
+    for _ in 0..3 {
+        let endpoint = zn::free_loopback_endpoint().expect("a free port");
+        let router = Proc::spawn(
+            "router",
+            &["router", "--listen", &endpoint, "--forecasts", forecasts],
+        );
+        match router.wait_for_any(&["router: up", IN_USE]) {
+            Some(line) if line.contains(IN_USE) => continue,
+            Some(_) => return (router, endpoint),
+            None => panic!("router: not up; stderr:\n{}", router.stderr().join("\n")),
+        }
+    }
+    panic!("router: three free ports were taken before it bound them");
+}
+
 #[test]
 fn shore_follows_the_fleet_through_a_router_and_survives_its_restart() {
     let p = TestPipeline::new("router", "[producer]\nspeed = 20.0\nbackfill_s = 0.0\n");
-    let router_endpoint = zn::free_loopback_endpoint().expect("a free port");
     let fleet = format!("{}/shipcast/*/forecast", p.instance);
-    let mut router = start_router(&router_endpoint, &fleet);
+    let (mut router, router_endpoint) = start_router_on_a_free_port(&fleet);
     let predictor = p.spawn("predictor", &["--zenoh-connect", &router_endpoint]);
     predictor.wait_for("(iceoryx2 and zenoh)");
     let _producer = p.spawn("producer", &[]);

@@ -269,6 +269,19 @@ impl Proc {
         }
     }
 
+    /// Wait until a line of stderr or stdout contains one of `needles`; the line found, or
+    /// None after PATIENCE.
+    pub fn wait_for_any(&self, needles: &[&str]) -> Option<String> {
+        poll_until(PATIENCE, POLL, || {
+            let found = |lines: Vec<String>| {
+                lines
+                    .into_iter()
+                    .find(|l| needles.iter().any(|n| l.contains(n)))
+            };
+            found(self.stderr()).or_else(|| found(self.stdout()))
+        })
+    }
+
     /// Like `wait_for`, but only lines written after `mark` count, on either stream.
     pub fn wait_for_after(&self, needle: &str, mark: OutputMark) -> String {
         let found = poll_until(PATIENCE, POLL, || {
