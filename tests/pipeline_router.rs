@@ -22,11 +22,15 @@ fn shore_session(endpoint: &str) -> zenoh::Session {
     .expect("shore connects to the router")
 }
 
-fn start_router(endpoint: &str, forecasts: &str) -> Proc {
-    let router = Proc::spawn(
+fn spawn_router(endpoint: &str, forecasts: &str) -> Proc {
+    Proc::spawn(
         "router",
         &["router", "--listen", endpoint, "--forecasts", forecasts],
-    );
+    )
+}
+
+fn start_router(endpoint: &str, forecasts: &str) -> Proc {
+    let router = spawn_router(endpoint, forecasts);
     router.wait_for("router: up");
     router
 }
@@ -38,10 +42,7 @@ fn start_router_on_a_free_port(forecasts: &str) -> (Proc, String) {
     const IN_USE: &str = "Address already in use";
     for _ in 0..3 {
         let endpoint = zn::free_loopback_endpoint().expect("a free port");
-        let router = Proc::spawn(
-            "router",
-            &["router", "--listen", &endpoint, "--forecasts", forecasts],
-        );
+        let router = spawn_router(&endpoint, forecasts);
         match router.wait_for_any(&["router: up", IN_USE]) {
             Some(line) if line.contains(IN_USE) => continue,
             Some(_) => return (router, endpoint),

@@ -272,30 +272,32 @@ impl Proc {
     /// Wait until a line of stderr or stdout contains one of `needles`; the line found, or
     /// None after PATIENCE.
     pub fn wait_for_any(&self, needles: &[&str]) -> Option<String> {
-        poll_until(PATIENCE, POLL, || {
-            let found = |lines: Vec<String>| {
-                lines
-                    .into_iter()
-                    .find(|l| needles.iter().any(|n| l.contains(n)))
-            };
-            found(self.stderr()).or_else(|| found(self.stdout()))
-        })
+        self.poll_for(needles, OutputMark::default())
     }
 
     /// Like `wait_for`, but only lines written after `mark` count, on either stream.
     pub fn wait_for_after(&self, needle: &str, mark: OutputMark) -> String {
-        let found = poll_until(PATIENCE, POLL, || {
-            let after = |lines: Vec<String>, from: usize| {
-                lines.into_iter().skip(from).find(|l| l.contains(needle))
-            };
-            after(self.stderr(), mark.stderr).or_else(|| after(self.stdout(), mark.stdout))
-        });
+        let found = self.poll_for(&[needle], mark);
         found.unwrap_or_else(|| {
             panic!(
                 "{}: no line with '{needle}'; stderr:\n{}",
                 self.name,
                 self.stderr().join("\n")
             )
+        })
+    }
+
+    /// The first line written after `mark`, on stderr or else stdout, that contains one of
+    /// `needles`, polled for up to PATIENCE.
+    fn poll_for(&self, needles: &[&str], mark: OutputMark) -> Option<String> {
+        poll_until(PATIENCE, POLL, || {
+            let after = |lines: Vec<String>, from: usize| {
+                lines
+                    .into_iter()
+                    .skip(from)
+                    .find(|l| needles.iter().any(|n| l.contains(n)))
+            };
+            after(self.stderr(), mark.stderr).or_else(|| after(self.stdout(), mark.stdout))
         })
     }
 

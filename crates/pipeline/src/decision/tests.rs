@@ -261,13 +261,12 @@ fn a_frozen_sensor_withholds_go_and_its_thaw_drops_the_evidence_of_its_stillness
     for _ in 0..500 {
         decider.add_outcome(n, 0.99, true);
     }
-    let quiet = quiet_forecast;
     let heave = |h: f64| [0.0, 0.0, h, 0.01, 0.0, 0.0];
     // Heave moves for a minute, roll sits at a constant it never leaves (an absent channel
     // feeding a constant): go, from the verified errors.
     let mut t = 0.0;
     while t < 60.0 {
-        let d = decider.decide_from(&quiet(t), Some(&heave((0.8 * t).sin())));
+        let d = decider.decide_from(&quiet_forecast(t), Some(&heave((0.8 * t).sin())));
         assert!(d.go && d.frozen_dof.is_none(), "t={t}: {d:?}");
         t += 0.5;
     }
@@ -275,7 +274,7 @@ fn a_frozen_sensor_withholds_go_and_its_thaw_drops_the_evidence_of_its_stillness
     // deck says no go and names the sensor, with no probability.
     let stuck = heave((0.8 * (t - 0.5)).sin());
     while t < 60.0 + 2.0 * still::STILL_AFTER_S {
-        let d = decider.decide_from(&quiet(t), Some(&stuck));
+        let d = decider.decide_from(&quiet_forecast(t), Some(&stuck));
         let frozen = t - 59.5 >= still::STILL_AFTER_S;
         assert_eq!(d.go, !frozen, "t={t}: {d:?}");
         assert_eq!(d.frozen_dof, frozen.then_some(Dof::Heave), "t={t}: {d:?}");
@@ -283,7 +282,7 @@ fn a_frozen_sensor_withholds_go_and_its_thaw_drops_the_evidence_of_its_stillness
         assert!(!decider.may_go() || !frozen);
         t += 0.5;
     }
-    let d = decider.decide_from(&quiet(t), Some(&stuck));
+    let d = decider.decide_from(&quiet_forecast(t), Some(&stuck));
     assert!(
         d.summary().contains("heave sensor repeats its value"),
         "{}",
@@ -296,7 +295,7 @@ fn a_frozen_sensor_withholds_go_and_its_thaw_drops_the_evidence_of_its_stillness
     assert_eq!(decider.statement_calls(), 800.0);
     // It moves again: the verified errors are gone, so no go until errors of the motion now
     // are verified, and the statements are those from before the stillness began.
-    let d = decider.decide_from(&quiet(t + 0.5), Some(&heave(0.2)));
+    let d = decider.decide_from(&quiet_forecast(t + 0.5), Some(&heave(0.2)));
     assert!(
         d.frozen_dof.is_none() && d.awaiting_verified_errors && !d.go,
         "{d:?}"
@@ -304,7 +303,7 @@ fn a_frozen_sensor_withholds_go_and_its_thaw_drops_the_evidence_of_its_stillness
     assert!(decider.ensemble().is_empty());
     assert_eq!(decider.statement_calls(), 500.0);
     // A decision without recorded values (a deck that gets no motion) neither freezes nor thaws.
-    let d = decider.decide(&quiet(t + 1000.0));
+    let d = decider.decide(&quiet_forecast(t + 1000.0));
     assert!(
         d.frozen_dof.is_none() && d.awaiting_verified_errors,
         "{d:?}"
@@ -324,12 +323,8 @@ fn overlapping_stillnesses_and_a_restart_go_back_to_the_statements_before_any_of
     for _ in 0..500 {
         decider.add_outcome(n, 0.9, true);
     }
-    let quiet = |time_s: f64| Forecast {
-        time_s,
-        ..forecast(40, |_| 1.0, 0.1f64.to_radians() as f32)
-    };
     let look = |decider: &mut Decider, t: f64, heave: f64, roll: f64| {
-        decider.decide_from(&quiet(t), Some(&[0.0, 0.0, heave, roll, 0.0, 0.0]));
+        decider.decide_from(&quiet_forecast(t), Some(&[0.0, 0.0, heave, roll, 0.0, 0.0]));
     };
     // Heave and roll move; heave sticks at 60 s, roll at 80 s.
     let mut t: f64 = 0.0;

@@ -58,14 +58,6 @@ pub struct FrozenSensor {
     pub dof: Dof,
 }
 
-/// What one look at both ships found.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
-pub struct ShipsLook {
-    /// A frozen sensor moved again, or the record of a ship with a frozen sensor restarted:
-    /// the evidence gathered since the stillness began is worthless.
-    pub thawed: bool,
-}
-
 /// The deck's watch of the recorded heave, roll and pitch, once per ship.
 #[derive(Debug, Clone, Default)]
 pub struct ShipsStillWatch {
@@ -95,22 +87,24 @@ impl ShipsStillWatch {
     /// the two may be steps apart, on clocks or sample grids out of phase, and a ship looked up
     /// at the other's origin was never found (review). A ship without a sample there is not
     /// looked at this time.
+    ///
+    /// True at a thaw: a frozen sensor moved again, or the record of a ship with a frozen
+    /// sensor restarted, so the evidence gathered since the stillness began is worthless.
     pub fn observe(
         &mut self,
         times_s: [f64; 2],
         crane: &impl ObservedMotion,
         target: &impl ObservedMotion,
-    ) -> ShipsLook {
-        let mut found = ShipsLook::default();
+    ) -> bool {
+        let mut thawed = false;
         let values = [crane.dof_at(times_s[0]), target.dof_at(times_s[1])];
         for ((watch, values), time_s) in self.watches.iter_mut().zip(values).zip(times_s) {
             let Some(values) = values else { continue };
             let frozen_before = watch.frozen().is_some();
             let look = watch.observe(time_s, &values);
-            found.thawed |=
-                look.dofs.contains(&Stillness::Resumed) || (look.restarted && frozen_before);
+            thawed |= look.dofs.contains(&Stillness::Resumed) || (look.restarted && frozen_before);
         }
-        found
+        thawed
     }
 
     /// The first frozen sensor, the crane ship's first.
@@ -155,8 +149,7 @@ mod tests {
         let mut thawed = 0;
         let mut t = 0.0;
         while t <= 150.0 {
-            let look = watch.observe([t, t], &moving, &stuck);
-            thawed += usize::from(look.thawed);
+            thawed += usize::from(watch.observe([t, t], &moving, &stuck));
             let frozen = watch.frozen();
             // Frozen once it has repeated its value for STILL_AFTER_S, until it moves.
             let expected = (60.0 + crate::decision::still::STILL_AFTER_S..=120.0).contains(&t);
@@ -227,14 +220,10 @@ mod tests {
         }
         assert!(watch.frozen().is_some());
         // No samples from either ship: nothing changes.
-        assert_eq!(
-            watch.observe([95.0, 95.0], &Nothing, &Nothing),
-            ShipsLook::default()
-        );
+        assert!(!watch.observe([95.0, 95.0], &Nothing, &Nothing));
         assert!(watch.frozen().is_some());
         // The crane's record starts again (its time goes back): the stillness is over.
-        let look = watch.observe([1.0, 96.0], &moving, &moving);
-        assert!(look.thawed, "{look:?}");
+        assert!(watch.observe([1.0, 96.0], &moving, &moving));
         assert_eq!(watch.frozen(), None);
     }
 }

@@ -111,8 +111,7 @@ impl RelativeVerifier {
         crane: &impl ObservedMotion,
         target: &impl ObservedMotion,
     ) {
-        let look = self.sensors.observe(times_s, crane, target);
-        if look.thawed {
+        if self.sensors.observe(times_s, crane, target) {
             let waiting = self.pending.len();
             tracing::warn!(
                 "relative: a frozen sensor moves again at t={:.1}s; the verified relative \
