@@ -176,6 +176,11 @@ fn only_the_pipeline_publishes_and_strangers_are_refused() {
         station_session(&other.join("crane.json5")).is_err(),
         "a certificate from another CA was let in"
     );
+    // A crane configured with that run's files keeps trying for a minute, and says so while it
+    // waits instead of staying silent (regression: nothing until the minute was up).
+    let stranger = s.spawn("crane", "../other-ca/crane.toml", &["--vessel", "stranger"]);
+    stranger.wait_for("still opening a client session to");
+    drop(stranger);
     // The same foreign certificate from a client that trusts our CA, so that the predictor,
     // not the client, is the one that finds the certificate unknown.
     let mut foreign = zenoh::Config::default();

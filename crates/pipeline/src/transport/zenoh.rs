@@ -317,6 +317,11 @@ pub fn open(settings: &ZenohSettings) -> Result<Session, ZenohError> {
     )))
 }
 
+/// How long an open may take before [`open_unless`] says it is still waiting, and how often
+/// it says so again.
+const OPEN_NOTICE_AFTER: Duration = Duration::from_secs(10);
+const OPEN_NOTICE_EVERY: Duration = Duration::from_secs(15);
+
 /// [`open`], given up (`Ok(None)`) when `limit` is reached first: a client keeps trying to
 /// reach its router or predictor for up to `client_connect_patience_ms`, and a stop request
 /// or the `--duration` limit must not wait for that.
@@ -334,15 +339,36 @@ pub fn open_unless(
     mut give_up: impl FnMut() -> bool,
 ) -> Result<Option<Session>, ZenohError> {
     let (done, opened) = std::sync::mpsc::channel();
-    let settings = settings.clone();
+    let for_thread = settings.clone();
     // The thread owns nothing of ours: given up on, it ends with the open (or the process).
     std::thread::Builder::new()
         .name("zenoh-open".into())
         .spawn(move || {
-            let _ = done.send(open(&settings));
+            let _ = done.send(open(&for_thread));
         })
         .map_err(ZenohError::on("start a thread to open the zenoh session"))?;
+    // A client keeps trying for up to a minute and zenoh says nothing meanwhile: say what it
+    // waits for, so an operator whose certificate is refused is not left looking at silence
+    // (the reason is in the other side's log).
+    let started = std::time::Instant::now();
+    let mut next_notice = OPEN_NOTICE_AFTER;
     loop {
+        if started.elapsed() >= next_notice {
+            tracing::warn!(
+                "zenoh: still opening a {} session to {:?}{} after {} s: is the predictor (or \
+                 router) running there? A refused certificate or name shows as 'refused zenoh \
+                 client' in its log (docs/FAQ.md)",
+                settings.mode.as_str(),
+                settings.connect,
+                if settings.tls.is_some() {
+                    " over TLS"
+                } else {
+                    ""
+                },
+                next_notice.as_secs()
+            );
+            next_notice += OPEN_NOTICE_EVERY;
+        }
         match opened.recv_timeout(Duration::from_millis(50)) {
             Ok(result) => return result.map(Some),
             Err(std::sync::mpsc::RecvTimeoutError::Timeout) if give_up() => return Ok(None),
