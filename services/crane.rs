@@ -157,10 +157,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         let forecast = match gate.check(&received) {
             Ok(f) => f,
             Err(e) => {
-                tracing::warn!(
-                    rejected = gate.stream.rejected.total(),
-                    "crane: rejected: {e}"
-                );
+                if let Some(held_back) = gate.stream.log.admit(Instant::now()) {
+                    tracing::warn!(
+                        rejected = gate.stream.rejected.total(),
+                        held_back,
+                        "crane: rejected: {e}"
+                    );
+                }
                 silence.check(Instant::now());
                 continue;
             }

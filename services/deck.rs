@@ -288,10 +288,15 @@ fn newest_accepted(
         forecasts.publishers(connected);
         match gate.check(origin, connected, &forecast) {
             Ok(()) => newest = Some(forecast),
-            Err(e) => tracing::warn!(
-                rejected = gate.stream.rejected.total(),
-                "deck: rejected: {e}"
-            ),
+            Err(e) => {
+                if let Some(held_back) = gate.stream.log.admit(std::time::Instant::now()) {
+                    tracing::warn!(
+                        rejected = gate.stream.rejected.total(),
+                        held_back,
+                        "deck: rejected: {e}"
+                    );
+                }
+            }
         }
     }
     Ok(newest)

@@ -76,12 +76,17 @@ impl FollowedMotion {
                         self.key
                     );
                 }
-                Err(e) => tracing::warn!(
-                    rejected = self.gate.rejected,
-                    "{}: motion sample on {} rejected: {e}",
-                    self.service,
-                    self.key
-                ),
+                Err(e) => {
+                    if let Some(held_back) = self.gate.log.admit(std::time::Instant::now()) {
+                        tracing::warn!(
+                            rejected = self.gate.rejected,
+                            held_back,
+                            "{}: motion sample on {} rejected: {e}",
+                            self.service,
+                            self.key
+                        );
+                    }
+                }
             }
         }
         Ok(restarted)

@@ -401,11 +401,16 @@ impl Followed {
                     }
                     fresh = true;
                 }
-                Err(e) => tracing::warn!(
-                    rejected = self.gate.stream.rejected.total(),
-                    "relative: {} forecast rejected: {e}",
-                    self.name
-                ),
+                Err(e) => {
+                    if let Some(held_back) = self.gate.stream.log.admit(Instant::now()) {
+                        tracing::warn!(
+                            rejected = self.gate.stream.rejected.total(),
+                            held_back,
+                            "relative: {} forecast rejected: {e}",
+                            self.name
+                        );
+                    }
+                }
             }
         }
         Ok(fresh)

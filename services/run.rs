@@ -432,10 +432,15 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                     view.forecast = Some(f);
                     view.heard.forecast = Some(Instant::now());
                 }
-                Err(e) => tracing::warn!(
-                    rejected = gate.stream.rejected.total(),
-                    "run: forecast rejected: {e}"
-                ),
+                Err(e) => {
+                    if let Some(held_back) = gate.stream.log.admit(Instant::now()) {
+                        tracing::warn!(
+                            rejected = gate.stream.rejected.total(),
+                            held_back,
+                            "run: forecast rejected: {e}"
+                        );
+                    }
+                }
             }
         }
         if let Some(a) = advisories.latest_as::<Advisory>()? {

@@ -4,6 +4,7 @@
 use shipcast_pipeline::deck::Advisory;
 use shipcast_pipeline::relative::RelativeAdvisory;
 use shipcast_pipeline::transport::forecast_check::{check_source, LivePublishers, PublisherWatch};
+use shipcast_pipeline::transport::log_throttle::LogThrottle;
 use shipcast_pipeline::transport::status::PredictorStatus;
 use shipcast_pipeline::transport::zenoh::{LatestSubscriber, ZenohError};
 use shipcast_wire::payload::Forecast;
@@ -178,6 +179,7 @@ pub(super) struct CheckedJson {
     watch: PublisherWatch,
     live: LivePublishers,
     pub(super) rejected: u64,
+    log: LogThrottle,
 }
 
 impl CheckedJson {
@@ -188,6 +190,7 @@ impl CheckedJson {
             watch: PublisherWatch::new(session, key)?,
             live: LivePublishers::default(),
             rejected: 0,
+            log: LogThrottle::default(),
         })
     }
 
@@ -212,7 +215,14 @@ impl CheckedJson {
                 Ok(v) => newest = Some(v),
                 Err(e) => {
                     self.rejected += 1;
-                    tracing::warn!(rejected = self.rejected, "run: {} rejected: {e}", self.key);
+                    if let Some(held_back) = self.log.admit(Instant::now()) {
+                        tracing::warn!(
+                            rejected = self.rejected,
+                            held_back,
+                            "run: {} rejected: {e}",
+                            self.key
+                        );
+                    }
                 }
             }
         }

@@ -489,7 +489,7 @@ mod tests {
         let _feed = start_with(&display, &prefix, board.clone(), 0.5, sources.clone()).unwrap();
         let flood: Vec<_> = (0..crate::sources::MAX_KEYS)
             .map(|i| {
-                let key = format!("{prefix}junk{i}/forecast/publisher/x");
+                let key = format!("{prefix}junk{i}/forecast/publisher/abc");
                 liveliness_token(&flooder, &key).unwrap()
             })
             .collect();

@@ -8,7 +8,7 @@
 //! injection; on an open network a determined sender can imitate a publisher, and the router's
 //! access control stops the rest (docs/security.md).
 
-use shipcast_pipeline::transport::forecast_check::{LivePublishers, Rejection};
+use shipcast_pipeline::transport::forecast_check::{is_publisher_id, LivePublishers, Rejection};
 use std::collections::HashMap;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Mutex;
@@ -36,7 +36,7 @@ pub struct LiveSources {
 /// A token key split into the key it covers and the publisher's id.
 pub fn parse_token(token: &str) -> Option<(&str, &str)> {
     let (key, zid) = token.rsplit_once("/publisher/")?;
-    (!key.is_empty() && !zid.is_empty() && !zid.contains('/')).then_some((key, zid))
+    (!key.is_empty() && is_publisher_id(zid)).then_some((key, zid))
 }
 
 impl LiveSources {
@@ -113,6 +113,11 @@ mod tests {
             "shipcast/a/forecast/publisher/",
             "/publisher/abc",
             "shipcast/a/forecast/publisher/abc/def",
+            // Not a zenoh id (review: any text was followed as one).
+            "shipcast/a/forecast/publisher/abcg",
+            "shipcast/a/forecast/publisher/ABC",
+            "shipcast/a/forecast/publisher/0123456789abcdef0123456789abcdef0",
+            "shipcast/a/forecast/publisher/ab\nINFO forged",
         ] {
             assert_eq!(parse_token(bad), None, "{bad}");
         }

@@ -4,6 +4,7 @@
 //! predictor's id; they stop accidents and naive injection, the ACL stops the rest
 //! (docs/security.md).
 
+use crate::transport::log_throttle::LogThrottle;
 use crate::transport::zenoh::{publisher_token, Received, ZenohError};
 use shipcast_wire::payload::{Forecast, PayloadError};
 use std::collections::BTreeSet;
@@ -97,6 +98,17 @@ pub fn check_content(f: &Forecast, expected_dt_s: f64) -> Result<(), Rejection> 
     Ok(())
 }
 
+/// A zenoh id as publishers attach it to their puts and name it in their tokens: 1 to 32
+/// lowercase hex digits. Anything else is no id: it came from a peer that is not ours, and its
+/// text, of any length and with newlines, was echoed into the warnings (review: forged log
+/// lines and 300 MB of log in 3 s).
+pub fn is_publisher_id(text: &str) -> bool {
+    (1..=32).contains(&text.len())
+        && text
+            .bytes()
+            .all(|b| b.is_ascii_digit() || (b'a'..=b'f').contains(&b))
+}
+
 /// The publishers of one key that are alive now, from their liveliness tokens.
 #[derive(Debug, Default, Clone)]
 pub struct LivePublishers {
@@ -165,6 +177,8 @@ pub struct StreamChecks<P> {
     last: Option<(P, u64)>,
     pub rejected: RejectionCounts,
     pub accepted: u64,
+    /// Lines logged about rejections ([`LogThrottle`]); every one is counted in `rejected`.
+    pub log: LogThrottle,
 }
 
 impl<P: PartialEq + Clone> StreamChecks<P> {
@@ -174,6 +188,7 @@ impl<P: PartialEq + Clone> StreamChecks<P> {
             last: None,
             rejected: RejectionCounts::default(),
             accepted: 0,
+            log: LogThrottle::default(),
         }
     }
 
@@ -367,7 +382,10 @@ impl PublisherWatch {
         let mut changes = 0;
         while let Ok(Some(s)) = self.subscriber.try_recv() {
             let key = s.key_expr().as_str();
-            let Some(zid) = key.strip_prefix(&self.prefix) else {
+            let Some(zid) = key
+                .strip_prefix(&self.prefix)
+                .filter(|z| is_publisher_id(z))
+            else {
                 continue;
             };
             match s.kind() {

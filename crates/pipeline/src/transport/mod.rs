@@ -7,6 +7,7 @@ pub mod counters;
 pub mod forecast_check;
 pub mod host_lock;
 pub mod iox;
+pub mod log_throttle;
 pub mod motion_gate;
 pub mod naming;
 pub mod shutdown;

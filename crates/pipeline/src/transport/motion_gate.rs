@@ -42,6 +42,8 @@ pub struct MotionGate {
     last_publisher: Option<String>,
     pub accepted: u64,
     pub rejected: u64,
+    /// Lines logged about rejections; every one is counted in `rejected`.
+    pub log: crate::transport::log_throttle::LogThrottle,
 }
 
 impl MotionGate {

@@ -199,6 +199,10 @@ fn ephemeral_port_range() -> (u32, u32) {
     read.unwrap_or(default)
 }
 
+/// The largest zenoh message a session of ours takes in; larger ones are dropped by zenoh on
+/// arrival. The largest we send is the live verification, about 170 kB at the most steps.
+pub const MAX_MESSAGE_BYTES: usize = 1 << 20;
+
 /// The zenoh configuration entries (key path, JSON value) of `settings`.
 pub fn config_entries(settings: &ZenohSettings) -> Vec<(String, serde_json::Value)> {
     use serde_json::json;
@@ -217,6 +221,13 @@ pub fn config_entries(settings: &ZenohSettings) -> Vec<(String, serde_json::Valu
             (settings.mode == Mode::Peer).into(),
         ),
     ];
+    // zenoh reassembles a message of up to 1 GiB from any peer before anything of ours (or
+    // its access control) sees it, and keeps the buffer: two puts of 300 MB by a stranger held
+    // 550 MB in the predictor (review). Our largest message is well under this.
+    entries.push((
+        "transport/link/rx/max_message_size".into(),
+        json!(MAX_MESSAGE_BYTES),
+    ));
     if settings.mode == Mode::Peer {
         // Return from open once the explicit endpoints are connected instead of waiting for
         // every peer learnt by gossip (a 500 ms wait and a warning when one is slow to
@@ -526,7 +537,10 @@ fn reuse(buffer: &mut Vec<u8>) {
 fn receive_into(sample: &Sample, into: &mut Received) {
     reuse(&mut into.payload);
     into.payload.extend_from_slice(&sample.payload().to_bytes());
-    let publisher = sample.attachment().and_then(|a| a.try_to_string().ok());
+    let publisher = sample
+        .attachment()
+        .and_then(|a| a.try_to_string().ok())
+        .filter(|p| crate::transport::forecast_check::is_publisher_id(p));
     match (publisher, &mut into.publisher) {
         (Some(p), Some(kept)) => {
             if kept.as_str() != p.as_ref() {
@@ -689,15 +703,34 @@ mod tests {
 
     use std::time::Instant;
 
-    #[test]
-    fn json_flows_between_two_peers_on_explicit_endpoints() {
+    /// A listening peer, a peer connected to it, and a forecast key of a unique instance.
+    fn two_peers(tag: &str) -> (Session, Session, String) {
         let endpoint = free_loopback_endpoint().unwrap();
         let a = open(&ZenohSettings::listen_on(&endpoint)).unwrap();
         let b = open(&ZenohSettings::connect_to(&endpoint)).unwrap();
         let key = format!(
             "{}/shipcast/x/forecast",
-            crate::transport::unique_instance("unit")
+            crate::transport::unique_instance(tag)
         );
+        (a, b, key)
+    }
+
+    /// Wait (up to 10 s) until `publisher`'s puts have a subscriber to reach.
+    fn wait_matched(publisher: &Publisher<'_>) {
+        let deadline = Instant::now() + Duration::from_secs(10);
+        while publisher
+            .matching_status()
+            .wait()
+            .is_ok_and(|m| !m.matching())
+            && Instant::now() < deadline
+        {
+            std::thread::sleep(Duration::from_millis(10));
+        }
+    }
+
+    #[test]
+    fn json_flows_between_two_peers_on_explicit_endpoints() {
+        let (a, b, key) = two_peers("unit");
         let sub = LatestSubscriber::new(&b, &key).unwrap();
         let watch = LivelinessWatch::new(&b, &format!("{key}/alive")).unwrap();
         let publisher = JsonPublisher::new(&a, &key).unwrap();
@@ -722,6 +755,69 @@ mod tests {
             std::thread::sleep(Duration::from_millis(10));
         }
         assert_eq!(alive, Some(false));
+    }
+
+    /// Regression (review): a stranger's put of any size up to zenoh's 1 GiB was reassembled,
+    /// and its memory kept, by every session of ours.
+    #[test]
+    fn a_message_above_the_limit_is_dropped_on_arrival_and_the_link_goes_on() {
+        let endpoint = free_loopback_endpoint().unwrap();
+        let ours = open(&ZenohSettings::listen_on(&endpoint)).unwrap();
+        // The sender is any zenoh peer, with zenoh's own limits.
+        let mut config = zenoh::Config::default();
+        for (key, value) in [
+            ("mode", "\"peer\"".to_string()),
+            ("scouting/multicast/enabled", "false".into()),
+            ("connect/endpoints", format!("[\"{endpoint}\"]")),
+        ] {
+            config.insert_json5(key, &value).unwrap();
+        }
+        let stranger = zenoh::open(config).wait().unwrap();
+        let key = format!(
+            "{}/shipcast/x/forecast",
+            crate::transport::unique_instance("big")
+        );
+        let sub = ours.declare_subscriber(key.clone()).wait().unwrap();
+        let publisher = stranger.declare_publisher(key).wait().unwrap();
+        wait_matched(&publisher);
+        for len in [
+            MAX_MESSAGE_BYTES + 1,
+            4 * MAX_MESSAGE_BYTES,
+            MAX_MESSAGE_BYTES / 2,
+            3,
+        ] {
+            publisher.put(vec![b'x'; len]).wait().unwrap();
+        }
+        let mut got = Vec::new();
+        while let Ok(Some(sample)) = sub.recv_timeout(Duration::from_secs(5)) {
+            got.push(sample.payload().len());
+            if got.len() == 2 {
+                break;
+            }
+        }
+        assert_eq!(got, [MAX_MESSAGE_BYTES / 2, 3]);
+    }
+
+    /// Regression (review): any attachment was taken as the publisher's id, and its text, of
+    /// any length and with newlines, went into the consumers' warnings.
+    #[test]
+    fn an_attachment_that_is_no_zenoh_id_is_no_publisher_id() {
+        let (a, b, key) = two_peers("att");
+        let sub = LatestSubscriber::new(&b, &key).unwrap();
+        let publisher = a.declare_publisher(key).wait().unwrap();
+        wait_matched(&publisher);
+        let forged = "ab\n2026-12-07T06:00:00Z  INFO crane: predictor alive";
+        let real = a.zid().to_string();
+        let mut got = Received::empty();
+        for (attachment, expected) in [
+            (forged.to_string(), None),
+            ("x".repeat(200_000), None),
+            (real.clone(), Some(real.as_str())),
+        ] {
+            publisher.put("{}").attachment(attachment).wait().unwrap();
+            assert!(sub.recv_into(Duration::from_secs(5), &mut got).unwrap());
+            assert_eq!(got.publisher.as_deref(), expected);
+        }
     }
 
     #[test]

@@ -3,6 +3,7 @@
 //! served to queries so a late joiner has one at once.
 
 use crate::transport::zenoh::{zenoh_config, Mode, ZenohError, ZenohSettings};
+use shipcast_wire::payload_json::MAX_JSON_LEN;
 use std::collections::BTreeMap;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
@@ -29,7 +30,8 @@ type Latest = Arc<Mutex<BTreeMap<String, (ZBytes, Encoding)>>>;
 pub struct FleetRouter {
     pub session: Session,
     latest: Latest,
-    /// Samples on a new key that arrived with the map full (forwarded, but not kept).
+    /// Samples not kept (forwarded all the same): on a new key with the map full, or longer
+    /// than any forecast.
     refused: Arc<AtomicU64>,
     _subscriber: Subscriber<()>,
     _queryable: Queryable<()>,
@@ -77,8 +79,22 @@ impl FleetRouter {
         let subscriber = session
             .declare_subscriber(forecasts.to_string())
             .callback(move |sample| {
-                let Ok(mut map) = store.lock() else { return };
                 let key = sample.key_expr().as_str();
+                // No forecast is this long: a stranger's large put would be kept and served
+                // to every late joiner (review).
+                if sample.payload().len() > MAX_JSON_LEN {
+                    let n = refusals.fetch_add(1, Ordering::Relaxed) + 1;
+                    if n == 1 || n.is_multiple_of(1000) {
+                        tracing::warn!(
+                            key,
+                            refused = n,
+                            len = sample.payload().len(),
+                            "router: a sample longer than any forecast is not kept (still forwarded)"
+                        );
+                    }
+                    return;
+                }
+                let Ok(mut map) = store.lock() else { return };
                 let value = (sample.payload().clone(), sample.encoding().clone());
                 if let Some(slot) = map.get_mut(key) {
                     *slot = value;
@@ -133,7 +149,8 @@ impl FleetRouter {
         self.latest.lock().map(|m| m.len()).unwrap_or(0)
     }
 
-    /// Samples on a new key not kept because `max_keys` keys were kept already.
+    /// Samples not kept: on a new key with `max_keys` keys kept already, or longer than any
+    /// forecast.
     pub fn keys_refused(&self) -> u64 {
         self.refused.load(Ordering::Relaxed)
     }
@@ -146,20 +163,30 @@ mod tests {
     use crate::transport::zenoh::{self as zn, free_loopback_endpoint};
     use std::time::Duration;
 
-    #[test]
-    fn the_router_keeps_at_most_max_keys_latest_forecasts() {
+    /// A router keeping `max_keys` keys under a prefix of its own, a client of it, its
+    /// forecast keys' expression, and the forecast key of vessel `v`.
+    fn router_and_client(
+        tag: &str,
+        max_keys: usize,
+    ) -> (FleetRouter, Session, String, impl Fn(&str) -> String) {
         let endpoint = free_loopback_endpoint().unwrap();
-        let prefix = format!("router-cap-{}", std::process::id());
+        let prefix = format!("{tag}-{}", std::process::id());
         let forecasts = format!("{prefix}/shipcast/*/forecast");
         let router =
-            FleetRouter::start_keeping(&ZenohSettings::listen_on(&endpoint), &forecasts, 2)
+            FleetRouter::start_keeping(&ZenohSettings::listen_on(&endpoint), &forecasts, max_keys)
                 .unwrap();
         let client = zn::open(&ZenohSettings {
             mode: Mode::Client,
             ..ZenohSettings::connect_to(&endpoint)
         })
         .unwrap();
-        let key = |v: &str| format!("{prefix}/shipcast/{v}/forecast");
+        let key = move |v: &str| format!("{prefix}/shipcast/{v}/forecast");
+        (router, client, forecasts, key)
+    }
+
+    #[test]
+    fn the_router_keeps_at_most_max_keys_latest_forecasts() {
+        let (router, client, forecasts, key) = router_and_client("router-cap", 2);
         // Puts are asynchronous: send until the router has seen what it should.
         let settled = poll_until(Duration::from_secs(20), Duration::from_millis(50), || {
             for v in ["a", "b", "c"] {
@@ -185,5 +212,31 @@ mod tests {
         served.dedup();
         assert_eq!(served.len(), 2, "{served:?}");
         assert_eq!(router.keys_seen(), 2);
+    }
+
+    /// Regression (review): the router kept the latest put of any length on every forecast
+    /// key and served it to each late joiner.
+    #[test]
+    fn a_sample_longer_than_any_forecast_is_not_kept() {
+        let (router, client, _, key) = router_and_client("router-long", MAX_LATEST_KEYS);
+        let settled = poll_until(Duration::from_secs(20), Duration::from_millis(50), || {
+            client
+                .put(key("long"), vec![b'x'; MAX_JSON_LEN + 1])
+                .wait()
+                .ok()?;
+            client
+                .put(key("short"), vec![b'x'; MAX_JSON_LEN])
+                .wait()
+                .ok()?;
+            (router.keys_seen() == 1 && router.keys_refused() > 0).then_some(())
+        });
+        assert!(
+            settled.is_some(),
+            "{} {}",
+            router.keys_seen(),
+            router.keys_refused()
+        );
+        let kept = router.latest.lock().unwrap();
+        assert_eq!(kept.keys().collect::<Vec<_>>(), [&key("short")]);
     }
 }
