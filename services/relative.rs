@@ -34,6 +34,7 @@ use shipcast_pipeline::transport::zenoh::{self as zn, JsonPublisher, LatestSubsc
 use shipcast_pipeline::transport::{shutdown, Names};
 use shipcast_series::motion_csv::MotionData;
 use shipcast_wire::payload::{Forecast, MAX_STEPS};
+use shipcast_wire::Dof;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
@@ -147,8 +148,21 @@ pub fn run(args: Args) -> anyhow::Result<()> {
 fn read_record(path: &Path) -> anyhow::Result<MotionData> {
     let data =
         MotionData::read_path(path).with_context(|| format!("reading {}", path.display()))?;
-    if data.dofs().is_empty() {
-        anyhow::bail!("{}: no motion column", path.display());
+    // Every DOF moves the crane tip or the landing spot: a column absent (or misspelt) would
+    // be taken as zero, and the lift scored on a calm that never was (review: a misspelt
+    // heave gave 926 go calls where the true record gives 446).
+    let present = data.dofs();
+    let missing: Vec<&str> = Dof::ALL
+        .iter()
+        .filter(|d| !present.contains(d))
+        .map(|d| d.csv_column())
+        .collect();
+    if !missing.is_empty() {
+        anyhow::bail!(
+            "{}: no {} column: the relative motion needs all six DOFs of each ship (one taken as zero would score the lift on a motion that never was)",
+            path.display(),
+            missing.join(", ")
+        );
     }
     Ok(data)
 }

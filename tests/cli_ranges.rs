@@ -369,6 +369,51 @@ fn a_csv_within_one_percent_but_beyond_the_shared_tolerance_is_refused_as_replay
     producer_refuses_a_record_at(8.05, 400, "not an integer fraction of the forecast step");
 }
 
+const SIX_DOF_HEADER: &str = "time_s,surge_m,sway_m,heave_m,roll_rad,pitch_rad,yaw_rad\n";
+
+/// A row of a record in which every DOF moves.
+fn six_dof_row(t: f64) -> String {
+    let m = |f: f64, a: f64| a * (t * f).sin();
+    format!(
+        "{t},{},{},{},{},{},{}\n",
+        m(0.5, 0.3),
+        m(0.55, 0.4),
+        m(0.6, 1.0),
+        m(0.65, 0.05),
+        m(0.7, 0.02),
+        m(0.45, 0.01)
+    )
+}
+
+/// Regression (review): a column absent from either record (here a misspelt heave) was taken
+/// as zero, and the lift scored on a motion that never was, with exit status 0.
+#[test]
+fn a_relative_study_of_records_without_every_dof_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let full = dir.path().join("full.csv");
+    let misspelt = dir.path().join("misspelt.csv");
+    let mut text = String::from(SIX_DOF_HEADER);
+    for i in 0..800 {
+        text.push_str(&six_dof_row(i as f64 * 0.125));
+    }
+    std::fs::write(&full, &text).unwrap();
+    std::fs::write(&misspelt, text.replacen("heave_m", "heave", 1)).unwrap();
+    let (full, misspelt) = (full.to_str().unwrap(), misspelt.to_str().unwrap());
+    for (crane, target) in [(misspelt, full), (full, misspelt)] {
+        refuses(
+            &[
+                "relative",
+                "--crane-record",
+                crane,
+                "--target-record",
+                target,
+            ],
+            &format!("{misspelt}: no heave_m column"),
+            "forecast pairs",
+        );
+    }
+}
+
 /// Two records that never overlap in time printed "0 forecast pairs" and a table of zeros
 /// that read as a perfect score, with exit status 0.
 #[test]
@@ -376,10 +421,10 @@ fn a_relative_study_of_records_that_do_not_overlap_is_refused() {
     let dir = tempfile::tempdir().unwrap();
     let write = |name: &str, t0: f64| {
         let path = dir.path().join(name);
-        let mut text = String::from("time_s,heave_m\n");
+        let mut text = String::from(SIX_DOF_HEADER);
         for i in 0..800 {
             let t = t0 + i as f64 * 0.125;
-            text.push_str(&format!("{t},{}\n", (t * 0.6).sin()));
+            text.push_str(&six_dof_row(t));
         }
         std::fs::write(&path, text).unwrap();
         path.to_str().unwrap().to_string()

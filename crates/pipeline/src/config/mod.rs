@@ -47,6 +47,12 @@ pub const MAX_ORDER: usize = 100_000;
 /// Most live values kept for retraining (and held out).
 pub const MAX_RETRAIN_WINDOW: usize = 1_000_000;
 
+/// The shortest period between scheduled retrains (besides 0, never). A fit takes seconds of
+/// CPU; a period of a few values kept the service refitting all the time, and one shorter than
+/// a forecast step rounded to 0 values, which meant never (review: 0.2 s gave 1 retrain in 20
+/// minutes instead of 4).
+pub const MIN_RETRAIN_EVERY_S: f64 = 10.0;
+
 /// Most simulated samples per DOF of start-up history (warmup_s x rate_hz): 48 MB for six DOF.
 pub const MAX_WARMUP_SAMPLES: usize = 1_000_000;
 
@@ -278,6 +284,12 @@ impl PipelineConfig {
             q.retrain_every_s,
             limits::MAX_SECONDS,
         )?;
+        if q.retrain_every_s > 0.0 && q.retrain_every_s < MIN_RETRAIN_EVERY_S {
+            return Err(format!(
+                "predictor.retrain_every_s = {} s: at least {MIN_RETRAIN_EVERY_S} s between retrains, or 0 for never",
+                q.retrain_every_s
+            ));
+        }
         if !(q.change_ratio.is_finite() && q.change_ratio > 1.0) {
             return Err(format!(
                 "predictor.change_ratio must be above 1, got {}",

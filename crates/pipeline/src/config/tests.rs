@@ -183,6 +183,30 @@ fn method_sections_apply_to_their_method_only() {
     assert_eq!(PipelineConfig::from_toml(&text, Path::new("t")).unwrap(), c);
 }
 
+/// Regression (review): 0.2 s rounded to 0 values between retrains, which the engine reads as
+/// never, although the value was accepted as positive.
+#[test]
+fn a_retrain_period_shorter_than_the_minimum_is_refused_and_zero_means_never() {
+    let with = |every: &str| {
+        PipelineConfig::from_toml(
+            &format!("[predictor]\nretrain_every_s = {every}"),
+            Path::new("p.toml"),
+        )
+    };
+    for short in ["0.2", "0.5", "9.99"] {
+        let e = with(short).unwrap_err().to_string();
+        assert!(
+            e.contains(&format!(
+                "predictor.retrain_every_s = {short} s: at least 10 s"
+            )),
+            "{e}"
+        );
+    }
+    for fine in ["0.0", "10.0", "300.0"] {
+        assert!(with(fine).is_ok(), "{fine}");
+    }
+}
+
 #[test]
 fn a_first_fit_within_the_history_is_accepted() {
     // 2500 s at 2 Hz is exactly the 5000 values held; no retraining makes the wait moot.

@@ -565,7 +565,8 @@ impl Engine {
         let rate = q.sample_rate_hz;
         let len = self.ingest.len() as u64;
         let first = (q.first_fit_s * rate).round() as u64;
-        let every = (q.retrain_every_s * rate).round() as u64;
+        // At least one value: 0 would mean never (the configuration refuses such periods).
+        let every = ((q.retrain_every_s * rate).round() as u64).max(1);
         // After a change of sea (until the values since then fill three held-out parts, from
         // when on the held-out part is the configured one again), every retrain judges on the
         // new sea only (`models::fit_recent`), and refits come every CHANGE_REFIT_EVERY_S of
