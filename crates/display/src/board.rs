@@ -157,6 +157,14 @@ impl AdvisoryView {
         if d.go && !d.probability_now.is_some_and(|p| p >= d.go_probability) {
             return Err("go without a probability that reaches go_probability".into());
         }
+        // A station that waits for verified errors, or has a frozen sensor, states no
+        // probability and never says go (review: a forged go with both was drawn as a green GO).
+        if d.go && d.awaiting_verified_errors {
+            return Err("go while awaiting verified errors".into());
+        }
+        if d.go && (d.frozen_dof.is_some() || d.frozen_ship.is_some()) {
+            return Err("go with a frozen sensor".into());
+        }
         Ok(())
     }
 }

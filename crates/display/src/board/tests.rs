@@ -433,6 +433,17 @@ fn an_advisory_that_makes_no_sense_is_refused_and_counted() {
     let mut a = lift_advisory(false, Some(0.5));
     a.decision.go_probability = 0.0;
     refused.push(a);
+    // A go that contradicts its own station's state (review): awaiting verified errors, or
+    // with a frozen sensor on either ship.
+    let mut a = lift_advisory(true, Some(0.95));
+    a.decision.awaiting_verified_errors = true;
+    refused.push(a);
+    let mut a = lift_advisory(true, Some(0.95));
+    a.decision.frozen_dof = Some(shipcast_wire::Dof::Heave);
+    refused.push(a);
+    let mut a = lift_advisory(true, Some(0.95));
+    a.decision.frozen_ship = Some(shipcast_pipeline::relative::still::Ship::Target);
+    refused.push(a);
     let n = refused.len() as u64;
     for a in refused {
         assert!(!b.advisory("a", "lift", a, t0));
