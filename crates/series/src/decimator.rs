@@ -77,6 +77,16 @@ impl Decimator {
         Some(window.iter().zip(&self.weights).map(|(x, w)| x * w).sum())
     }
 
+    /// The input the last output is labelled with: the one `delay_samples` pushes before the
+    /// newest (0 before any push). The output differs from it by what the filter removes and,
+    /// for the minimum-phase filter, by its phase error (its group delay is not a whole
+    /// number of samples): what a forecast of the outputs misses of the motion itself.
+    pub fn input_at_delay(&self) -> f64 {
+        let len = self.weights.len();
+        // After a push, ring[pos .. pos + len] holds the last `len` inputs, oldest first.
+        self.ring[self.pos + len - 1 - self.delay.min(len - 1)]
+    }
+
     /// Forget every input, as if newly built.
     pub fn reset(&mut self) {
         self.ring.fill(0.0);
@@ -152,6 +162,26 @@ mod tests {
     use super::*;
     use crate::fir::design_lowpass;
     use std::f64::consts::PI;
+
+    #[test]
+    fn the_input_at_the_delay_is_the_one_the_output_is_labelled_with() {
+        for phase in [FilterPhase::Linear, FilterPhase::Minimum] {
+            for factor in [1, 2, 4] {
+                let mut d = Decimator::with_phase(factor, phase).unwrap();
+                let delay = d.delay_samples();
+                // Input i is i: the input labelled with is the newest less the delay.
+                for i in 0..100i64 {
+                    if d.push(i as f64).is_some() {
+                        assert_eq!(d.input_at_delay(), (i - delay as i64) as f64);
+                    }
+                }
+            }
+        }
+        // Factor 1 passes every sample: the input is the output.
+        let mut d = Decimator::new(1).unwrap();
+        assert_eq!(d.push(3.5), Some(3.5));
+        assert_eq!(d.input_at_delay(), 3.5);
+    }
 
     fn sine(freq: f64, rate: f64, n: usize) -> Vec<f64> {
         (0..n)
