@@ -57,6 +57,18 @@ impl Ring {
     pub fn clear(&mut self) {
         self.len = 0;
     }
+
+    /// Subtract `by` from the newest `n` values (all there are, if fewer).
+    pub fn shift_last(&mut self, n: usize, by: f64) {
+        let cap = self.capacity();
+        let end = self.pos + cap;
+        for j in end - n.min(self.len)..end {
+            // Both copies: `j` lies in the second half or the first, the other one `cap` away.
+            self.buf[j] -= by;
+            let twin = if j >= cap { j - cap } else { j + cap };
+            self.buf[twin] -= by;
+        }
+    }
 }
 
 /// A new decimated value of all six DOF.
@@ -171,6 +183,14 @@ impl Ingest {
     /// against the recorded motion, so that difference belongs in its sigma.
     pub fn recorded_at_label(&self, d: usize) -> Option<f64> {
         (self.recorded_run > self.delay_samples).then_some(self.at_label[d])
+    }
+
+    /// The level of DOF `d` jumped by `by` `values` values ago (`jump.rs`): the newest
+    /// `values` stored deviations and the level move by it, so the history reads as the motion
+    /// about its new level.
+    pub fn relevel(&mut self, d: usize, values: usize, by: f64) {
+        self.history[d].shift_last(values, by);
+        self.level.shift(d, by);
     }
 
     /// The level DOF `d` moves about now.
@@ -333,6 +353,23 @@ impl Ingest {
 mod tests {
     use super::*;
     use shipcast_series::decimate;
+
+    #[test]
+    fn shifting_the_newest_values_moves_both_copies_after_a_wrap() {
+        let mut r = Ring::new(4);
+        for x in 0..6 {
+            r.push(x as f64);
+        }
+        r.shift_last(2, 10.0);
+        assert_eq!(r.last(4).unwrap(), &[2.0, 3.0, -6.0, -5.0]);
+        // After more pushes the shifted values are still read shifted, from either copy.
+        r.push(6.0);
+        r.push(7.0);
+        assert_eq!(r.last(4).unwrap(), &[-6.0, -5.0, 6.0, 7.0]);
+        // More than are stored: all of them.
+        r.shift_last(10, 1.0);
+        assert_eq!(r.last(4).unwrap(), &[-7.0, -6.0, 5.0, 6.0]);
+    }
 
     #[test]
     fn ring_keeps_the_newest_values_contiguous() {

@@ -113,6 +113,14 @@ impl Level {
         deviation
     }
 
+    /// The level of DOF `d` moved by `by` (a jump found by the engine, `jump.rs`): take it
+    /// from here, and forget the recent deviations that the jump made.
+    pub fn shift(&mut self, d: usize, by: f64) {
+        self.level[d] += by;
+        self.recent[d] = 0.0;
+        self.run[d] = 0;
+    }
+
     /// Steps of the level found so far for DOF `d`.
     pub fn steps(&self, d: usize) -> u64 {
         self.steps[d]

@@ -22,6 +22,7 @@ pub mod calibrate;
 pub mod change;
 mod failures;
 pub mod ingest;
+pub mod jump;
 pub mod level;
 pub mod models;
 pub mod replay;
@@ -37,6 +38,7 @@ use calibrate::Calibrator;
 use change::{Change, ChangeDetector};
 use failures::{failure_gap, next_streak, FailedModels, REASON_MODEL_FAILED};
 use ingest::{Ingest, NewValue};
+use jump::{Judgement, JumpGuard};
 use models::ModelSet;
 use retrain::{replaces, Job, Retrainer};
 use serde::Serialize;
@@ -95,6 +97,10 @@ pub struct EngineCounts {
     /// were taken out of service until the next model set.
     #[serde(default)]
     pub model_failures: u64,
+    /// Jumps of a DOF's level that a forecast's first step missed far beyond its sigma; the
+    /// DOF was held at no skill until the jump had left its model's input (`jump.rs`).
+    #[serde(default)]
+    pub jumps: [u64; NUM_DOF],
 }
 
 /// The engine's state.
@@ -120,6 +126,7 @@ pub struct Engine {
     /// off its label, +-2 sigma held 5.5 % of the 0.5 s heave errors on the paper sea
     /// (review), 0-17 % at every lead on a sea of three wave components.
     label_mismatch: [f64; NUM_DOF],
+    jumps: JumpGuard,
     /// The two newest deviations from the level per DOF, older first (what tells a spike
     /// from motion that goes on).
     last_deviation: [[f64; 2]; NUM_DOF],
@@ -174,6 +181,7 @@ impl Engine {
             mean_square: [0.0; NUM_DOF],
             mean_square_fast: [0.0; NUM_DOF],
             label_mismatch: [0.0; NUM_DOF],
+            jumps: JumpGuard::default(),
             last_deviation: [[0.0; 2]; NUM_DOF],
             forecast: Box::default(),
             raw: [[0.0; MAX_STEPS]; NUM_DOF],
@@ -275,6 +283,7 @@ impl Engine {
             // The record broke: pending forecasts will never be verified against it.
             self.generation = self.ingest.generation();
             self.log.clear();
+            self.jumps.clear();
             self.last_fit_at = None;
             self.changed_at = None;
             self.sea_since = None;
@@ -289,6 +298,7 @@ impl Engine {
             std::array::from_fn(|d| self.ingest.recorded_at_label(d).unwrap_or(x[d]));
         // Scored before the value enters the live RMS, which bounds its weight in calibration.
         self.score(index, &x, &recorded);
+        self.judge_jumps(index, v.time_s);
         for (d, x) in x.iter().enumerate() {
             // About the level: what predicting the level would score. Clipped once there is
             // a scale: one spike of 50 m in a sea of 1 m multiplied the live RMS, and with it
@@ -402,6 +412,33 @@ impl Engine {
         let mut z2_now = [0.0; NUM_DOF];
         let mut n = [0usize; NUM_DOF];
         let variance_now: [f64; NUM_DOF] = std::array::from_fn(|d| self.live_variance(d));
+        // A jump shows first as a first step missed far beyond its sigma (`jump.rs`). Its
+        // errors stay evidence: they widen sigma and set off the change detector, the safe
+        // side (left out, a DOF that stood still and then moved kept the sigma 0 of its
+        // stillness once the hold ended).
+        for (f, k) in self.log.due(index) {
+            // Only a model's forecasts: the level alone (no model) reads no history to ring.
+            let by_model = k < jump::FIRST_STEPS && version > 0 && f.version == version;
+            for d in (0..NUM_DOF).filter(|&d| by_model && !f.held[d]) {
+                let miss = x[d] - f.level[d] - f.raw[d][k];
+                let rms = variance_now[d].sqrt();
+                if self
+                    .jumps
+                    .observe_first_step(d, index, miss, f.sigma_calibrated[d][k], rms)
+                {
+                    self.counts.jumps[d] += 1;
+                    tracing::warn!(
+                        dof = Dof::ALL[d].name(),
+                        miss,
+                        sigma = f.sigma_calibrated[d][k],
+                        rms,
+                        "predictor: a jump of the level (a first step missed by {:.3}, {:.0} sigmas): no skill until it has left the model's input",
+                        miss,
+                        miss.abs() / f.sigma_calibrated[d][k].max(f64::MIN_POSITIVE)
+                    );
+                }
+            }
+        }
         for (f, k) in self.log.due(index) {
             for d in 0..NUM_DOF {
                 self.verifier
@@ -581,7 +618,8 @@ impl Engine {
     /// history).
     fn schedule_retrain(&mut self) {
         let q = &self.config;
-        if q.retrain_every_s <= 0.0 {
+        // A jump not yet judged is about to move the history: no retrain copies it now.
+        if q.retrain_every_s <= 0.0 || self.jumps.unjudged() {
             return;
         }
         let rate = q.sample_rate_hz;
@@ -671,6 +709,24 @@ impl Engine {
     }
 
     /// Forecast, recalibrate, check and fill `self.forecast`.
+    /// Re-level the history of a DOF whose level jumped, once the values after the jump show
+    /// it is a step (`jump.rs`).
+    fn judge_jumps(&mut self, index: u64, time_s: f64) {
+        for d in 0..NUM_DOF {
+            let recent = self.ingest.last(d, jump::CONFIRM_VALUES as usize);
+            let rms = self.live_rms(d);
+            if let Judgement::Relevel { values, by } = self.jumps.judge(d, index, recent, rms) {
+                self.ingest.relevel(d, values, by);
+                tracing::info!(
+                    dof = Dof::ALL[d].name(),
+                    time_s,
+                    by,
+                    "predictor: the level stepped by {by:.3}: the history since is re-levelled"
+                );
+            }
+        }
+    }
+
     fn compose(&mut self, index: u64, x: &[f64; NUM_DOF], v: NewValue) -> anyhow::Result<()> {
         let horizon = self.config.horizon.min(MAX_STEPS);
         let horizon = self.models.as_ref().map_or(horizon, ModelSet::horizon);
@@ -707,6 +763,9 @@ impl Engine {
             let bound = self.config.plausible_rms_factor * rms;
             let inflate = self.change.inflation(d);
             let label_miss = self.label_mismatch[d].sqrt();
+            let input = self.models.as_ref().map_or(0, |m| m.predictors[d].order());
+            let held = self.jumps.holds(d, index, input);
+            entry.held[d] = held;
             // A failed model's DOF is delivered as no skill, like an implausible forecast.
             let mut plausible = !self.failed.dof[d];
             for k in 0..horizon {
@@ -720,7 +779,16 @@ impl Engine {
                 entry.sigma[d][k] = (sigma * self.shape.factor(d, k) * inflate).hypot(label_miss);
                 plausible &= deviation.is_finite() && deviation.abs() <= bound;
             }
-            if !plausible {
+            if held {
+                // No skill while a jump is in the model's input: the level, with sigma at
+                // least the newest deviation (the jump itself, until it is re-levelled) and
+                // the live RMS.
+                let deviation = x[d] - level;
+                for k in 0..horizon {
+                    entry.mean[d][k] = level;
+                    entry.sigma[d][k] = deviation.hypot(rms).max(entry.sigma[d][k]);
+                }
+            } else if !plausible {
                 self.counts.implausible[d] += 1;
                 for k in 0..horizon {
                     entry.mean[d][k] = level;

@@ -28,6 +28,9 @@ pub struct DofReplay {
     pub retrains: u64,
     pub swaps: u64,
     pub implausible: u64,
+    /// Jumps of the level a forecast's first steps missed, each held at no skill until it
+    /// had left the model's input (`jump.rs`).
+    pub jumps: u64,
     /// RMS of the record's values at the scored steps (what predicting zero scores).
     pub std: f64,
     pub rms: Vec<f64>,
@@ -345,6 +348,7 @@ pub fn replay_scored(
                 retrains: counts.retrains,
                 swaps: counts.swaps,
                 implausible: counts.implausible[d],
+                jumps: counts.jumps[d],
                 std: root(xx, n),
                 nrmse: rms.iter().zip(&zero_rms).map(|(a, b)| a / b).collect(),
                 rms,

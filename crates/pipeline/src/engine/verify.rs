@@ -36,6 +36,9 @@ pub struct Issued {
     /// The RMS sigma the calibrator measured, before the shape factor and the change
     /// detector's inflation: what the detector and the shape factor measure against.
     pub sigma_calibrated: [[f64; MAX_STEPS]; NUM_DOF],
+    /// Per DOF, whether it was held at no skill after a jump of its level (`jump.rs`): its
+    /// model's output then is about the jump, not the sea.
+    pub held: [bool; NUM_DOF],
 }
 
 impl Default for Issued {
@@ -49,6 +52,7 @@ impl Default for Issued {
             raw: [[0.0; MAX_STEPS]; NUM_DOF],
             mean: [[0.0; MAX_STEPS]; NUM_DOF],
             sigma: [[0.0; MAX_STEPS]; NUM_DOF],
+            held: [false; NUM_DOF],
             sigma_calibrated: [[0.0; MAX_STEPS]; NUM_DOF],
         }
     }

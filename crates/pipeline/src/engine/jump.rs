@@ -1,0 +1,229 @@
+//! A jump of a DOF's level that the forecasts did not see coming: a sensor offset, cargo that
+//! shifts, a spike.
+//!
+//! Why: the history holds each value less the level before it, so the values after a jump
+//! carry the whole jump as a deviation. A linear model reading them rings, by more than the
+//! jump itself, while its sigma is that of the sea: after a 3 m heave step (the motion's std
+//! 0.37 m) the forecasts were 3-8 m off with sigma 0.02-0.3 m, a 1 m step 3.4 m off with sigma
+//! 0.018 m (review). The level's own step test (`level.rs`) fires only 20 s later, and never
+//! for a step under 3 of the deviations' RMS.
+//!
+//! What shows a jump at once is a forecast that misses its first step far beyond both its own
+//! sigma and what the motion can do in half a second ([`MISS_RMS`], [`MISS_SIGMAS`]). Then:
+//! - the DOF is held at no skill (the level, with sigma at least the newest deviation plus the
+//!   live RMS) for as long as the jump is in the models' input ([`JumpGuard::holds`]);
+//! - after [`CONFIRM_VALUES`] values, if their median deviation is a real part of the RMS, it
+//!   is a step: the stored history since the jump and the level move by that median, so the
+//!   models and the retrains read the motion about its new level;
+//! - its errors stay evidence for the calibration and the change detector: they widen sigma
+//!   and call for a retrain, which waits until the history is judged (left out, a DOF that
+//!   stood still and then moved would keep its stillness's sigma 0 once the hold ended).
+//!
+//! Nothing allocates.
+
+use shipcast_wire::payload::NUM_DOF;
+
+/// A first-step miss of more than this many live RMS of the motion (and of [`MISS_SIGMAS`]
+/// sigmas) is a jump: a ship does not move 1.5 times its RMS further than forecast in half a
+/// second (on the measured Gullfaks record the misses 0.5-1.5 s ahead stay under 0.51).
+pub const MISS_RMS: f64 = 1.5;
+/// ... and of more than this many of the sigma the forecast was issued with.
+pub const MISS_SIGMAS: f64 = 8.0;
+/// The first steps watched (0.5 and 1 s ahead at 2 Hz): the decimation filter spreads a step
+/// over about two values, and the first may carry too little of it.
+pub const FIRST_STEPS: usize = 2;
+/// Values after the jump whose median tells a step (which stays) from a spike (which goes)
+/// and from motion that resumes: 10 s at 2 Hz, most of a wave's period, over which the median
+/// of a wave stays well inside its RMS while a step's is the step.
+pub const CONFIRM_VALUES: u64 = 20;
+/// A median deviation of at least this many live RMS after the jump is a step.
+pub const STEP_RMS: f64 = 0.75;
+
+/// One DOF's jump.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Jump {
+    /// Index of the first value that showed it.
+    at: u64,
+    /// Whether the history has been judged (re-levelled or found a spike).
+    judged: bool,
+}
+
+/// The jumps of every DOF.
+#[derive(Debug, Clone, Default)]
+pub struct JumpGuard {
+    open: [Option<Jump>; NUM_DOF],
+    /// Jumps found per DOF.
+    pub found: [u64; NUM_DOF],
+    /// Of them, steps whose history was re-levelled.
+    pub relevelled: [u64; NUM_DOF],
+}
+
+/// What to do with a DOF's history at a value ([`JumpGuard::judge`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Judgement {
+    /// Move the newest `values` stored deviations, and the level, by `by`.
+    Relevel { values: usize, by: f64 },
+    /// Nothing to move.
+    Keep,
+}
+
+impl JumpGuard {
+    /// Whether the first-step miss `miss` (the value at `index` less the deviation a running
+    /// model forecast for it) of a forecast issued with `sigma` shows a jump of DOF `d`, given
+    /// the live RMS `rms`. Opens one if so and none is open; true when it opened one.
+    pub fn observe_first_step(
+        &mut self,
+        d: usize,
+        index: u64,
+        miss: f64,
+        sigma: f64,
+        rms: f64,
+    ) -> bool {
+        let jumped = rms > 0.0 && miss.abs() > (MISS_RMS * rms).max(MISS_SIGMAS * sigma);
+        if !jumped || self.open[d].is_some() {
+            return false;
+        }
+        self.open[d] = Some(Jump {
+            at: index,
+            judged: false,
+        });
+        self.found[d] += 1;
+        true
+    }
+
+    /// At value `index` (after the value is stored), with the newest stored deviations
+    /// `recent` (at least [`CONFIRM_VALUES`] + 1 of them, oldest first) and the live RMS: what
+    /// to do with the history. Once, [`CONFIRM_VALUES`] values after the jump.
+    pub fn judge(&mut self, d: usize, index: u64, recent: Option<&[f64]>, rms: f64) -> Judgement {
+        let Some(jump) = self.open[d].as_mut() else {
+            return Judgement::Keep;
+        };
+        if jump.judged || index + 1 < jump.at + CONFIRM_VALUES {
+            return Judgement::Keep;
+        }
+        jump.judged = true;
+        let values = (index - jump.at + 1) as usize;
+        let Some(recent) = recent.and_then(|r| r.get(r.len().saturating_sub(values)..)) else {
+            return Judgement::Keep;
+        };
+        if recent.len() < values {
+            return Judgement::Keep;
+        }
+        let by = median_of(recent);
+        if by.abs() >= STEP_RMS * rms {
+            self.relevelled[d] += 1;
+            Judgement::Relevel { values, by }
+        } else {
+            Judgement::Keep
+        }
+    }
+
+    /// Whether DOF `d` is held at no skill at value `index`: from the jump until it has left
+    /// the `input` values the DOF's model reads (and been judged).
+    pub fn holds(&mut self, d: usize, index: u64, input: usize) -> bool {
+        match self.open[d] {
+            Some(j) if !j.judged || index <= j.at + input as u64 + CONFIRM_VALUES => true,
+            Some(_) => {
+                self.open[d] = None;
+                false
+            }
+            None => false,
+        }
+    }
+
+    /// Whether a jump of `d` is open and not yet judged: its history is about to move, so no
+    /// retrain should copy it now.
+    pub fn unjudged(&self) -> bool {
+        self.open.iter().flatten().any(|j| !j.judged)
+    }
+
+    /// Forget every jump (the history restarted).
+    pub fn clear(&mut self) {
+        self.open = [None; NUM_DOF];
+    }
+}
+
+/// The median of a few values (no allocation: at most 64 are taken).
+fn median_of(values: &[f64]) -> f64 {
+    let mut buf = [0.0; 64];
+    let n = values.len().min(buf.len());
+    buf[..n].copy_from_slice(&values[values.len() - n..]);
+    let v = &mut buf[..n];
+    v.sort_by(f64::total_cmp);
+    if n == 0 {
+        0.0
+    } else if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_miss_beyond_the_motion_and_the_sigma_opens_one_jump() {
+        let mut g = JumpGuard::default();
+        // Within 1.5 RMS, or within 8 sigmas: no jump.
+        assert!(!g.observe_first_step(2, 10, 1.4, 0.01, 1.0));
+        assert!(!g.observe_first_step(2, 10, 3.0, 0.5, 1.0));
+        // No motion known yet: no jump.
+        assert!(!g.observe_first_step(2, 10, 3.0, 0.01, 0.0));
+        assert!(g.observe_first_step(2, 10, -1.6, 0.01, 1.0));
+        // One at a time per DOF; the others are apart.
+        assert!(!g.observe_first_step(2, 11, 5.0, 0.01, 1.0));
+        assert!(g.observe_first_step(3, 11, 5.0, 0.01, 1.0));
+        assert_eq!(g.found[2], 1);
+    }
+
+    #[test]
+    fn a_step_is_relevelled_and_held_until_it_leaves_the_input_and_a_spike_is_kept() {
+        let mut g = JumpGuard::default();
+        assert!(g.observe_first_step(2, 100, 3.0, 0.02, 0.4));
+        let input = 50;
+        // Held while unjudged.
+        assert!(g.holds(2, 101, input));
+        assert!(g.unjudged());
+        // Values 100..=119 after a step of 3 with a wave on it, and older ones about 0.
+        let wave = |i: usize| 0.3 * (i as f64 * 0.8).sin();
+        let mut stored = vec![0.1, -0.2, 0.3];
+        stored.extend((0..20).map(|i| 3.0 + wave(i)));
+        let last = 100 + CONFIRM_VALUES - 1;
+        assert_eq!(g.judge(2, last - 1, Some(&stored), 0.4), Judgement::Keep);
+        let Judgement::Relevel { values, by } = g.judge(2, last, Some(&stored), 0.4) else {
+            panic!("a step of 3 was not re-levelled");
+        };
+        assert_eq!(values, CONFIRM_VALUES as usize);
+        assert!((by - 3.0).abs() < 0.3, "{by}");
+        assert!(!g.unjudged());
+        assert_eq!(g.relevelled[2], 1);
+        // Judged once only.
+        assert_eq!(g.judge(2, last + 1, Some(&stored), 0.4), Judgement::Keep);
+        // Held until the jump has left the model's input, then released.
+        assert!(g.holds(2, 100 + input as u64 + CONFIRM_VALUES, input));
+        assert!(!g.holds(2, 101 + input as u64 + CONFIRM_VALUES, input));
+        assert!(!g.holds(2, 400, input));
+
+        // A spike: one large value, then the sea again; and motion that resumes after
+        // stillness (a live RMS near 0 before it, a wave after): neither is a step.
+        for (first, rms) in [(40.0, 0.4), (0.9, 0.6)] {
+            let mut g = JumpGuard::default();
+            assert!(g.observe_first_step(1, 100, first, 0.02, 0.01));
+            let mut stored = vec![first];
+            stored.extend((1..20).map(|i| 0.9 * (i as f64 * 0.5).cos()));
+            assert_eq!(g.judge(1, last, Some(&stored), rms), Judgement::Keep);
+            assert_eq!(g.relevelled[1], 0);
+            // Still held until the jump has left the model's input.
+            assert!(g.holds(1, 130, input));
+        }
+    }
+
+    #[test]
+    fn the_median_of_few_values() {
+        assert_eq!(median_of(&[]), 0.0);
+        assert_eq!(median_of(&[3.0, 1.0, 2.0]), 2.0);
+        assert_eq!(median_of(&[4.0, 1.0, 3.0, 2.0]), 2.5);
+    }
+}
