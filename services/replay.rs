@@ -25,14 +25,10 @@ pub struct Args {
     /// Start from this model file (`shipcast train`) instead of the configured start-up model.
     #[arg(long, value_name = "MODEL.json")]
     pub model: Option<PathBuf>,
-    /// Score only forecasts issued at record time >= S.
-    #[arg(
-        long,
-        default_value_t = 0.0,
-        value_name = "S",
-        allow_negative_numbers = true
-    )]
-    pub skip_s: f64,
+    /// Score only forecasts issued at record time >= S (default: the record's first sample,
+    /// so a record stamped before 0 is scored too).
+    #[arg(long, value_name = "S", allow_negative_numbers = true)]
+    pub skip_s: Option<f64>,
     /// One JSON object per DOF, then one `{"decisions": ...}` per station and MOT, instead of
     /// the table.
     #[arg(long)]
@@ -47,8 +43,8 @@ pub struct Config {
     pub input: PathBuf,
     /// Its `predictor.model` is `--model` when given.
     pub pipeline: PipelineConfig,
-    /// Non-negative and finite.
-    pub skip_s: f64,
+    /// Finite; None: from the record's first sample.
+    pub skip_s: Option<f64>,
     pub json: bool,
 }
 
@@ -56,11 +52,14 @@ impl TryFrom<Args> for Config {
     type Error = anyhow::Error;
 
     fn try_from(args: Args) -> anyhow::Result<Self> {
-        crate::checked(limits::non_negative(
-            "--skip-s",
-            args.skip_s,
-            limits::MAX_RECORD_TIME_S,
-        ))?;
+        if let Some(skip_s) = args.skip_s {
+            crate::checked(limits::in_range(
+                "--skip-s",
+                skip_s,
+                -limits::MAX_RECORD_TIME_S,
+                limits::MAX_RECORD_TIME_S,
+            ))?;
+        }
         let mut pipeline = PipelineConfig::load_unvalidated(args.config.as_deref())?;
         if args.model.is_some() {
             pipeline.predictor.model = args.model;
@@ -93,6 +92,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     // Skipping the whole record would score nothing and print a table of NaN.
     let start_s = data.time.first().copied().unwrap_or(0.0);
     let end_s = data.time.last().copied().unwrap_or(0.0);
+    // Regression (review): the default was 0, which skips the whole of a record stamped
+    // before 0, and the error named an --skip-s that was never given.
+    let skip_s = skip_s.unwrap_or(start_s);
     if data.len() < 2 {
         anyhow::bail!(
             "{}: {} row: a record to replay needs at least two",
@@ -284,7 +286,7 @@ mod tests {
         ])
         .unwrap();
         assert_eq!(c.pipeline.predictor.model, Some(PathBuf::from("m.json")));
-        assert_eq!((c.skip_s, c.json), (60.0, true));
+        assert_eq!((c.skip_s, c.json), (Some(60.0), true));
         assert_eq!(c.input, PathBuf::from("x.csv"));
         assert!(crate::validated::<Args, Config>(&["--input", "x.csv"])
             .unwrap()
@@ -292,7 +294,20 @@ mod tests {
             .predictor
             .model
             .is_none());
-        for bad in ["-1", "nan"] {
+        // Record times may be negative; not infinite, nor NaN.
+        assert_eq!(
+            crate::validated::<Args, Config>(&["--input", "x.csv", "--skip-s", "-5000"])
+                .unwrap()
+                .skip_s,
+            Some(-5000.0)
+        );
+        assert_eq!(
+            crate::validated::<Args, Config>(&["--input", "x.csv"])
+                .unwrap()
+                .skip_s,
+            None
+        );
+        for bad in ["-1e13", "nan", "inf"] {
             let e = crate::refused::<Args, Config>(&["--input", "x.csv", "--skip-s", bad]);
             assert!(e.starts_with("--skip-s"), "{e}");
         }

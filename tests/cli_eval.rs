@@ -494,6 +494,45 @@ fn replay_of_a_record_too_short_to_score_says_why() {
     );
 }
 
+/// Regression (review): a record stamped before 0 was refused, as "--skip-s 0 s skips the
+/// whole record" although no --skip-s was given; replay now scores from the record's start.
+#[test]
+fn replay_of_a_record_stamped_before_zero_scores_it_all_by_default() {
+    let dir = tempfile::tempdir().unwrap();
+    let csv = dir.path().join("plain.csv").to_str().unwrap().to_string();
+    assert!(shipcast(&["simulate", "--duration", "120", "--out", &csv])
+        .status
+        .success());
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let mut lines = text.lines();
+    let mut shifted = format!("{}\n", lines.next().unwrap());
+    for line in lines {
+        let (t, rest) = line.split_once(',').unwrap();
+        let t: f64 = t.parse().unwrap();
+        shifted.push_str(&format!("{},{rest}\n", t - 5000.0));
+    }
+    let early = dir.path().join("early.csv").to_str().unwrap().to_string();
+    std::fs::write(&early, shifted).unwrap();
+    let scored = |input: &str, extra: &[&str]| {
+        let output = shipcast(&[&["replay", "--input", input, "--json"][..], extra].concat());
+        let stderr = String::from_utf8_lossy(&output.stderr).to_string();
+        assert!(output.status.success(), "{stderr}");
+        let first: serde_json::Value = serde_json::from_str(
+            String::from_utf8_lossy(&output.stdout)
+                .lines()
+                .next()
+                .unwrap(),
+        )
+        .unwrap();
+        first["scored"].as_u64().unwrap()
+    };
+    // The same forecasts are scored, 5000 s earlier.
+    let n = scored(&csv, &[]);
+    assert!(n > 0);
+    assert_eq!(scored(&early, &[]), n);
+    assert_eq!(scored(&early, &["--skip-s", "-5000"]), n);
+}
+
 /// Regression: samples missing from a record (every other one over its second half) were
 /// bridged without a count or a word; eval refuses such a file, replay said nothing.
 #[test]
