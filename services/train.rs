@@ -5,6 +5,7 @@ use crate::eval::{load_resampled, sample_rate, PredictorArgs};
 use shipcast_eval::model::{train_models, TrainOptions};
 use shipcast_pipeline::config::{PredictorServiceConfig, WienerSettings};
 use shipcast_predict::{Method, PredictorConfig};
+use shipcast_wire::Dof;
 use std::path::PathBuf;
 
 #[derive(clap::Args, Debug)]
@@ -94,6 +95,18 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let dofs = data
         .motion_dofs()
         .map_err(|e| anyhow::anyhow!("{}: {e}", input.display()))?;
+    if dofs.len() < Dof::ALL.len() {
+        let absent: Vec<&str> = Dof::ALL
+            .iter()
+            .filter(|d| !dofs.contains(d))
+            .map(|d| d.csv_column())
+            .collect();
+        tracing::warn!(
+            "train: {} has no {} column: the model file holds no model for them, and the predictor forecasts them at no skill until its first fit on live data",
+            input.display(),
+            absent.join(", ")
+        );
+    }
     let holdout = options.holdout_fraction;
     let model = train_models(&data, &dofs, &options).map_err(|e| {
         // "train N" in the protocol's message is the record less its held-out share here.

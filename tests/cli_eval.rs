@@ -320,6 +320,63 @@ fn train_writes_a_loadable_model_for_every_dof_present() {
     assert_one_line_error(&bad, "infeasible");
 }
 
+/// Regression (review): `train` on a record with only some DOF columns wrote a model file that
+/// `replay` (and the predictor) refused: "no model for surge". The DOFs without a model now
+/// start at no skill, and the log names them.
+#[test]
+fn a_model_of_some_dofs_is_replayed_with_the_others_at_no_skill() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = sea_csv(dir.path(), "sea.csv", 2.0, 500);
+    let text = std::fs::read_to_string(&input).unwrap();
+    let header: Vec<&str> = text.lines().next().unwrap().split(',').collect();
+    let (t, h) = (
+        header.iter().position(|c| *c == "time_s").unwrap(),
+        header.iter().position(|c| *c == "heave_m").unwrap(),
+    );
+    let heave_only: String = text
+        .lines()
+        .map(|l| {
+            let f: Vec<&str> = l.split(',').collect();
+            format!("{},{}\n", f[t], f[h])
+        })
+        .collect();
+    let heave_csv = dir.path().join("heave.csv");
+    std::fs::write(&heave_csv, heave_only).unwrap();
+    let model = dir.path().join("heave.json");
+    train_order_40_horizon_6(&heave_csv, &model, "wiener");
+    let config = dir.path().join("h6.toml");
+    std::fs::write(&config, "[predictor]\nhorizon = 6\nretrain_every_s = 0.0\n").unwrap();
+    let output = shipcast(&[
+        "replay",
+        "--input",
+        input.to_str().unwrap(),
+        "--model",
+        model.to_str().unwrap(),
+        "--config",
+        config.to_str().unwrap(),
+        "--json",
+    ]);
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(output.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("no model for surge, sway, roll, pitch, yaw: forecast at no skill"),
+        "{stderr}"
+    );
+    let dofs: Vec<serde_json::Value> = String::from_utf8_lossy(&output.stdout)
+        .lines()
+        .filter_map(|l| serde_json::from_str::<serde_json::Value>(l).ok())
+        .filter(|v| v.get("dof").is_some())
+        .collect();
+    let nrmse = |dof: &str| {
+        dofs.iter().find(|v| v["dof"] == dof).unwrap()["nrmse"][0]
+            .as_f64()
+            .unwrap()
+    };
+    // Heave is forecast by its model; roll, without one, is the level: no skill.
+    assert!(nrmse("heave") < 0.8, "{}", nrmse("heave"));
+    assert!((nrmse("roll") - 1.0).abs() < 0.1, "{}", nrmse("roll"));
+}
+
 /// `--average K --average-mode M`: the JSON names the combination, K = 1 prints the same
 /// numbers as no flag, weighted averaging reports its weights, and a K beyond the horizon is a
 /// one-line error.

@@ -261,8 +261,10 @@ impl Engine {
             // so a change under way must not be forgotten at a swap.
             self.calib.reset(d, prior);
         }
+        // A DOF without a model of its own (`ModelSet::absent`) is delivered as no skill, as a
+        // failed one is.
+        self.failed.dof = set.absent;
         self.models = Some(set);
-        self.failed.dof = [false; NUM_DOF];
         self.prepared_for = None;
     }
 

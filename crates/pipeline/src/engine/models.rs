@@ -38,6 +38,10 @@ pub struct ModelSet {
     /// held-out part included); None for a set never fitted on live data (the start-up model,
     /// a model file). A later retrain compares it with a new fit only on newer values.
     pub trained_through: Option<u64>,
+    /// DOFs without a model of their own (a model file trained on a record without their
+    /// columns): their slot in `predictors` holds another DOF's model, never used; they are
+    /// delivered at no skill until a fit on live data gives them one.
+    pub absent: [bool; NUM_DOF],
 }
 
 impl ModelSet {
@@ -300,6 +304,7 @@ pub fn fit_recent(
         score,
         version,
         trained_through: None,
+        absent: [false; NUM_DOF],
     };
     Ok((set, compared))
 }
@@ -376,9 +381,10 @@ pub fn score_on(
     out
 }
 
-/// Load a model file from `shipcast train`; it must hold all six DOF and match the forecast
-/// rate. Its sigma was measured on the data it was trained on, not on this sea, so it counts as
-/// unscored here.
+/// Load a model file from `shipcast train`; it must match the forecast rate. A DOF it has no
+/// model for (trained on a record without that column) starts at no skill ([`ModelSet::absent`]);
+/// until 2026-12-07 such a file, which `train` wrote, was refused. Its sigma was measured on the
+/// data it was trained on, not on this sea, so it counts as unscored here.
 pub fn load(path: &Path, sample_rate_hz: f64) -> anyhow::Result<ModelSet> {
     let file = ModelFile::load(path)?;
     if (file.sample_rate - sample_rate_hz).abs() > 1e-9 {
@@ -388,13 +394,19 @@ pub fn load(path: &Path, sample_rate_hz: f64) -> anyhow::Result<ModelSet> {
             crate::limits::shown(file.sample_rate)
         );
     }
+    let Some(any) = file.dofs.first() else {
+        anyhow::bail!("{}: the file holds no DOF model", path.display());
+    };
     let mut predictors = Vec::with_capacity(NUM_DOF);
+    let mut absent = [false; NUM_DOF];
     for dof in Dof::ALL {
-        let m = file
-            .dofs
-            .iter()
-            .find(|m| m.dof == dof)
-            .with_context(|| format!("{}: no model for {}", path.display(), dof.name()))?;
+        let m = match file.dofs.iter().find(|m| m.dof == dof) {
+            Some(m) => m,
+            None => {
+                absent[dof.index()] = true;
+                any
+            }
+        };
         if m.predictor.horizon() > MAX_STEPS {
             anyhow::bail!(
                 "{}: horizon {} exceeds the forecast capacity {MAX_STEPS}",
@@ -403,6 +415,18 @@ pub fn load(path: &Path, sample_rate_hz: f64) -> anyhow::Result<ModelSet> {
             );
         }
         predictors.push(m.predictor.clone());
+    }
+    if absent.iter().any(|&a| a) {
+        let names: Vec<&str> = Dof::ALL
+            .iter()
+            .filter(|d| absent[d.index()])
+            .map(|d| d.name())
+            .collect();
+        tracing::warn!(
+            "{}: no model for {}: forecast at no skill until the first fit on live data",
+            path.display(),
+            names.join(", ")
+        );
     }
     let horizon = predictors[0].horizon();
     if predictors.iter().any(|p| p.horizon() != horizon) {
@@ -414,6 +438,7 @@ pub fn load(path: &Path, sample_rate_hz: f64) -> anyhow::Result<ModelSet> {
         score: [f64::NAN; NUM_DOF],
         version: 1,
         trained_through: None,
+        absent,
     })
 }
 
