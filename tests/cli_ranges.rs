@@ -414,6 +414,51 @@ fn a_relative_study_of_records_without_every_dof_is_refused() {
     }
 }
 
+/// Regression (review): an 8 Hz and a 4 Hz record were both replayed, and then no forecast pair
+/// could be scored, blamed on the overlap: their forecasts stand for instants 0.25 s apart (the
+/// decimation filter's delays). And a target record shorter than the crane's was replayed to
+/// report an overlap of -50 s.
+#[test]
+fn a_relative_study_whose_records_cannot_pair_is_refused_before_replaying() {
+    let dir = tempfile::tempdir().unwrap();
+    let write = |name: &str, step: f64, rows: usize| {
+        let path = dir.path().join(name);
+        let mut text = String::from(SIX_DOF_HEADER);
+        for i in 0..rows {
+            text.push_str(&six_dof_row(i as f64 * step));
+        }
+        std::fs::write(&path, text).unwrap();
+        path.to_str().unwrap().to_string()
+    };
+    let (fast, slow) = (
+        write("8hz.csv", 0.125, 20_000),
+        write("4hz.csv", 0.25, 10_000),
+    );
+    refuses(
+        &[
+            "relative",
+            "--crane-record",
+            &fast,
+            "--target-record",
+            &slow,
+        ],
+        "forecasts stand for instants 0.250 s apart",
+        "forecast pairs",
+    );
+    let short = write("short.csv", 0.125, 9_000);
+    refuses(
+        &[
+            "relative",
+            "--crane-record",
+            &fast,
+            "--target-record",
+            &short,
+        ],
+        "skips the whole overlap of the records (it ends at 1124.9 s, with",
+        "forecast pairs",
+    );
+}
+
 /// Two records that never overlap in time printed "0 forecast pairs" and a table of zeros
 /// that read as a perfect score, with exit status 0.
 #[test]
