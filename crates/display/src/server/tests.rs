@@ -420,3 +420,31 @@ fn shutdown_drops_open_event_streams() {
         "an event stream outlived the shutdown"
     );
 }
+
+/// Regression (review): every `/snapshot.json` request and every event made the snapshot anew.
+/// Now one is made at most once per `SNAPSHOT_REUSE` and shared; a later one shows what
+/// changed.
+#[test]
+fn the_snapshot_is_made_once_per_reuse_period_and_shared() {
+    let board = board();
+    let shared = SharedSnapshot::new(board.clone());
+    let t0 = Instant::now();
+    let first = shared.json(t0);
+    assert!(!first.contains("\"v1\""), "{first}");
+    let forecast = shipcast_wire::payload::Forecast {
+        seq: 1,
+        time_s: 0.5,
+        dt_s: 0.5,
+        steps: 4,
+        model_version: 1,
+        ..Default::default()
+    };
+    board.forecast("v1", &forecast, t0).unwrap();
+    // Within the period: the same text, not a new one.
+    let again = shared.json(t0 + SNAPSHOT_REUSE / 2);
+    assert!(Arc::ptr_eq(&first, &again));
+    // After it: made anew, with the new vessel.
+    let later = shared.json(t0 + SNAPSHOT_REUSE);
+    assert!(!Arc::ptr_eq(&first, &later));
+    assert!(later.contains("\"v1\""), "{later}");
+}
