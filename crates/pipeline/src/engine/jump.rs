@@ -12,9 +12,10 @@
 //! sigma and what the motion can do in half a second ([`MISS_RMS`], [`MISS_SIGMAS`]). Then:
 //! - the DOF is held at no skill (the level, with sigma at least the newest deviation plus the
 //!   live RMS) for as long as the jump is in the models' input ([`JumpGuard::holds`]);
-//! - after [`CONFIRM_VALUES`] values, if their median deviation is a real part of the RMS, it
-//!   is a step: the stored history since the jump and the level move by that median, so the
-//!   models and the retrains read the motion about its new level;
+//! - every [`CONFIRM_VALUES`] values while it holds, if the median deviation of those values is
+//!   well beyond what a wave's is ([`STEP_RMS`]), it is a step (up, or back): the stored
+//!   history over them and the level move by that median, so the models and the retrains read
+//!   the motion about its new level, and the hold starts again from the step;
 //! - its errors stay evidence for the calibration and the change detector: they widen sigma
 //!   and call for a retrain, which waits until the history is judged (left out, a DOF that
 //!   stood still and then moved would keep its stillness's sigma 0 once the hold ended).
@@ -36,16 +37,26 @@ pub const FIRST_STEPS: usize = 2;
 /// and from motion that resumes: 10 s at 2 Hz, most of a wave's period, over which the median
 /// of a wave stays well inside its RMS while a step's is the step.
 pub const CONFIRM_VALUES: u64 = 20;
-/// A median deviation of at least this many live RMS after the jump is a step.
-pub const STEP_RMS: f64 = 0.75;
+/// A median deviation of at least this many of the motion's RMS before the jump (and of
+/// [`STEP_RMS_NOW`] of the live RMS, for motion that resumes after stillness) is a step: a
+/// wave's median over 10 s of an 18 s swell reaches about one RMS (review: at 0.75 of the
+/// live RMS, 7 of 12 spikes there were followed by a re-level by a wave).
+pub const STEP_RMS: f64 = 1.5;
+pub const STEP_RMS_NOW: f64 = 0.75;
+/// The smallest live RMS a jump is judged against: a DOF of rounding noise (1e-17) is no
+/// motion.
+const MIN_RMS: f64 = 1e-9;
 
 /// One DOF's jump.
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct Jump {
-    /// Index of the first value that showed it.
+    /// Index of the first value that showed it, or of the first value of the last step
+    /// re-levelled since (the hold lasts until it has left the model's input).
     at: u64,
-    /// Whether the history has been judged (re-levelled or found a spike).
-    judged: bool,
+    /// Index of the newest value judged (None: none yet).
+    judged_to: Option<u64>,
+    /// The live RMS when it opened: the motion's, not yet swollen by the jump.
+    rms_before: f64,
 }
 
 /// The jumps of every DOF.
@@ -79,30 +90,35 @@ impl JumpGuard {
         sigma: f64,
         rms: f64,
     ) -> bool {
-        let jumped = rms > 0.0 && miss.abs() > (MISS_RMS * rms).max(MISS_SIGMAS * sigma);
+        let jumped = rms > MIN_RMS && miss.abs() > (MISS_RMS * rms).max(MISS_SIGMAS * sigma);
         if !jumped || self.open[d].is_some() {
             return false;
         }
         self.open[d] = Some(Jump {
             at: index,
-            judged: false,
+            judged_to: None,
+            rms_before: rms,
         });
         self.found[d] += 1;
         true
     }
 
     /// At value `index` (after the value is stored), with the newest stored deviations
-    /// `recent` (at least [`CONFIRM_VALUES`] + 1 of them, oldest first) and the live RMS: what
-    /// to do with the history. Once, [`CONFIRM_VALUES`] values after the jump.
+    /// `recent` (oldest first) and the live RMS: what to do with the history. Every
+    /// [`CONFIRM_VALUES`] values while the jump holds, on the values since the last judgement:
+    /// a level that steps back, or again, within the hold is re-levelled too (review: a 2 m
+    /// offset undone after 30 s, inside the hold, left the level 2 m off for minutes, worse
+    /// than predicting zero). A re-level starts the hold again from its first value.
     pub fn judge(&mut self, d: usize, index: u64, recent: Option<&[f64]>, rms: f64) -> Judgement {
         let Some(jump) = self.open[d].as_mut() else {
             return Judgement::Keep;
         };
-        if jump.judged || index + 1 < jump.at + CONFIRM_VALUES {
+        let from = jump.judged_to.map_or(jump.at, |j| j + 1);
+        if index + 1 < from + CONFIRM_VALUES {
             return Judgement::Keep;
         }
-        jump.judged = true;
-        let values = (index - jump.at + 1) as usize;
+        jump.judged_to = Some(index);
+        let values = (index - from + 1) as usize;
         let Some(recent) = recent.and_then(|r| r.get(r.len().saturating_sub(values)..)) else {
             return Judgement::Keep;
         };
@@ -110,7 +126,9 @@ impl JumpGuard {
             return Judgement::Keep;
         }
         let by = median_of(recent);
-        if by.abs() >= STEP_RMS * rms {
+        let threshold = (STEP_RMS * jump.rms_before).max(STEP_RMS_NOW * rms);
+        if by.abs() >= threshold {
+            jump.at = from;
             self.relevelled[d] += 1;
             Judgement::Relevel { values, by }
         } else {
@@ -122,7 +140,9 @@ impl JumpGuard {
     /// the `input` values the DOF's model reads (and been judged).
     pub fn holds(&mut self, d: usize, index: u64, input: usize) -> bool {
         match self.open[d] {
-            Some(j) if !j.judged || index <= j.at + input as u64 + CONFIRM_VALUES => true,
+            Some(j) if j.judged_to.is_none() || index <= j.at + input as u64 + CONFIRM_VALUES => {
+                true
+            }
             Some(_) => {
                 self.open[d] = None;
                 false
@@ -131,10 +151,11 @@ impl JumpGuard {
         }
     }
 
-    /// Whether a jump of `d` is open and not yet judged: its history is about to move, so no
-    /// retrain should copy it now.
+    /// Whether a jump of any DOF has not been judged yet: its history is about to move, so no
+    /// retrain should copy it now. (Not for the whole hold: a sensor that spikes again and
+    /// again would hold off every DOF's retrains for as long.)
     pub fn unjudged(&self) -> bool {
-        self.open.iter().flatten().any(|j| !j.judged)
+        self.open.iter().flatten().any(|j| j.judged_to.is_none())
     }
 
     /// Forget every jump (the history restarted).
@@ -197,7 +218,6 @@ mod tests {
         };
         assert_eq!(values, CONFIRM_VALUES as usize);
         assert!((by - 3.0).abs() < 0.3, "{by}");
-        assert!(!g.unjudged());
         assert_eq!(g.relevelled[2], 1);
         // Judged once only.
         assert_eq!(g.judge(2, last + 1, Some(&stored), 0.4), Judgement::Keep);
@@ -218,6 +238,35 @@ mod tests {
             // Still held until the jump has left the model's input.
             assert!(g.holds(1, 130, input));
         }
+    }
+
+    /// Regression (review): a 2 m offset undone 30 s later, inside the hold, was never seen:
+    /// the level stayed 2 m off for minutes.
+    #[test]
+    fn a_step_back_within_the_hold_is_re_levelled_too_and_extends_the_hold() {
+        let mut g = JumpGuard::default();
+        assert!(g.observe_first_step(2, 100, 2.0, 0.02, 0.37));
+        let wave = |i: usize| 0.3 * (i as f64 * 0.8).sin();
+        // 20 values 2 m up: re-levelled by about 2.
+        let mut stored: Vec<f64> = (0..20).map(|i| 2.0 + wave(i)).collect();
+        let Judgement::Relevel { by, .. } = g.judge(2, 119, Some(&stored), 1.0) else {
+            panic!("the step up was not re-levelled");
+        };
+        assert!((by - 2.0).abs() < 0.3, "{by}");
+        // The history as re-levelled, then 20 values back down: -2 about the new level.
+        stored.iter_mut().for_each(|v| *v -= by);
+        stored.extend((20..40).map(|i| -2.0 + wave(i)));
+        assert_eq!(g.judge(2, 138, Some(&stored), 1.0), Judgement::Keep);
+        let Judgement::Relevel { values, by } = g.judge(2, 139, Some(&stored), 1.0) else {
+            panic!("the step back was not re-levelled");
+        };
+        assert_eq!(values, 20);
+        assert!((by + 2.0).abs() < 0.3, "{by}");
+        assert_eq!(g.relevelled[2], 2);
+        // Held until the step back (from value 120) has left the input.
+        let input = 50;
+        assert!(g.holds(2, 120 + input as u64 + CONFIRM_VALUES, input));
+        assert!(!g.holds(2, 121 + input as u64 + CONFIRM_VALUES, input));
     }
 
     #[test]

@@ -68,6 +68,10 @@ const RMS_MEMORY_FAST: f64 = 60.0;
 /// Largest deviation from the level, in live RMS, that one value brings into the live RMS.
 const SPIKE_RMS: f64 = 8.0;
 
+/// Values before the decimation's mismatch with the record is known well enough to clip one
+/// value against (1 minute at 2 Hz).
+const LABEL_WARMUP: u64 = 120;
+
 /// Values of live history before the first forecast: the live RMS must mean something.
 pub const MIN_VALUES_TO_PUBLISH: u64 = 60;
 
@@ -326,9 +330,17 @@ impl Engine {
             let a = level::running_weight(self.values, RMS_MEMORY);
             if let Some(recorded) = self.ingest.recorded_at_label(d) {
                 let miss = recorded - x;
-                // Clipped as the deviations are: a spike at the label is not the filter's.
-                let miss = if scale > 0.0 {
-                    miss.clamp(-SPIKE_RMS * scale, SPIKE_RMS * scale)
+                // A spike at the label is not the filter's: once the mismatch is known, one
+                // value counts at most 4 times its RMS (clipped at 8 live RMS instead, one
+                // spike kept the 0.5 s sigma 10 times too wide for minutes; review).
+                let known = self.label_mismatch[d].sqrt();
+                let limit = if self.values > LABEL_WARMUP && known > 0.0 {
+                    4.0 * known
+                } else {
+                    SPIKE_RMS * scale
+                };
+                let miss = if limit > 0.0 {
+                    miss.clamp(-limit, limit)
                 } else {
                     miss
                 };
@@ -431,6 +443,7 @@ impl Engine {
                     self.counts.jumps[d] += 1;
                     tracing::warn!(
                         dof = Dof::ALL[d].name(),
+                        time_s = self.last_time_s,
                         miss,
                         sigma = f.sigma_calibrated[d][k],
                         rms,
@@ -733,11 +746,15 @@ impl Engine {
         let horizon = self.config.horizon.min(MAX_STEPS);
         let horizon = self.models.as_ref().map_or(horizon, ModelSet::horizon);
         let version = self.model_version();
-        for d in 0..NUM_DOF {
+        // A model whose input the history does not hold yet (after a restart) forecasts
+        // nothing: no skill, not its calibrated sigma (review: 16-20 sigmas off after a gap).
+        let mut no_input = [false; NUM_DOF];
+        for (d, no_input) in no_input.iter_mut().enumerate() {
             let raw = &mut self.raw[d][..horizon];
             raw.fill(0.0);
             if let Some(m) = self.models.as_mut().filter(|_| !self.failed.dof[d]) {
                 let p = &mut m.predictors[d];
+                *no_input = self.ingest.len() < p.order();
                 if let Some(past) = self.ingest.last(d, p.order()) {
                     if let Err(e) = p.forecast(past, raw) {
                         raw.fill(0.0);
@@ -766,7 +783,7 @@ impl Engine {
             let inflate = self.change.inflation(d);
             let label_miss = self.label_mismatch[d].sqrt();
             let input = self.models.as_ref().map_or(0, |m| m.predictors[d].order());
-            let held = self.jumps.holds(d, index, input);
+            let held = self.jumps.holds(d, index, input) || no_input[d];
             entry.held[d] = held;
             // A failed model's DOF is delivered as no skill, like an implausible forecast.
             let mut plausible = !self.failed.dof[d];
