@@ -278,7 +278,7 @@ fn the_two_ship_study_scores_the_relative_forecast_from_two_simulated_records() 
     // Skipping the whole record is one clear line.
     let e = refused(&a, &b, &["--skip-s", "5000"]);
     assert!(
-        e.contains("skips the whole record") && e.lines().count() == 1,
+        e.contains("skips the whole overlap of the records") && e.lines().count() == 1,
         "{e}"
     );
     // Regression: records stamped in epoch seconds. --skip-s is record time, so it must reach
@@ -316,7 +316,8 @@ fn the_two_ship_study_scores_the_relative_forecast_from_two_simulated_records() 
     // message says it was the default, not a --skip-s the user never gave.
     let e = refused(&ea, &eb, &[]);
     assert!(
-        e.contains("the default warm-up of 1200 s") && e.contains("skips the whole record"),
+        e.contains("the default warm-up of 1200 s")
+            && e.contains("skips the whole overlap of the records"),
         "{e}"
     );
     // Regression: B stamped half a sample (1/16 s at 8 Hz) after A replayed both and then said

@@ -12,10 +12,10 @@
 //! sigma and what the motion can do in half a second ([`MISS_RMS`], [`MISS_SIGMAS`]). Then:
 //! - the DOF is held at no skill (the level, with sigma at least the newest deviation plus the
 //!   live RMS) for as long as the jump is in the models' input ([`JumpGuard::holds`]);
-//! - every [`CONFIRM_VALUES`] values while it holds, if the median deviation of those values is
-//!   well beyond what a wave's is ([`STEP_RMS`]), it is a step (up, or back): the stored
-//!   history over them and the level move by that median, so the models and the retrains read
-//!   the motion about its new level, and the hold starts again from the step;
+//! - once, [`CONFIRM_VALUES`] values after the jump, if the median deviation of those values is
+//!   well beyond what a wave's is ([`STEP_RMS`]), it is a step: the stored history over them
+//!   and the level move by that median, so the models and the retrains read the motion about
+//!   its new level;
 //! - its errors stay evidence for the calibration and the change detector: they widen sigma
 //!   and call for a retrain, which waits until the history is judged (left out, a DOF that
 //!   stood still and then moved would keep its stillness's sigma 0 once the hold ended).
@@ -104,13 +104,13 @@ impl JumpGuard {
     }
 
     /// At value `index` (after the value is stored), with the newest stored deviations
-    /// `recent` (oldest first) and the live RMS: what to do with the history. Every
-    /// [`CONFIRM_VALUES`] values while the jump holds, on the values since the last judgement:
-    /// a level that steps back, or again, within the hold is re-levelled too (review: a 2 m
-    /// offset undone after 30 s, inside the hold, left the level 2 m off for minutes, worse
-    /// than predicting zero). A re-level starts the hold again from its first value.
+    /// `recent` (oldest first) and the live RMS: what to do with the history. Once,
+    /// [`CONFIRM_VALUES`] values after the jump. (Judged again every 10 s while it held, as
+    /// tried on 2026-12-07, a level stepping back inside the hold was re-levelled too, but in a
+    /// long swell that grows or resumes, waves' medians were taken for steps one window after
+    /// another, and the retrains copied the mangled history: review.)
     pub fn judge(&mut self, d: usize, index: u64, recent: Option<&[f64]>, rms: f64) -> Judgement {
-        let Some(jump) = self.open[d].as_mut() else {
+        let Some(jump) = self.open[d].as_mut().filter(|j| j.judged_to.is_none()) else {
             return Judgement::Keep;
         };
         let from = jump.judged_to.map_or(jump.at, |j| j + 1);
@@ -240,33 +240,22 @@ mod tests {
         }
     }
 
-    /// Regression (review): a 2 m offset undone 30 s later, inside the hold, was never seen:
-    /// the level stayed 2 m off for minutes.
+    /// A level is judged once per jump: a second window's median is not taken for a step
+    /// (review: judged every 10 s, waves' medians in a growing 18 s swell were re-levelled one
+    /// window after another).
     #[test]
-    fn a_step_back_within_the_hold_is_re_levelled_too_and_extends_the_hold() {
+    fn a_jump_is_judged_once() {
         let mut g = JumpGuard::default();
         assert!(g.observe_first_step(2, 100, 2.0, 0.02, 0.37));
         let wave = |i: usize| 0.3 * (i as f64 * 0.8).sin();
-        // 20 values 2 m up: re-levelled by about 2.
         let mut stored: Vec<f64> = (0..20).map(|i| 2.0 + wave(i)).collect();
         let Judgement::Relevel { by, .. } = g.judge(2, 119, Some(&stored), 1.0) else {
             panic!("the step up was not re-levelled");
         };
-        assert!((by - 2.0).abs() < 0.3, "{by}");
-        // The history as re-levelled, then 20 values back down: -2 about the new level.
         stored.iter_mut().for_each(|v| *v -= by);
         stored.extend((20..40).map(|i| -2.0 + wave(i)));
-        assert_eq!(g.judge(2, 138, Some(&stored), 1.0), Judgement::Keep);
-        let Judgement::Relevel { values, by } = g.judge(2, 139, Some(&stored), 1.0) else {
-            panic!("the step back was not re-levelled");
-        };
-        assert_eq!(values, 20);
-        assert!((by + 2.0).abs() < 0.3, "{by}");
-        assert_eq!(g.relevelled[2], 2);
-        // Held until the step back (from value 120) has left the input.
-        let input = 50;
-        assert!(g.holds(2, 120 + input as u64 + CONFIRM_VALUES, input));
-        assert!(!g.holds(2, 121 + input as u64 + CONFIRM_VALUES, input));
+        assert_eq!(g.judge(2, 139, Some(&stored), 1.0), Judgement::Keep);
+        assert_eq!(g.relevelled[2], 1);
     }
 
     #[test]

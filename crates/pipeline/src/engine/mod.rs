@@ -783,7 +783,8 @@ impl Engine {
             let inflate = self.change.inflation(d);
             let label_miss = self.label_mismatch[d].sqrt();
             let input = self.models.as_ref().map_or(0, |m| m.predictors[d].order());
-            let held = self.jumps.holds(d, index, input) || no_input[d];
+            let jump_held = self.jumps.holds(d, index, input);
+            let held = jump_held || no_input[d];
             entry.held[d] = held;
             // A failed model's DOF is delivered as no skill, like an implausible forecast.
             let mut plausible = !self.failed.dof[d];
@@ -802,7 +803,8 @@ impl Engine {
                 // No skill while a jump is in the model's input: the level, with sigma at
                 // least the newest deviation (the jump itself, until it is re-levelled) and
                 // the live RMS.
-                let deviation = x[d] - level;
+                // Without input alone, the newest deviation is a wave, not a jump (review).
+                let deviation = if jump_held { x[d] - level } else { 0.0 };
                 for k in 0..horizon {
                     entry.mean[d][k] = level;
                     entry.sigma[d][k] = deviation.hypot(rms).max(entry.sigma[d][k]);
