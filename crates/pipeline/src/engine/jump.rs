@@ -50,11 +50,11 @@ const MIN_RMS: f64 = 1e-9;
 /// One DOF's jump.
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct Jump {
-    /// Index of the first value that showed it, or of the first value of the last step
-    /// re-levelled since (the hold lasts until it has left the model's input).
+    /// Index of the first value that showed it (the hold lasts until it has left the model's
+    /// input).
     at: u64,
-    /// Index of the newest value judged (None: none yet).
-    judged_to: Option<u64>,
+    /// Whether the values after it have been judged ([`JumpGuard::judge`]).
+    judged: bool,
     /// The live RMS when it opened: the motion's, not yet swollen by the jump.
     rms_before: f64,
 }
@@ -96,7 +96,7 @@ impl JumpGuard {
         }
         self.open[d] = Some(Jump {
             at: index,
-            judged_to: None,
+            judged: false,
             rms_before: rms,
         });
         self.found[d] += 1;
@@ -110,15 +110,14 @@ impl JumpGuard {
     /// long swell that grows or resumes, waves' medians were taken for steps one window after
     /// another, and the retrains copied the mangled history: review.)
     pub fn judge(&mut self, d: usize, index: u64, recent: Option<&[f64]>, rms: f64) -> Judgement {
-        let Some(jump) = self.open[d].as_mut().filter(|j| j.judged_to.is_none()) else {
+        let Some(jump) = self.open[d].as_mut().filter(|j| !j.judged) else {
             return Judgement::Keep;
         };
-        let from = jump.judged_to.map_or(jump.at, |j| j + 1);
-        if index + 1 < from + CONFIRM_VALUES {
+        if index + 1 < jump.at + CONFIRM_VALUES {
             return Judgement::Keep;
         }
-        jump.judged_to = Some(index);
-        let values = (index - from + 1) as usize;
+        jump.judged = true;
+        let values = (index - jump.at + 1) as usize;
         let Some(recent) = recent.and_then(|r| r.get(r.len().saturating_sub(values)..)) else {
             return Judgement::Keep;
         };
@@ -128,7 +127,6 @@ impl JumpGuard {
         let by = median_of(recent);
         let threshold = (STEP_RMS * jump.rms_before).max(STEP_RMS_NOW * rms);
         if by.abs() >= threshold {
-            jump.at = from;
             self.relevelled[d] += 1;
             Judgement::Relevel { values, by }
         } else {
@@ -140,9 +138,7 @@ impl JumpGuard {
     /// the `input` values the DOF's model reads (and been judged).
     pub fn holds(&mut self, d: usize, index: u64, input: usize) -> bool {
         match self.open[d] {
-            Some(j) if j.judged_to.is_none() || index <= j.at + input as u64 + CONFIRM_VALUES => {
-                true
-            }
+            Some(j) if !j.judged || index <= j.at + input as u64 + CONFIRM_VALUES => true,
             Some(_) => {
                 self.open[d] = None;
                 false
@@ -155,7 +151,7 @@ impl JumpGuard {
     /// retrain should copy it now. (Not for the whole hold: a sensor that spikes again and
     /// again would hold off every DOF's retrains for as long.)
     pub fn unjudged(&self) -> bool {
-        self.open.iter().flatten().any(|j| j.judged_to.is_none())
+        self.open.iter().flatten().any(|j| !j.judged)
     }
 
     /// Forget every jump (the history restarted).
