@@ -723,12 +723,13 @@ impl Engine {
         }
     }
 
-    /// Forecast, recalibrate, check and fill `self.forecast`.
     /// Re-level the history of a DOF whose level jumped, once the values after the jump show
     /// it is a step (`jump.rs`).
     fn judge_jumps(&mut self, index: u64, time_s: f64) {
         for d in 0..NUM_DOF {
-            let recent = self.ingest.last(d, jump::CONFIRM_VALUES as usize);
+            // All the history holds: a step back is looked for among every value since the
+            // jump.
+            let recent = self.ingest.last(d, self.ingest.len());
             let rms = self.live_rms(d);
             if let Judgement::Relevel { values, by } = self.jumps.judge(d, index, recent, rms) {
                 self.ingest.relevel(d, values, by);
@@ -742,6 +743,7 @@ impl Engine {
         }
     }
 
+    /// Forecast, recalibrate, check and fill `self.forecast`.
     fn compose(&mut self, index: u64, x: &[f64; NUM_DOF], v: NewValue) -> anyhow::Result<()> {
         let horizon = self.config.horizon.min(MAX_STEPS);
         let horizon = self.models.as_ref().map_or(horizon, ModelSet::horizon);

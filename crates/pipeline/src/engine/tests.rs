@@ -987,6 +987,43 @@ fn a_step_of_the_level_is_held_at_no_skill_and_re_levelled() {
     }
 }
 
+/// Regression (review): a 2 m heave offset undone 30 s later, inside the jump's hold, left the
+/// level 2 m off until its 5-minute mean followed (heave's 5 s NRMSE 1.34, worse than the
+/// level). The level steps back with the motion and the history is about it again.
+#[test]
+fn an_offset_undone_inside_the_hold_is_relevelled_back() {
+    // A model reading 50 s, as the service's default does: the jump is held for 60 s.
+    let config = PredictorServiceConfig {
+        retrain_every_s: 0.0,
+        order: 100,
+        candidate_orders: vec![100],
+        ..PredictorServiceConfig::default()
+    };
+    let clean = ar2(2 * 1200, 33, |_| 1.0);
+    let std = (clean.iter().map(|x| x * x).sum::<f64>() / clean.len() as f64).sqrt();
+    let mut engine = engine_fitted_on_ar2(&config, 30);
+    let order = shipcast_predict::Predictor::order(&engine.models.as_ref().unwrap().predictors[2]);
+    assert_eq!(order, 100);
+    let (onset, end) = (2 * 900, 2 * 930);
+    let offset = 5.0 * std;
+    for (i, x) in clean.iter().enumerate().take(end + 100) {
+        let h = x + if (onset..end).contains(&i) {
+            offset
+        } else {
+            0.0
+        };
+        engine.push(&heave_only(i, h)).unwrap();
+    }
+    // One jump, re-levelled up and back inside its hold.
+    assert_eq!(engine.counts.jumps, [0, 0, 1, 0, 0, 0]);
+    assert_eq!(engine.jumps.relevelled, [0, 0, 2, 0, 0, 0]);
+    let level = engine.ingest.level(2);
+    assert!(level.abs() < 0.5 * std, "level {level} (std {std})");
+    let recent = engine.ingest.last(2, 200).unwrap();
+    let mean = recent.iter().sum::<f64>() / recent.len() as f64;
+    assert!(mean.abs() < 0.5 * std, "history mean {mean} (std {std})");
+}
+
 /// Regression (review): after a gap restarted the history, a model without its input yet
 /// forecast the level with its own small sigma (16-20 sigmas off). Until the history holds its
 /// input it is held at no skill: the level, sigma at least the live RMS.
