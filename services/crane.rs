@@ -157,13 +157,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         let forecast = match gate.check(&received) {
             Ok(f) => f,
             Err(e) => {
-                if let Some(held_back) = gate.stream.log.admit(Instant::now()) {
-                    tracing::warn!(
-                        rejected = gate.stream.rejected.total(),
-                        held_back,
-                        "crane: rejected: {e}"
-                    );
-                }
+                gate.stream.log.warn_rejected(
+                    gate.stream.rejected.total(),
+                    format_args!("crane: rejected: {e}"),
+                );
                 silence.check(Instant::now());
                 continue;
             }

@@ -289,13 +289,10 @@ fn newest_accepted(
         match gate.check(origin, connected, &forecast) {
             Ok(()) => newest = Some(forecast),
             Err(e) => {
-                if let Some(held_back) = gate.stream.log.admit(std::time::Instant::now()) {
-                    tracing::warn!(
-                        rejected = gate.stream.rejected.total(),
-                        held_back,
-                        "deck: rejected: {e}"
-                    );
-                }
+                gate.stream.log.warn_rejected(
+                    gate.stream.rejected.total(),
+                    format_args!("deck: rejected: {e}"),
+                );
             }
         }
     }

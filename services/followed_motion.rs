@@ -77,15 +77,13 @@ impl FollowedMotion {
                     );
                 }
                 Err(e) => {
-                    if let Some(held_back) = self.gate.log.admit(std::time::Instant::now()) {
-                        tracing::warn!(
-                            rejected = self.gate.rejected,
-                            held_back,
+                    self.gate.log.warn_rejected(
+                        self.gate.rejected,
+                        format_args!(
                             "{}: motion sample on {} rejected: {e}",
-                            self.service,
-                            self.key
-                        );
-                    }
+                            self.service, self.key
+                        ),
+                    );
                 }
             }
         }

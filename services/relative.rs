@@ -450,14 +450,10 @@ impl Followed {
                     fresh = true;
                 }
                 Err(e) => {
-                    if let Some(held_back) = self.gate.stream.log.admit(Instant::now()) {
-                        tracing::warn!(
-                            rejected = self.gate.stream.rejected.total(),
-                            held_back,
-                            "relative: {} forecast rejected: {e}",
-                            self.name
-                        );
-                    }
+                    self.gate.stream.log.warn_rejected(
+                        self.gate.stream.rejected.total(),
+                        format_args!("relative: {} forecast rejected: {e}", self.name),
+                    );
                 }
             }
         }

@@ -433,13 +433,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                     view.heard.forecast = Some(Instant::now());
                 }
                 Err(e) => {
-                    if let Some(held_back) = gate.stream.log.admit(Instant::now()) {
-                        tracing::warn!(
-                            rejected = gate.stream.rejected.total(),
-                            held_back,
-                            "run: forecast rejected: {e}"
-                        );
-                    }
+                    gate.stream.log.warn_rejected(
+                        gate.stream.rejected.total(),
+                        format_args!("run: forecast rejected: {e}"),
+                    );
                 }
             }
         }

@@ -215,14 +215,10 @@ impl CheckedJson {
                 Ok(v) => newest = Some(v),
                 Err(e) => {
                     self.rejected += 1;
-                    if let Some(held_back) = self.log.admit(Instant::now()) {
-                        tracing::warn!(
-                            rejected = self.rejected,
-                            held_back,
-                            "run: {} rejected: {e}",
-                            self.key
-                        );
-                    }
+                    self.log.warn_rejected(
+                        self.rejected,
+                        format_args!("run: {} rejected: {e}", self.key),
+                    );
                 }
             }
         }

@@ -47,6 +47,16 @@ impl LogThrottle {
     }
 }
 
+impl LogThrottle {
+    /// Warn of one rejection (`what`, with its service's name) now, if a line is admitted;
+    /// `rejected` is the count so far, which the line carries with those held back.
+    pub fn warn_rejected(&mut self, rejected: u64, what: std::fmt::Arguments<'_>) {
+        if let Some(held_back) = self.admit(Instant::now()) {
+            tracing::warn!(rejected, held_back, "{what}");
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
