@@ -18,6 +18,11 @@ const MIN_ROUNDED_STEPS: usize = 20;
 /// refuse one beyond it. Within it, a 25 s forecast's last step lands within 25 ms of its time.
 pub const RATE_TOLERANCE: f64 = 1e-3;
 
+/// Longest typical time step [s] of a motion record: waves of 5 to 20 s are not seen at all
+/// between stamps further apart. A longer one is most often stamped in another unit than
+/// seconds ([`ResampleError::TooSlow`]).
+pub const MAX_STEP_S: f64 = 5.0;
+
 /// Why a record could not be resampled.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum ResampleError {
@@ -49,6 +54,12 @@ pub enum ResampleError {
         median: f64,
         off: usize,
         steps: usize,
+    },
+    #[error("the record's typical time step is {step} s: no ship's motion is sampled that seldom (at most every {MAX_STEP_S} s); time_s is in seconds{hint}")]
+    TooSlow {
+        step: f64,
+        /// Which unit the stamps look like, if any.
+        hint: String,
     },
     #[error("the record's time does not increase (typical step {0} s)")]
     NotIncreasing(f64),
@@ -117,6 +128,7 @@ pub fn sample_rate(time: &[f64]) -> Result<f64, ResampleError> {
     }
     let steps: Vec<f64> = time.windows(2).map(|p| p[1] - p[0]).collect();
     let median = median_of(steps.clone());
+    check_step_in_seconds(median)?;
     check_stamp_rounding(time, median)?;
     let tolerance = regular_step_tolerance(time, median);
     for (index, &step) in steps.iter().enumerate() {
@@ -198,6 +210,27 @@ pub fn check_runs_on_grid(time: &[f64], median_step: f64) -> Result<(), Resample
     Ok(())
 }
 
+/// Refuses a typical step longer than [`MAX_STEP_S`], saying which unit it looks like: a
+/// record stamped in nanoseconds read as 0 Hz, and one in milliseconds as 0.008 Hz (review).
+fn check_step_in_seconds(median: f64) -> Result<(), ResampleError> {
+    // NaN and non-increasing time are refused by the checks that know them.
+    if !(median > MAX_STEP_S && median.is_finite()) {
+        return Ok(());
+    }
+    let hint = [
+        (1e3, "milliseconds"),
+        (1e6, "microseconds"),
+        (1e9, "nanoseconds"),
+    ]
+    .into_iter()
+    .find(|&(factor, _)| median / factor <= MAX_STEP_S)
+    .map(|(factor, unit)| {
+        format!(", and a step of {median} looks like {unit}: divide the column by {factor:.0}")
+    })
+    .unwrap_or_default();
+    Err(ResampleError::TooSlow { step: median, hint })
+}
+
 /// The upper median of `values` (at least one).
 fn median_of(mut values: Vec<f64>) -> f64 {
     values.sort_by(f64::total_cmp);
@@ -214,6 +247,7 @@ pub fn median_rate(time: &[f64]) -> Result<f64, ResampleError> {
     if !(median > 0.0 && median.is_finite()) {
         return Err(ResampleError::NotIncreasing(median));
     }
+    check_step_in_seconds(median)?;
     check_stamp_rounding(time, median)?;
     Ok(1.0 / median)
 }
@@ -326,6 +360,42 @@ mod tests {
                 },
             ],
         }
+    }
+
+    #[test]
+    fn a_record_stamped_in_another_unit_than_seconds_is_refused_saying_which() {
+        let at = |step: f64, from: f64| -> Vec<f64> {
+            (0..100).map(|i| from + i as f64 * step).collect()
+        };
+        for (time, unit) in [
+            (
+                at(125.0, 0.0),
+                Some("milliseconds: divide the column by 1000"),
+            ),
+            (
+                at(1e6, 0.0),
+                Some("microseconds: divide the column by 1000000"),
+            ),
+            (
+                at(1.25e8, 1.7e18),
+                Some("nanoseconds: divide the column by 1000000000"),
+            ),
+            (at(3600.0, 0.0), Some("milliseconds")),
+            (at(1e11, 0.0), None),
+        ] {
+            for e in [median_rate(&time), sample_rate(&time)] {
+                let e = e.unwrap_err();
+                assert!(matches!(e, ResampleError::TooSlow { .. }), "{e}");
+                let e = e.to_string();
+                match unit {
+                    Some(unit) => assert!(e.contains(unit), "{e}"),
+                    None => assert!(!e.contains("looks like"), "{e}"),
+                }
+            }
+        }
+        // At most one step every MAX_STEP_S seconds is a record (1 Hz, 0.2 Hz).
+        assert_eq!(median_rate(&at(1.0, 0.0)), Ok(1.0));
+        assert_eq!(median_rate(&at(MAX_STEP_S, 0.0)), Ok(1.0 / MAX_STEP_S));
     }
 
     #[test]
