@@ -60,13 +60,24 @@ impl Ring {
 
     /// Subtract `by` from the newest `n` values (all there are, if fewer).
     pub fn shift_last(&mut self, n: usize, by: f64) {
+        self.map_last(n, |x| x - by);
+    }
+
+    /// Replace the newest `n` values (all there are, if fewer) outside `[low, high]` by
+    /// `with`.
+    pub fn replace_outside(&mut self, n: usize, low: f64, high: f64, with: f64) {
+        self.map_last(n, |x| if (low..=high).contains(&x) { x } else { with });
+    }
+
+    fn map_last(&mut self, n: usize, f: impl Fn(f64) -> f64) {
         let cap = self.capacity();
         let end = self.pos + cap;
         for j in end - n.min(self.len)..end {
             // Both copies: `j` lies in the second half or the first, the other one `cap` away.
-            self.buf[j] -= by;
+            let x = f(self.buf[j]);
+            self.buf[j] = x;
             let twin = if j >= cap { j - cap } else { j + cap };
-            self.buf[twin] -= by;
+            self.buf[twin] = x;
         }
     }
 }
@@ -191,6 +202,13 @@ impl Ingest {
     pub fn relevel(&mut self, d: usize, values: usize, by: f64) {
         self.history[d].shift_last(values, by);
         self.level.shift(d, by);
+    }
+
+    /// A spike of DOF `d` lies among the newest `values` values (`jump.rs`): those outside
+    /// `[low, high]` are replaced by the values' median `centre`, so that neither the models
+    /// nor the retrains that copy the history read it.
+    pub fn remove_spike(&mut self, d: usize, values: usize, low: f64, high: f64, centre: f64) {
+        self.history[d].replace_outside(values, low, high, centre);
     }
 
     /// The level DOF `d` moves about now.

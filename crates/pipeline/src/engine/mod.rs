@@ -731,14 +731,30 @@ impl Engine {
             // jump.
             let recent = self.ingest.last(d, self.ingest.len());
             let rms = self.live_rms(d);
-            if let Judgement::Relevel { values, by } = self.jumps.judge(d, index, recent, rms) {
-                self.ingest.relevel(d, values, by);
-                tracing::info!(
-                    dof = Dof::ALL[d].name(),
-                    time_s,
-                    by,
-                    "predictor: the level stepped by {by:.3}: the history since is re-levelled"
-                );
+            match self.jumps.judge(d, index, recent, rms) {
+                Judgement::Relevel { values, by } => {
+                    self.ingest.relevel(d, values, by);
+                    tracing::info!(
+                        dof = Dof::ALL[d].name(),
+                        time_s,
+                        by,
+                        "predictor: the level stepped by {by:.3}: the history since is re-levelled"
+                    );
+                }
+                Judgement::Spike {
+                    values,
+                    low,
+                    high,
+                    centre,
+                } => {
+                    self.ingest.remove_spike(d, values, low, high, centre);
+                    tracing::info!(
+                        dof = Dof::ALL[d].name(),
+                        time_s,
+                        "predictor: the jump was a spike: its values beyond [{low:.3}, {high:.3}] are taken out of the history"
+                    );
+                }
+                Judgement::Keep => {}
             }
         }
     }

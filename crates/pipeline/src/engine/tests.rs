@@ -319,8 +319,10 @@ fn a_model_that_fails_numerically_is_taken_out_of_service_and_replaced_by_a_retr
     // Regression: an online AR whose LMS update diverged on one spike returned an error that
     // stopped replay and the predictor service. Now that DOF says no skill (the level, sigma the
     // live RMS) until a retrain puts a new model in, and the other DOF go on as they were.
+    // A burst of four bad samples: one or two alone are a spike that the jump guard takes out
+    // of the history before the online update learns from it (`jump.rs`).
     let spike = 600;
-    let run = spiked_ar_run(&[spike]);
+    let run = spiked_ar_run(&[spike, spike + 1, spike + 2, spike + 3]);
     let failed_at = run.failed_at.expect("the spike never made the AR fail");
     assert!(failed_at >= spike, "failed at {failed_at}");
     let replaced_at = run
@@ -1022,6 +1024,39 @@ fn an_offset_undone_inside_the_hold_is_relevelled_back() {
     let recent = engine.ingest.last(2, 200).unwrap();
     let mean = recent.iter().sum::<f64>() / recent.len() as f64;
     assert!(mean.abs() < 0.5 * std, "history mean {mean} (std {std})");
+}
+
+/// Regression (review): one 30 m heave sample in a sea of 0.45 m RMS stayed in every retrain's
+/// window (the history they copy) for 50 minutes. Once the jump it made is judged a spike, the
+/// history holds nothing like it, and the values about it are the motion's.
+#[test]
+fn a_spike_is_taken_out_of_the_history_that_retrains_copy() {
+    let config = PredictorServiceConfig {
+        retrain_every_s: 0.0,
+        ..PredictorServiceConfig::default()
+    };
+    let clean = ar2(2 * 1200, 35, |_| 1.0);
+    let std = (clean.iter().map(|x| x * x).sum::<f64>() / clean.len() as f64).sqrt();
+    let at = 2 * 900;
+    let mut engine = engine_fitted_on_ar2(&config, 30);
+    for (i, x) in clean.iter().enumerate().take(at + 100) {
+        let h = x + if i == at { 40.0 * std } else { 0.0 };
+        engine.push(&heave_only(i, h)).unwrap();
+    }
+    assert_eq!(engine.counts.jumps, [0, 0, 1, 0, 0, 0]);
+    assert_eq!(engine.jumps.spikes, [0, 0, 1, 0, 0, 0]);
+    let history = engine.ingest.last(2, 400).unwrap();
+    let largest = history.iter().fold(0.0f64, |a, x| a.max(x.abs()));
+    assert!(largest < 5.0 * std, "{largest} (std {std})");
+    // Only the spike went: the values after it are the record's, about the level.
+    let level = engine.ingest.level(2);
+    for (k, stored) in history[history.len() - 50..].iter().enumerate() {
+        let recorded = clean[at + 50 + k] - level;
+        assert!(
+            (stored - recorded).abs() < 0.1 * std,
+            "{k}: {stored} {recorded}"
+        );
+    }
 }
 
 /// Regression (review): after a gap restarted the history, a model without its input yet
