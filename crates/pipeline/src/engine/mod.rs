@@ -823,16 +823,18 @@ impl Engine {
                 // the live RMS.
                 // Without input alone, the newest deviation is a wave, not a jump (review).
                 let deviation = if jump_held { x[d] - level } else { 0.0 };
-                for k in 0..horizon {
-                    entry.mean[d][k] = level;
-                    entry.sigma[d][k] = deviation.hypot(rms).max(entry.sigma[d][k]);
-                }
+                let (mean, sigma) = (
+                    &mut entry.mean[d][..horizon],
+                    &mut entry.sigma[d][..horizon],
+                );
+                no_skill(mean, sigma, level, deviation.hypot(rms));
             } else if !plausible {
                 self.counts.implausible[d] += 1;
-                for k in 0..horizon {
-                    entry.mean[d][k] = level;
-                    entry.sigma[d][k] = rms.max(entry.sigma[d][k]);
-                }
+                let (mean, sigma) = (
+                    &mut entry.mean[d][..horizon],
+                    &mut entry.sigma[d][..horizon],
+                );
+                no_skill(mean, sigma, level, rms);
                 // One line per DOF per minute of record time at most (a failed model was
                 // logged when it failed).
                 if !self.failed.dof[d]
@@ -926,6 +928,15 @@ impl Engine {
             1.0 / self.config.sample_rate_hz,
             self.config.verification_window_s,
         )
+    }
+}
+
+/// A forecast without skill: the level at every step, with sigma at least `floor` (the live
+/// RMS, or more) and never below what the calibration said.
+fn no_skill(mean: &mut [f64], sigma: &mut [f64], level: f64, floor: f64) {
+    mean.fill(level);
+    for s in sigma {
+        *s = s.max(floor);
     }
 }
 
