@@ -240,6 +240,7 @@ impl TryFrom<Args> for Config {
 pub fn load_resampled(path: &Path, sample_rate: f64) -> anyhow::Result<MotionData> {
     let data =
         MotionData::read_path(path).with_context(|| format!("reading {}", path.display()))?;
+    warn_of_spikes(path, &data);
     let resampled = signal::resample_motion(&data, sample_rate)
         .with_context(|| format!("resampling {}", path.display()))?;
     tracing::debug!(
@@ -250,6 +251,31 @@ pub fn load_resampled(path: &Path, sample_rate: f64) -> anyhow::Result<MotionDat
         "motion record loaded"
     );
     Ok(resampled)
+}
+
+/// Name the samples of each column that lie far outside the motion around them
+/// (`shipcast_series::spikes`): the forecasts are scored against them and the models fitted
+/// on them as they are, so the user should know (and repair the record).
+fn warn_of_spikes(path: &Path, data: &MotionData) {
+    let Ok(rate) = shipcast_series::median_rate(&data.time) else {
+        return;
+    };
+    let per_minute = (60.0 * rate).round() as usize;
+    for column in &data.columns {
+        let (count, first) = shipcast_series::spikes::find_spikes(&column.values, per_minute);
+        if let Some(first) = first {
+            tracing::warn!(
+                input = %path.display(),
+                column = %column.name,
+                count,
+                "{}: {count} sample(s) of {} lie more than {} robust scales from their minute's median (spikes, or a quantisation far coarser than the motion), the first at t = {} s: they are scored against and fitted on as they are; repair or remove them",
+                path.display(),
+                column.name,
+                shipcast_series::spikes::SPIKE_SCALES,
+                data.time[first]
+            );
+        }
+    }
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {

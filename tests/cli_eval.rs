@@ -158,6 +158,51 @@ fn noise_adds_rms_clean_and_8_hz_input_is_decimated() {
     assert_ne!(rms, clean);
 }
 
+/// Regression (review): `train` and `eval` fitted on and scored against spikes without a word.
+/// Each column's samples far outside their minute are named, with their count and the first
+/// one's time; a clean record gets no such line, and the run goes on either way.
+#[test]
+fn spikes_in_a_record_are_named_and_the_run_goes_on() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let clean = sea_csv(dir.path(), "clean.csv", 2.0, 1000);
+    let text = std::fs::read_to_string(&clean).expect("read");
+    // Heave (the fourth column) 40 m up in row 701, at t = 350 s.
+    let spiked: String = text
+        .lines()
+        .enumerate()
+        .map(|(i, line)| {
+            if i != 701 {
+                return format!("{line}\n");
+            }
+            let mut cells: Vec<String> = line.split(',').map(str::to_string).collect();
+            let heave: f64 = cells[3].parse().expect("heave");
+            cells[3] = (heave + 40.0).to_string();
+            format!("{}\n", cells.join(","))
+        })
+        .collect();
+    let spiked = write(dir.path(), "spiked.csv", &spiked);
+    let named = |path: &Path| {
+        let out = eval(path, &["--dof", "heave", "--method", "zero"]);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        String::from_utf8_lossy(&out.stderr)
+            .lines()
+            .filter(|l| l.contains("robust scales"))
+            .map(str::to_string)
+            .collect::<Vec<_>>()
+    };
+    assert_eq!(named(&clean), Vec::<String>::new());
+    let lines = named(&spiked);
+    assert_eq!(lines.len(), 1, "{lines:?}");
+    assert!(
+        lines[0].contains("1 sample(s) of heave_m") && lines[0].contains("t = 350 s"),
+        "{lines:?}"
+    );
+}
+
 #[test]
 fn table_is_the_default_output() {
     let dir = tempfile::tempdir().unwrap();

@@ -17,6 +17,7 @@ pub mod decimator;
 pub mod fir;
 pub mod motion_csv;
 pub mod resample;
+pub mod spikes;
 
 pub use decimator::{decimate, decimate_with, decimated_len, decimation_inputs_for, Decimator};
 pub use fir::FilterPhase;

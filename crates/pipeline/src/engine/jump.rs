@@ -53,9 +53,9 @@ pub const STEP_RMS_NOW: f64 = 0.75;
 /// Values of a jump that is no step further than this many scales from their median
 /// ([`JumpGuard::judge`]) are a spike, if they are few and come first ([`SPIKE_VALUES`]): they
 /// are taken out of the history (left in, one 30 m heave sample in a sea of 0.45 m RMS stayed
-/// in every retrain's window for 50 minutes; review). A Gaussian sea passes 5 RMS about once
-/// in 1.7 million values, and 10 s of a wave stay within about one robust scale (1.05 of a
-/// sinusoid's).
+/// in every retrain's window for 50 minutes; review). 10 s of waves spread about as far as
+/// their amplitude, so the bound works out near 7 RMS in a sea of waves; a sample at 8 Hz
+/// needs about 20 RMS to stand out so far after the decimation filter has spread it (review).
 pub const SPIKE_SCALES: f64 = 5.0;
 /// At most this many values, all among the first this many after the jump, are a spike: the
 /// decimation filter spreads one bad sample over two or three values. Motion that grows within
