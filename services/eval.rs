@@ -261,6 +261,7 @@ fn warn_of_spikes(path: &Path, data: &MotionData) {
         return;
     };
     let per_minute = (60.0 * rate).round() as usize;
+    // Every column, `wave_m` too: the record is suspect wherever one lies.
     for column in &data.columns {
         let (count, first) = shipcast_series::spikes::find_spikes(&column.values, per_minute);
         if let Some(first) = first {
@@ -268,7 +269,7 @@ fn warn_of_spikes(path: &Path, data: &MotionData) {
                 input = %path.display(),
                 column = %column.name,
                 count,
-                "{}: {count} sample(s) of {} lie more than {} robust scales from their minute's median (spikes, or a quantisation far coarser than the motion), the first at t = {} s: they are scored against and fitted on as they are; repair or remove them",
+                "{}: {count} sample(s) of {} lie more than {} robust scales from their minute's median (spikes, or a quantisation far coarser than the motion), the first at t = {} s: eval and train take them as they are; repair or remove them",
                 path.display(),
                 column.name,
                 shipcast_series::spikes::SPIKE_SCALES,

@@ -18,9 +18,9 @@ const MIN_ROUNDED_STEPS: usize = 20;
 /// refuse one beyond it. Within it, a 25 s forecast's last step lands within 25 ms of its time.
 pub const RATE_TOLERANCE: f64 = 1e-3;
 
-/// Longest typical time step [s] of a motion record: waves of 5 to 20 s are not seen at all
-/// between stamps further apart. A longer one is most often stamped in another unit than
-/// seconds ([`ResampleError::TooSlow`]).
+/// Longest typical time step [s] of a motion record: stamps further apart cannot even resolve
+/// waves of 10 s (waves of 5 to 20 s move a ship). A longer one is most often stamped in
+/// another unit than seconds ([`ResampleError::TooSlow`]).
 pub const MAX_STEP_S: f64 = 5.0;
 
 /// Why a record could not be resampled.
@@ -60,6 +60,12 @@ pub enum ResampleError {
         step: f64,
         /// Which unit the stamps look like, if any.
         hint: String,
+    },
+    #[error("the record's first time stamp is {first}: time_s is in seconds, and it looks like epoch time in {unit}: divide the column by {per_s:.0}")]
+    EpochUnit {
+        first: f64,
+        unit: &'static str,
+        per_s: f64,
     },
     #[error("the record's time does not increase (typical step {0} s)")]
     NotIncreasing(f64),
@@ -128,7 +134,7 @@ pub fn sample_rate(time: &[f64]) -> Result<f64, ResampleError> {
     }
     let steps: Vec<f64> = time.windows(2).map(|p| p[1] - p[0]).collect();
     let median = median_of(steps.clone());
-    check_step_in_seconds(median)?;
+    check_step_in_seconds(time, median)?;
     check_stamp_rounding(time, median)?;
     let tolerance = regular_step_tolerance(time, median);
     for (index, &step) in steps.iter().enumerate() {
@@ -210,24 +216,53 @@ pub fn check_runs_on_grid(time: &[f64], median_step: f64) -> Result<(), Resample
     Ok(())
 }
 
-/// Refuses a typical step longer than [`MAX_STEP_S`], saying which unit it looks like: a
-/// record stamped in nanoseconds read as 0 Hz, and one in milliseconds as 0.008 Hz (review).
-fn check_step_in_seconds(median: f64) -> Result<(), ResampleError> {
+/// Units time stamps come in, with how many of them make a second.
+const TIME_UNITS: [(f64, &str); 4] = [
+    (1.0, "seconds"),
+    (1e3, "milliseconds"),
+    (1e6, "microseconds"),
+    (1e9, "nanoseconds"),
+];
+/// Epoch time in seconds lies in this range (1973 to 2286): a first stamp this size in some
+/// unit is epoch time in that unit.
+const EPOCH_S: std::ops::Range<f64> = 1e8..1e10;
+/// The shortest typical step [s] a motion record has (1 kHz).
+const MIN_STEP_S: f64 = 1e-3;
+
+/// Refuses stamps that are not seconds, saying which unit they look like: a first stamp that is
+/// epoch time in milliseconds, microseconds or nanoseconds (its size tells the unit), or a
+/// typical step longer than [`MAX_STEP_S`]. A record stamped in nanoseconds read as 0 Hz, one in
+/// milliseconds as 0.008 Hz (review); epoch milliseconds at 1 kHz passed as a 1 Hz record.
+fn check_step_in_seconds(time: &[f64], median: f64) -> Result<(), ResampleError> {
+    let first = time.first().map_or(0.0, |t| t.abs());
+    let epoch = TIME_UNITS
+        .into_iter()
+        .find(|&(per_s, _)| EPOCH_S.contains(&(first / per_s)));
+    if let Some((per_s, unit)) = epoch.filter(|&(per_s, _)| per_s > 1.0) {
+        return Err(ResampleError::EpochUnit { first, unit, per_s });
+    }
     // NaN and non-increasing time are refused by the checks that know them.
     if !(median > MAX_STEP_S && median.is_finite()) {
         return Ok(());
     }
-    let hint = [
-        (1e3, "milliseconds"),
-        (1e6, "microseconds"),
-        (1e9, "nanoseconds"),
-    ]
-    .into_iter()
-    .find(|&(factor, _)| median / factor <= MAX_STEP_S)
-    .map(|(factor, unit)| {
-        format!(", and a step of {median} looks like {unit}: divide the column by {factor:.0}")
-    })
-    .unwrap_or_default();
+    let hint = if epoch.is_some() {
+        // Epoch seconds: the step is one of seconds.
+        String::new()
+    } else {
+        let plausible: Vec<String> = TIME_UNITS[1..]
+            .iter()
+            .filter(|&&(per_s, _)| (MIN_STEP_S..=MAX_STEP_S).contains(&(median / per_s)))
+            .map(|&(per_s, unit)| format!("{unit} (divide the column by {per_s:.0})"))
+            .collect();
+        if plausible.is_empty() {
+            String::new()
+        } else {
+            format!(
+                ", and a step of {median} looks like {}",
+                plausible.join(" or ")
+            )
+        }
+    };
     Err(ResampleError::TooSlow { step: median, hint })
 }
 
@@ -247,7 +282,7 @@ pub fn median_rate(time: &[f64]) -> Result<f64, ResampleError> {
     if !(median > 0.0 && median.is_finite()) {
         return Err(ResampleError::NotIncreasing(median));
     }
-    check_step_in_seconds(median)?;
+    check_step_in_seconds(time, median)?;
     check_stamp_rounding(time, median)?;
     Ok(1.0 / median)
 }
@@ -367,32 +402,57 @@ mod tests {
         let at = |step: f64, from: f64| -> Vec<f64> {
             (0..100).map(|i| from + i as f64 * step).collect()
         };
-        for (time, unit) in [
+        // Steps too long for seconds, from 0: every unit that gives a plausible rate is named.
+        for (time, named, not_named) in [
             (
                 at(125.0, 0.0),
-                Some("milliseconds: divide the column by 1000"),
+                vec!["milliseconds (divide the column by 1000)"],
+                vec!["micro"],
             ),
             (
                 at(1e6, 0.0),
-                Some("microseconds: divide the column by 1000000"),
+                vec!["microseconds (divide the column by 1000000)"],
+                vec!["milli"],
             ),
+            // 200 Hz in microseconds, or 0.2 Hz in milliseconds.
             (
-                at(1.25e8, 1.7e18),
-                Some("nanoseconds: divide the column by 1000000000"),
+                at(5000.0, 0.0),
+                vec!["milliseconds", "microseconds"],
+                vec!["nano"],
             ),
-            (at(3600.0, 0.0), Some("milliseconds")),
-            (at(1e11, 0.0), None),
+            (at(1e11, 0.0), vec![], vec!["looks like"]),
+            // Epoch seconds every 10 s: seconds, however seldom.
+            (at(10.0, 1.7e9), vec![], vec!["looks like", "epoch"]),
         ] {
             for e in [median_rate(&time), sample_rate(&time)] {
                 let e = e.unwrap_err();
                 assert!(matches!(e, ResampleError::TooSlow { .. }), "{e}");
                 let e = e.to_string();
-                match unit {
-                    Some(unit) => assert!(e.contains(unit), "{e}"),
-                    None => assert!(!e.contains("looks like"), "{e}"),
-                }
+                assert!(named.iter().all(|n| e.contains(n)), "{e}");
+                assert!(not_named.iter().all(|n| !e.contains(n)), "{e}");
             }
         }
+        // Epoch time in another unit tells it by its size, whatever the step (epoch ms at
+        // 1 kHz passed as a 1 Hz record: review).
+        for (time, unit) in [
+            (at(1.0, 1.7e12), "milliseconds: divide the column by 1000"),
+            (
+                at(125_000.0, 1.7e15),
+                "microseconds: divide the column by 1000000",
+            ),
+            (
+                at(1e6, 1.7e18),
+                "nanoseconds: divide the column by 1000000000",
+            ),
+        ] {
+            for e in [median_rate(&time), sample_rate(&time)] {
+                let e = e.unwrap_err();
+                assert!(matches!(e, ResampleError::EpochUnit { .. }), "{e}");
+                assert!(e.to_string().contains(unit), "{e}");
+            }
+        }
+        // Epoch seconds at 8 Hz are a record.
+        assert_eq!(median_rate(&at(0.125, 1.7e9)), Ok(8.0));
         // At most one step every MAX_STEP_S seconds is a record (1 Hz, 0.2 Hz).
         assert_eq!(median_rate(&at(1.0, 0.0)), Ok(1.0));
         assert_eq!(median_rate(&at(MAX_STEP_S, 0.0)), Ok(1.0 / MAX_STEP_S));

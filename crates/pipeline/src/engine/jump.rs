@@ -61,6 +61,9 @@ pub const SPIKE_SCALES: f64 = 5.0;
 /// decimation filter spreads one bad sample over two or three values. Motion that grows within
 /// the 10 s (a wave group after stillness) has its large values later, and stays as it is.
 pub const SPIKE_VALUES: usize = 3;
+/// ... and the values after those lie within this share of the spike's largest value (or
+/// within the bound): what the decimation filter's tail leaves of it.
+pub const SPIKE_TAIL: f64 = 0.1;
 /// Values a level that stepped back must stay back before it is re-levelled back: 20 s, more
 /// than a swell's period. (Over 10 s, a trough of an 18 s swell was taken for a step back after
 /// 7 of 18 genuine 2-RMS heave steps: review.)
@@ -243,9 +246,16 @@ impl JumpGuard {
             *dev = (x - centre).abs();
         }
         let bound = SPIKE_SCALES * (1.4826 * median_of(&deviations[..n])).max(rms_before);
-        let outside = |x: &f64| (x - centre).abs() > bound;
         let first = SPIKE_VALUES.min(after.len());
-        if !after[..first].iter().any(outside) || after[first..].iter().any(outside) {
+        let peak = after[..first]
+            .iter()
+            .map(|x| (x - centre).abs())
+            .fold(0.0, f64::max);
+        // The later values may hold the filter's tail of a very large spike, a small share
+        // of it (review: a -999 m logger sentinel reached past 5 RMS at the 4th and 5th
+        // value and was kept); motion that grows is as large later as at first.
+        let tail = bound.max(SPIKE_TAIL * peak);
+        if peak <= bound || after[first..].iter().any(|x| (x - centre).abs() > tail) {
             return Judgement::Keep;
         }
         self.spikes[d] += 1;
@@ -277,14 +287,17 @@ impl JumpGuard {
         }
     }
 
-    /// Whether a jump of any DOF has not been judged yet: its history is about to move, so no
-    /// retrain should copy it now. (Not for the whole hold: a sensor that spikes again and
-    /// again would hold off every DOF's retrains for as long.)
+    /// Whether a jump of any DOF has not been judged yet, or a step back of one is pending: its
+    /// history is about to move, so no retrain should copy it now (review: a retrain during a
+    /// pending step back copied the uncorrected step). (Not for the whole hold: a sensor that
+    /// spikes again and again would hold off every DOF's retrains for as long.)
     pub fn unjudged(&self) -> bool {
-        self.open
-            .iter()
-            .flatten()
-            .any(|j| j.stage == Stage::Unjudged)
+        self.open.iter().flatten().any(|j| {
+            matches!(
+                j.stage,
+                Stage::Unjudged | Stage::Relevelled { pending: true, .. }
+            )
+        })
     }
 
     /// Forget every jump (the history restarted).
@@ -402,6 +415,22 @@ mod tests {
             assert!(g.observe_first_step(2, 100, 5.0, 0.01, 0.4));
             (g.judge(2, 119, Some(stored), 0.4), g.spikes[2])
         };
+        // A logger's -999 sentinel, whose filter tail still reaches 5 RMS at the 5th value
+        // (review: kept): taken out with its tail.
+        let mut sentinel: Vec<f64> = (0..20).map(wave).collect();
+        for (i, share) in [1.0, -0.3, 0.1, -0.01, 0.004].iter().enumerate() {
+            sentinel[i] += -999.0 * share;
+        }
+        let (j, _) = judged(&sentinel);
+        let Judgement::Spike { low, high, .. } = j else {
+            panic!("{j:?}");
+        };
+        assert_eq!(
+            (0..20)
+                .filter(|&i| !(low..=high).contains(&sentinel[i]))
+                .count(),
+            5
+        );
         // One sample spread by the filter over the first two values.
         let mut stored: Vec<f64> = (0..20).map(wave).collect();
         stored[0] += 7.0;
