@@ -523,8 +523,13 @@ mod tests {
                     break;
                 }
                 assert_eq!(judged, Judgement::Keep);
-                // Past the hold's end (value 130) only while the step back is pending.
+                // Past the hold's end (value 130) only while the step back is pending; and no
+                // retrain copies the history meanwhile (review: one copied the uncorrected
+                // step).
                 assert_eq!(g.holds(2, index, input), index <= 130 || i >= 30, "at {i}");
+                if i < 30 || index > 130 {
+                    assert_eq!(g.unjudged(), i >= 30, "{factor} at {i}");
+                }
             }
             assert_ne!(
                 judged,
@@ -532,6 +537,7 @@ mod tests {
                 "{factor}: the step back was not re-levelled"
             );
             // Only once, and the hold ends.
+            assert!(!g.unjudged());
             stored.extend((0..60).map(|i| 2.0 + wave(i)));
             assert_eq!(g.judge(2, 200, Some(&stored), 0.37), Judgement::Keep);
             assert!(!g.holds(2, 200, input));
