@@ -100,6 +100,15 @@ struct Jump {
 }
 
 impl Jump {
+    /// Whether its history is about to move: not judged yet, or a step back pending. It is
+    /// held that long at least, and no retrain copies the history meanwhile.
+    fn history_may_move(&self) -> bool {
+        matches!(
+            self.stage,
+            Stage::Unjudged | Stage::Relevelled { pending: true, .. }
+        )
+    }
+
     /// The smallest median shift that is a step of the level, not a wave's.
     fn step_threshold(&self, rms: f64) -> f64 {
         (STEP_RMS * self.rms_before).max(STEP_RMS_NOW * rms)
@@ -271,12 +280,7 @@ impl JumpGuard {
     /// the `input` values the DOF's model reads (and been judged).
     pub fn holds(&mut self, d: usize, index: u64, input: usize) -> bool {
         match self.open[d] {
-            Some(j)
-                if matches!(
-                    j.stage,
-                    Stage::Unjudged | Stage::Relevelled { pending: true, .. }
-                ) || index <= j.at + input as u64 + CONFIRM_VALUES =>
-            {
+            Some(j) if j.history_may_move() || index <= j.at + input as u64 + CONFIRM_VALUES => {
                 true
             }
             Some(_) => {
@@ -292,12 +296,7 @@ impl JumpGuard {
     /// pending step back copied the uncorrected step). (Not for the whole hold: a sensor that
     /// spikes again and again would hold off every DOF's retrains for as long.)
     pub fn unjudged(&self) -> bool {
-        self.open.iter().flatten().any(|j| {
-            matches!(
-                j.stage,
-                Stage::Unjudged | Stage::Relevelled { pending: true, .. }
-            )
-        })
+        self.open.iter().flatten().any(Jump::history_may_move)
     }
 
     /// Forget every jump (the history restarted).

@@ -817,24 +817,16 @@ impl Engine {
                 entry.sigma[d][k] = (sigma * self.shape.factor(d, k) * inflate).hypot(label_miss);
                 plausible &= deviation.is_finite() && deviation.abs() <= bound;
             }
-            if held {
+            // The sigma floor of a forecast delivered as no skill, if it is one.
+            let no_skill_floor = if held {
                 // No skill while a jump is in the model's input: the level, with sigma at
                 // least the newest deviation (the jump itself, until it is re-levelled) and
                 // the live RMS.
                 // Without input alone, the newest deviation is a wave, not a jump (review).
                 let deviation = if jump_held { x[d] - level } else { 0.0 };
-                let (mean, sigma) = (
-                    &mut entry.mean[d][..horizon],
-                    &mut entry.sigma[d][..horizon],
-                );
-                no_skill(mean, sigma, level, deviation.hypot(rms));
+                Some(deviation.hypot(rms))
             } else if !plausible {
                 self.counts.implausible[d] += 1;
-                let (mean, sigma) = (
-                    &mut entry.mean[d][..horizon],
-                    &mut entry.sigma[d][..horizon],
-                );
-                no_skill(mean, sigma, level, rms);
                 // One line per DOF per minute of record time at most (a failed model was
                 // logged when it failed).
                 if !self.failed.dof[d]
@@ -851,6 +843,17 @@ impl Engine {
                         rms
                     );
                 }
+                Some(rms)
+            } else {
+                None
+            };
+            if let Some(floor) = no_skill_floor {
+                no_skill(
+                    &mut entry.mean[d][..horizon],
+                    &mut entry.sigma[d][..horizon],
+                    level,
+                    floor,
+                );
             }
             for k in 0..MAX_STEPS {
                 let (m, s) = if k < horizon {

@@ -45,9 +45,7 @@ impl LogThrottle {
             None
         }
     }
-}
 
-impl LogThrottle {
     /// Warn of one rejection (`what`, with its service's name) now, if a line is admitted;
     /// `rejected` is the count so far, which the line carries with those held back.
     pub fn warn_rejected(&mut self, rejected: u64, what: std::fmt::Arguments<'_>) {
