@@ -15,6 +15,7 @@
 pub mod atomic_file;
 pub mod decimator;
 pub mod fir;
+pub mod median;
 pub mod motion_csv;
 pub mod resample;
 pub mod spikes;

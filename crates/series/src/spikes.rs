@@ -10,6 +10,8 @@
 //! a sea that grows from one minute to the next moves both, and its waves stay within about 4
 //! scales of a Gaussian sea's.
 
+use crate::median::median_in_place;
+
 /// How far from its minute's median [robust scales] a value is a spike.
 pub const SPIKE_SCALES: f64 = 12.0;
 /// The smallest scale a column is judged against: a column of rounding noise (1e-17 on 0) is
@@ -55,25 +57,15 @@ pub fn find_spikes(values: &[f64], per_minute: usize) -> (usize, Option<usize>) 
 /// every step of one quantum a spike (0 and 0 if none is finite).
 fn median_and_scale(chunk: &[f64]) -> (f64, f64) {
     let mut v: Vec<f64> = chunk.iter().copied().filter(|x| x.is_finite()).collect();
-    if v.is_empty() {
+    let Some(centre) = median_in_place(&mut v) else {
         return (0.0, 0.0);
-    }
-    let centre = median(&mut v);
+    };
     for x in &mut v {
         *x = (*x - centre).abs();
     }
     let mean = v.iter().sum::<f64>() / v.len() as f64;
-    (centre, (1.4826 * median(&mut v)).max(1.2533 * mean))
-}
-
-fn median(v: &mut [f64]) -> f64 {
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
-    }
+    let mad = median_in_place(&mut v).unwrap_or(0.0);
+    (centre, (1.4826 * mad).max(1.2533 * mean))
 }
 
 #[cfg(test)]

@@ -468,12 +468,7 @@ fn window_excess(limits: &[f64; NUM_QUANTITIES], actual: &Tracks, n: usize) -> (
 }
 
 fn median(values: &mut [f64]) -> f64 {
-    values.sort_by(f64::total_cmp);
-    match values.len() {
-        0 => f64::NAN,
-        n if n % 2 == 1 => values[n / 2],
-        n => 0.5 * (values[n / 2 - 1] + values[n / 2]),
-    }
+    shipcast_series::median::median_in_place(values).unwrap_or(f64::NAN)
 }
 
 fn false_go_excess(false_go: &[(f64, usize, usize)], dt_s: f64) -> Option<FalseGoExcess> {

@@ -330,15 +330,7 @@ fn median_of(values: &[f64]) -> f64 {
     let mut buf = [0.0; 64];
     let n = values.len().min(buf.len());
     buf[..n].copy_from_slice(&values[values.len() - n..]);
-    let v = &mut buf[..n];
-    v.sort_by(f64::total_cmp);
-    if n == 0 {
-        0.0
-    } else if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
-    }
+    shipcast_series::median::median_in_place(&mut buf[..n]).unwrap_or(0.0)
 }
 
 #[cfg(test)]
