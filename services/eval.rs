@@ -254,8 +254,9 @@ pub fn load_resampled(path: &Path, sample_rate: f64) -> anyhow::Result<MotionDat
 }
 
 /// Name the samples of each column that lie far outside the motion around them
-/// (`shipcast_series::spikes`): the forecasts are scored against them and the models fitted
-/// on them as they are, so the user should know (and repair the record).
+/// (`shipcast_series::spikes`): where the column is evaluated, the forecasts are scored
+/// against them and the models fitted on them as they are, so the user should know (and
+/// repair the record).
 fn warn_of_spikes(path: &Path, data: &MotionData) {
     let Ok(rate) = shipcast_series::median_rate(&data.time) else {
         return;

@@ -5,10 +5,10 @@
 //! its jump guard).
 //!
 //! A value is a spike when it lies more than [`SPIKE_SCALES`] robust scales from the median of
-//! its minute, the scale being the largest of its own and the neighbouring minutes' (1.4826
-//! times the median absolute deviation): one spike hardly moves its minute's median and scale,
-//! a sea that grows from one minute to the next moves both, and its waves stay within about 4
-//! scales of a Gaussian sea's.
+//! its minute and from that of the nearer neighbouring minute, the scale being the largest of
+//! its own and the neighbouring minutes' (`median_and_scale`): one spike hardly moves its
+//! minute's median and scale, a sea that grows from one minute to the next moves both, and its
+//! waves stay within about 4 scales of a Gaussian sea's.
 
 use crate::median::median_in_place;
 

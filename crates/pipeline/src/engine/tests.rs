@@ -24,6 +24,11 @@ fn ar2(n: usize, seed: u64, scale: impl Fn(usize) -> f64) -> Vec<f64> {
     x
 }
 
+/// The root mean square of `values` (the std of a zero-mean process).
+fn rms(values: &[f64]) -> f64 {
+    (values.iter().map(|x| x * x).sum::<f64>() / values.len() as f64).sqrt()
+}
+
 fn record(heave: Vec<f64>, rate: f64) -> MotionData {
     MotionData {
         ignored: Vec::new(),
@@ -97,7 +102,7 @@ fn a_listed_ship_is_forecast_about_its_list_not_towards_zero() {
     // list: on the paper sea a 0.05 rad list made the roll error 5 s ahead 3.7 times larger.
     // The same motion about a list of 5 times its std must be forecast as well as without it.
     let motion = ar2(2 * 2 * 3600, 3, |_| 1.0);
-    let std = (motion.iter().map(|x| x * x).sum::<f64>() / motion.len() as f64).sqrt();
+    let std = rms(&motion);
     let listed: Vec<f64> = motion.iter().map(|x| x + 5.0 * std).collect();
     let level = run(&record(motion, 2.0), 1200.0);
     let list = run(&record(listed, 2.0), 1200.0);
@@ -813,7 +818,7 @@ fn one_spike_does_not_inflate_the_live_rms_behind_the_no_skill_sigma() {
     };
     let mut engine = Engine::new(config.clone(), 2.0, None, Retrainer::inline(config)).unwrap();
     let mut heave = ar2(2 * 1800, 10, |_| 1.0);
-    let std = (heave.iter().map(|x| x * x).sum::<f64>() / heave.len() as f64).sqrt();
+    let std = rms(&heave);
     let spike = 2 * 1200;
     heave[spike] = 50.0 * std;
     let (mut before, mut after) = (Vec::new(), Vec::new());
@@ -941,7 +946,7 @@ fn a_step_of_the_level_is_held_at_no_skill_and_re_levelled() {
         ..PredictorServiceConfig::default()
     };
     let clean = ar2(2 * 1800, 31, |_| 1.0);
-    let std = (clean.iter().map(|x| x * x).sum::<f64>() / clean.len() as f64).sqrt();
+    let std = rms(&clean);
     for step in [2.5 * std, 8.0 * std] {
         let onset = 2 * 900;
         let heave: Vec<f64> = clean
@@ -1002,7 +1007,7 @@ fn an_offset_undone_inside_the_hold_is_relevelled_back() {
         ..PredictorServiceConfig::default()
     };
     let clean = ar2(2 * 1200, 33, |_| 1.0);
-    let std = (clean.iter().map(|x| x * x).sum::<f64>() / clean.len() as f64).sqrt();
+    let std = rms(&clean);
     let mut engine = engine_fitted_on_ar2(&config, 30);
     let order = shipcast_predict::Predictor::order(&engine.models.as_ref().unwrap().predictors[2]);
     assert_eq!(order, 100);
@@ -1036,7 +1041,7 @@ fn a_spike_is_taken_out_of_the_history_that_retrains_copy() {
         ..PredictorServiceConfig::default()
     };
     let clean = ar2(2 * 1200, 35, |_| 1.0);
-    let std = (clean.iter().map(|x| x * x).sum::<f64>() / clean.len() as f64).sqrt();
+    let std = rms(&clean);
     let at = 2 * 900;
     let mut engine = engine_fitted_on_ar2(&config, 30);
     for (i, x) in clean.iter().enumerate().take(at + 100) {
