@@ -596,6 +596,57 @@ fn replay_of_a_record_too_short_to_score_says_why() {
     );
 }
 
+/// Regression (review): a record with a 2 s hole every 20 s (a logger that drops a block)
+/// restarts the history at each hole, so no forecast reaches 30 s of history with its 25 s of
+/// steps inside the record; the error said forecasts must be issued after "--skip-s", an
+/// option never given. It now names the restarts and the longest unbroken stretch; a record
+/// without holes that is merely short says only what a forecast needs.
+#[test]
+fn replay_of_a_record_whose_gaps_restart_the_history_names_them_not_skip_s() {
+    let dir = tempfile::tempdir().unwrap();
+    let csv = dir.path().join("plain.csv").to_str().unwrap().to_string();
+    assert!(shipcast(&["simulate", "--duration", "200", "--out", &csv])
+        .status
+        .success());
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let mut lines = text.lines();
+    let mut gappy = format!("{}\n", lines.next().unwrap());
+    for line in lines {
+        let t: f64 = line.split_once(',').unwrap().0.parse().unwrap();
+        if t % 20.0 < 18.0 {
+            gappy.push_str(line);
+            gappy.push('\n');
+        }
+    }
+    let holes = dir.path().join("holes.csv").to_str().unwrap().to_string();
+    std::fs::write(&holes, gappy).unwrap();
+    let error = |args: &[&str]| {
+        let output = shipcast(args);
+        let stderr = String::from_utf8_lossy(&output.stderr).to_string();
+        assert!(!output.status.success(), "{stderr}");
+        assert!(!stderr.contains("panicked"), "{stderr}");
+        stderr.lines().last().unwrap_or_default().to_string()
+    };
+    // Holes at 18, 38, ..., 178 s restart it; the one at 198 s has nothing after it.
+    let e = error(&["replay", "--input", &holes]);
+    assert!(
+        e.starts_with("error: no forecast could be scored in")
+            && e.contains("restarted the history 9 times")
+            && !e.contains("--skip-s"),
+        "{e}"
+    );
+    // 45 s without holes: too short, and no --skip-s was given, so none is named.
+    let short = dir.path().join("short.csv").to_str().unwrap().to_string();
+    assert!(shipcast(&["simulate", "--duration", "45", "--out", &short])
+        .status
+        .success());
+    let e = error(&["replay", "--input", &short]);
+    assert!(
+        e.contains("after 30 s of history") && !e.contains("--skip-s") && !e.contains("restarted"),
+        "{e}"
+    );
+}
+
 /// Regression (review): a record stamped before 0 was refused, as "--skip-s 0 s skips the
 /// whole record" although no --skip-s was given; replay now scores from the record's start.
 #[test]

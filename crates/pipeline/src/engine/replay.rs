@@ -65,6 +65,12 @@ pub struct ReplayReport {
     /// of up to `MAX_FILL` bridged by holding the last value, longer ones restart the
     /// history) and rejected.
     pub input: Counters,
+    /// Times the history restarted at a gap or a run of bad samples too long to bridge
+    /// (drops of the history held; the record's start is none).
+    pub history_restarts: u64,
+    /// The longest history held between restarts [s]: a forecast is scored only after
+    /// `MIN_VALUES_TO_PUBLISH` values of it and with its whole horizon still in the record.
+    pub longest_history_s: f64,
     pub dofs: Vec<DofReplay>,
     /// Deck decisions scored against the record (one per MOT; empty unless asked).
     pub decisions: Vec<DecisionReport>,
@@ -233,6 +239,7 @@ pub fn replay_scored(
     let mut unreported = 0u64;
     // Record index of each step of the forecast being scored (reused: one per forecast).
     let mut idx: Vec<usize> = Vec::with_capacity(MAX_STEPS);
+    let (mut history_held, mut longest_history, mut history_restarts) = (0usize, 0usize, 0u64);
     for (i, &t) in data.time.iter().enumerate() {
         let sample = MotionSample {
             seq: i as u64,
@@ -245,9 +252,17 @@ pub fn replay_scored(
             progress(unreported);
             unreported = 0;
         }
-        let Some(f) = engine.push(&sample)? else {
+        let produced = engine.push(&sample)?.is_some();
+        let held = engine.history_len();
+        if held < history_held {
+            history_restarts += 1;
+        }
+        history_held = held;
+        longest_history = longest_history.max(held);
+        if !produced {
             continue;
-        };
+        }
+        let f = engine.forecast();
         if keep_forecasts {
             kept.push(*f);
         }
@@ -373,6 +388,8 @@ pub fn replay_scored(
             delay_s: delay,
             counts,
             input,
+            history_restarts,
+            longest_history_s: longest_history as f64 * dt,
             dofs,
             decisions: scorer.map_or_else(Vec::new, DecisionScorer::finish),
         },
