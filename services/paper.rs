@@ -11,7 +11,7 @@ pub struct Args {
     /// Directory for report.md and the SVG figures (created if missing).
     #[arg(long)]
     out: PathBuf,
-    /// Shorter records, smaller orders and fewer MLP epochs: a smoke test in under 2 minutes.
+    /// Shorter records, smaller orders and fewer MLP epochs: a smoke test of seconds (about 3 s of CPU).
     #[arg(long)]
     quick: bool,
     /// A measured-sea motion CSV (time_s, heave_m at any rate the filter divides down to 2 Hz):
