@@ -156,14 +156,18 @@ fn mean_step(run: &[f64]) -> f64 {
     (run[run.len() - 1] - run[0]) / (run.len() - 1) as f64
 }
 
-/// The first stamp of `run` (at least two) farther than `tolerance` from its slot on the
-/// run's own grid (first stamp plus `i` mean steps), with that slot.
-fn first_off_grid(run: &[f64], tolerance: f64) -> Option<(usize, f64)> {
+/// The stamp of `run` (at least two) farthest from its slot on the run's own grid (first
+/// stamp plus `i` mean steps), with that slot, if it is farther than `tolerance`. The
+/// farthest, not the first: where the rate changes (8 Hz at 0.125 s, then 0.124 s) the
+/// stamps lie farthest from the mean grid, while the first beyond the tolerance came 113
+/// samples into the record, where nothing is wrong (review).
+fn farthest_off_grid(run: &[f64], tolerance: f64) -> Option<(usize, f64)> {
     let mean = mean_step(run);
     run.iter()
         .enumerate()
         .map(|(i, &t)| (i, t, run[0] + i as f64 * mean))
-        .find(|&(_, t, slot)| (t - slot).abs() > tolerance)
+        .max_by(|a, b| (a.1 - a.2).abs().total_cmp(&(b.1 - b.2).abs()))
+        .filter(|&(_, t, slot)| (t - slot).abs() > tolerance)
         .map(|(i, _, slot)| (i, slot))
 }
 
@@ -175,7 +179,7 @@ fn on_grid(run: &[f64], offset: usize) -> Result<(), ResampleError> {
     if run.len() < 3 {
         return Ok(());
     }
-    match first_off_grid(run, 0.5 * mean_step(run)) {
+    match farthest_off_grid(run, 0.5 * mean_step(run)) {
         Some((i, slot)) => Err(ResampleError::OffGrid {
             index: offset + i,
             time_s: run[i],
@@ -205,13 +209,57 @@ pub fn gap_free_runs(
     })
 }
 
-/// Checks a record that may hold gaps (steps longer than [`regular_step_tolerance`] of
-/// `median_step`): every gap-free run keeps to its own grid ([`on_grid`]), so a rate that
-/// drifts within a run is refused as in [`sample_rate`].
+/// Steps (in typical steps) a record that may hold gaps is judged by: one shorter than
+/// [`SHORTEST_STEP`] cannot be the next slot of its grid, and one longer than [`GAP_STEP`]
+/// leaves a slot empty (a gap).
+pub const SHORTEST_STEP: f64 = 0.5;
+pub const GAP_STEP: f64 = 1.5;
+
+/// Checks a record that may hold gaps (steps longer than [`GAP_STEP`] typical ones): every
+/// stretch between gaps keeps to its own grid ([`on_grid`]), so a rate that drifts within a
+/// stretch is refused as in [`sample_rate`], and no step is shorter than [`SHORTEST_STEP`].
+///
+/// Regression (review): the stretches were the runs of steps within
+/// [`regular_step_tolerance`] of the typical one. A record at 8 Hz that went on at 16 Hz (or
+/// held one sample inserted half a step late) had every later step outside it, so each sample
+/// was a run of its own, no grid check saw anything, and replay scored the second half as if
+/// at 8 Hz without a word. Stamps jittered within a stretch (a logger that stamps on receipt)
+/// still keep to its grid and are taken.
 pub fn check_runs_on_grid(time: &[f64], median_step: f64) -> Result<(), ResampleError> {
-    let tolerance = regular_step_tolerance(time, median_step);
-    for run in gap_free_runs(time, median_step, tolerance) {
-        on_grid(&time[run.clone()], run.start)?;
+    if let Some(index) =
+        (1..time.len()).find(|&i| time[i] - time[i - 1] < SHORTEST_STEP * median_step)
+    {
+        return Err(ResampleError::Irregular {
+            index,
+            after_s: time[index - 1],
+            step: time[index] - time[index - 1],
+            median: median_step,
+        });
+    }
+    let between_gaps = (GAP_STEP - 1.0) * median_step;
+    let regular = regular_step_tolerance(time, median_step);
+    for run in gap_free_runs(time, median_step, between_gaps) {
+        // One sample too many in a stretch (a sample out of place) moves the stamps on one
+        // side of it by half a step or more from the stretch's mean grid; a stamp jittered
+        // by less than half a step stays on it.
+        if let Err(off_grid) = on_grid(&time[run.clone()], run.start) {
+            // Where to look: the stretch's first step off the typical one (where the rate
+            // changed, or the sample out of place), as eval names it; the grid's first
+            // stamp off its slot can lie far before it.
+            let first_irregular = run
+                .clone()
+                .skip(1)
+                .find(|&i| (time[i] - time[i - 1] - median_step).abs() > regular);
+            return Err(match first_irregular {
+                Some(index) => ResampleError::Irregular {
+                    index,
+                    after_s: time[index - 1],
+                    step: time[index] - time[index - 1],
+                    median: median_step,
+                },
+                None => off_grid,
+            });
+        }
     }
     Ok(())
 }
@@ -300,7 +348,7 @@ fn check_stamp_rounding(time: &[f64], median: f64) -> Result<(), ResampleError> 
             .windows(2)
             .filter(|p| (p[1] - p[0] - median).abs() > 0.5 * quantum)
             .count();
-        let regular = first_off_grid(time, 1.01 * quantum).is_none();
+        let regular = farthest_off_grid(time, 1.01 * quantum).is_none();
         // At least MIN_ROUNDED_STEPS of them: in a short record one lost sample is a tenth.
         if off * 10 >= steps && off >= MIN_ROUNDED_STEPS && regular {
             return Err(ResampleError::CoarseStamps {
@@ -591,6 +639,45 @@ mod tests {
             Err(ResampleError::OffGrid { index, .. }) => assert!(index >= 3000, "{index}"),
             other => panic!("a drift after the gap read as {other:?}"),
         }
+    }
+
+    /// Regression (review): a rate that changes (8 Hz, then 16 Hz or 10 Hz) and a sample
+    /// inserted half a step late cut the regular runs into single samples and passed; stamps
+    /// jittered by up to a fifth of a step about their grid, with gaps, still pass.
+    #[test]
+    fn a_rate_that_changes_or_a_sample_out_of_place_is_refused_and_jitter_is_not() {
+        let step = 0.125;
+        let first: Vec<f64> = (0..2400).map(|i| i as f64 * step).collect();
+        let end = first[2399];
+        for (later, what) in [(0.0625, "16 Hz"), (0.1, "10 Hz")] {
+            let mut time = first.clone();
+            time.extend((1..2400).map(|i| end + i as f64 * later));
+            let median = 1.0 / median_rate(&time).unwrap();
+            assert!(
+                check_runs_on_grid(&time, median).is_err(),
+                "8 Hz then {what}"
+            );
+        }
+        let mut inserted = first.clone();
+        inserted.insert(800, inserted[799] + 0.5 * step);
+        let median = 1.0 / median_rate(&inserted).unwrap();
+        // A third of the way in: the stamps before it lie 2/3 of a step off the stretch's grid.
+        assert!(
+            matches!(
+                check_runs_on_grid(&inserted, median),
+                Err(ResampleError::OffGrid { .. } | ResampleError::Irregular { .. })
+            ),
+            "an inserted sample passed"
+        );
+        // Jitter of +-25 ms about an 8 Hz grid (a sign pattern, no drift), and two gaps of
+        // 3 and 40 samples.
+        let jitter = |i: usize| 0.025 * [1.0, -1.0, 0.6, -0.2, 0.0, -0.8, 0.4][i % 7];
+        let jittered: Vec<f64> = (0..4800)
+            .filter(|i| !(1000..1003).contains(i) && !(3000..3040).contains(i))
+            .map(|i| i as f64 * step + jitter(i))
+            .collect();
+        let median = 1.0 / median_rate(&jittered).unwrap();
+        check_runs_on_grid(&jittered, median).unwrap();
     }
 
     #[test]
