@@ -127,9 +127,11 @@ pub struct Engine {
     /// Per DOF, the mean square of the recorded sample at each decimated value's time less
     /// that value (weighted over about 5 minutes): what a forecast of the decimated values
     /// misses of the recorded motion even when exact ([`Ingest::recorded_at_label`]). It is
-    /// added to every step's sigma: with the minimum-phase filter, whose timing is 10-40 ms
-    /// off its label, +-2 sigma held 5.5 % of the 0.5 s heave errors on the paper sea
-    /// (review), 0-17 % at every lead on a sea of three wave components.
+    /// added to every step's sigma in quadrature, before the shape factor, which is fitted on
+    /// the errors against the recorded motion and so also covers the part of the mismatch that
+    /// is correlated with the model's error (`shape.rs`): with the minimum-phase filter, whose
+    /// timing is 10-40 ms off its label, +-2 sigma held 5.5 % of the 0.5 s heave errors on the
+    /// paper sea without it (review), 0-17 % at every lead on a sea of three wave components.
     label_mismatch: [f64; NUM_DOF],
     jumps: JumpGuard,
     /// The two newest deviations from the level per DOF, older first (what tells a spike
@@ -460,9 +462,10 @@ impl Engine {
                 self.verifier
                     .observe(d, k, f.mean[d][k], f.sigma[d][k], f.last[d], recorded[d]);
                 // Every delivered forecast shows the errors' shape, whichever model made it.
-                let s = f.sigma_calibrated[d][k];
+                let s = f.sigma_calibrated[d][k].hypot(f.label_miss[d]);
                 if s > 0.0 {
-                    self.shape.observe(d, k, (x[d] - f.mean[d][k]).abs() / s);
+                    self.shape
+                        .observe(d, k, (recorded[d] - f.mean[d][k]).abs() / s);
                 }
                 if f.version == version {
                     // The model forecast the deviation from the level it was issued at.
@@ -596,6 +599,7 @@ impl Engine {
             let bound = self.config.plausible_rms_factor * rms;
             let inflate = self.change.inflation(d);
             let label_miss = self.label_mismatch[d].sqrt();
+            entry.label_miss[d] = label_miss;
             let input = self.models.as_ref().map_or(0, |m| m.predictors[d].order());
             let jump_held = self.jumps.holds(d, index, input);
             let held = jump_held || no_input[d];
@@ -610,7 +614,7 @@ impl Engine {
                 entry.raw[d][k] = if raw.is_finite() { raw } else { 0.0 };
                 entry.mean[d][k] = level + deviation;
                 entry.sigma_calibrated[d][k] = sigma;
-                entry.sigma[d][k] = (sigma * self.shape.factor(d, k) * inflate).hypot(label_miss);
+                entry.sigma[d][k] = (sigma * inflate).hypot(label_miss) * self.shape.factor(d, k);
                 plausible &= deviation.is_finite() && deviation.abs() <= bound;
             }
             // The sigma floor of a forecast delivered as no skill, if it is one.

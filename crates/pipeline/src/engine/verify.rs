@@ -36,6 +36,10 @@ pub struct Issued {
     /// The RMS sigma the calibrator measured, before the shape factor and the change
     /// detector's inflation: what the detector and the shape factor measure against.
     pub sigma_calibrated: [[f64; MAX_STEPS]; NUM_DOF],
+    /// Per DOF, the RMS of the recorded sample less the decimated value at issue
+    /// (`Engine::label_mismatch`): with `sigma_calibrated`, what an error against the recorded
+    /// motion is measured against by the shape factor.
+    pub label_miss: [f64; NUM_DOF],
     /// Per DOF, whether it was held at no skill after a jump of its level (`jump.rs`): its
     /// model's output then is about the jump, not the sea.
     pub held: [bool; NUM_DOF],
@@ -53,6 +57,7 @@ impl Default for Issued {
             mean: [[0.0; MAX_STEPS]; NUM_DOF],
             sigma: [[0.0; MAX_STEPS]; NUM_DOF],
             held: [false; NUM_DOF],
+            label_miss: [0.0; NUM_DOF],
             sigma_calibrated: [[0.0; MAX_STEPS]; NUM_DOF],
         }
     }
