@@ -95,6 +95,30 @@ fn output_in_existing_dir(option: &str, path: &std::path::Path) -> anyhow::Resul
     }
 }
 
+/// `out`, a file a command writes, must not be `input`, a file it reads: written over, a
+/// measured record was lost (regression, review: `simulate --elevation x.csv --out x.csv`
+/// replaced the record by its simulated motion, `train --input y.csv --out y.csv` by a model).
+/// Compared as the files they are (a link, `./x.csv` and `x.csv` are the same file); an `out`
+/// that does not exist yet is no input.
+fn output_not_input(
+    option: &str,
+    out: &std::path::Path,
+    input_option: &str,
+    input: &std::path::Path,
+) -> anyhow::Result<()> {
+    let same = match (std::fs::canonicalize(out), std::fs::canonicalize(input)) {
+        (Ok(a), Ok(b)) => a == b,
+        _ => false,
+    };
+    if same {
+        anyhow::bail!(
+            "{option} {} is the {input_option} file: writing it would destroy what is read; give another {option}",
+            out.display()
+        );
+    }
+    Ok(())
+}
+
 /// The raw arguments of one command parsed from `argv` (without the command's name), as clap
 /// parses them on the command line: for the unit tests of each command's validation.
 #[cfg(test)]

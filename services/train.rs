@@ -70,6 +70,7 @@ impl TryFrom<Args> for Config {
         }
         // Checked now: the file is written after the training.
         crate::output_in_existing_dir("--out", &args.out)?;
+        crate::output_not_input("--out", &args.out, "--input", &args.input)?;
         Ok(Config {
             input: args.input,
             out: args.out,

@@ -647,6 +647,40 @@ fn replay_of_a_record_whose_gaps_restart_the_history_names_them_not_skip_s() {
     );
 }
 
+/// Regression (review): `--out` naming the file read (`simulate --elevation x.csv --out
+/// x.csv`, `train --input y.csv --out ./y.csv`) wrote over it: a measured record replaced by
+/// its simulated motion, or by a model. Both are refused and the file is left as it was.
+#[test]
+fn an_output_that_is_the_input_file_is_refused_and_the_input_kept() {
+    let dir = tempfile::tempdir().unwrap();
+    let record = dir.path().join("x.csv");
+    let record_str = record.to_str().unwrap();
+    assert!(
+        shipcast(&["simulate", "--duration", "300", "--out", record_str])
+            .status
+            .success()
+    );
+    let before = std::fs::read(&record).unwrap();
+    // The same file by another name.
+    let dotted = format!("{}/./x.csv", dir.path().display());
+    let cases: [(&[&str], &str); 2] = [
+        (
+            &["simulate", "--elevation", record_str, "--out", &dotted],
+            "is the --elevation file",
+        ),
+        (
+            &[
+                "train", "--input", record_str, "--out", &dotted, "--order", "25",
+            ],
+            "is the --input file",
+        ),
+    ];
+    for (args, reason) in cases {
+        assert_one_line_error(&shipcast(args), reason);
+        assert_eq!(std::fs::read(&record).unwrap(), before, "{args:?}");
+    }
+}
+
 /// Regression (review): a record stamped before 0 was refused, as "--skip-s 0 s skips the
 /// whole record" although no --skip-s was given; replay now scores from the record's start.
 #[test]

@@ -199,6 +199,16 @@ fn file_errors_print_the_os_cause_once() {
     assert!(!Path::new(out).exists());
 }
 
+/// The text of an elevation CSV of `n` samples `dt` apart in its time unit, `wave(t)`.
+fn elevation_text(n: usize, dt: f64, wave: impl Fn(f64) -> f64) -> String {
+    let mut text = String::from("time_s,wave_m\n");
+    for i in 0..n {
+        let t = i as f64 * dt;
+        text.push_str(&format!("{t},{}\n", wave(t)));
+    }
+    text
+}
+
 /// An elevation CSV at 2.5 Hz; `value(i)` is sample i (None = NaN).
 fn write_elevation(path: &Path, n: usize, value: impl Fn(usize) -> Option<f64>) {
     let mut text = String::from("time_s,wave_m\n");
@@ -361,10 +371,19 @@ fn bad_elevation_files_exit_with_one_clear_line() {
     // used to be written until the disk was full).
     let far: String = (0..16).map(|i| format!("{}e6,{}\n", i, i % 3)).collect();
     let far = write("g.csv", &format!("time_s,wave_m\n{far}"));
+    // Regression (review): each of these was written without a word, as a motion of nothing
+    // or of metres of roll (wave_m in millimetres), or as 477 081 rows from 480 samples
+    // (stamps in milliseconds).
+    let zeros = write("h.csv", &elevation_text(600, 0.5, |_| 0.0));
+    let millimetres = write(
+        "i.csv",
+        &elevation_text(600, 0.5, |t| 1500.0 * (0.6 * t).sin()),
+    );
+    let in_ms = write("j.csv", &elevation_text(600, 500.0, |t| (0.6e-3 * t).sin()));
     let missing = dir.path().join("missing.csv");
     let missing = missing.to_str().unwrap();
     let cannot_read = format!("cannot read {missing}");
-    let cases: [(&[&str], &str); 9] = [
+    let cases: [(&[&str], &str); 12] = [
         (
             &["--elevation", &not_number],
             "line 3, column 'wave_m': 'x' is not a number",
@@ -388,9 +407,19 @@ fn bad_elevation_files_exit_with_one_clear_line() {
             "line 3, column 'wave_m': non-finite value 'inf'",
         ),
         (&["--elevation", missing], &cannot_read),
+        // Refused by its step now, before the rows are counted.
         (
             &["--elevation", &far, "--edge-s", "0", "--rate", "8"],
-            "rows at --rate 8 Hz, at most 100000000",
+            "typical time step is 1000000 s",
+        ),
+        (&["--elevation", &zeros], "wave_m is constant (0)"),
+        (
+            &["--elevation", &millimetres],
+            "is it in millimetres or centimetres?",
+        ),
+        (
+            &["--elevation", &in_ms],
+            "looks like milliseconds (divide the column by 1000)",
         ),
         (&["--elevation", &short, "--hs", "2"], "cannot be used with"),
     ];

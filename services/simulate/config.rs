@@ -82,7 +82,13 @@ impl TryFrom<Args> for Config {
         let rate_hz = checked(limits::rate("--rate", args.rate, MAX_PRODUCER_RATE_HZ))?;
         let record = match &args.elevation {
             Some(elevation) => Record::Measured {
-                elevation: elevation.clone(),
+                elevation: {
+                    crate::output_not_input("--out", &args.out, "--elevation", elevation)?;
+                    if let Some(svg) = &args.plot {
+                        crate::output_not_input("--plot", svg, "--elevation", elevation)?;
+                    }
+                    elevation.clone()
+                },
                 edge_s: checked(limits::non_negative(
                     "--edge-s",
                     args.edge_s.unwrap_or(DEFAULT_EDGE_S),

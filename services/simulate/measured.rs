@@ -29,6 +29,11 @@ pub(super) fn run_measured(
             path.display()
         )
     })?;
+    // The checks every record's stamps get (eval, replay): stamps in milliseconds read as a
+    // record 1000 times longer, and were expanded into hundreds of thousands of rows
+    // (regression, review).
+    shipcast_series::median_rate(&data.time).with_context(|| path.display().to_string())?;
+    check_wave_height(path, wave)?;
     let segments = split_segments(&data.time, wave).with_context(|| path.display().to_string())?;
     let rao = build_rao(&cfg.rao)?;
     let (beta, speed) = (cfg.heading_deg.to_radians(), cfg.speed_mps());
@@ -96,13 +101,17 @@ pub(super) fn run_measured(
         let Some(response) = SegmentResponse::new(seg, rao.as_ref(), beta, speed, edge_s, station)?
         else {
             skipped += 1;
-            tracing::warn!(
-                "segment {:.2}..{:.2} s ({} samples) is not longer than twice --edge-s {} s: skipped",
-                seg.start_s,
-                seg.end_s(),
-                seg.values.len(),
-                edge_s
-            );
+            // One line, not one per segment: a record with a NaN every other sample has
+            // thousands of one-sample segments (review: 2400 lines).
+            if skipped == 1 {
+                tracing::warn!(
+                    "segment {:.2}..{:.2} s ({} samples) is not longer than twice --edge-s {} s: skipped (further ones are counted at the end)",
+                    seg.start_s,
+                    seg.end_s(),
+                    seg.values.len(),
+                    edge_s
+                );
+            }
             continue;
         };
         let rows_before = out.rows;
@@ -140,6 +149,12 @@ pub(super) fn run_measured(
         }
     }
     bar.finish_and_clear();
+    if skipped > 1 {
+        tracing::warn!(
+            skipped,
+            "{skipped} segments not longer than twice --edge-s {edge_s} s were skipped in all"
+        );
+    }
     if written == 0 {
         // Regression (review): a header-only file was left to be taken for a record.
         drop(out);
@@ -168,4 +183,34 @@ pub(super) fn run_measured(
         tracing::info!("{:<10} RMS {rms:.4}{}", ch.column(), degrees(ch, rms));
     }
     out.finish()
+}
+
+/// The significant wave height (4 standard deviations) of a measured elevation record, over its
+/// finite values, refused where no sea has it: a constant record (all zeros: a channel that
+/// sent nothing) drives no motion at all, and one of 30 m or more is in other units (wave_m in
+/// millimetres drove a roll of 44 deg RMS and a pitch of 505 deg; review). `simulate` refuses
+/// such an Hs for a simulated sea too.
+fn check_wave_height(path: &Path, wave: &[f64]) -> anyhow::Result<()> {
+    let finite: Vec<f64> = wave.iter().copied().filter(|v| v.is_finite()).collect();
+    if finite.is_empty() {
+        // The segments' own check says there is no data.
+        return Ok(());
+    }
+    let n = finite.len() as f64;
+    let mean = finite.iter().sum::<f64>() / n;
+    let hs = 4.0 * (finite.iter().map(|v| (v - mean) * (v - mean)).sum::<f64>() / n).sqrt();
+    if hs.is_nan() || hs <= 0.0 {
+        anyhow::bail!(
+            "{}: wave_m is constant ({mean}): no waves to drive the ship with",
+            path.display()
+        );
+    }
+    if hs >= shipcast_sim::scenario::MAX_HS_M {
+        anyhow::bail!(
+            "{}: wave_m has a significant wave height of {hs:.3e} m (4 standard deviations), beyond the {} m of any sea: is it in millimetres or centimetres? wave_m is in metres",
+            path.display(),
+            shipcast_sim::scenario::MAX_HS_M
+        );
+    }
+    Ok(())
 }
