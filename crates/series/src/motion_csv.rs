@@ -168,7 +168,7 @@ impl MotionData {
             .collect();
         let mut line = 1;
         while read_record(&mut reader, &mut record)? {
-            line = record_line(&record);
+            line = record_line(&mut reader, &record);
             if record.len() < names.len() {
                 return Err(MotionCsvError::Truncated {
                     line,
@@ -333,6 +333,15 @@ struct LastByte<R> {
     inner: R,
     last: Option<u8>,
     line_bytes: usize,
+    /// Bytes passed through so far.
+    offset: u64,
+    /// Offsets of the line breaks passed through that no record asked about yet (a CRLF is one
+    /// break, at its CR; a bare CR or LF is one), and how many were dropped from the front:
+    /// records are asked about in order, so this holds at most what the CSV reader buffers.
+    breaks: std::collections::VecDeque<u64>,
+    breaks_before: u64,
+    /// Whether the last byte passed through was a CR (a CRLF split between two reads).
+    after_cr: bool,
 }
 
 /// Longest line a motion CSV may have: some hundred columns of numbers take a few kB.
@@ -344,7 +353,21 @@ impl<R> LastByte<R> {
             inner,
             last: None,
             line_bytes: 0,
+            offset: 0,
+            breaks: std::collections::VecDeque::new(),
+            breaks_before: 0,
+            after_cr: false,
         }
+    }
+
+    /// The line (from 1) the byte at `offset` lies on: one more than the line breaks before
+    /// it. Offsets must be asked in increasing order.
+    fn line_at(&mut self, offset: u64) -> u64 {
+        while self.breaks.front().is_some_and(|&b| b < offset) {
+            self.breaks.pop_front();
+            self.breaks_before += 1;
+        }
+        self.breaks_before + 1
     }
 }
 
@@ -355,6 +378,15 @@ impl<R: Read> Read for LastByte<R> {
         if let Some(&last) = read.last() {
             self.last = Some(last);
         }
+        for (i, &b) in read.iter().enumerate() {
+            match b {
+                b'\r' => self.breaks.push_back(self.offset + i as u64),
+                b'\n' if !self.after_cr => self.breaks.push_back(self.offset + i as u64),
+                _ => {}
+            }
+            self.after_cr = b == b'\r';
+        }
+        self.offset += n as u64;
         // A bare CR ends a line too, as the CSV reader takes it.
         self.line_bytes = match read.iter().rposition(|&b| b == b'\n' || b == b'\r') {
             Some(i) => n - i - 1,
@@ -375,21 +407,32 @@ impl<R: Read> Read for LastByte<R> {
 
 /// Read the next record; `Ok(false)` at the end of the input.
 fn read_record<R: Read>(
-    reader: &mut csv::Reader<R>,
+    reader: &mut csv::Reader<LastByte<R>>,
     record: &mut csv::StringRecord,
 ) -> Result<bool, MotionCsvError> {
-    reader.read_record(record).map_err(|e| {
-        let line = e.position().map_or(0, |p| p.line());
-        let message = e.to_string();
-        match e.into_kind() {
-            csv::ErrorKind::Io(io) => MotionCsvError::Io(io),
-            _ => MotionCsvError::Malformed { line, message },
+    match reader.read_record(record) {
+        Ok(more) => Ok(more),
+        Err(e) => {
+            let line = e
+                .position()
+                .map_or(0, |p| reader.get_mut().line_at(p.byte()));
+            let message = e.to_string();
+            Err(match e.into_kind() {
+                csv::ErrorKind::Io(io) => MotionCsvError::Io(io),
+                _ => MotionCsvError::Malformed { line, message },
+            })
         }
-    })
+    }
 }
 
-fn record_line(record: &csv::StringRecord) -> u64 {
-    record.position().map_or(0, |p| p.line())
+/// The line `record` starts on, counted by [`LastByte::line_at`]: the CSV reader's own count
+/// is one short after every CRLF line end and never moves with bare CR line ends (csv 1.x,
+/// BurntSushi/rust-csv#395), so a CRLF file's errors named the line before the bad one and a
+/// CR file's all said line 1 (review).
+fn record_line<R: Read>(reader: &mut csv::Reader<LastByte<R>>, record: &csv::StringRecord) -> u64 {
+    record
+        .position()
+        .map_or(0, |p| reader.get_mut().line_at(p.byte()))
 }
 
 /// Validate the header; returns the index of the time column.
@@ -629,6 +672,58 @@ mod tests {
             plain.dof(Dof::Roll).unwrap_err().to_string(),
             "no 'roll_rad' column for roll (columns: time_s, heave_m)"
         );
+    }
+
+    /// Regression (review): with CRLF line ends every error named the line before the bad one,
+    /// and with bare CR line ends every error said line 1 (the CSV reader's own count). The
+    /// same file with any line end names the same line, also after a quoted field that holds
+    /// a line break and across reads that split a CRLF.
+    #[test]
+    fn errors_name_the_same_line_whatever_the_line_ends() {
+        let lines = [
+            "time_s,heave_m,note",
+            "0,1,\"two{NL}lines\"",
+            "0.5,2,x",
+            "1.0,abc,y",
+        ];
+        for end in ["\n", "\r\n", "\r"] {
+            let text = lines.join(end).replace("{NL}", end) + end;
+            let e = err(&text);
+            assert!(
+                e.contains("line 5, column 'heave_m': 'abc' is not a number"),
+                "{end:?}: {e}"
+            );
+            // One byte per read: every CRLF is split between two reads.
+            let bytes = text.into_bytes();
+            let one_at_a_time = ByteAtATime(&bytes);
+            let e = MotionData::read(one_at_a_time).unwrap_err().to_string();
+            assert!(
+                e.contains("line 5, column 'heave_m'"),
+                "{end:?} byte by byte: {e}"
+            );
+        }
+        let truncated = "time_s,heave_m\r\n0,1\r\n0.5\r\n";
+        assert!(
+            err(truncated).contains("line 3: truncated row"),
+            "{}",
+            err(truncated)
+        );
+    }
+
+    /// A reader that hands out one byte per read.
+    struct ByteAtATime<'a>(&'a [u8]);
+
+    impl Read for ByteAtATime<'_> {
+        fn read(&mut self, buf: &mut [u8]) -> io::Result<usize> {
+            match (self.0.split_first(), buf.first_mut()) {
+                (Some((&b, rest)), Some(slot)) => {
+                    *slot = b;
+                    self.0 = rest;
+                    Ok(1)
+                }
+                _ => Ok(0),
+            }
+        }
     }
 
     #[test]
