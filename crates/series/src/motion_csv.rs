@@ -41,8 +41,8 @@ pub enum MotionCsvError {
     MissingTime { columns: String },
     #[error("line 1: column '{column}' appears twice")]
     DuplicateColumn { column: String },
-    #[error("line 1: column {index} has an empty name")]
-    EmptyColumnName { index: usize },
+    #[error("line 1: the file is UTF-16 text: save it as UTF-8 (or ASCII)")]
+    Utf16,
     #[error("line {line}: truncated row: {got} of {expected} fields")]
     Truncated {
         line: u64,
@@ -65,6 +65,8 @@ pub enum MotionCsvError {
     },
     #[error("line {line}, column '{column}': missing value")]
     Missing { line: u64, column: String },
+    #[error("line {line}, column '{column}': not UTF-8 text (a number is ASCII)")]
+    NotText { line: u64, column: String },
     #[error("line {line}, column '{column}': '{text}' is not a number")]
     NotANumber {
         line: u64,
@@ -151,11 +153,25 @@ impl MotionData {
             .flexible(true)
             .trim(csv::Trim::All)
             .from_reader(LastByte::new(input));
-        let mut record = csv::StringRecord::new();
+        // Bytes, decoded only where a column is read: a note in another column may be in any
+        // encoding (review: one Latin-1 'café' in an ignored column refused the whole file).
+        let mut record = csv::ByteRecord::new();
         if !read_record(&mut reader, &mut record)? {
             return Err(MotionCsvError::Empty);
         }
-        let names: Vec<String> = record.iter().map(str::to_string).collect();
+        // UTF-16 (a spreadsheet's "Unicode text") reads as names of NUL-separated bytes.
+        if record
+            .get(0)
+            .is_some_and(|f| f.starts_with(&[0xFF, 0xFE]) || f.starts_with(&[0xFE, 0xFF]))
+        {
+            return Err(MotionCsvError::Utf16);
+        }
+        // A name that is not UTF-8 is no motion column's: it is shown as best it can be, and
+        // ignored.
+        let names: Vec<String> = record
+            .iter()
+            .map(|name| String::from_utf8_lossy(name).into_owned())
+            .collect();
         let time_index = check_header(&names)?;
 
         let mut time = Vec::new();
@@ -183,10 +199,14 @@ impl MotionData {
                     got: record.len(),
                 });
             }
-            for (i, text) in record.iter().enumerate() {
+            for (i, bytes) in record.iter().enumerate() {
                 if !read[i] {
                     continue;
                 }
+                let text = std::str::from_utf8(bytes).map_err(|_| MotionCsvError::NotText {
+                    line,
+                    column: names[i].clone(),
+                })?;
                 let value = if nan_is_gap && i != time_index && text.eq_ignore_ascii_case("nan") {
                     f64::NAN
                 } else {
@@ -408,9 +428,9 @@ impl<R: Read> Read for LastByte<R> {
 /// Read the next record; `Ok(false)` at the end of the input.
 fn read_record<R: Read>(
     reader: &mut csv::Reader<LastByte<R>>,
-    record: &mut csv::StringRecord,
+    record: &mut csv::ByteRecord,
 ) -> Result<bool, MotionCsvError> {
-    match reader.read_record(record) {
+    match reader.read_byte_record(record) {
         Ok(more) => Ok(more),
         Err(e) => {
             let line = e
@@ -429,20 +449,24 @@ fn read_record<R: Read>(
 /// is one short after every CRLF line end and never moves with bare CR line ends (csv 1.x,
 /// BurntSushi/rust-csv#395), so a CRLF file's errors named the line before the bad one and a
 /// CR file's all said line 1 (review).
-fn record_line<R: Read>(reader: &mut csv::Reader<LastByte<R>>, record: &csv::StringRecord) -> u64 {
+fn record_line<R: Read>(reader: &mut csv::Reader<LastByte<R>>, record: &csv::ByteRecord) -> u64 {
     record
         .position()
         .map_or(0, |p| reader.get_mut().line_at(p.byte()))
 }
 
 /// Validate the header; returns the index of the time column.
+///
+/// Only the columns that are read must be unique: other columns are ignored, so two notes
+/// both named `flag`, or a spreadsheet's unnamed index column, are no error (review: they
+/// refused the file, against "every other column is ignored").
 fn check_header(names: &[String]) -> Result<usize, MotionCsvError> {
     // A set, not a scan of the names before each: a header of 300 000 columns took minutes.
     let mut seen = std::collections::HashSet::with_capacity(names.len());
-    for (i, name) in names.iter().enumerate() {
-        if name.is_empty() {
-            return Err(MotionCsvError::EmptyColumnName { index: i + 1 });
-        }
+    for name in names
+        .iter()
+        .filter(|n| n.as_str() == TIME_COLUMN || is_read_column(n))
+    {
         if !seen.insert(name.as_str()) {
             return Err(MotionCsvError::DuplicateColumn {
                 column: name.clone(),
@@ -710,6 +734,32 @@ mod tests {
         );
     }
 
+    /// Regression (review): one Latin-1 'café' in a note column, which is not read, refused
+    /// the whole file as malformed CSV naming "field 8". Bytes that are not UTF-8 are an error
+    /// only in a column that is read, and a UTF-16 file is told as such.
+    #[test]
+    fn only_the_columns_read_must_be_text() {
+        let latin1 = b"time_s,heave_m,note\n0,1,caf\xe9\n0.5,2,ok\n".to_vec();
+        let data = MotionData::read(&latin1[..]).unwrap();
+        assert_eq!(data.dof(Dof::Heave).unwrap(), &[1.0, 2.0]);
+        let bad = b"time_s,heave_m,note\n0,1,a\n0.5,\xe92,b\n".to_vec();
+        let e = MotionData::read(&bad[..]).unwrap_err().to_string();
+        assert_eq!(
+            e,
+            "line 3, column 'heave_m': not UTF-8 text (a number is ASCII)"
+        );
+        let utf16: Vec<u8> = [0xFF, 0xFE]
+            .into_iter()
+            .chain(
+                "time_s,heave_m\n0,1\n"
+                    .encode_utf16()
+                    .flat_map(u16::to_le_bytes),
+            )
+            .collect();
+        let e = MotionData::read(&utf16[..]).unwrap_err().to_string();
+        assert!(e.contains("UTF-16"), "{e}");
+    }
+
     /// A reader that hands out one byte per read.
     struct ByteAtATime<'a>(&'a [u8]);
 
@@ -842,8 +892,12 @@ mod tests {
         // A duplicate far into a wide header is still found (and quickly: the names are
         // checked against a set, not each against all before it).
         let wide: Vec<String> = (0..100_000).map(|i| format!("c{i}")).collect();
-        let message = err(&format!("time_s,{},c7\n", wide.join(",")));
-        assert!(message.contains("'c7' appears twice"), "{message}");
+        let message = err(&format!("time_s,heave_m,{},heave_m\n", wide.join(",")));
+        assert!(message.contains("'heave_m' appears twice"), "{message}");
+        // Columns that are not read may repeat a name or have none (a spreadsheet's index).
+        let data = read_str(",time_s,flag,heave_m,flag\n0,0,a,1,b\n1,0.5,c,2,d\n").unwrap();
+        assert_eq!(data.dof(Dof::Heave).unwrap(), &[1.0, 2.0]);
+        assert_eq!(data.ignored, ["", "flag", "flag"]);
         // Regression: a stray quote made the rest of the file one field, and the whole of it
         // (newlines included) the error message.
         let mut quoted = format!("{header}0,1,2\n1,2,\"3\n");
