@@ -98,16 +98,17 @@ fn output_in_existing_dir(option: &str, path: &std::path::Path) -> anyhow::Resul
 /// `out`, a file a command writes, must not be `input`, a file it reads: written over, a
 /// measured record was lost (regression, review: `simulate --elevation x.csv --out x.csv`
 /// replaced the record by its simulated motion, `train --input y.csv --out y.csv` by a model).
-/// Compared as the files they are (a link, `./x.csv` and `x.csv` are the same file); an `out`
-/// that does not exist yet is no input.
+/// Compared as the files they are (the same device and inode: `./x.csv` and `x.csv`, a
+/// symbolic or a hard link are the same file); an `out` that does not exist yet is no input.
 fn output_not_input(
     option: &str,
     out: &std::path::Path,
     input_option: &str,
     input: &std::path::Path,
 ) -> anyhow::Result<()> {
-    let same = match (std::fs::canonicalize(out), std::fs::canonicalize(input)) {
-        (Ok(a), Ok(b)) => a == b,
+    use std::os::unix::fs::MetadataExt;
+    let same = match (std::fs::metadata(out), std::fs::metadata(input)) {
+        (Ok(a), Ok(b)) => a.dev() == b.dev() && a.ino() == b.ino(),
         _ => false,
     };
     if same {

@@ -108,6 +108,11 @@ impl TryFrom<Args> for Config {
                         limits::MAX_RECORD_TIME_S,
                     ))?;
                 }
+                // Regression (review): a calls file naming a record was written over it.
+                if let Some(csv) = &args.calls_csv {
+                    crate::output_not_input("--calls-csv", csv, "--crane-record", &crane_record)?;
+                    crate::output_not_input("--calls-csv", csv, "--target-record", &target_record)?;
+                }
                 Mode::Study {
                     crane_record,
                     target_record,

@@ -661,18 +661,33 @@ fn an_output_that_is_the_input_file_is_refused_and_the_input_kept() {
             .success()
     );
     let before = std::fs::read(&record).unwrap();
-    // The same file by another name.
+    // The same file by another name, and by a hard link.
     let dotted = format!("{}/./x.csv", dir.path().display());
-    let cases: [(&[&str], &str); 2] = [
+    let hard = dir.path().join("hard.csv");
+    std::fs::hard_link(&record, &hard).unwrap();
+    let hard = hard.to_str().unwrap();
+    let cases: [(&[&str], &str); 3] = [
         (
             &["simulate", "--elevation", record_str, "--out", &dotted],
             "is the --elevation file",
         ),
         (
             &[
-                "train", "--input", record_str, "--out", &dotted, "--order", "25",
+                "train", "--input", record_str, "--out", hard, "--order", "25",
             ],
             "is the --input file",
+        ),
+        (
+            &[
+                "relative",
+                "--crane-record",
+                record_str,
+                "--target-record",
+                record_str,
+                "--calls-csv",
+                &dotted,
+            ],
+            "is the --crane-record file",
         ),
     ];
     for (args, reason) in cases {

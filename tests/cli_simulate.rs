@@ -375,6 +375,8 @@ fn bad_elevation_files_exit_with_one_clear_line() {
     // or of metres of roll (wave_m in millimetres), or as 477 081 rows from 480 samples
     // (stamps in milliseconds).
     let zeros = write("h.csv", &elevation_text(600, 0.5, |_| 0.0));
+    // Not exactly 0: its computed spread is rounding, not waves (review).
+    let constant = write("k.csv", &elevation_text(600, 0.5, |_| 1.37));
     let millimetres = write(
         "i.csv",
         &elevation_text(600, 0.5, |t| 1500.0 * (0.6 * t).sin()),
@@ -383,7 +385,7 @@ fn bad_elevation_files_exit_with_one_clear_line() {
     let missing = dir.path().join("missing.csv");
     let missing = missing.to_str().unwrap();
     let cannot_read = format!("cannot read {missing}");
-    let cases: [(&[&str], &str); 12] = [
+    let cases: [(&[&str], &str); 13] = [
         (
             &["--elevation", &not_number],
             "line 3, column 'wave_m': 'x' is not a number",
@@ -413,6 +415,7 @@ fn bad_elevation_files_exit_with_one_clear_line() {
             "typical time step is 1000000 s",
         ),
         (&["--elevation", &zeros], "wave_m is constant (0)"),
+        (&["--elevation", &constant], "wave_m is constant (1.37"),
         (
             &["--elevation", &millimetres],
             "is it in millimetres or centimetres?",
