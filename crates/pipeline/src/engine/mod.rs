@@ -461,9 +461,12 @@ impl Engine {
             for d in 0..NUM_DOF {
                 self.verifier
                     .observe(d, k, f.mean[d][k], f.sigma[d][k], f.last[d], recorded[d]);
-                // Every delivered forecast shows the errors' shape, whichever model made it.
+                // Every delivered forecast shows the errors' shape, whichever model made it;
+                // one delivered as no skill is the level, not the model's mean, and measured
+                // against the model's sigma its errors pushed the factor to its top for the
+                // model's forecasts after it (review).
                 let s = f.sigma_calibrated[d][k].hypot(f.label_miss[d]);
-                if s > 0.0 {
+                if s > 0.0 && !f.no_skill[d] {
                     self.shape
                         .observe(d, k, (recorded[d] - f.mean[d][k]).abs() / s);
                 }
@@ -647,6 +650,7 @@ impl Engine {
             } else {
                 None
             };
+            entry.no_skill[d] = no_skill_floor.is_some();
             if let Some(floor) = no_skill_floor {
                 no_skill(
                     &mut entry.mean[d][..horizon],

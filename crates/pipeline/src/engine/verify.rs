@@ -40,6 +40,9 @@ pub struct Issued {
     /// (`Engine::label_mismatch`): with `sigma_calibrated`, what an error against the recorded
     /// motion is measured against by the shape factor.
     pub label_miss: [f64; NUM_DOF],
+    /// Per DOF, whether it was delivered as no skill (held after a jump, without its input,
+    /// implausible, or a failed model): the level, with a sigma floor of its own.
+    pub no_skill: [bool; NUM_DOF],
     /// Per DOF, whether it was held at no skill after a jump of its level (`jump.rs`): its
     /// model's output then is about the jump, not the sea.
     pub held: [bool; NUM_DOF],
@@ -58,6 +61,7 @@ impl Default for Issued {
             sigma: [[0.0; MAX_STEPS]; NUM_DOF],
             held: [false; NUM_DOF],
             label_miss: [0.0; NUM_DOF],
+            no_skill: [false; NUM_DOF],
             sigma_calibrated: [[0.0; MAX_STEPS]; NUM_DOF],
         }
     }

@@ -383,9 +383,12 @@ fn sigma_holds_the_recorded_motion_where_the_forecasts_are_very_good() {
     assert!(d.scored > 2000, "{}", d.scored);
     // Skill this high is what the case is about.
     assert!(d.nrmse[9] < 0.1, "5 s NRMSE {}", d.nrmse[9]);
+    // Within the bands an operator is promised, with a little room: not narrow, and not
+    // merely wide either (a factor stuck at its top would hold nearly everything).
     for k in 0..20 {
         assert!(
-            d.coverage_1sigma[k] >= 0.62 && d.coverage_2sigma[k] >= 0.92,
+            (0.62..=0.75).contains(&d.coverage_1sigma[k])
+                && (0.92..=0.98).contains(&d.coverage_2sigma[k]),
             "{} s ahead: +-1 sigma holds {:.3}, +-2 sigma {:.3}",
             0.5 * (k + 1) as f64,
             d.coverage_1sigma[k],
