@@ -40,6 +40,14 @@ pub enum ResampleError {
         step: f64,
         median: f64,
     },
+    #[error("irregular sampling: time step {index} (after t = {after_s} s) is {step} s and the next {next} s, together about two typical steps of {median} s: a stamp off its slot by more than a quarter step, which a fixed-rate reader takes for a lost sample (stamps jittered that much must be put on their grid first)")]
+    Jittered {
+        index: usize,
+        after_s: f64,
+        step: f64,
+        next: f64,
+        median: f64,
+    },
     #[error("irregular sampling: the rate drifts: sample {index} is stamped {time_s} s, {grid_s:.3} s on the grid of the gap-free stretch from t = {stretch_from_s} s (its first stamp plus its mean step per sample)")]
     OffGrid {
         index: usize,
@@ -209,61 +217,115 @@ pub fn gap_free_runs(
     })
 }
 
-/// Steps (in typical steps) a record that may hold gaps is judged by: one shorter than
-/// [`SHORTEST_STEP`] cannot be the next slot of its grid, and one longer than [`GAP_STEP`]
-/// leaves a slot empty (a gap).
-pub const SHORTEST_STEP: f64 = 0.5;
-pub const GAP_STEP: f64 = 1.5;
-
-/// Checks a record that may hold gaps (steps longer than [`GAP_STEP`] typical ones): every
-/// stretch between gaps keeps to its own grid ([`on_grid`]), so a rate that drifts within a
-/// stretch is refused as in [`sample_rate`], and no step is shorter than [`SHORTEST_STEP`].
+/// Checks a record that may hold gaps as a fixed-rate consumer takes it (the predictor's
+/// engine counts samples): each sample goes into the slot `max(1, round(step / median_step))`
+/// after the one before, a gap of up to `bridged` empty slots is bridged, and a longer one
+/// starts a new stretch with a phase of its own. Within each stretch the stamps must lie within
+/// half a step of their slots on the stretch's grid (its span over its slots), and that grid's
+/// step must be the record's typical one (within [`regular_step_tolerance`], and what half a
+/// step of jitter at each end allows).
 ///
-/// Regression (review): the stretches were the runs of steps within
-/// [`regular_step_tolerance`] of the typical one. A record at 8 Hz that went on at 16 Hz (or
-/// held one sample inserted half a step late) had every later step outside it, so each sample
-/// was a run of its own, no grid check saw anything, and replay scored the second half as if
-/// at 8 Hz without a word. Stamps jittered within a stretch (a logger that stamps on receipt)
-/// still keep to its grid and are taken.
-pub fn check_runs_on_grid(time: &[f64], median_step: f64) -> Result<(), ResampleError> {
-    if let Some(index) =
-        (1..time.len()).find(|&i| time[i] - time[i - 1] < SHORTEST_STEP * median_step)
-    {
-        return Err(ResampleError::Irregular {
-            index,
-            after_s: time[index - 1],
-            step: time[index] - time[index - 1],
-            median: median_step,
-        });
-    }
-    let between_gaps = (GAP_STEP - 1.0) * median_step;
+/// Regressions (review):
+/// - the stretches were the runs of steps within [`regular_step_tolerance`] of the typical
+///   one: a record at 8 Hz that went on at 16 Hz (or held one sample inserted half a step
+///   late) cut into single samples, and replay scored it as if at 8 Hz without a word;
+/// - each stretch was checked against its own mean step only: 8 Hz, a pause, then 10 Hz (or a
+///   clock 2 % slow) passed, and the later part was fed as 8 Hz; so did 8 Hz then 5 Hz, every
+///   step of 1.6 taken for a gap;
+/// - a step shorter than half the typical one was refused, and with it stamps jittered by
+///   more than a quarter step, which the engine places right. Stamps jittered so far that a
+///   step rounds to two slots are refused: the engine would bridge a sample that is there.
+pub fn check_runs_on_grid(
+    time: &[f64],
+    median_step: f64,
+    bridged: usize,
+) -> Result<(), ResampleError> {
     let regular = regular_step_tolerance(time, median_step);
-    for run in gap_free_runs(time, median_step, between_gaps) {
-        // One sample too many in a stretch (a sample out of place) moves the stamps on one
-        // side of it by half a step or more from the stretch's mean grid; a stamp jittered
-        // by less than half a step stays on it.
-        if let Err(off_grid) = on_grid(&time[run.clone()], run.start) {
-            // Where to look: the stretch's first step off the typical one (where the rate
-            // changed, or the sample out of place), as eval names it; the grid's first
-            // stamp off its slot can lie far before it.
-            let first_irregular = run
-                .clone()
-                .skip(1)
-                .find(|&i| (time[i] - time[i - 1] - median_step).abs() > regular);
-            return Err(match first_irregular {
-                Some(index) => ResampleError::Irregular {
-                    index,
-                    after_s: time[index - 1],
-                    step: time[index] - time[index - 1],
-                    median: median_step,
-                },
-                None => off_grid,
-            });
-        }
+    let slots_of = |i: usize| ((time[i] - time[i - 1]) / median_step).round().max(1.0);
+    let restarts = |i: usize| slots_of(i) - 1.0 > bridged as f64;
+    let mut start = 0;
+    for end in (1..=time.len()).filter(|&i| i == time.len() || restarts(i)) {
+        check_stretch(time, start, end, median_step, regular, &slots_of)?;
+        start = end;
     }
     Ok(())
 }
 
+/// [`check_runs_on_grid`] for the stretch `time[start..end]`.
+fn check_stretch(
+    time: &[f64],
+    start: usize,
+    end: usize,
+    median_step: f64,
+    regular: f64,
+    slots_of: &dyn Fn(usize) -> f64,
+) -> Result<(), ResampleError> {
+    if end - start < 3 {
+        return Ok(());
+    }
+    let slots = ((start + 1)..end).map(slots_of).sum::<f64>();
+    let grid = (time[end - 1] - time[start]) / slots;
+    // Where to look when the stretch fails: a stamp so late that its step rounds to two slots
+    // while the next step makes up for it (jitter), or else its first step that is no whole
+    // number of typical steps (where the rate changed), as eval names it.
+    let first_irregular = || {
+        let late = ((start + 1)..end.saturating_sub(1)).find(|&i| {
+            let (step, next) = (time[i] - time[i - 1], time[i + 1] - time[i]);
+            slots_of(i) >= 2.0 && ((step + next) / median_step).round() < slots_of(i) + 1.0
+        });
+        if let Some(index) = late {
+            return Some(ResampleError::Jittered {
+                index,
+                after_s: time[index - 1],
+                step: time[index] - time[index - 1],
+                next: time[index + 1] - time[index],
+                median: median_step,
+            });
+        }
+        ((start + 1)..end)
+            .find(|&i| {
+                let step = time[i] - time[i - 1];
+                (step - slots_of(i) * median_step).abs() > regular
+            })
+            .map(|index| ResampleError::Irregular {
+                index,
+                after_s: time[index - 1],
+                step: time[index] - time[index - 1],
+                median: median_step,
+            })
+    };
+    // Half a step of jitter at either end moves the grid's step by up to one step over the
+    // slots.
+    if (grid - median_step).abs() > regular + median_step / slots {
+        return Err(first_irregular().unwrap_or(ResampleError::OffGrid {
+            index: end - 1,
+            time_s: time[end - 1],
+            grid_s: time[start] + slots * median_step,
+            stretch_from_s: time[start],
+        }));
+    }
+    let mut slot = 0.0;
+    let mut farthest: Option<(usize, f64, f64)> = None;
+    for i in start..end {
+        if i > start {
+            slot += slots_of(i);
+        }
+        let at = time[start] + slot * grid;
+        let off = (time[i] - at).abs();
+        if off > 0.5 * grid && farthest.is_none_or(|f| off > f.2) {
+            farthest = Some((i, at, off));
+        }
+    }
+    match farthest {
+        Some((index, grid_s, _)) => Err(ResampleError::OffGrid {
+            index,
+            time_s: time[index],
+            grid_s,
+            stretch_from_s: time[start],
+        }),
+        None => Ok(()),
+    }
+}
 /// Units time stamps come in, with how many of them make a second.
 const TIME_UNITS: [(f64, &str); 4] = [
     (1.0, "seconds"),
@@ -632,10 +694,10 @@ mod tests {
         let gap_end = time[2999] + 5.0;
         time.extend((0..3000).map(|i| ms(gap_end + i as f64 * 0.016)));
         let median = 1.0 / median_rate(&time).unwrap();
-        check_runs_on_grid(&time, median).unwrap();
+        check_runs_on_grid(&time, median, 8).unwrap();
         let end = time[5999];
         time.extend((1..3000).map(|i| ms(end + i as f64 * 0.015)));
-        match check_runs_on_grid(&time, median) {
+        match check_runs_on_grid(&time, median, 8) {
             Err(ResampleError::OffGrid { index, .. }) => assert!(index >= 3000, "{index}"),
             other => panic!("a drift after the gap read as {other:?}"),
         }
@@ -654,7 +716,7 @@ mod tests {
             time.extend((1..2400).map(|i| end + i as f64 * later));
             let median = 1.0 / median_rate(&time).unwrap();
             assert!(
-                check_runs_on_grid(&time, median).is_err(),
+                check_runs_on_grid(&time, median, 8).is_err(),
                 "8 Hz then {what}"
             );
         }
@@ -664,7 +726,7 @@ mod tests {
         // A third of the way in: the stamps before it lie 2/3 of a step off the stretch's grid.
         assert!(
             matches!(
-                check_runs_on_grid(&inserted, median),
+                check_runs_on_grid(&inserted, median, 8),
                 Err(ResampleError::OffGrid { .. } | ResampleError::Irregular { .. })
             ),
             "an inserted sample passed"
@@ -676,8 +738,34 @@ mod tests {
             .filter(|i| !(1000..1003).contains(i) && !(3000..3040).contains(i))
             .map(|i| i as f64 * step + jitter(i))
             .collect();
-        let median = 1.0 / median_rate(&jittered).unwrap();
-        check_runs_on_grid(&jittered, median).unwrap();
+        // Against the rate the record runs at (the median step of such a pattern is biased).
+        check_runs_on_grid(&jittered, step, 8).unwrap();
+        // Jitter of +-0.4 step that alternates (steps of 0.2 and 1.8 typical ones): the
+        // engine places the close pairs right, but takes each long step for a lost sample,
+        // and bridges one that is there: refused. +-0.2 step keeps every step below 1.5.
+        let alternate = |amount: f64| -> Vec<f64> {
+            (0..2400)
+                .map(|i| i as f64 * step + if i % 2 == 0 { amount } else { -amount } * step)
+                .collect()
+        };
+        assert!(matches!(
+            check_runs_on_grid(&alternate(0.4), step, 8),
+            Err(ResampleError::Jittered { index: 2, .. })
+        ));
+        check_runs_on_grid(&alternate(0.2), step, 8).unwrap();
+        // After a pause of 30 s: 10 Hz, a clock 2 % slow, or 5 Hz (each step 1.6 typical
+        // ones, taken for a gap) are another rate; 4 Hz is 8 Hz with every other sample lost.
+        for (later, refused) in [(0.1, true), (0.1275, true), (0.2, true), (0.25, false)] {
+            let mut time = first.clone();
+            let resume = end + 30.0;
+            time.extend((0..2400).map(|i| resume + i as f64 * later));
+            let got = check_runs_on_grid(&time, step, 8);
+            assert_eq!(
+                got.is_err(),
+                refused,
+                "8 Hz, a pause, then steps of {later} s: {got:?}"
+            );
+        }
     }
 
     #[test]

@@ -122,9 +122,6 @@ pub fn replay(
 /// (stamps rounded to fewer digits than the rate needs).
 pub fn record_rate(time: &[f64], forecast_hz: f64) -> anyhow::Result<f64> {
     let median = shipcast_series::median_rate(time)?;
-    // The engine counts samples, as the service does: a rate that drifts within a gap-free
-    // stretch would shift every forecast off its time (eval refuses it too).
-    shipcast_series::check_runs_on_grid(time, 1.0 / median)?;
     let (measured, uncertainty) = regular_mean_rate(time, median);
     let multiple = (measured / forecast_hz).round();
     // Regression (review): replay snapped within 1e-5 only, so a record at 8.004 Hz that eval
@@ -135,6 +132,11 @@ pub fn record_rate(time: &[f64], forecast_hz: f64) -> anyhow::Result<f64> {
     } else {
         (measured * 1e6).round() / 1e6
     };
+    // The engine counts samples, as the service does: stamps off the slots it puts them in
+    // (a rate that drifts or changes, a sample out of place) would shift forecasts off their
+    // time (eval refuses them too). Against the rate it runs at, not the median step, which
+    // jittered stamps can bias.
+    shipcast_series::check_runs_on_grid(time, 1.0 / rate, crate::engine::MAX_FILL as usize)?;
     if crate::config::decimation_factor(rate, forecast_hz).is_err() {
         anyhow::bail!("{}", rate_mismatch(time, rate, forecast_hz));
     }
