@@ -94,7 +94,6 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let end_s = data.time.last().copied().unwrap_or(0.0);
     // Regression (review): the default was 0, which skips the whole of a record stamped
     // before 0, and the error named an --skip-s that was never given.
-    let skip_given = skip_s.is_some();
     let skip_s = skip_s.unwrap_or(start_s);
     if data.len() < 2 {
         anyhow::bail!(
@@ -148,30 +147,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     bar.finish_and_clear();
     // A record too short for any forecast to be scored would print a table of NaN.
     if report.dofs.iter().all(|d| d.scored == 0) {
-        let warm_up_s = shipcast_pipeline::engine::MIN_VALUES_TO_PUBLISH as f64
-            / config.predictor.sample_rate_hz;
-        let horizon_s = config.predictor.horizon as f64 / config.predictor.sample_rate_hz;
-        // Regression (review): a record whose gaps restart the history every few seconds
-        // was told its forecasts must be issued after --skip-s, an option never given.
-        if report.history_restarts > 0 && report.longest_history_s < warm_up_s + horizon_s {
-            anyhow::bail!(
-                "no forecast could be scored in {}: gaps in time or runs of bad values longer than {} samples restarted the history {} times, and its longest unbroken stretch, {:.1} s, is shorter than the {:.0} s of history plus {:.1} s of steps a scored forecast needs",
-                input.display(),
-                shipcast_pipeline::engine::MAX_FILL,
-                report.history_restarts,
-                report.longest_history_s,
-                warm_up_s,
-                horizon_s,
-            );
-        }
-        let after = if skip_given {
-            format!("issued at record time >= {skip_s} s (--skip-s), ")
-        } else {
-            String::new()
-        };
         anyhow::bail!(
-            "no forecast could be scored in {}: it runs from {start_s:.1} to {end_s:.1} s, and a forecast is scored only if {after}after {warm_up_s:.0} s of history, with all {horizon_s:.1} s of its steps inside the record",
-            input.display(),
+            "{}",
+            nothing_scored(&input, &report, &config.predictor, skip_s, (start_s, end_s))
         );
     }
     if report.input.lost > 0 {
@@ -295,6 +273,42 @@ fn table(r: &ReplayReport) -> String {
     s
 }
 
+/// Why no forecast of a replayed record was scored, naming the cause:
+/// - forecasts had all their steps inside the record, but none was issued at or after
+///   `--skip-s` (the default skips nothing, so only a given `--skip-s` does this);
+/// - gaps restarted the history so often that no stretch held a whole forecast (regression,
+///   review: such a record was told its forecasts must come after an `--skip-s` never given);
+/// - the record is too short for one.
+fn nothing_scored(
+    input: &std::path::Path,
+    report: &shipcast_pipeline::engine::replay::ReplayReport,
+    predictor: &shipcast_pipeline::config::PredictorServiceConfig,
+    skip_s: f64,
+    (start_s, end_s): (f64, f64),
+) -> String {
+    let first_s =
+        shipcast_pipeline::engine::MIN_VALUES_TO_PUBLISH as f64 / predictor.sample_rate_hz;
+    let horizon_s = predictor.horizon as f64 / predictor.sample_rate_hz;
+    let file = input.display();
+    let needs = format!(
+        "a forecast is scored only if all {horizon_s:.1} s of its steps lie inside the record, and the first is issued {first_s:.0} s into it"
+    );
+    match report.last_complete_s {
+        Some(last) => format!(
+            "no forecast could be scored in {file}: {} had all their steps inside the record, the last issued at {last:.1} s, but none at or after --skip-s {skip_s} s",
+            report.complete_forecasts
+        ),
+        None if report.history_restarts > 0 => format!(
+            "no forecast could be scored in {file}: gaps in time or runs of bad values longer than {} samples restarted the history {} times, and {needs}; the longest history between them was {:.1} s",
+            shipcast_pipeline::engine::MAX_FILL,
+            report.history_restarts,
+            report.longest_history_s,
+        ),
+        None => format!(
+            "no forecast could be scored in {file}: it runs from {start_s:.1} to {end_s:.1} s, and {needs}"
+        ),
+    }
+}
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -642,7 +642,16 @@ fn replay_of_a_record_whose_gaps_restart_the_history_names_them_not_skip_s() {
         .success());
     let e = error(&["replay", "--input", &short]);
     assert!(
-        e.contains("after 30 s of history") && !e.contains("--skip-s") && !e.contains("restarted"),
+        e.contains("the first is issued 30 s into it")
+            && !e.contains("--skip-s")
+            && !e.contains("restarted"),
+        "{e}"
+    );
+    // Without holes and long enough, but --skip-s past the last whole forecast: --skip-s
+    // is the cause, and the message says so (review: it blamed the gaps of a gappy record).
+    let e = error(&["replay", "--input", &csv, "--skip-s", "190"]);
+    assert!(
+        e.contains("but none at or after --skip-s 190 s") && !e.contains("restarted"),
         "{e}"
     );
 }

@@ -231,6 +231,12 @@ impl Engine {
         self.ingest.len()
     }
 
+    /// Times the history started again (a gap or a run of bad samples too long to bridge, or
+    /// a new producer run); the first start is none.
+    pub fn history_restarts(&self) -> u64 {
+        self.ingest.generation()
+    }
+
     pub fn last_time_s(&self) -> f64 {
         self.last_time_s
     }

@@ -65,12 +65,15 @@ pub struct ReplayReport {
     /// of up to `MAX_FILL` bridged by holding the last value, longer ones restart the
     /// history) and rejected.
     pub input: Counters,
-    /// Times the history restarted at a gap or a run of bad samples too long to bridge
-    /// (drops of the history held; the record's start is none).
+    /// Times the history started again at a gap or a run of bad samples too long to bridge
+    /// (the record's start is none).
     pub history_restarts: u64,
-    /// The longest history held between restarts [s]: a forecast is scored only after
-    /// `MIN_VALUES_TO_PUBLISH` values of it and with its whole horizon still in the record.
+    /// The longest history held between restarts [s].
     pub longest_history_s: f64,
+    /// Forecasts whose every step has a sample in the record, scored or not (before
+    /// `--skip-s`), and the issue time of the last of them.
+    pub complete_forecasts: u64,
+    pub last_complete_s: Option<f64>,
     pub dofs: Vec<DofReplay>,
     /// Deck decisions scored against the record (one per MOT; empty unless asked).
     pub decisions: Vec<DecisionReport>,
@@ -241,7 +244,8 @@ pub fn replay_scored(
     let mut unreported = 0u64;
     // Record index of each step of the forecast being scored (reused: one per forecast).
     let mut idx: Vec<usize> = Vec::with_capacity(MAX_STEPS);
-    let (mut history_held, mut longest_history, mut history_restarts) = (0usize, 0usize, 0u64);
+    let mut longest_history = 0usize;
+    let (mut complete_forecasts, mut last_complete_s) = (0u64, None);
     for (i, &t) in data.time.iter().enumerate() {
         let sample = MotionSample {
             seq: i as u64,
@@ -255,12 +259,7 @@ pub fn replay_scored(
             unreported = 0;
         }
         let produced = engine.push(&sample)?.is_some();
-        let held = engine.history_len();
-        if held < history_held {
-            history_restarts += 1;
-        }
-        history_held = held;
-        longest_history = longest_history.max(held);
+        longest_history = longest_history.max(engine.history_len());
         if !produced {
             continue;
         }
@@ -270,9 +269,6 @@ pub fn replay_scored(
         }
         // Before `skip_s` a forecast is not scored, but the deck still learns from it.
         let counted = f.time_s >= skip_s;
-        if !counted && scorer.is_none() {
-            continue;
-        }
         let steps = f.steps as usize;
         // The record's sample at every step, or skip the forecast (a step outside the record).
         idx.clear();
@@ -283,6 +279,11 @@ pub fn replay_scored(
             }
         }
         if idx.len() < steps {
+            continue;
+        }
+        complete_forecasts += 1;
+        last_complete_s = Some(f.time_s);
+        if !counted && scorer.is_none() {
             continue;
         }
         // The newest sample the forecast used is persistence's forecast.
@@ -390,8 +391,10 @@ pub fn replay_scored(
             delay_s: delay,
             counts,
             input,
-            history_restarts,
+            history_restarts: engine.history_restarts(),
             longest_history_s: longest_history as f64 * dt,
+            complete_forecasts,
+            last_complete_s,
             dofs,
             decisions: scorer.map_or_else(Vec::new, DecisionScorer::finish),
         },
