@@ -374,6 +374,9 @@ fn bad_elevation_files_exit_with_one_clear_line() {
     // Regression (review): each of these was written without a word, as a motion of nothing
     // or of metres of roll (wave_m in millimetres), or as 477 081 rows from 480 samples
     // (stamps in milliseconds).
+    // Samples 4 s apart (a step that may be a record's): 10 400 s of record, more rows at
+    // 10 kHz than any file may hold.
+    let long = write("l.csv", &elevation_text(2600, 4.0, |t| (0.01 * t).sin()));
     let zeros = write("h.csv", &elevation_text(600, 0.5, |_| 0.0));
     // Not exactly 0: its computed spread is rounding, not waves (review).
     let constant = write("k.csv", &elevation_text(600, 0.5, |_| 1.37));
@@ -385,7 +388,7 @@ fn bad_elevation_files_exit_with_one_clear_line() {
     let missing = dir.path().join("missing.csv");
     let missing = missing.to_str().unwrap();
     let cannot_read = format!("cannot read {missing}");
-    let cases: [(&[&str], &str); 13] = [
+    let cases: [(&[&str], &str); 14] = [
         (
             &["--elevation", &not_number],
             "line 3, column 'wave_m': 'x' is not a number",
@@ -413,6 +416,10 @@ fn bad_elevation_files_exit_with_one_clear_line() {
         (
             &["--elevation", &far, "--edge-s", "0", "--rate", "8"],
             "typical time step is 1000000 s",
+        ),
+        (
+            &["--elevation", &long, "--edge-s", "0", "--rate", "10000"],
+            "rows at --rate 10000 Hz, at most 100000000",
         ),
         (&["--elevation", &zeros], "wave_m is constant (0)"),
         (&["--elevation", &constant], "wave_m is constant (1.37"),
