@@ -338,6 +338,14 @@ impl ModelFile {
         if self.dofs.is_empty() {
             return Err("no DOF models".into());
         }
+        // Regression (review): a hand-edited file with these out of range loaded silently.
+        if !(self.holdout_fraction > 0.0 && self.holdout_fraction < 1.0) {
+            return Err(format!(
+                "holdout_fraction {} must be in (0, 1)",
+                self.holdout_fraction
+            ));
+        }
+
         for (i, m) in self.dofs.iter().enumerate() {
             if self.dofs[..i].iter().any(|o| o.dof == m.dof) {
                 return Err(format!("{} appears twice", m.dof));
@@ -361,6 +369,12 @@ impl ModelFile {
                     self.config.horizon
                 ));
             }
+            if m.samples == 0 || m.sigma_origins == 0 {
+                return Err(format!(
+                    "{}: samples {} and sigma_origins {} must be at least 1",
+                    m.dof, m.samples, m.sigma_origins
+                ));
+            }
             if m.sigma.iter().any(|s| !(s.is_finite() && *s >= 0.0)) {
                 return Err(format!(
                     "{}: sigma holds a negative or non-finite value",
@@ -369,6 +383,10 @@ impl ModelFile {
             }
             check_forecasts(m)?;
         }
+        // The file's own method must be buildable from its configuration (a negative LMS
+        // gain, a hidden layer of 0 units, an MCA window shift of 0); after the models, whose
+        // own errors name their DOF.
+        AnyPredictor::new(self.method, &self.config).map_err(|e| format!("config: {e}"))?;
         Ok(())
     }
 }
@@ -713,6 +731,51 @@ mod tests {
         v["dofs"][0]["predictor"]["params"] = serde_json::json!([]);
         let e = load(&v);
         assert!(e.contains("heave: the mlp model cannot forecast"), "{e}");
+    }
+
+    /// Regression (review): a hand-edited model file loaded silently with a misspelt field in
+    /// an AR, MLP, persistence or zero predictor (Wiener and MCA refused it), a holdout
+    /// fraction of -5, a negative LMS gain in an AR model's configuration, or 0 samples.
+    #[test]
+    fn hand_edited_fields_and_values_out_of_range_are_refused_at_load() {
+        let data = record(500);
+        let path = Path::new("m.json");
+        let load = |v: &serde_json::Value| match ModelFile::from_json(&v.to_string(), path) {
+            Ok(_) => String::from("loaded"),
+            Err(e) => e.to_string(),
+        };
+        for method in [Method::Ar, Method::Mlp, Method::Persistence, Method::Zero] {
+            let good =
+                serde_json::to_value(train_models(&data, &[Dof::Heave], &options(method)).unwrap())
+                    .unwrap();
+            assert_eq!(load(&good), "loaded", "{method}");
+            let mut v = good.clone();
+            v["dofs"][0]["predictor"]["orderr"] = 5.into();
+            assert!(
+                load(&v).contains("unknown field `orderr`"),
+                "{method}: {}",
+                load(&v)
+            );
+            let mut v = good.clone();
+            v["holdout_fraction"] = (-5.0).into();
+            assert!(
+                load(&v).contains("holdout_fraction -5 must be in (0, 1)"),
+                "{}",
+                load(&v)
+            );
+            let mut v = good.clone();
+            v["dofs"][0]["samples"] = 0.into();
+            assert!(load(&v).contains("samples 0"), "{}", load(&v));
+        }
+        let mut v =
+            serde_json::to_value(train_models(&data, &[Dof::Heave], &options(Method::Ar)).unwrap())
+                .unwrap();
+        v["config"]["lms_gain"] = (-1.0).into();
+        assert!(
+            load(&v).contains("config: ") && load(&v).contains("LMS gain"),
+            "{}",
+            load(&v)
+        );
     }
 
     /// Regression (review): a model was written in place, so a retrain whose write failed

@@ -34,7 +34,7 @@ const NLMS_EPS: f64 = 1e-12;
 
 /// AR predictor with one LMS-adapted coefficient vector per forecast step.
 #[derive(Clone, Debug, Serialize, Deserialize)]
-#[serde(remote = "Self")]
+#[serde(remote = "Self", deny_unknown_fields)]
 pub struct ArLmsPredictor {
     order: usize,
     horizon: usize,

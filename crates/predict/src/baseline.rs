@@ -11,7 +11,9 @@ use serde::{Deserialize, Serialize};
 macro_rules! baseline_predictor {
     ($(#[$doc:meta])* $name:ident, $method:expr, $rule:expr) => {
         $(#[$doc])*
+        // A misspelt field of a hand-edited model file is an error, as for every predictor.
         #[derive(Clone, Debug, Serialize, Deserialize)]
+        #[serde(deny_unknown_fields)]
         pub struct $name {
             order: usize,
             horizon: usize,

@@ -38,7 +38,7 @@ const INITIAL_STEP_FRACTION: f64 = 0.1;
 
 /// One-hidden-layer perceptron predicting all `horizon` steps at once.
 #[derive(Clone, Debug, Serialize, Deserialize)]
-#[serde(remote = "Self")]
+#[serde(remote = "Self", deny_unknown_fields)]
 pub struct MlpPredictor {
     shape: Shape,
     epochs: usize,

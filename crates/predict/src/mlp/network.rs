@@ -19,6 +19,7 @@ use std::ops::Range;
 /// hidden unit's weights contiguous makes the single forecast a run of dot products and
 /// `axpy`s with no scratch buffer.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct Shape {
     pub inputs: usize,
     pub hidden: usize,
