@@ -164,6 +164,13 @@ impl Predictor for WienerPredictor {
         let lags = self.order + self.horizon;
         let autocorrelation_fit = || -> Result<LinearMap, PredictError> {
             let r = biased_autocorrelation(train, lags);
+            // A series of zeros (a column without that motion): said as such, not as the
+            // Levinson recursion's "leading minor of size 1 is not positive" (review).
+            if !(r.first().is_some_and(|&r0| r0 > 0.0)) {
+                return Err(PredictError::Numerical(
+                    "Wiener fit: the training segment has no power (all zeros)".into(),
+                ));
+            }
             solve_coefficients(&r, self.order, self.horizon)
         };
         let needed = self.fit.training_values(self.order, self.horizon);
@@ -352,5 +359,7 @@ mod tests {
         .unwrap();
         let err = p.fit(&[0.0; 50]).unwrap_err();
         assert!(matches!(err, PredictError::Numerical(_)), "{err}");
+        // Said as what it is (review: "Levinson: Toeplitz matrix is not positive definite").
+        assert!(err.to_string().contains("no power (all zeros)"), "{err}");
     }
 }
