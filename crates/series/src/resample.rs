@@ -155,7 +155,7 @@ pub fn sample_rate(time: &[f64]) -> Result<f64, ResampleError> {
             });
         }
     }
-    on_grid(time, 0)?;
+    on_grid(time, 0, consecutive(), mean_step(time))?;
     Ok(1.0 / mean_step(time))
 }
 
@@ -164,30 +164,45 @@ fn mean_step(run: &[f64]) -> f64 {
     (run[run.len() - 1] - run[0]) / (run.len() - 1) as f64
 }
 
-/// The stamp of `run` (at least two) farthest from its slot on the run's own grid (first
-/// stamp plus `i` mean steps), with that slot, if it is farther than `tolerance`. The
-/// farthest, not the first: where the rate changes (8 Hz at 0.125 s, then 0.124 s) the
+/// One slot per stamp: the slots of a run without gaps.
+fn consecutive() -> impl Iterator<Item = f64> {
+    (0u32..).map(f64::from)
+}
+
+/// The stamp of `run` farthest from its place on a grid of step `grid` from the first stamp
+/// (the k-th stamp in slot `slots[k]`), with that place, if it is farther than `tolerance`.
+/// The farthest, not the first: where the rate changes (8 Hz at 0.125 s, then 0.124 s) the
 /// stamps lie farthest from the mean grid, while the first beyond the tolerance came 113
 /// samples into the record, where nothing is wrong (review).
-fn farthest_off_grid(run: &[f64], tolerance: f64) -> Option<(usize, f64)> {
-    let mean = mean_step(run);
+fn farthest_off_grid(
+    run: &[f64],
+    slots: impl Iterator<Item = f64>,
+    grid: f64,
+    tolerance: f64,
+) -> Option<(usize, f64)> {
     run.iter()
+        .zip(slots)
         .enumerate()
-        .map(|(i, &t)| (i, t, run[0] + i as f64 * mean))
+        .map(|(i, (&t, slot))| (i, t, run[0] + slot * grid))
         .max_by(|a, b| (a.1 - a.2).abs().total_cmp(&(b.1 - b.2).abs()))
-        .filter(|&(_, t, slot)| (t - slot).abs() > tolerance)
-        .map(|(i, _, slot)| (i, slot))
+        .filter(|&(_, t, at)| (t - at).abs() > tolerance)
+        .map(|(i, _, at)| (i, at))
 }
 
 /// Checks that the stamps of one gap-free run `run` (starting at index `offset` of the
-/// record) lie within half a step of their slots on the run's own grid (first stamp plus
-/// `i` mean steps). Each step may be regular while the rate drifts (16 ms steps, then 15 ms
-/// ones); the samples' count then no longer tells their time. Regression (review).
-fn on_grid(run: &[f64], offset: usize) -> Result<(), ResampleError> {
+/// record) lie within half a step of their slots (`slots`, one per stamp) on a grid of step
+/// `grid` from its first stamp. Each step may be regular while the rate drifts (16 ms steps,
+/// then 15 ms ones); the samples' count then no longer tells their time. Regression (review).
+fn on_grid(
+    run: &[f64],
+    offset: usize,
+    slots: impl Iterator<Item = f64>,
+    grid: f64,
+) -> Result<(), ResampleError> {
     if run.len() < 3 {
         return Ok(());
     }
-    match farthest_off_grid(run, 0.5 * mean_step(run)) {
+    match farthest_off_grid(run, slots, grid, 0.5 * grid) {
         Some((i, slot)) => Err(ResampleError::OffGrid {
             index: offset + i,
             time_s: run[i],
@@ -304,27 +319,11 @@ fn check_stretch(
             stretch_from_s: time[start],
         }));
     }
-    let mut slot = 0.0;
-    let mut farthest: Option<(usize, f64, f64)> = None;
-    for i in start..end {
-        if i > start {
-            slot += slots_of(i);
-        }
-        let at = time[start] + slot * grid;
-        let off = (time[i] - at).abs();
-        if off > 0.5 * grid && farthest.is_none_or(|f| off > f.2) {
-            farthest = Some((i, at, off));
-        }
-    }
-    match farthest {
-        Some((index, grid_s, _)) => Err(ResampleError::OffGrid {
-            index,
-            time_s: time[index],
-            grid_s,
-            stretch_from_s: time[start],
-        }),
-        None => Ok(()),
-    }
+    let slots_so_far = std::iter::once(0.0).chain(((start + 1)..end).scan(0.0, |slot, i| {
+        *slot += slots_of(i);
+        Some(*slot)
+    }));
+    on_grid(&time[start..end], start, slots_so_far, grid)
 }
 /// Units time stamps come in, with how many of them make a second.
 const TIME_UNITS: [(f64, &str); 4] = [
@@ -410,7 +409,8 @@ fn check_stamp_rounding(time: &[f64], median: f64) -> Result<(), ResampleError> 
             .windows(2)
             .filter(|p| (p[1] - p[0] - median).abs() > 0.5 * quantum)
             .count();
-        let regular = farthest_off_grid(time, 1.01 * quantum).is_none();
+        let regular =
+            farthest_off_grid(time, consecutive(), mean_step(time), 1.01 * quantum).is_none();
         // At least MIN_ROUNDED_STEPS of them: in a short record one lost sample is a tenth.
         if off * 10 >= steps && off >= MIN_ROUNDED_STEPS && regular {
             return Err(ResampleError::CoarseStamps {
