@@ -398,17 +398,22 @@ impl<R: Read> Read for LastByte<R> {
         if let Some(&last) = read.last() {
             self.last = Some(last);
         }
+        // One pass finds the line breaks for `line_at` and the last line end for the length
+        // of the line now being read (a bare CR ends a line too, as the CSV reader takes it).
+        let mut last_end = None;
         for (i, &b) in read.iter().enumerate() {
             match b {
                 b'\r' => self.breaks.push_back(self.offset + i as u64),
                 b'\n' if !self.after_cr => self.breaks.push_back(self.offset + i as u64),
                 _ => {}
             }
+            if matches!(b, b'\r' | b'\n') {
+                last_end = Some(i);
+            }
             self.after_cr = b == b'\r';
         }
         self.offset += n as u64;
-        // A bare CR ends a line too, as the CSV reader takes it.
-        self.line_bytes = match read.iter().rposition(|&b| b == b'\n' || b == b'\r') {
+        self.line_bytes = match last_end {
             Some(i) => n - i - 1,
             None => self.line_bytes + n,
         };
