@@ -196,9 +196,7 @@ fn check_wave_height(path: &Path, wave: &[f64]) -> anyhow::Result<()> {
         // The segments' own check says there is no data.
         return Ok(());
     }
-    let n = finite.len() as f64;
-    let mean = finite.iter().sum::<f64>() / n;
-    let hs = 4.0 * (finite.iter().map(|v| (v - mean) * (v - mean)).sum::<f64>() / n).sqrt();
+    let hs = 4.0 * shipcast_eval::run::std_dev(&finite);
     // Exactly one value, not a spread of 0: the mean of a constant 0.1 differs from it by
     // rounding, and its "spread" of 1e-16 m passed (review).
     let (low, high) = finite
@@ -208,7 +206,7 @@ fn check_wave_height(path: &Path, wave: &[f64]) -> anyhow::Result<()> {
         });
     if low == high || hs.is_nan() {
         anyhow::bail!(
-            "{}: wave_m is constant ({mean}): no waves to drive the ship with",
+            "{}: wave_m is constant ({low}): no waves to drive the ship with",
             path.display()
         );
     }
