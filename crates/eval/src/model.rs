@@ -252,6 +252,31 @@ fn text_near(text: &str, line: usize, column: usize) -> String {
     chars[from..to].iter().collect()
 }
 
+/// Parse `text` as a `T`, naming an error by its field path in the file and the text there.
+fn parse_locating<T: serde::de::DeserializeOwned>(
+    text: &str,
+    path: &Path,
+) -> Result<T, ModelError> {
+    let mut parser = serde_json::Deserializer::from_str(text);
+    serde_path_to_error::deserialize(&mut parser).map_err(|e| {
+        let field = e.path().to_string();
+        let error = e.into_inner();
+        // At the top level there is no field to name ("at ."): not JSON, or empty.
+        if field == "." {
+            return ModelError::Json {
+                path: path.to_path_buf(),
+                error,
+            };
+        }
+        ModelError::JsonAt {
+            path: path.to_path_buf(),
+            field,
+            near: text_near(text, error.line(), error.column()),
+            error,
+        }
+    })
+}
+
 impl ModelFile {
     /// The model of `dof`, if the file has one.
     pub fn dof(&self, dof: Dof) -> Option<&DofModel> {
@@ -286,17 +311,27 @@ impl ModelFile {
 
     /// Parse and check a model file's text; `path` only names it in errors.
     pub fn from_json(text: &str, path: &Path) -> Result<Self, ModelError> {
-        let json_err = |error| ModelError::Json {
-            path: path.to_path_buf(),
-            error,
-        };
         // The version first, so that a file of another version says so instead of failing on
         // whichever field changed.
         #[derive(Deserialize)]
         struct VersionOnly {
             format_version: Option<serde_json::Value>,
         }
-        let probe: VersionOnly = serde_json::from_str(text).map_err(json_err)?;
+        let probe: VersionOnly = match serde_json::from_str(text) {
+            Ok(probe) => probe,
+            // Regression (review): text that is not JSON (a bare NaN written into a
+            // coefficient) failed here with a column of a one-line megabyte file and no field:
+            // the model's own parse names the field the text breaks.
+            Err(error) => {
+                return Err(match parse_locating::<ModelFile>(text, path) {
+                    Err(located) => located,
+                    Ok(_) => ModelError::Json {
+                        path: path.to_path_buf(),
+                        error,
+                    },
+                })
+            }
+        };
         match probe.format_version {
             None => {
                 return Err(ModelError::NoVersion {
@@ -312,17 +347,7 @@ impl ModelFile {
                 })
             }
         }
-        let mut parser = serde_json::Deserializer::from_str(text);
-        let model: ModelFile = serde_path_to_error::deserialize(&mut parser).map_err(|e| {
-            let field = e.path().to_string();
-            let error = e.into_inner();
-            ModelError::JsonAt {
-                path: path.to_path_buf(),
-                field,
-                near: text_near(text, error.line(), error.column()),
-                error,
-            }
-        })?;
+        let model: ModelFile = parse_locating(text, path)?;
         model.check().map_err(|reason| ModelError::Invalid {
             path: path.to_path_buf(),
             reason,
@@ -681,22 +706,36 @@ mod tests {
         }
     }
 
-    #[test]
-    fn a_coefficient_beyond_f64_is_refused() {
-        // JSON has no NaN or infinity; the nearest a file comes is a number beyond f64.
+    /// The error of loading an MCA model file whose first coefficient is written as `value`.
+    fn error_with_first_coefficient(value: &str) -> String {
         let model = train_models(&record(500), &[Dof::Heave], &options(Method::Mca)).unwrap();
         let text = serde_json::to_string(&model).unwrap();
         let start = text.find("\"coef\":[").unwrap() + "\"coef\":[".len();
         let end = start + text[start..].find(',').unwrap();
-        let text = format!("{}-1e999{}", &text[..start], &text[end..]);
-        let err = ModelFile::from_json(&text, Path::new("m.json"))
+        let text = format!("{}{value}{}", &text[..start], &text[end..]);
+        ModelFile::from_json(&text, Path::new("m.json"))
             .unwrap_err()
-            .to_string();
+            .to_string()
+    }
+
+    #[test]
+    fn a_coefficient_beyond_f64_is_refused() {
+        // JSON has no NaN or infinity; the nearest a file comes is a number beyond f64.
+        let err = error_with_first_coefficient("-1e999");
         assert!(err.starts_with("m.json: ") && !err.contains('\n'), "{err}");
         assert!(
             err.contains("out of range") || err.contains("not finite"),
             "{err}"
         );
+    }
+
+    #[test]
+    fn a_bare_nan_is_named_by_its_field() {
+        // Regression (review): a NaN written into a coefficient is not JSON, and the error gave
+        // only a column of the one-line file, not the field it broke.
+        let err = error_with_first_coefficient("NaN");
+        assert!(err.starts_with("m.json: at dofs[0]."), "{err}");
+        assert!(err.contains(".coef[0]: ") && err.contains("[NaN,"), "{err}");
     }
 
     #[test]
