@@ -157,9 +157,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         let forecast = match gate.check(&received) {
             Ok(f) => f,
             Err(e) => {
-                gate.stream.log.warn_rejected(
+                shipcast_pipeline::warn_rejected!(
+                    gate.stream.log,
                     gate.stream.rejected.total(),
-                    format_args!("crane: rejected: {e}"),
+                    "crane: rejected: {e}"
                 );
                 silence.check(Instant::now());
                 continue;

@@ -289,9 +289,10 @@ fn newest_accepted(
         match gate.check(origin, connected, &forecast) {
             Ok(()) => newest = Some(forecast),
             Err(e) => {
-                gate.stream.log.warn_rejected(
+                shipcast_pipeline::warn_rejected!(
+                    gate.stream.log,
                     gate.stream.rejected.total(),
-                    format_args!("deck: rejected: {e}"),
+                    "deck: rejected: {e}"
                 );
             }
         }

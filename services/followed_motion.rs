@@ -77,12 +77,12 @@ impl FollowedMotion {
                     );
                 }
                 Err(e) => {
-                    self.gate.log.warn_rejected(
+                    shipcast_pipeline::warn_rejected!(
+                        self.gate.log,
                         self.gate.rejected,
-                        format_args!(
-                            "{}: motion sample on {} rejected: {e}",
-                            self.service, self.key
-                        ),
+                        "{}: motion sample on {} rejected: {e}",
+                        self.service,
+                        self.key
                     );
                 }
             }

@@ -455,9 +455,11 @@ impl Followed {
                     fresh = true;
                 }
                 Err(e) => {
-                    self.gate.stream.log.warn_rejected(
+                    shipcast_pipeline::warn_rejected!(
+                        self.gate.stream.log,
                         self.gate.stream.rejected.total(),
-                        format_args!("relative: {} forecast rejected: {e}", self.name),
+                        "relative: {} forecast rejected: {e}",
+                        self.name
                     );
                 }
             }

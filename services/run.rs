@@ -433,9 +433,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                     view.heard.forecast = Some(Instant::now());
                 }
                 Err(e) => {
-                    gate.stream.log.warn_rejected(
+                    shipcast_pipeline::warn_rejected!(
+                        gate.stream.log,
                         gate.stream.rejected.total(),
-                        format_args!("run: forecast rejected: {e}"),
+                        "run: forecast rejected: {e}"
                     );
                 }
             }

@@ -215,9 +215,11 @@ impl CheckedJson {
                 Ok(v) => newest = Some(v),
                 Err(e) => {
                     self.rejected += 1;
-                    self.log.warn_rejected(
+                    shipcast_pipeline::warn_rejected!(
+                        self.log,
                         self.rejected,
-                        format_args!("run: {} rejected: {e}", self.key),
+                        "run: {} rejected: {e}",
+                        self.key
                     );
                 }
             }

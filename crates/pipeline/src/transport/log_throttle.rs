@@ -45,14 +45,19 @@ impl LogThrottle {
             None
         }
     }
+}
 
-    /// Warn of one rejection (`what`, with its service's name) now, if a line is admitted;
-    /// `rejected` is the count so far, which the line carries with those held back.
-    pub fn warn_rejected(&mut self, rejected: u64, what: std::fmt::Arguments<'_>) {
-        if let Some(held_back) = self.admit(Instant::now()) {
-            tracing::warn!(rejected, held_back, "{what}");
+/// Warn of one rejection through a [`LogThrottle`], if a line is admitted now:
+/// `warn_rejected!(throttle, rejected, "format", args...)`, `rejected` being the count so far,
+/// which the line carries with those held back. A macro so that the line's target is the
+/// module that rejected (`RUST_LOG=shipcast::deck=warn` finds it), not this one.
+#[macro_export]
+macro_rules! warn_rejected {
+    ($throttle:expr, $rejected:expr, $($what:tt)+) => {
+        if let Some(held_back) = $throttle.admit(::std::time::Instant::now()) {
+            ::tracing::warn!(rejected = $rejected, held_back, $($what)+);
         }
-    }
+    };
 }
 
 #[cfg(test)]
@@ -86,6 +91,43 @@ mod tests {
         for i in 0..burst as u64 {
             assert!(t.admit(later + Duration::from_millis(i)).is_some());
         }
+    }
+
+    /// Records the target of every event.
+    struct Targets(std::sync::Mutex<Vec<String>>);
+
+    impl tracing::Subscriber for Targets {
+        fn enabled(&self, _: &tracing::Metadata<'_>) -> bool {
+            true
+        }
+        fn new_span(&self, _: &tracing::span::Attributes<'_>) -> tracing::span::Id {
+            tracing::span::Id::from_u64(1)
+        }
+        fn record(&self, _: &tracing::span::Id, _: &tracing::span::Record<'_>) {}
+        fn record_follows_from(&self, _: &tracing::span::Id, _: &tracing::span::Id) {}
+        fn event(&self, event: &tracing::Event<'_>) {
+            let target = event.metadata().target().to_string();
+            self.0.lock().unwrap().push(target);
+        }
+        fn enter(&self, _: &tracing::span::Id) {}
+        fn exit(&self, _: &tracing::span::Id) {}
+    }
+
+    #[test]
+    fn a_rejection_is_logged_under_the_module_that_rejected() {
+        // Regression: every rejection logged under this module's target, so a filter on the
+        // service that rejected (RUST_LOG=shipcast::deck=warn) hid them.
+        let targets = std::sync::Arc::new(Targets(Default::default()));
+        let mut throttle = LogThrottle::default();
+        tracing::subscriber::with_default(targets.clone(), || {
+            for rejected in 1..=BURST_LINES as u64 + 5 {
+                crate::warn_rejected!(throttle, rejected, "test: rejected {}", rejected);
+            }
+        });
+        let seen = targets.0.lock().unwrap();
+        // The burst is written, the rest held back within the same instant.
+        assert_eq!(seen.len(), BURST_LINES as usize);
+        assert!(seen.iter().all(|t| t == module_path!()), "{seen:?}");
     }
 
     #[test]
