@@ -173,9 +173,9 @@ pub struct DecisionScorer {
     /// From a forecast's `time_s` to its issue (its newest sample) [s].
     issue_delay_s: f64,
     dt_s: f64,
-    /// Issue time of the first scored forecast [s].
-    first_issued_s: f64,
-    last_s: f64,
+    /// Issue times of the scored forecasts, ascending [s]: which quiet periods one could
+    /// have announced.
+    issued_s: Vec<f64>,
     horizon_steps: usize,
 }
 
@@ -220,8 +220,7 @@ impl DecisionScorer {
                 0.0
             },
             dt_s: f64::NAN,
-            first_issued_s: f64::NAN,
-            last_s: f64::NAN,
+            issued_s: Vec::new(),
             horizon_steps: 0,
         }
     }
@@ -293,11 +292,12 @@ impl DecisionScorer {
                 let g = ((t0 + (k + 1) as f64 * dt) / dt).round() as i64;
                 self.grid.entry(g).or_insert(held);
             }
-            if self.first_issued_s.is_nan() {
-                self.first_issued_s = issued;
+            if self.issued_s.is_empty() {
                 self.dt_s = dt;
             }
-            self.last_s = t0;
+            if self.issued_s.last().is_none_or(|&last| issued > last) {
+                self.issued_s.push(issued);
+            }
             self.horizon_steps = steps;
         }
         let mut calls = Vec::with_capacity(self.per_mot.len());
@@ -386,17 +386,32 @@ impl DecisionScorer {
                 // No forecast seen (dt unknown): no window, and nothing below uses n.
                 let n = i64::try_from(window_steps(m.mot_s, dt)).unwrap_or(0);
                 // Periods a forecast could have announced LEAD_S ahead within its horizon
-                // (none when a window of MOT does not fit the horizon: no hit rate).
+                // (none when a window of MOT does not fit the horizon: no hit rate), with the
+                // forecasts running up to LEAD_S before the period began, and its beginning
+                // seen (the step before it on the grid). Regression (review): a quiet run
+                // resumed after a hole (a gap in the record, whose forecasts replay does not
+                // score) counted as a period begun there, which no forecast could have
+                // announced 5 s ahead: a miss for every gap. The record's first forecast is
+                // such an edge too.
                 let fits = n as usize <= self.horizon_steps;
                 let horizon_s = self.horizon_steps as f64 * dt;
+                let last_s = self
+                    .issued_s
+                    .last()
+                    .map_or(f64::NAN, |t| t - self.issue_delay_s);
+                let running_until = |deadline: f64| {
+                    let before = self.issued_s.partition_point(|&t| t <= deadline + 1e-9);
+                    before > 0 && deadline - self.issued_s[before - 1] <= 1.5 * dt
+                };
                 let periods: Vec<(i64, i64)> = runs
                     .iter()
                     .copied()
                     .filter(|&(a, b)| {
                         let start = a as f64 * dt;
                         fits && b - a + 1 >= n
-                            && start - LEAD_S >= self.first_issued_s
-                            && start <= self.last_s + horizon_s - (n as f64) * dt
+                            && self.grid.contains_key(&(a - 1))
+                            && running_until(start - LEAD_S)
+                            && start <= last_s + horizon_s - (n as f64) * dt
                     })
                     .collect();
                 let hit_with_lead = |th: &Threshold, lead_s: f64| {
@@ -535,9 +550,24 @@ mod tests {
         forecast: impl Fn(f64) -> f64,
         delay_s: f64,
     ) -> Vec<DecisionReport> {
+        score_around(config, forecast, delay_s, (f64::NAN, f64::NAN))
+    }
+
+    /// [`score_issued`] of a record with no samples strictly inside `hole` (s): as in replay,
+    /// a forecast with a step there is not scored.
+    fn score_around(
+        config: &DeckConfig,
+        forecast: impl Fn(f64) -> f64,
+        delay_s: f64,
+        hole: (f64, f64),
+    ) -> Vec<DecisionReport> {
         let mut scorer = DecisionScorer::new("deck", config, &[10.0, 30.0], delay_s);
         let mut t0 = 0.0;
         while t0 < 1000.0 {
+            if t0 + 0.5 < hole.1 && t0 + 20.0 > hole.0 {
+                t0 += 0.5;
+                continue;
+            }
             let f = roll_forecast(t0, &forecast, 0.01);
             let truth = roll_forecast(t0, quiet_then_rough, 0.0);
             let happened = Happened {
@@ -576,6 +606,30 @@ mod tests {
         let three_s = HIT_LEADS_S.iter().position(|&l| l == 3.0).unwrap();
         assert_eq!(by_lead(late)[three_s], by_lead(on_time)[three_s]);
         assert_eq!(by_lead(on_time)[three_s], on_time.hit_rate);
+    }
+
+    /// Regression (review): a quiet period resumed after a gap in the record began, as far as
+    /// the scorer could see, where the gap ended, and no forecast issued 5 s before that was
+    /// scored (there was none: the record had no samples): every gap added a miss.
+    #[test]
+    fn a_quiet_period_resumed_after_a_gap_is_not_counted_as_missed() {
+        let config = DeckConfig {
+            point_m: [0.0; 3],
+            ..DeckConfig::default()
+        };
+        let hits = |r: &DecisionReport| (r.hit_rate * r.quiet_periods as f64).round() as u64;
+        let whole = &score(&config, quiet_then_rough)[0];
+        // No samples in the rough 20 s before the quiet period from 520 s: that period's
+        // beginning is not seen. The quiet period before the gap (480-500 s) is announced by
+        // forecasts from before it and stays; so do all after 520 s.
+        let gappy = &score_around(&config, quiet_then_rough, 0.0, (500.0, 520.0))[0];
+        assert_eq!(gappy.quiet_periods, whole.quiet_periods - 1, "{gappy:?}");
+        assert_eq!(hits(gappy), hits(whole) - 1, "{gappy:?}");
+        // A gap late in a quiet period (495-498 s), after the forecasts that announce it:
+        // the period stays, and is hit.
+        let inside = &score_around(&config, quiet_then_rough, 0.0, (495.0, 498.0))[0];
+        assert_eq!(inside.quiet_periods, whole.quiet_periods, "{inside:?}");
+        assert_eq!(hits(inside), hits(whole), "{inside:?}");
     }
 
     /// Replay's scorer drops the forecasts issued before a thaw and waiting for their horizon,
