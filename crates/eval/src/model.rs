@@ -662,7 +662,16 @@ mod tests {
         let put = |v: &mut serde_json::Value, p: serde_json::Value| v["dofs"][0]["predictor"] = p;
         // Order 40, horizon 6: P is 6 x 34.
         type Edit = fn(&mut serde_json::Value);
-        let cases: [(Method, &str, Edit); 9] = [
+        let cases: [(Method, &str, Edit); 10] = [
+            // Regression (review): a 0 x 10^12 map aborted the program on load.
+            (
+                Method::Wiener,
+                "matrix of 0 x 1000000000000 is empty",
+                |p| {
+                    p["coefficients"] =
+                        serde_json::json!({"rows": 0, "cols": 1e12 as u64, "coef": []});
+                },
+            ),
             (Method::Mca, "MCA model.prediction is 6 x 33", |p| {
                 let m = &mut p["model"]["prediction"];
                 m["cols"] = 33.into();

@@ -84,6 +84,11 @@ impl LinearMap {
     /// Wrap a row-major `rows x cols` matrix. Fails if the length does not match or a value is
     /// not finite (a model file may have been edited by hand).
     pub fn from_row_major(rows: usize, cols: usize, coef: Vec<f64>) -> Result<Self, String> {
+        // Regression (review): a hand-edited 0 x 10^12 matrix matched its empty coefficients
+        // and then aborted the program allocating its scratch rows of 10^12 values.
+        if rows == 0 || cols == 0 {
+            return Err(format!("matrix of {rows} x {cols} is empty"));
+        }
         if rows.checked_mul(cols) != Some(coef.len()) {
             return Err(format!(
                 "matrix of {rows} x {cols} needs {} coefficients, got {}",
