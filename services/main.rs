@@ -106,18 +106,22 @@ fn output_not_input(
     input_option: &str,
     input: &std::path::Path,
 ) -> anyhow::Result<()> {
-    use std::os::unix::fs::MetadataExt;
-    let same = match (std::fs::metadata(out), std::fs::metadata(input)) {
-        (Ok(a), Ok(b)) => a.dev() == b.dev() && a.ino() == b.ino(),
-        _ => false,
-    };
-    if same {
+    if same_file(out, input) {
         anyhow::bail!(
             "{option} {} is the {input_option} file: writing it would destroy what is read; give another {option}",
             out.display()
         );
     }
     Ok(())
+}
+
+/// Whether both paths name one existing file (the same device and inode).
+fn same_file(a: &std::path::Path, b: &std::path::Path) -> bool {
+    use std::os::unix::fs::MetadataExt;
+    match (std::fs::metadata(a), std::fs::metadata(b)) {
+        (Ok(a), Ok(b)) => a.dev() == b.dev() && a.ino() == b.ino(),
+        _ => false,
+    }
 }
 
 /// The raw arguments of one command parsed from `argv` (without the command's name), as clap

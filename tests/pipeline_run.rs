@@ -13,6 +13,11 @@ fn run_shows_forecasts_and_advisory_and_stops_after_duration() {
     // configuration a fresh clone runs with.
     let p = TestPipeline::new("run", "");
     let dir = tempfile::tempdir().unwrap();
+    // Files of the user's at the names `run` writes its services' configuration under.
+    // Regression (review): both were removed, pipeline.toml after being written over.
+    let mine = "# the user's own\n";
+    std::fs::write(dir.path().join("pipeline.toml"), mine).unwrap();
+    std::fs::write(dir.path().join("target.toml"), mine).unwrap();
     let stdout = run_ok(&[
         "run",
         "--instance",
@@ -40,6 +45,11 @@ fn run_shows_forecasts_and_advisory_and_stops_after_duration() {
         stdout.contains("duration reached; all services stopped"),
         "{stdout}"
     );
+    // The one-ship run wrote no target.toml and leaves it; pipeline.toml was kept as `.1`.
+    let read = |name: &str| std::fs::read_to_string(dir.path().join(name)).ok();
+    assert_eq!(read("target.toml").as_deref(), Some(mine));
+    assert_eq!(read("pipeline.toml.1").as_deref(), Some(mine));
+    assert_eq!(read("pipeline.toml"), None, "the run's own is removed");
     // Every child wrote its log and stopped cleanly.
     for name in ["producer", "predictor", "deck", "crane", "display"] {
         let log = std::fs::read_to_string(dir.path().join(format!("{name}.log"))).unwrap();
