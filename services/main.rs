@@ -124,6 +124,33 @@ fn same_file(a: &std::path::Path, b: &std::path::Path) -> bool {
     }
 }
 
+/// Two files a command writes must differ: the second written replaced the first
+/// (regression, review: `simulate --out s.csv --plot s.csv` left the figure only). The same
+/// existing file, or the same name in the same directory when they do not exist yet.
+fn outputs_differ(
+    option: &str,
+    path: &std::path::Path,
+    other_option: &str,
+    other: &std::path::Path,
+) -> anyhow::Result<()> {
+    let place = |p: &std::path::Path| {
+        let dir = p.parent().filter(|d| !d.as_os_str().is_empty());
+        let dir = dir.unwrap_or(std::path::Path::new("."));
+        (
+            std::fs::canonicalize(dir).ok(),
+            p.file_name().map(|n| n.to_owned()),
+        )
+    };
+    let (a, b) = (place(path), place(other));
+    if same_file(path, other) || (a.0.is_some() && a.1.is_some() && a == b) {
+        anyhow::bail!(
+            "{option} {} is the {other_option} file: one would overwrite the other; give another {option}",
+            path.display()
+        );
+    }
+    Ok(())
+}
+
 /// The raw arguments of one command parsed from `argv` (without the command's name), as clap
 /// parses them on the command line: for the unit tests of each command's validation.
 #[cfg(test)]

@@ -127,6 +127,14 @@ impl TryFrom<Args> for Config {
         if let Some(svg) = &args.plot {
             // Checked now: the figure is drawn after the whole record is written.
             crate::output_in_existing_dir("--plot", svg)?;
+            crate::outputs_differ("--plot", svg, "--out", &args.out)?;
+        }
+        if let Some(table) = &args.rao_table {
+            // Regression (review): `--rao-table x.csv --out x.csv` replaced the table.
+            crate::output_not_input("--out", &args.out, "--rao-table", table)?;
+            if let Some(svg) = &args.plot {
+                crate::output_not_input("--plot", svg, "--rao-table", table)?;
+            }
         }
         Ok(Config {
             sim,
@@ -544,5 +552,42 @@ mod tests {
         );
         // A bare file name is in the current directory, which exists.
         assert!(config(&["--out", "m.csv", "--plot", "m.svg"]).is_ok());
+    }
+
+    #[test]
+    fn outputs_that_would_overwrite_each_other_or_the_rao_table_are_refused() {
+        // Regressions (review): the figure replaced the motion record, and the record the RAO
+        // table it was computed from.
+        let dir = tempfile::tempdir().unwrap();
+        let out = dir.path().join("m.csv");
+        let same_place = dir.path().join(".").join("m.csv");
+        let (out, same_place) = (out.to_str().unwrap(), same_place.to_str().unwrap());
+        let e = refused(&["--out", out, "--plot", same_place]);
+        assert!(
+            e.starts_with("--plot ") && e.contains("is the --out file"),
+            "{e}"
+        );
+        // Also when the record exists already (a symbolic link to it is the same file).
+        std::fs::write(out, "").unwrap();
+        let link = dir.path().join("link.svg");
+        std::os::unix::fs::symlink(out, &link).unwrap();
+        let e = refused(&["--out", out, "--plot", link.to_str().unwrap()]);
+        assert!(e.contains("is the --out file"), "{e}");
+        let table = dir.path().join("rao.csv");
+        std::fs::write(&table, "").unwrap();
+        let table = table.to_str().unwrap();
+        for (flag, path) in [("--out", table), ("--plot", table)] {
+            let args: Vec<&str> = if flag == "--out" {
+                vec!["--rao-table", table, "--out", path]
+            } else {
+                vec!["--rao-table", table, "--out", "m.csv", "--plot", path]
+            };
+            let e = refused(&args);
+            assert!(
+                e.starts_with(flag) && e.contains("is the --rao-table file"),
+                "{e}"
+            );
+        }
+        assert_eq!(std::fs::read_to_string(table).unwrap(), "");
     }
 }
