@@ -112,6 +112,12 @@ impl TryFrom<Args> for Config {
                 if let Some(csv) = &args.calls_csv {
                     crate::output_not_input("--calls-csv", csv, "--crane-record", &crane_record)?;
                     crate::output_not_input("--calls-csv", csv, "--target-record", &target_record)?;
+                    // Written at the end of a long study: a path that cannot be written is
+                    // refused now (review: a directory was found only after the study).
+                    crate::output_in_existing_dir("--calls-csv", csv)?;
+                    shipcast_series::atomic_file::check_writable_beside(csv).with_context(
+                        || format!("--calls-csv {}: cannot write there", csv.display()),
+                    )?;
                 }
                 Mode::Study {
                     crane_record,
@@ -279,14 +285,10 @@ fn run_study(
         (crane.len() + target.len()) as u64,
         "{elapsed_precise} [{bar:30}] {pos}/{len} samples",
     );
-    let mut calls = match calls_csv {
-        Some(path) => {
-            let file = std::fs::File::create(path)
-                .with_context(|| format!("cannot write {}", path.display()))?;
-            Some(LiftCallsCsv::new(std::io::BufWriter::new(file)))
-        }
-        None => None,
-    };
+    // Kept in memory and written whole at the end, after the report (regression, review: the
+    // file was emptied at the start, so a study that scored nothing lost the calls of the one
+    // before, and a failed write lost the report of a whole study).
+    let mut calls = calls_csv.map(|_| LiftCallsCsv::new(Vec::new()));
     let mut on_call = |call: &LiftCall| -> anyhow::Result<()> {
         if let (Some(csv), Some(path)) = (calls.as_mut(), calls_csv) {
             csv.write(call)
@@ -305,12 +307,6 @@ fn run_study(
         &mut on_call,
     )?;
     bar.finish_and_clear();
-    if let (Some(csv), Some(path)) = (calls, calls_csv) {
-        let rows = csv
-            .finish()
-            .with_context(|| format!("writing {}", path.display()))?;
-        tracing::info!("wrote {rows} lift calls to {}", path.display());
-    }
     if report.scored == 0 {
         // A table of zeros would read as a perfect score.
         anyhow::bail!(
@@ -324,6 +320,13 @@ fn run_study(
         writeln!(out)?;
     } else {
         write!(out, "{}", table(&report))?;
+    }
+    drop(out);
+    if let (Some(csv), Some(path)) = (calls, calls_csv) {
+        let (bytes, rows) = csv.finish()?;
+        // The report is out: a file that cannot be written fails the command after it.
+        shipcast_series::atomic_file::write_atomically(path, &bytes).context("--calls-csv")?;
+        tracing::info!("wrote {rows} lift calls to {}", path.display());
     }
     Ok(())
 }

@@ -705,6 +705,64 @@ fn an_output_that_is_the_input_file_is_refused_and_the_input_kept() {
     }
 }
 
+/// Regressions (review): `relative --calls-csv` emptied the file as the study began, so a
+/// study that scored nothing lost the calls of the one before; and a directory given as the
+/// file was found only after the study.
+#[test]
+fn a_lift_study_that_scores_nothing_keeps_the_calls_file_it_was_given() {
+    let dir = tempfile::tempdir().unwrap();
+    let record = |name: &str, seed: &str| {
+        let path = dir.path().join(name).to_str().unwrap().to_string();
+        let made = shipcast(&[
+            "simulate",
+            "--duration",
+            "400",
+            "--seed",
+            seed,
+            "--out",
+            &path,
+        ]);
+        assert!(made.status.success());
+        path
+    };
+    let (crane, target) = (record("a.csv", "1"), record("b.csv", "2"));
+    let calls = dir.path().join("calls.csv");
+    std::fs::write(&calls, "the calls of an earlier study\n").unwrap();
+    let study = |calls: &str| {
+        shipcast(&[
+            "relative",
+            "--crane-record",
+            &crane,
+            "--target-record",
+            &target,
+            // Past the last forecast pair whose horizon fits in the records.
+            "--skip-s",
+            "395",
+            "--calls-csv",
+            calls,
+        ])
+    };
+    // The study logs its engines' progress before it fails.
+    let failed = study(calls.to_str().unwrap());
+    let stderr = String::from_utf8_lossy(&failed.stderr);
+    assert!(!failed.status.success(), "{stderr}");
+    assert!(
+        stderr
+            .lines()
+            .last()
+            .is_some_and(|l| l.starts_with("error: no forecast pair could be scored")),
+        "{stderr}"
+    );
+    assert_eq!(
+        std::fs::read_to_string(&calls).unwrap(),
+        "the calls of an earlier study\n"
+    );
+    assert_one_line_error(
+        &study(dir.path().to_str().unwrap()),
+        "is a directory, not a file",
+    );
+}
+
 /// Regression (review): a record stamped before 0 was refused, as "--skip-s 0 s skips the
 /// whole record" although no --skip-s was given; replay now scores from the record's start.
 #[test]

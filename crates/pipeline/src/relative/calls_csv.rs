@@ -88,10 +88,10 @@ impl<W: Write> LiftCallsCsv<W> {
         Ok(())
     }
 
-    /// Flushes; the number of calls written.
-    pub fn finish(mut self) -> io::Result<u64> {
+    /// Flushes; the writer and the number of calls written.
+    pub fn finish(mut self) -> io::Result<(W, u64)> {
         self.out.flush()?;
-        Ok(self.rows)
+        Ok((self.out, self.rows))
     }
 }
 
@@ -131,8 +131,9 @@ mod tests {
         let mut csv = LiftCallsCsv::new(Vec::new());
         csv.write(&call).unwrap();
         csv.write(&LiftCall { held: true, ..call }).unwrap();
-        let out = String::from_utf8(csv.out.clone()).unwrap();
-        assert_eq!(csv.finish().unwrap(), 2);
+        let (out, rows) = csv.finish().unwrap();
+        assert_eq!(rows, 2);
+        let out = String::from_utf8(out).unwrap();
         let lines: Vec<&str> = out.lines().collect();
         assert_eq!(lines.len(), 3);
         let header: Vec<&str> = lines[0].split(',').collect();
