@@ -29,7 +29,9 @@ pub struct Args {
     /// Seed of the simulated sea.
     #[arg(long)]
     pub seed: Option<u64>,
-    /// Simulator sample rate [Hz].
+    /// Simulator sample rate [Hz] (producer.rate_hz). The predictor takes its input for the
+    /// producer.rate_hz of its own configuration: give both the same (a predictor that finds
+    /// the motion faster restarts its history and says so).
     #[arg(long, value_name = "HZ", allow_negative_numbers = true)]
     pub rate: Option<f64>,
     /// Stop after this much record time [s].
@@ -210,6 +212,11 @@ impl TryFrom<Args> for Config {
             p.backfill_s = b;
         }
         pipeline.validate()?;
+        // Regression (review): a rate no predictor can decimate (3 Hz for 2 Hz forecasts) was
+        // taken, and the predictor then read every sample for its own rate.
+        pipeline
+            .decimation_factor()
+            .map_err(|e| anyhow::anyhow!("producer.rate_hz: {e}"))?;
         let every = |name: &str, n: Option<u64>| {
             n.map(|n| checked(limits::count(name, n, 1, u64::MAX)))
                 .transpose()
@@ -408,6 +415,12 @@ mod validation_tests {
                 limits::MIN_RATE_HZ,
                 shipcast_pipeline::config::MAX_PRODUCER_RATE_HZ
             )
+        );
+        // Regression (review): a rate the predictor cannot decimate was taken.
+        let e = refused(&["--rate", "3"]);
+        assert!(
+            e.starts_with("producer.rate_hz: ") && e.contains("not an integer multiple"),
+            "{e}"
         );
         assert_eq!(
             refused(&["--wait-subscriber-s", "nan"]),

@@ -95,6 +95,14 @@ pub struct NewValue {
 /// Record time between two log lines about gaps too long to bridge [s].
 const GAP_LOG_EVERY_S: f64 = 10.0;
 
+/// Samples over which the stream's rate is checked against the configured one.
+const RATE_CHECK_SAMPLES: u64 = 64;
+
+/// Record time per slot, as a fraction of the configured step, below which the stream is
+/// faster than its configured rate. Jitter averages out over [`RATE_CHECK_SAMPLES`] and a
+/// clock's drift is parts per million; 9 Hz read as 8 Hz gives 0.89.
+const FAST_STREAM_RATIO: f64 = 0.9;
+
 /// Turns accepted samples into decimated per-DOF history.
 pub struct Ingest {
     decimators: Vec<Decimator>,
@@ -134,6 +142,9 @@ pub struct Ingest {
     /// `GAP_LOG_EVERY_S` of record time, not one per sample.
     gaps_unlogged: u64,
     gap_logged_at: Option<f64>,
+    /// The record time and the slots filled since the start of the current rate check.
+    rate_check: Option<(f64, u64)>,
+    rate_logged_at: Option<f64>,
 }
 
 impl Ingest {
@@ -166,6 +177,8 @@ impl Ingest {
             last_lost_by_time: 0,
             gaps_unlogged: 0,
             gap_logged_at: None,
+            rate_check: None,
+            rate_logged_at: None,
         })
     }
 
@@ -233,6 +246,7 @@ impl Ingest {
         self.history.iter_mut().for_each(Ring::clear);
         self.last_good = None;
         self.recorded_run = 0;
+        self.rate_check = None;
     }
 
     /// Push six values through the decimators (`bridged`: held values standing in for a
@@ -269,12 +283,17 @@ impl Ingest {
         let mut produced = false;
         // What this sample's time gap adds to `lost` beyond its seq gap.
         let mut lost_by_time_only = 0;
+        // Slots before this sample filled with held values.
+        let mut bridged = 0;
         match verdict {
             SeqCheck::OutOfOrder => return None,
             SeqCheck::BadValue => {
                 // Keep the fixed-rate grid: bridge the bad sample with the last good values,
                 // and count its slot as filled so the next good sample is no gap in time.
                 self.last_time = self.last_time.map(|t| t + 1.0 / self.input_rate_hz);
+                if let Some((_, slots)) = self.rate_check.as_mut() {
+                    *slots += 1;
+                }
                 self.held_run += 1;
                 if self.held_run > self.max_fill && self.last_good.is_some() {
                     tracing::warn!(
@@ -312,6 +331,7 @@ impl Ingest {
                         for _ in 0..lost {
                             produced |= self.push_values(&held, true);
                         }
+                        bridged = lost;
                     }
                     _ => {
                         self.gaps_unlogged += 1;
@@ -336,11 +356,59 @@ impl Ingest {
             SeqCheck::Accepted { .. } => {}
         }
         self.last_lost_by_time = lost_by_time_only;
+        if self.too_fast(sample.time_s, bridged, counters) {
+            return None;
+        }
         produced |= self.push_values(&sample.dof, false);
         self.held_run = 0;
         self.last_good = Some(sample.dof);
         self.last_time = Some(sample.time_s);
         produced.then(|| self.new_value(sample))
+    }
+
+    /// Whether the stream, checked over its last [`RATE_CHECK_SAMPLES`] slots up to this
+    /// sample at `time_s`, comes faster than the configured rate: then its history restarts
+    /// (counted in `rate_mismatches`), and the sample is not used.
+    ///
+    /// Why: a sample closer than a step to the one before fills the next slot, so a producer
+    /// at 16 Hz read as 8 Hz had its record squeezed to half its time: every lead and window
+    /// was twice what it claimed, with no warning (review). Each sample alone cannot tell: a
+    /// stamp may be a quarter step off its slot. A slower stream leaves slots empty, which are
+    /// counted as lost and bridged or restart the history as gaps.
+    fn too_fast(&mut self, time_s: f64, bridged: u64, counters: &mut Counters) -> bool {
+        let (start_s, slots) = match self.rate_check {
+            // Slots since the start, this one included, with those bridged before it.
+            Some((start_s, slots)) => (start_s, slots + 1 + bridged),
+            None => {
+                self.rate_check = Some((time_s, 0));
+                return false;
+            }
+        };
+        if slots < RATE_CHECK_SAMPLES {
+            self.rate_check = Some((start_s, slots));
+            return false;
+        }
+        self.rate_check = Some((time_s, 0));
+        let ratio = (time_s - start_s) * self.input_rate_hz / slots as f64;
+        if ratio >= FAST_STREAM_RATIO {
+            return false;
+        }
+        counters.rate_mismatches += 1;
+        let due = self
+            .rate_logged_at
+            .is_none_or(|t| (time_s - t).abs() >= GAP_LOG_EVERY_S);
+        if due {
+            tracing::warn!(
+                mismatches = counters.rate_mismatches,
+                "predictor: the motion comes at about {:.3} Hz by its time stamps, not the configured producer.rate_hz {} Hz: history restarts (give the producer and the predictor the same producer.rate_hz)",
+                self.input_rate_hz / ratio,
+                self.input_rate_hz
+            );
+            self.rate_logged_at = Some(time_s);
+        }
+        self.restart();
+        self.last_time = Some(time_s);
+        true
     }
 
     /// Samples missing between the last accepted one and `time_s` by the record clock.
@@ -443,6 +511,56 @@ mod tests {
         // Label: the newest input's time minus the filter delay (2 * factor samples).
         assert!((v.time_s - (396.0 * 0.125 - 1.0)).abs() < 1e-12, "{v:?}");
         assert_eq!(c.received, 400);
+    }
+
+    /// [`samples`] stamped `time(i)` instead of every 0.125 s.
+    fn stamped(n: usize, time: impl Fn(usize) -> f64) -> Vec<MotionSample> {
+        samples(n)
+            .into_iter()
+            .enumerate()
+            .map(|(i, s)| MotionSample {
+                time_s: time(i),
+                ..s
+            })
+            .collect()
+    }
+
+    /// The history's length and the counters after `input` into an 8 Hz ingest.
+    fn ingested(input: &[MotionSample]) -> (usize, Counters) {
+        let mut ingest =
+            Ingest::new(4, 8.0, 1000, 8, shipcast_series::FilterPhase::Linear).unwrap();
+        let mut c = Counters::default();
+        for s in input {
+            ingest.push(s, &mut c);
+        }
+        (ingest.len(), c)
+    }
+
+    /// Regression (review): a producer at 16 Hz read as 8 Hz filled one slot per sample, and
+    /// its record was squeezed to half its time with nothing counted or logged.
+    #[test]
+    fn a_stream_faster_than_its_rate_restarts_the_history_and_is_counted() {
+        let n = 1600;
+        let (on_rate, c) = ingested(&samples(n));
+        assert_eq!(c.rate_mismatches, 0);
+        // 16 Hz and 9 Hz: found at the end of each 64-sample check; the history never
+        // grows past what one check holds.
+        for rate in [16.0, 9.0] {
+            let (len, c) = ingested(&stamped(n, |i| i as f64 / rate));
+            assert!(c.rate_mismatches >= (n as u64 / 65) - 1, "{rate}: {c:?}");
+            assert!(len <= 64 / 4, "{rate}: {len} values");
+        }
+        // Stamps a fifth of a step early and late by turns (two samples 0.6 steps apart), and
+        // a stream at half the rate (every other slot bridged): the configured rate.
+        let jittered = stamped(n, |i| {
+            (i as f64 + if i % 2 == 0 { 0.2 } else { -0.2 }) * 0.125
+        });
+        let (len, c) = ingested(&jittered);
+        assert_eq!((len, c.rate_mismatches), (on_rate, 0), "{c:?}");
+        let slow: Vec<MotionSample> = samples(n).into_iter().step_by(2).collect();
+        let (len, c) = ingested(&slow);
+        assert_eq!((len, c.rate_mismatches), (on_rate, 0), "{c:?}");
+        assert_eq!(c.lost, n as u64 / 2 - 1);
     }
 
     #[test]

@@ -25,6 +25,10 @@ pub struct Counters {
     pub published: u64,
     /// Producer runs seen start again at seq 0.
     pub restarts: u64,
+    /// Times the predictor found the motion's time stamps faster than `producer.rate_hz`
+    /// (checked over 64 samples at a time); each restarted its history.
+    #[serde(default)]
+    pub rate_mismatches: u64,
 }
 
 impl Counters {
@@ -47,7 +51,7 @@ impl Counters {
     /// One-line summary for logs and the live view.
     pub fn summary(&self) -> String {
         format!(
-            "received {} lost {} rejected {} (non-finite or out of range {}, out-of-order {}, foreign {}) published {} restarts {}",
+            "received {} lost {} rejected {} (non-finite or out of range {}, out-of-order {}, foreign {}) published {} restarts {}{}",
             self.received,
             self.lost,
             self.rejected(),
@@ -55,7 +59,12 @@ impl Counters {
             self.rejected_order,
             self.rejected_source,
             self.published,
-            self.restarts
+            self.restarts,
+            if self.rate_mismatches > 0 {
+                format!(" faster than producer.rate_hz {}", self.rate_mismatches)
+            } else {
+                String::new()
+            }
         )
     }
 }
@@ -227,6 +236,7 @@ mod tests {
                 rejected_source: 0,
                 published: 0,
                 restarts: 1,
+                rate_mismatches: 0,
             }
         );
         assert!(c.summary().contains("lost 2"));
