@@ -152,6 +152,15 @@ mod tests {
         }
         let e = refused(&["--listen", "tls/127.0.0.1:7447"]);
         assert!(e.contains("is required for tls/ endpoints"), "{e}");
+        // Regression (review): an endpoint given twice failed as "Address already in use".
+        let twice = "tcp/127.0.0.1:7447";
+        let e = refused(&["--listen", twice, "--listen", twice]);
+        assert!(
+            e.contains(&format!(
+                "zenoh.listen (or --listen) endpoint '{twice}' is given twice (entries 1 and 2)"
+            )),
+            "{e}"
+        );
         assert_eq!(
             refused(&["--listen", "tcp/127.0.0.1:7447", "--downsample-hz", "nan"]),
             format!(

@@ -114,7 +114,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         let text = e.to_string();
         if text.contains("is too short: train") {
             anyhow::anyhow!(
-                "{text} (train: the record less --holdout {holdout} of it; a longer record, a lower --order or --holdout help)"
+                "{text} (train: the record less --holdout {holdout} of it, so the held-out part must hold order + horizon values; a longer record, a lower --order or --horizon, or a larger --holdout help)"
             )
         } else {
             anyhow::Error::from(e)

@@ -135,6 +135,19 @@ impl ZenohConfig {
                     "{key} (or {flag}) endpoint '{e}' is not PROTOCOL/HOST:PORT, with a port other than 0, e.g. tcp/127.0.0.1:7447 or tls/10.0.0.5:7447"
                 ));
             }
+            // Regression (review): a listen endpoint given twice failed as "Address already in
+            // use", which sent the reader after another process holding the port.
+            if let Some((i, e)) = endpoints
+                .iter()
+                .enumerate()
+                .find(|(i, e)| endpoints[..*i].contains(e))
+            {
+                return bad(&format!(
+                    "{key} (or {flag}) endpoint '{e}' is given twice (entries {} and {})",
+                    endpoints[..i].iter().position(|o| o == e).unwrap_or(0) + 1,
+                    i + 1
+                ));
+            }
         }
         let tls_endpoint = self
             .listen
