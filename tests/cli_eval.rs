@@ -363,6 +363,31 @@ fn train_writes_a_loadable_model_for_every_dof_present() {
         "10",
     ]);
     assert_one_line_error(&bad, "infeasible");
+
+    // Regression (review): "too short" advised a lower --holdout, which makes it worse: the
+    // held-out share must hold order + horizon values (50 of 500 cannot hold 60 + 6).
+    let train = |holdout: &str| {
+        shipcast(&[
+            "train",
+            "--input",
+            input.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "--order",
+            "60",
+            "--horizon",
+            "6",
+            "--holdout",
+            holdout,
+        ])
+    };
+    assert_one_line_error(&train("0.1"), "or a larger --holdout help");
+    let larger = train("0.2");
+    assert!(
+        larger.status.success(),
+        "{}",
+        String::from_utf8_lossy(&larger.stderr)
+    );
 }
 
 /// Regression (review): `train` on a record with only some DOF columns wrote a model file that
