@@ -1,6 +1,7 @@
 //! Helideck landing advisory: the motion of a point on the ship from the six DOF (glam), and
-//! the predicted windows in which roll, pitch and the deck point's vertical velocity stay within
-//! limits, with the probability that they really do (from the forecast's `sigma`).
+//! the predicted windows in which roll, pitch and the deck point's vertical displacement and
+//! velocity stay within limits, with the probability that they really do (from the forecast's
+//! `sigma`).
 //!
 //! Axes and signs are the simulator's (x forward, y starboard, z down; roll positive starboard
 //! down, pitch positive bow up); the advisory reports vertical motion positive UP, as a landing
@@ -135,6 +136,7 @@ pub struct DeckAdvisor {
     roll_limit: f64,
     pitch_limit: f64,
     velocity_limit: f64,
+    displacement_limit: f64,
     min_window_s: f64,
     decider: Decider,
     z_up: [f64; MAX_STEPS],
@@ -148,6 +150,7 @@ impl DeckAdvisor {
             roll_limit: config.roll_limit_deg.to_radians(),
             pitch_limit: config.pitch_limit_deg.to_radians(),
             velocity_limit: config.vertical_velocity_limit_mps,
+            displacement_limit: config.vertical_displacement_limit_m,
             min_window_s: config.min_window_s,
             decider: Decider::new(config),
             z_up: [0.0; MAX_STEPS],
@@ -230,12 +233,17 @@ impl DeckAdvisor {
                 advisory.max_pitch_deg = advisory.max_pitch_deg.max(pitch.abs().to_degrees());
                 advisory.max_vertical_velocity_mps =
                     advisory.max_vertical_velocity_mps.max(v.abs());
+                // Every limit the decision judges (regression, review: the displacement's was
+                // left out, and a deck 3 m up showed its whole horizon within limits).
+                let z = self.z_up[k];
                 let within = roll.abs() <= self.roll_limit
                     && pitch.abs() <= self.pitch_limit
+                    && z.abs() <= self.displacement_limit
                     && v.abs() <= self.velocity_limit;
                 within.then(|| {
                     prob_within(roll, forecast.sigma[ROLL][k] as f64, self.roll_limit)
                         * prob_within(pitch, forecast.sigma[PITCH][k] as f64, self.pitch_limit)
+                        * prob_within(z, self.z_sigma[k], self.displacement_limit)
                         * prob_within(v, v_sigma, self.velocity_limit)
                 })
             } else {
@@ -405,6 +413,26 @@ pub(crate) mod tests {
         assert!(c > 0.0 && c < 1.0, "{c}");
         let f = forecast_with_roll(20, |k| if k == 5 { 1.0 } else { 5.0 }, 0.0);
         assert!(advisor.advise(&f).windows.is_empty());
+    }
+
+    #[test]
+    fn a_deck_beyond_its_displacement_limit_has_no_window() {
+        // Heave 3 m up (z down) against the 2 m limit, roll and pitch 0: no step is within
+        // every limit the decision judges.
+        let config = DeckConfig {
+            point_m: [0.0, 0.0, 0.0],
+            min_window_s: 1.0,
+            ..DeckConfig::default()
+        };
+        let mut advisor = DeckAdvisor::new(&config);
+        let mut windows = |heave_up_m: f32| {
+            let mut f = forecast_with_roll(20, |_| 0.0, 0.0);
+            f.mean[HEAVE][..20].fill(-heave_up_m);
+            advisor.advise(&f).windows
+        };
+        assert!(windows(3.0).is_empty());
+        // Within the limit: the whole horizon.
+        assert_eq!(windows(1.5).len(), 1);
     }
 
     #[test]
