@@ -73,7 +73,8 @@ pub struct DecisionView {
     /// Probability that every limit holds over the window of MOT from now; None when the
     /// horizon is shorter than MOT or (`awaiting_verified_errors`) before verified errors.
     pub probability_now: Option<f64>,
-    /// Start of the first window that reaches `go_probability` (the lift decision has none).
+    /// Start of the first window that reaches `go_probability` (absent from a lift decision
+    /// of a service older than 2026-12-07).
     #[serde(default)]
     pub next_window_s: Option<f64>,
     #[serde(default)]

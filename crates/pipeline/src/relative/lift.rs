@@ -94,6 +94,14 @@ pub struct LiftDecision {
     /// Probability that every limit holds over the window of MOT from the first step (None:
     /// the forecast is shorter than MOT, or `awaiting_verified_errors`).
     pub probability_now: Option<f64>,
+    /// Start of the first window of MOT whose mean holds every limit and whose probability
+    /// reaches `go_probability` (the time of its first step; the first step's own when go now),
+    /// and that probability; None when no window within the horizon does, or no probability
+    /// is stated. Absent in the advisories of a service older than this field.
+    #[serde(default)]
+    pub next_window_s: Option<f64>,
+    #[serde(default)]
+    pub next_window_probability: Option<f64>,
     /// First step at which the predicted mean breaks a limit.
     pub next_exceedance_s: Option<f64>,
     /// Verified error paths the probability comes from; 0: the Gaussian model (absent in the
@@ -197,19 +205,24 @@ impl LiftDecider {
     pub fn gaussian_probability(&self, track: &RelativeTrack) -> Option<f64> {
         let limits = &self.limits;
         let window = limits.window_steps(track.dt_s);
-        (window <= track.steps() && window <= self.lattice.dims()).then(|| {
-            (0..3)
-                .map(|axis| {
-                    chain_within(
-                        &track.raw_mean[axis][..window],
-                        &track.raw_sigma[axis][..window],
-                        limits.limit(axis),
-                        limits.error_correlation,
-                        &self.lattice,
-                    )
-                })
-                .product::<f64>()
-        })
+        (window <= track.steps() && window <= self.lattice.dims())
+            .then(|| self.gaussian_window(track, 0, window))
+    }
+
+    /// The Gaussian model's probability that every limit holds over steps [start, end).
+    fn gaussian_window(&self, track: &RelativeTrack, start: usize, end: usize) -> f64 {
+        let limits = &self.limits;
+        (0..3)
+            .map(|axis| {
+                chain_within(
+                    &track.raw_mean[axis][start..end],
+                    &track.raw_sigma[axis][start..end],
+                    limits.limit(axis),
+                    limits.error_correlation,
+                    &self.lattice,
+                )
+            })
+            .product::<f64>()
     }
 
     /// Decides on `track`: no probability while a sensor of either ship is frozen
@@ -253,11 +266,19 @@ impl LiftDecider {
         let next_exceedance_s = (0..steps)
             .find(|&k| (0..3).any(|axis| track.mean[axis][k].abs() > limits.limit(axis)))
             .map(|k| (k + 1) as f64 * track.dt_s);
+        let go = probability_now.is_some_and(|p| p >= limits.go_probability);
+        let next_window = match probability_now {
+            Some(p) if go => Some((0, p)),
+            Some(_) => self.later_window(track, evidence, from_ensemble),
+            None => None,
+        };
         LiftDecision {
             mot_s: limits.mot_s,
             go_probability: limits.go_probability,
-            go: probability_now.is_some_and(|p| p >= limits.go_probability),
+            go,
             probability_now,
+            next_window_s: next_window.map(|(s, _)| (s + 1) as f64 * track.dt_s),
+            next_window_probability: next_window.map(|(_, p)| p),
             next_exceedance_s,
             // The paths the probability comes from: those as long as the window.
             frozen_ship: frozen.map(|f| f.ship),
@@ -273,6 +294,55 @@ impl LiftDecider {
                 && frozen.is_none()
                 && probability_now.is_none()
                 && (from_ensemble || limits.needs_verified_errors),
+        }
+    }
+
+    /// The first window of MOT after the first step whose mean (as published) holds every
+    /// limit and whose probability, from the same source as the decision's (the verified
+    /// paths as long as the horizon, corrected as the decision's; else the Gaussian model),
+    /// reaches `go_probability`: its start step and probability. As the deck's
+    /// (`Decider::next_window`): a window whose mean breaks a limit holds with less than even
+    /// odds and is no candidate.
+    fn later_window(
+        &mut self,
+        track: &RelativeTrack,
+        evidence: &LiftEvidence,
+        from_ensemble: bool,
+    ) -> Option<(usize, f64)> {
+        let limits = self.limits;
+        let steps = track.steps();
+        let window = limits.window_steps(track.dt_s);
+        let mean_holds = |s: usize| {
+            (s..s + window)
+                .all(|k| (0..3).all(|axis| track.mean[axis][k].abs() <= limits.limit(axis)))
+        };
+        if from_ensemble {
+            let usable = evidence.ensemble.failures(
+                &track.raw_mean,
+                &track.raw_sigma,
+                &std::array::from_fn(|axis| limits.limit(axis)),
+                steps,
+                &mut self.fail_before,
+                &mut self.usable,
+            );
+            if !evidence.ensemble.enough(usable) {
+                return None;
+            }
+            (1..=steps.checked_sub(window)?)
+                .filter(|&s| mean_holds(s))
+                .find_map(|s| {
+                    let raw = share_within(&self.fail_before, &self.usable, s, s + window)?;
+                    let p = evidence.statements.correct(raw, limits.go_probability);
+                    (p >= limits.go_probability).then_some((s, p))
+                })
+        } else {
+            let dims = self.lattice.dims();
+            (1..=steps.checked_sub(window)?)
+                .filter(|&s| window <= dims && mean_holds(s))
+                .find_map(|s| {
+                    let p = self.gaussian_window(track, s, s + window);
+                    (p >= limits.go_probability).then_some((s, p))
+                })
         }
     }
 }

@@ -475,6 +475,9 @@ impl RelativeAdvisory {
             },
             self.sigma_basis
         ));
+        if let (false, Some(s), Some(p)) = (d.go, d.next_window_s, d.next_window_probability) {
+            line.push_str(&format!(", next go window in {s:.1}s ({:.0}%)", 100.0 * p));
+        }
         line
     }
 }

@@ -303,6 +303,26 @@ fn the_lift_decision_flips_when_the_relative_motion_crosses_a_limit() {
     let d = lift.decide(&mut t, &unverified);
     assert!(!d.go && d.probability_now.unwrap() < 0.01, "{d:?}");
     assert_eq!(d.next_exceedance_s, Some(5.0));
+    // Beyond the limit to the horizon's end: no window to go in. Go now: the window from the
+    // first step.
+    assert_eq!((d.next_window_s, d.next_window_probability), (None, None));
+    let mut t = relative(&g, &forecast(0.0, 50, calm, sigma), &still);
+    let now = lift.decide(&mut t, &unverified);
+    assert_eq!(now.next_window_s, Some(0.5));
+    assert_eq!(now.next_window_probability, now.probability_now);
+    // Regression (review): the lift stated no next window, and the display read every no-go
+    // as "no go window within the horizon". Rough for steps 9..30 only: the first window of
+    // MOT (10 s, 20 steps) whose mean holds starts at step 30, 15.5 s ahead.
+    for k in 30..50 {
+        rough.mean[2][k] = 0.5;
+    }
+    let mut t = relative(&g, &rough, &still);
+    let d = lift.decide(&mut t, &unverified);
+    assert!(!d.go, "{d:?}");
+    assert_eq!(d.next_window_s, Some(15.5), "{d:?}");
+    assert!(d.next_window_probability.unwrap() >= config.go_probability);
+    let line = advisory(&t, &g, ("ddg51", "supply"), (7, 9), d).summary();
+    assert!(line.contains("next go window in 15.5s"), "{line}");
     // A forecast shorter than the MOT decides nothing.
     let mut t = relative(
         &g,
@@ -578,6 +598,18 @@ fn verified_errors_decide_the_lift_once_enough_exist() {
         (d.probability_now.unwrap() - 1.0 / (n + 2.0)).abs() < 1e-12,
         "{d:?}"
     );
+    // The same forecast calm from step 20 on (10.5 s): the verified paths put the tip at
+    // sigma there, within the limit, so the next window of MOT starts then.
+    let mut easing = forecast(0.0, 50, [0.0, 0.0, 0.6, 0.0, 0.0, 0.0], sigma);
+    for k in 20..50 {
+        easing.mean[2][k] = 0.0;
+    }
+    let mut easing = relative(&g, &easing, &still);
+    let later = lift.decide(&mut easing, &evidence);
+    assert!(!later.go && later.ensemble_members == MIN_MEMBERS, "{later:?}");
+    assert_eq!(later.next_window_s, Some(10.5), "{later:?}");
+    let p = later.next_window_probability.unwrap();
+    assert!(p >= config.go_probability && p <= (n + 1.0) / (n + 2.0), "{later:?}");
     assert_eq!(near.lift_statement, d.probability_now);
     assert!(!d.go);
     // 0.2 m of relative heave: every member holds (0.2 + sigma < 1 m, and x, y stay within
