@@ -61,7 +61,7 @@ fn tip_from(values: &[f64]) -> anyhow::Result<[f64; 3]> {
             "--tip must be three finite numbers X,Y,Z within +-{MAX_LEVER_M} m, got {}",
             values
                 .iter()
-                .map(f64::to_string)
+                .map(|&v| shipcast_pipeline::limits::shown(v))
                 .collect::<Vec<_>>()
                 .join(",")
         ),
@@ -238,6 +238,8 @@ mod tests {
             ("1,NaN,3", "1,NaN,3"),
             // Regression: the configuration file refuses a tip this far out; the flag did not.
             ("1000000,0,0", "1000000,0,0"),
+            // Review: printed with all its 301 digits.
+            ("1e300,0,0", "1e300,0,0"),
         ] {
             let a = crate::parse_args::<Args>(&["--tip", argv]);
             let e = format!("{:#}", tip_from(&a.tip.unwrap()).unwrap_err());

@@ -662,7 +662,17 @@ mod tests {
         let put = |v: &mut serde_json::Value, p: serde_json::Value| v["dofs"][0]["predictor"] = p;
         // Order 40, horizon 6: P is 6 x 34.
         type Edit = fn(&mut serde_json::Value);
-        let cases: [(Method, &str, Edit); 10] = [
+        let cases: [(Method, &str, Edit); 11] = [
+            // Regression (review): a guarded fit without its guard forecast unguarded.
+            (
+                Method::Wiener,
+                "a guarded Wiener fit has coefficients but no guard",
+                |p| {
+                    // This fit has none (autocorrelation): as a guarded one whose guard was cut.
+                    assert!(p.get("guard").is_none());
+                    p["fit"] = "guarded".into();
+                },
+            ),
             // Regression (review): a 0 x 10^12 map aborted the program on load.
             (
                 Method::Wiener,

@@ -99,9 +99,14 @@ impl WienerPredictor {
                 self.horizon,
                 self.order
             )),
-            _ => match &self.guard {
-                Some(guard) => guard.validate(self.order, self.horizon),
-                None => Ok(()),
+            _ => match (&self.guard, &self.coefficients) {
+                (Some(guard), _) => guard.validate(self.order, self.horizon),
+                // Regression (review): a fitted guarded model whose guard was deleted loaded
+                // and forecast unguarded, the fit that failed worst after a course change.
+                (None, Some(_)) if self.fit == WienerFit::Guarded => {
+                    Err("a guarded Wiener fit has coefficients but no guard".into())
+                }
+                (None, _) => Ok(()),
             },
         }
     }

@@ -397,8 +397,10 @@ impl PipelineConfig {
                 .iter()
                 .all(|v| v.is_finite() && v.abs() <= MAX_LEVER_M)
             {
+                let shown: Vec<String> = point.iter().map(|&v| limits::shown(v)).collect();
                 return Err(format!(
-                    "{name} must be three finite numbers within +-{MAX_LEVER_M} m, got {point:?}"
+                    "{name} must be three finite numbers within +-{MAX_LEVER_M} m, got [{}]",
+                    shown.join(", ")
                 ));
             }
         }

@@ -606,10 +606,16 @@ fn verified_errors_decide_the_lift_once_enough_exist() {
     }
     let mut easing = relative(&g, &easing, &still);
     let later = lift.decide(&mut easing, &evidence);
-    assert!(!later.go && later.ensemble_members == MIN_MEMBERS, "{later:?}");
+    assert!(
+        !later.go && later.ensemble_members == MIN_MEMBERS,
+        "{later:?}"
+    );
     assert_eq!(later.next_window_s, Some(10.5), "{later:?}");
     let p = later.next_window_probability.unwrap();
-    assert!(p >= config.go_probability && p <= (n + 1.0) / (n + 2.0), "{later:?}");
+    assert!(
+        p >= config.go_probability && p <= (n + 1.0) / (n + 2.0),
+        "{later:?}"
+    );
     assert_eq!(near.lift_statement, d.probability_now);
     assert!(!d.go);
     // 0.2 m of relative heave: every member holds (0.2 + sigma < 1 m, and x, y stay within
