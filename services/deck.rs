@@ -111,6 +111,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         config.producer.rate_hz,
         horizon_s,
         config.predictor.sample_rate_hz,
+        config.deck.error_correlation,
     );
     let session;
     let publisher = if publish {

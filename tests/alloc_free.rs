@@ -193,7 +193,12 @@ fn deciding_and_verifying_from_a_full_error_ensemble_do_not_allocate() {
     let roll = |t: f64| (2.0 * (t * std::f64::consts::TAU / 9.0).sin()).to_radians();
     let forecast_at = |t0: f64| swell_forecast(t0, 3, roll, 0.3f64.to_radians());
     let mut decider = Decider::new(&DeckConfig::default());
-    let mut outcomes = Outcomes::new(8.0, 25.0, 2.0);
+    let mut outcomes = Outcomes::new(
+        8.0,
+        25.0,
+        2.0,
+        shipcast_pipeline::config::DeckConfig::default().error_correlation,
+    );
     let full = ensemble::DEFAULT_CAPACITY * ensemble::DEFAULT_STRIDE + 60;
     let (mut allocations, mut sample) = (0, 0u64);
     for step in 0..(full + 400) {

@@ -7,10 +7,10 @@
 //! Buffers are sized once ([`Outcomes::new`]); pushing samples and decisions and verifying
 //! them do not allocate.
 
-use super::{Decider, Tracks};
+use super::{standardised_errors, Decider, ErrorCorrelation, Tracks, NUM_QUANTITIES};
 use crate::observed::{MotionHistory, ObservedMotion};
 use crate::transport::counters::SeqCheck;
-use shipcast_wire::payload::{Forecast, MotionSample};
+use shipcast_wire::payload::{Forecast, MotionSample, MAX_STEPS};
 use std::collections::VecDeque;
 
 /// A decision waiting for its horizon to happen: the forecast's time and its tracks (which
@@ -58,13 +58,24 @@ pub struct Outcomes {
     /// `actual_tracks` with central velocity differences at its ends: what a window's
     /// outcome is judged on.
     judged_tracks: Box<Tracks>,
+    /// The step-to-step correlation of the verified errors, which the decider's Gaussian
+    /// model uses as replay's does (review: the live deck kept the configured one for good).
+    correlation: ErrorCorrelation,
+    /// A verified forecast's standardised errors (work buffer).
+    u: Box<[[f64; MAX_STEPS]; NUM_QUANTITIES]>,
     pub counts: OutcomeCounts,
 }
 
 impl Outcomes {
     /// `input_rate_hz`: the motion samples' rate; `horizon_s`: the forecasts' horizon;
-    /// `forecast_rate_hz`: how often forecasts arrive at most.
-    pub fn new(input_rate_hz: f64, horizon_s: f64, forecast_rate_hz: f64) -> Self {
+    /// `forecast_rate_hz`: how often forecasts arrive at most; `error_correlation`: the
+    /// configured step-to-step correlation, used until verified errors estimate it.
+    pub fn new(
+        input_rate_hz: f64,
+        horizon_s: f64,
+        forecast_rate_hz: f64,
+        error_correlation: [f64; NUM_QUANTITIES],
+    ) -> Self {
         // A margin beyond the horizon: forecasts lag the newest sample (the decimation
         // filter's delay) and arrive a little after it.
         let span = horizon_s.max(0.0) + 10.0;
@@ -87,8 +98,15 @@ impl Outcomes {
             actual: Box::default(),
             actual_tracks: Box::default(),
             judged_tracks: Box::default(),
+            correlation: ErrorCorrelation::new(error_correlation),
+            u: Box::new([[f64::NAN; MAX_STEPS]; NUM_QUANTITIES]),
             counts: OutcomeCounts::default(),
         }
+    }
+
+    /// The correlation estimated from the errors verified so far.
+    pub fn correlation(&self) -> &ErrorCorrelation {
+        &self.correlation
     }
 
     /// A motion sample, judged as [`MotionHistory::push`] does (an older or non-finite one is
@@ -162,6 +180,12 @@ impl Outcomes {
                     &mut self.judged_tracks,
                 );
                 decider.verify(&w.predicted, &self.actual_tracks);
+                let steps = standardised_errors(&w.predicted, &self.actual_tracks, &mut self.u);
+                for (q, u) in self.u.iter().enumerate() {
+                    self.correlation.add(q, &u[..steps]);
+                }
+                decider.set_error_correlation(self.correlation.rho());
+                decider.set_error_matrices(&self.correlation, steps);
                 if let Some((n, p)) = w.raw_now {
                     let held = decider.window_held(&self.judged_tracks, n);
                     decider.add_outcome(n, p, held);
@@ -247,7 +271,14 @@ mod tests {
         };
         let mut live = Decider::new(&config);
         let mut replay = Decider::new(&config);
-        let mut outcomes = Outcomes::new(8.0, 25.0, 2.0);
+        let mut outcomes = Outcomes::new(
+            8.0,
+            25.0,
+            2.0,
+            crate::config::DeckConfig::default().error_correlation,
+        );
+        // As replay's scorer estimates the errors' correlation (decision/score.rs).
+        let mut correlation = ErrorCorrelation::new(config.error_correlation);
         type Paths = Box<[[f64; MAX_STEPS]; 4]>;
         type Due = (f64, Paths, Paths, usize);
         let mut queue: VecDeque<Due> = VecDeque::new();
@@ -264,6 +295,10 @@ mod tests {
             while queue.front().is_some_and(|q| q.0 <= t0) {
                 if let Some((_, u, z, steps)) = queue.pop_front() {
                     replay.add_verified(&u, &z, steps);
+                    for (q, u) in u.iter().enumerate() {
+                        correlation.add(q, &u[..steps]);
+                    }
+                    replay.set_error_correlation(correlation.rho());
                 }
             }
             let f = forecast_at(t0);
@@ -290,6 +325,10 @@ mod tests {
         // The last decision came from the ensemble of verified errors.
         let last = last.unwrap();
         assert_eq!(last.ensemble_members, live.ensemble().len(), "{last:?}");
+        // Regression (review): the live deck kept the configured error correlation for good;
+        // replay's estimated it from the verified errors.
+        assert_eq!(live.error_correlation(), replay.error_correlation());
+        assert_ne!(live.error_correlation(), config.error_correlation);
     }
 
     /// Regression (review): the decisions waiting for their horizon when a stuck sensor moved
@@ -299,7 +338,12 @@ mod tests {
     fn decisions_waiting_at_a_thaw_are_not_evidence() {
         let mut decider = Decider::new(&DeckConfig::default());
         decider.set_present_dofs(&[Dof::Roll]);
-        let mut outcomes = Outcomes::new(8.0, 25.0, 2.0);
+        let mut outcomes = Outcomes::new(
+            8.0,
+            25.0,
+            2.0,
+            crate::config::DeckConfig::default().error_correlation,
+        );
         // Roll moves, repeats one value from 60 s, moves again from 120 s.
         let roll = |t: f64| {
             if (60.0..120.0).contains(&t) {
@@ -341,7 +385,12 @@ mod tests {
     #[test]
     fn a_gap_in_the_motion_makes_a_decision_unverifiable() {
         let mut decider = Decider::new(&DeckConfig::default());
-        let mut outcomes = Outcomes::new(8.0, 25.0, 2.0);
+        let mut outcomes = Outcomes::new(
+            8.0,
+            25.0,
+            2.0,
+            crate::config::DeckConfig::default().error_correlation,
+        );
         let f = forecast_at(0.0);
         decider.decide(&f);
         outcomes.push_decision(&f, &decider);
@@ -376,7 +425,12 @@ mod tests {
     #[test]
     fn a_forecast_with_a_non_finite_time_is_dropped_not_kept_forever() {
         let mut decider = Decider::new(&DeckConfig::default());
-        let mut outcomes = Outcomes::new(8.0, 25.0, 2.0);
+        let mut outcomes = Outcomes::new(
+            8.0,
+            25.0,
+            2.0,
+            crate::config::DeckConfig::default().error_correlation,
+        );
         let mut f = forecast_at(0.0);
         f.time_s = f64::NAN;
         outcomes.push_decision(&f, &decider);
@@ -391,7 +445,12 @@ mod tests {
     #[test]
     fn a_new_producer_run_drops_the_old_decisions_and_verifies_the_new_ones() {
         let mut decider = Decider::new(&DeckConfig::default());
-        let mut outcomes = Outcomes::new(8.0, 25.0, 2.0);
+        let mut outcomes = Outcomes::new(
+            8.0,
+            25.0,
+            2.0,
+            crate::config::DeckConfig::default().error_correlation,
+        );
         let f = forecast_at(20.0);
         decider.decide(&f);
         outcomes.push_decision(&f, &decider);
