@@ -123,9 +123,14 @@ impl TryFrom<Args> for Config {
                     // Written at the end of a long study: a path that cannot be written is
                     // refused now (review: a directory was found only after the study).
                     crate::output_in_existing_dir("--calls-csv", csv)?;
-                    shipcast_series::atomic_file::check_writable_beside(csv).with_context(
-                        || format!("--calls-csv {}: cannot write there", csv.display()),
-                    )?;
+                    // A pipe or a device (`>(wc -l)`, /dev/stdout) is written into, not
+                    // replaced: no file is made beside it (review: refused since the check).
+                    let stream = csv.metadata().is_ok_and(|m| !m.is_file() && !m.is_dir());
+                    if !stream {
+                        shipcast_series::atomic_file::check_writable_beside(csv).with_context(
+                            || format!("--calls-csv {}: cannot write there", csv.display()),
+                        )?;
+                    }
                 }
                 Mode::Study {
                     crane_record,

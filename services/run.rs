@@ -182,20 +182,12 @@ fn write_config(config: &PipelineConfig, path: &Path) -> anyhow::Result<()> {
     crate::private_files::write_new(path, &config.to_toml()?, true)
 }
 
-/// The names in the log directory of the configurations `run` hands its children.
-const PIPELINE_TOML: &str = "pipeline.toml";
-const TARGET_TOML: &str = "target.toml";
-
-/// A file already at `path` (a killed run's, or the user's) is kept as `<path>.1` and said so.
-fn keep_previous_config(path: &Path) -> anyhow::Result<()> {
-    if let Some(kept) = crate::private_files::keep_previous(path)? {
-        tracing::warn!(
-            "run: {} was already there: kept as {}",
-            path.display(),
-            kept.display()
-        );
-    }
-    Ok(())
+/// The name in the log directory of a configuration `run` hands its children (`pipeline` or
+/// `target`): its own, with the run's process id. Regression (review): written as
+/// `pipeline.toml` and `target.toml`, a user's files of those names (their --config among
+/// them) were written over and then removed.
+fn run_config_name(which: &str) -> String {
+    format!("run-{}-{which}.toml", std::process::id())
 }
 
 /// Remove the configurations this run wrote (they may hold a password or a private key).
@@ -263,19 +255,6 @@ impl TryFrom<Args> for Config {
         let log_dir = match args.log_dir {
             Some(d) => {
                 std::fs::create_dir_all(&d).with_context(|| format!("creating {}", d.display()))?;
-                // Regression (review): a --config kept in the log directory under the name the
-                // children's configuration is written to was replaced by it, then removed.
-                if let Some(config) = &args.common.config {
-                    for name in [PIPELINE_TOML, TARGET_TOML] {
-                        if crate::same_file(&d.join(name), config) {
-                            anyhow::bail!(
-                                "--config {} is {name} in --log-dir, where `run` writes its \
-                                 services' configuration: give another --log-dir, or rename it",
-                                config.display()
-                            );
-                        }
-                    }
-                }
                 d
             }
             None => crate::private_files::new_private_temp_dir("shipcast-run")?,
@@ -307,14 +286,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let target = two_ship
         .then(|| two_ship_configs(&mut config))
         .transpose()?;
-    // Regression (review): a file of the user's at these names in `--log-dir` was written over
-    // and then removed (target.toml even by a run that never wrote one): kept as `.1`, as logs.
-    let config_path = logs.join(PIPELINE_TOML);
-    keep_previous_config(&config_path)?;
+    let config_path = logs.join(run_config_name("pipeline"));
     write_config(&config, &config_path)?;
-    let target_path = logs.join(TARGET_TOML);
+    let target_path = logs.join(run_config_name("target"));
     if let Some(t) = &target {
-        keep_previous_config(&target_path)?;
         write_config(t, &target_path)?;
         let r = &config.relative;
         // Written, not println!: a closed stdout (`run | head -1`) must not panic.
@@ -564,17 +539,6 @@ mod config_tests {
         assert_eq!(c.view_every, Some(Duration::from_millis(2500)));
         let e = crate::refused::<Args, Config>(&["--log-dir", dir, "--view-every", "nan"]);
         assert!(e.contains("--view-every"), "{e}");
-        // Regression (review): a --config at the name the services' configuration is written
-        // under was replaced by it, then removed.
-        for name in [PIPELINE_TOML, TARGET_TOML] {
-            let config = logs.join(name);
-            std::fs::write(&config, "").unwrap();
-            let given = config.to_str().unwrap();
-            let e = crate::refused::<Args, Config>(&["--log-dir", dir, "--config", given]);
-            assert!(e.contains(&format!("is {name} in --log-dir")), "{e}");
-            assert_eq!(std::fs::read_to_string(&config).unwrap(), "");
-            std::fs::remove_file(&config).unwrap();
-        }
         let c = crate::validated::<Args, Config>(&[
             "--log-dir",
             dir,

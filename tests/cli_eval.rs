@@ -786,6 +786,30 @@ fn a_lift_study_that_scores_nothing_keeps_the_calls_file_it_was_given() {
         &study(dir.path().to_str().unwrap()),
         "is a directory, not a file",
     );
+    // A pipe is written into (regression, review: the check for a place to write a file
+    // beside it refused pipes and /dev/stdout; /proc/self/fd, where no file can be made even
+    // by root, is this process's stdout, captured here as a pipe).
+    let scored = shipcast(&[
+        "relative",
+        "--crane-record",
+        &crane,
+        "--target-record",
+        &target,
+        "--skip-s",
+        "100",
+        "--calls-csv",
+        "/proc/self/fd/1",
+    ]);
+    assert!(
+        scored.status.success(),
+        "{}",
+        String::from_utf8_lossy(&scored.stderr)
+    );
+    let stdout = String::from_utf8_lossy(&scored.stdout);
+    assert!(
+        stdout.contains("time_s,stated,uncorrected"),
+        "the calls' header: {stdout}"
+    );
 }
 
 /// Regression (review): a record stamped before 0 was refused, as "--skip-s 0 s skips the

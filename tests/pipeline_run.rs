@@ -45,11 +45,17 @@ fn run_shows_forecasts_and_advisory_and_stops_after_duration() {
         stdout.contains("duration reached; all services stopped"),
         "{stdout}"
     );
-    // The one-ship run wrote no target.toml and leaves it; pipeline.toml was kept as `.1`.
+    // The user's files are as they were, and the run's own configuration (named by its
+    // process id) is gone.
     let read = |name: &str| std::fs::read_to_string(dir.path().join(name)).ok();
     assert_eq!(read("target.toml").as_deref(), Some(mine));
-    assert_eq!(read("pipeline.toml.1").as_deref(), Some(mine));
-    assert_eq!(read("pipeline.toml"), None, "the run's own is removed");
+    assert_eq!(read("pipeline.toml").as_deref(), Some(mine));
+    let left: Vec<_> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.starts_with("run-") && n.ends_with(".toml"))
+        .collect();
+    assert!(left.is_empty(), "{left:?}");
     // Every child wrote its log and stopped cleanly.
     for name in ["producer", "predictor", "deck", "crane", "display"] {
         let log = std::fs::read_to_string(dir.path().join(format!("{name}.log"))).unwrap();

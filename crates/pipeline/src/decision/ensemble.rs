@@ -118,6 +118,25 @@ impl<const Q: usize> ErrorEnsemble<Q> {
         members >= MIN_MEMBERS.min(self.capacity)
     }
 
+    /// The most steps that enough members cover ([`Self::enough`]), at most `steps`: how far
+    /// ahead windows can be judged from verified paths (0 when none is far enough).
+    pub fn covered_steps(&self, steps: usize) -> usize {
+        let top = steps.min(MAX_STEPS);
+        // Members per length, those longer than `top` counted at `top`.
+        let mut of_length = [0usize; MAX_STEPS + 1];
+        for m in &self.members {
+            of_length[m.steps.min(top)] += 1;
+        }
+        let mut covering = 0;
+        for length in (1..=top).rev() {
+            covering += of_length[length];
+            if self.enough(covering) {
+                return length;
+            }
+        }
+        0
+    }
+
     /// Offer the standardised errors of one verified forecast (`u[q][k]`, `steps` steps) and
     /// its standardised means (`z[q][k]`). A non-finite u (a missing value) counts as no
     /// error; a non-finite z as a zero mean. A miss at sigma 0 arrives finite

@@ -98,10 +98,11 @@ const GAP_LOG_EVERY_S: f64 = 10.0;
 /// Samples over which the stream's rate is checked against the configured one.
 const RATE_CHECK_SAMPLES: u64 = 64;
 
-/// Record time per slot, as a fraction of the configured step, below which the stream is
-/// faster than its configured rate. Jitter averages out over [`RATE_CHECK_SAMPLES`] and a
-/// clock's drift is parts per million; 9 Hz read as 8 Hz gives 0.89.
-const FAST_STREAM_RATIO: f64 = 0.9;
+/// How far record time per slot, as a fraction of the configured step, may be off 1 (below
+/// 0.9 or above 1 / 0.9) before the stream is taken for another rate. Jitter averages out over
+/// [`RATE_CHECK_SAMPLES`] and a clock's drift is parts per million; 9 Hz read as 8 Hz gives
+/// 0.89, 7 Hz 1.14.
+const RATE_MISMATCH: f64 = 0.1;
 
 /// Turns accepted samples into decimated per-DOF history.
 pub struct Ingest {
@@ -142,8 +143,9 @@ pub struct Ingest {
     /// `GAP_LOG_EVERY_S` of record time, not one per sample.
     gaps_unlogged: u64,
     gap_logged_at: Option<f64>,
-    /// The record time and the slots filled since the start of the current rate check.
-    rate_check: Option<(f64, u64)>,
+    /// The record time, the slots filled and the samples taken since the start of the
+    /// current rate check.
+    rate_check: Option<(f64, u64, u64)>,
     rate_logged_at: Option<f64>,
 }
 
@@ -291,7 +293,7 @@ impl Ingest {
                 // Keep the fixed-rate grid: bridge the bad sample with the last good values,
                 // and count its slot as filled so the next good sample is no gap in time.
                 self.last_time = self.last_time.map(|t| t + 1.0 / self.input_rate_hz);
-                if let Some((_, slots)) = self.rate_check.as_mut() {
+                if let Some((_, slots, _)) = self.rate_check.as_mut() {
                     *slots += 1;
                 }
                 self.held_run += 1;
@@ -356,9 +358,7 @@ impl Ingest {
             SeqCheck::Accepted { .. } => {}
         }
         self.last_lost_by_time = lost_by_time_only;
-        if self.too_fast(sample.time_s, bridged, counters) {
-            return None;
-        }
+        self.check_rate(sample.time_s, bridged, counters);
         produced |= self.push_values(&sample.dof, false);
         self.held_run = 0;
         self.last_good = Some(sample.dof);
@@ -366,32 +366,32 @@ impl Ingest {
         produced.then(|| self.new_value(sample))
     }
 
-    /// Whether the stream, checked over its last [`RATE_CHECK_SAMPLES`] slots up to this
-    /// sample at `time_s`, comes faster than the configured rate: then its history restarts
-    /// (counted in `rate_mismatches`), and the sample is not used.
+    /// Check the stream's rate over its last [`RATE_CHECK_SAMPLES`] slots, up to this sample
+    /// at `time_s` (`bridged` slots were filled before it): one off the configured rate by
+    /// more than [`RATE_MISMATCH`] restarts the history (counted in `rate_mismatches`), which
+    /// then starts with this sample.
     ///
-    /// Why: a sample closer than a step to the one before fills the next slot, so a producer
-    /// at 16 Hz read as 8 Hz had its record squeezed to half its time: every lead and window
-    /// was twice what it claimed, with no warning (review). Each sample alone cannot tell: a
-    /// stamp may be a quarter step off its slot. A slower stream leaves slots empty, which are
-    /// counted as lost and bridged or restart the history as gaps.
-    fn too_fast(&mut self, time_s: f64, bridged: u64, counters: &mut Counters) -> bool {
-        let (start_s, slots) = match self.rate_check {
-            // Slots since the start, this one included, with those bridged before it.
-            Some((start_s, slots)) => (start_s, slots + 1 + bridged),
-            None => {
-                self.rate_check = Some((time_s, 0));
-                return false;
-            }
+    /// Why: each sample fills the next slot (or the one its time rounds to), so a producer at
+    /// 16 Hz read as 8 Hz had its record squeezed to half its time, one at 6 Hz stretched by
+    /// 4/3: every lead and window was off by as much, with no warning (review). One sample
+    /// alone cannot tell: a stamp may be up to a quarter step off its slot. A stream at an
+    /// integer fraction of the rate (4 Hz read as 8 Hz) has its empty slots counted as lost
+    /// and bridged, and fits.
+    fn check_rate(&mut self, time_s: f64, bridged: u64, counters: &mut Counters) {
+        let Some((start_s, slots, samples)) = self.rate_check else {
+            self.rate_check = Some((time_s, 0, 0));
+            return;
         };
+        let (slots, samples) = (slots + 1 + bridged, samples + 1);
         if slots < RATE_CHECK_SAMPLES {
-            self.rate_check = Some((start_s, slots));
-            return false;
+            self.rate_check = Some((start_s, slots, samples));
+            return;
         }
-        self.rate_check = Some((time_s, 0));
-        let ratio = (time_s - start_s) * self.input_rate_hz / slots as f64;
-        if ratio >= FAST_STREAM_RATIO {
-            return false;
+        self.rate_check = Some((time_s, 0, 0));
+        let elapsed_s = time_s - start_s;
+        let ratio = elapsed_s * self.input_rate_hz / slots as f64;
+        if (1.0 - RATE_MISMATCH..=1.0 / (1.0 - RATE_MISMATCH)).contains(&ratio) {
+            return;
         }
         counters.rate_mismatches += 1;
         let due = self
@@ -401,14 +401,13 @@ impl Ingest {
             tracing::warn!(
                 mismatches = counters.rate_mismatches,
                 "predictor: the motion comes at about {:.3} Hz by its time stamps, not the configured producer.rate_hz {} Hz: history restarts (give the producer and the predictor the same producer.rate_hz)",
-                self.input_rate_hz / ratio,
+                samples as f64 / elapsed_s,
                 self.input_rate_hz
             );
             self.rate_logged_at = Some(time_s);
         }
         self.restart();
-        self.last_time = Some(time_s);
-        true
+        self.rate_check = Some((time_s, 0, 0));
     }
 
     /// Samples missing between the last accepted one and `time_s` by the record clock.
@@ -537,15 +536,16 @@ mod tests {
     }
 
     /// Regression (review): a producer at 16 Hz read as 8 Hz filled one slot per sample, and
-    /// its record was squeezed to half its time with nothing counted or logged.
+    /// its record was squeezed to half its time with nothing counted or logged; one at 6 Hz
+    /// was stretched by 4/3.
     #[test]
-    fn a_stream_faster_than_its_rate_restarts_the_history_and_is_counted() {
+    fn a_stream_off_its_rate_restarts_the_history_and_is_counted() {
         let n = 1600;
         let (on_rate, c) = ingested(&samples(n));
         assert_eq!(c.rate_mismatches, 0);
-        // 16 Hz and 9 Hz: found at the end of each 64-sample check; the history never
-        // grows past what one check holds.
-        for rate in [16.0, 9.0] {
+        // Faster and slower: found at the end of each 64-slot check; the history never grows
+        // past what one check holds.
+        for rate in [16.0, 9.0, 7.0, 6.0, 5.0] {
             let (len, c) = ingested(&stamped(n, |i| i as f64 / rate));
             assert!(c.rate_mismatches >= (n as u64 / 65) - 1, "{rate}: {c:?}");
             assert!(len <= 64 / 4, "{rate}: {len} values");

@@ -299,7 +299,8 @@ impl LiftDecider {
 
     /// The first window of MOT after the first step whose mean (as published) holds every
     /// limit and whose probability, from the same source as the decision's (the verified
-    /// paths as long as the horizon, corrected as the decision's; else the Gaussian model),
+    /// paths, as far ahead as enough of them reach, corrected as the decision's; else the
+    /// Gaussian model),
     /// reaches `go_probability`: its start step and probability. As the deck's
     /// (`Decider::next_window`): a window whose mean breaks a limit holds with less than even
     /// odds and is no candidate.
@@ -317,18 +318,21 @@ impl LiftDecider {
                 .all(|k| (0..3).all(|axis| track.mean[axis][k].abs() <= limits.limit(axis)))
         };
         if from_ensemble {
+            // As far ahead as enough verified paths reach (review: paths one step shorter
+            // than this track, enough for the decision's window, gave no later window at all).
+            let reach = evidence.ensemble.covered_steps(steps);
             let usable = evidence.ensemble.failures(
                 &track.raw_mean,
                 &track.raw_sigma,
                 &std::array::from_fn(|axis| limits.limit(axis)),
-                steps,
+                reach,
                 &mut self.fail_before,
                 &mut self.usable,
             );
             if !evidence.ensemble.enough(usable) {
                 return None;
             }
-            (1..=steps.checked_sub(window)?)
+            (1..=reach.checked_sub(window)?)
                 .filter(|&s| mean_holds(s))
                 .find_map(|s| {
                     let raw = share_within(&self.fail_before, &self.usable, s, s + window)?;

@@ -616,6 +616,15 @@ fn verified_errors_decide_the_lift_once_enough_exist() {
         p >= config.go_probability && p <= (n + 1.0) / (n + 2.0),
         "{later:?}"
     );
+    // Regression (review): paths one step shorter than the track, enough for the decision's
+    // window, gave no later window at all: they judge windows as far as they reach.
+    let mut shorter = LiftEvidence::new(*lift.limits());
+    for _ in 0..MIN_MEMBERS * 4 {
+        shorter.ensemble.offer(&ones, &zeros, 49);
+    }
+    let d = lift.decide(&mut easing, &shorter);
+    assert_eq!(d.ensemble_members, MIN_MEMBERS, "{d:?}");
+    assert_eq!(d.next_window_s, Some(10.5), "{d:?}");
     assert_eq!(near.lift_statement, d.probability_now);
     assert!(!d.go);
     // 0.2 m of relative heave: every member holds (0.2 + sigma < 1 m, and x, y stay within

@@ -25,8 +25,8 @@ pub struct Counters {
     pub published: u64,
     /// Producer runs seen start again at seq 0.
     pub restarts: u64,
-    /// Times the predictor found the motion's time stamps faster than `producer.rate_hz`
-    /// (checked over 64 samples at a time); each restarted its history.
+    /// Times the predictor found the motion's time stamps off `producer.rate_hz` (checked
+    /// over 64 slots at a time); each restarted its history.
     #[serde(default)]
     pub rate_mismatches: u64,
 }
@@ -61,7 +61,7 @@ impl Counters {
             self.published,
             self.restarts,
             if self.rate_mismatches > 0 {
-                format!(" faster than producer.rate_hz {}", self.rate_mismatches)
+                format!(" off producer.rate_hz {}", self.rate_mismatches)
             } else {
                 String::new()
             }
