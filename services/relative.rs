@@ -108,14 +108,6 @@ impl TryFrom<Args> for Config {
                         limits::MAX_RECORD_TIME_S,
                     ))?;
                 }
-                // Review: one record for both ships scored a near-perfect lift (3520 go calls
-                // of 3550, none false) with nothing said. Kept, as an analytic check (the
-                // tests' ship against itself), but never silently.
-                if crate::same_file(&crane_record, &target_record) {
-                    tracing::warn!(
-                        "relative: --crane-record and --target-record are one file: both ships move exactly alike, as no two ships in a seaway do, so the lift's scores are not those of a real transfer"
-                    );
-                }
                 // Regression (review): a calls file naming a record was written over it.
                 if let Some(csv) = &args.calls_csv {
                     crate::output_not_input("--calls-csv", csv, "--crane-record", &crane_record)?;
@@ -131,6 +123,15 @@ impl TryFrom<Args> for Config {
                             || format!("--calls-csv {}: cannot write there", csv.display()),
                         )?;
                     }
+                }
+                // Review: one record for both ships scored a near-perfect lift (3520 go calls
+                // of 3550, none false) with nothing said. Kept, as an analytic check (the
+                // tests' ship against itself), but never silently; after the checks, so that a
+                // refused command prints its error alone.
+                if crate::same_file(&crane_record, &target_record) {
+                    tracing::warn!(
+                        "relative: --crane-record and --target-record are one file: both ships move exactly alike, as no two ships in a seaway do, so the lift's scores are not those of a real transfer"
+                    );
                 }
                 Mode::Study {
                     crane_record,
