@@ -131,8 +131,6 @@ pub struct Calibrator {
     /// only when asked: at start-up there is none yet).
     prior: Vec<[Option<PairSums>; MAX_STEPS]>,
     no_skill_weight: [f64; NUM_DOF],
-    /// Weight (in values) of "no skill" beside a held-out prior ([`Self::doubt`]).
-    no_skill_beside: [f64; NUM_DOF],
     /// Largest weight (in values) a prior may carry.
     prior_cap: f64,
 }
@@ -144,7 +142,6 @@ impl Calibrator {
             window: RollingSums::new(window_values, 20),
             prior: vec![[None; MAX_STEPS]; NUM_DOF],
             no_skill_weight: [prior_cap; NUM_DOF],
-            no_skill_beside: [0.0; NUM_DOF],
             prior_cap,
         }
     }
@@ -154,7 +151,6 @@ impl Calibrator {
     pub fn reset(&mut self, d: usize, prior: &[PairSums]) {
         self.window.clear(d);
         self.no_skill_weight[d] = self.prior_cap;
-        self.no_skill_beside[d] = 0.0;
         for (k, p) in self.prior[d].iter_mut().enumerate() {
             // Held-out values without variance (a DOF that stood still while the model was
             // fitted) prove no skill: counted as evidence, their error of 0 kept sigma at 0
@@ -178,27 +174,12 @@ impl Calibrator {
         self.window.tick();
     }
 
-    /// A new model of DOF `d` put in service while its sea is changing: its held-out
-    /// evidence is mostly of the sea before, so it counts as `keep` values at most, with as
-    /// much "no skill" (the live variance) beside it until live evidence of the new model
-    /// comes in. Review: a model swapped in 23 s after a turn towards following seas was
-    /// held to its held-out sigma (sway 0.045 m, against 0.13-0.24 m before the swap), and
-    /// its forecasts missed by 11-17 sigma.
-    pub fn doubt(&mut self, d: usize, keep: f64) {
-        for p in self.prior[d].iter_mut().flatten() {
-            *p = p.capped(keep);
-        }
-        self.no_skill_weight[d] = self.no_skill_weight[d].min(keep);
-        self.no_skill_beside[d] = keep;
-    }
-
     /// The sea changed for DOF `d`: what is known counts as `keep` values at most.
     pub fn discount(&mut self, d: usize, keep: f64) {
         for p in self.prior[d].iter_mut().flatten() {
             *p = p.capped(keep);
         }
         self.no_skill_weight[d] = self.no_skill_weight[d].min(keep);
-        self.no_skill_beside[d] = self.no_skill_beside[d].min(keep);
         let n = (0..MAX_STEPS)
             .map(|k| self.window.get(d, k)[N])
             .fold(0.0, f64::max);
@@ -215,22 +196,13 @@ impl Calibrator {
         prior.plus(self.window.get(d, k))
     }
 
-    /// The calibration of DOF `d`, step index `k`: the shrinkage from the evidence, and the
-    /// sigma of the shrunk forecast, widened by the "no skill" a doubted model carries beside
-    /// its evidence ([`Self::doubt`]; it judges the error, not what the forecast explains).
     #[inline]
     pub fn get(&self, d: usize, k: usize, variance: f64) -> Calibration {
         let s = self.sums(d, k, variance);
         let beta = s.beta();
-        let beside = self.no_skill_beside[d];
-        let judged = if beside > 0.0 && self.prior[d][k].is_some() {
-            s.plus(PairSums::no_skill(beside, variance).0)
-        } else {
-            s
-        };
         Calibration {
             beta,
-            sigma: judged.mse(beta).sqrt(),
+            sigma: s.mse(beta).sqrt(),
         }
     }
 }
@@ -368,36 +340,5 @@ mod tests {
         }
         c.reset(0, &[moving]);
         assert!(c.get(0, 0, 0.25).sigma < 1e-6);
-    }
-
-    #[test]
-    fn a_doubted_model_keeps_its_shrinkage_with_sigma_between_its_evidence_and_no_skill() {
-        // A held-out record of perfect forecasts (error 0), doubted at 60 values: sigma^2 is
-        // (60 x 0 + 60 x variance) / 120, half the live variance; the shrinkage is the
-        // evidence's alone.
-        let mut c = Calibrator::new(2400, 120.0);
-        let mut perfect = PairSums::default();
-        for i in 0..240 {
-            let x = (i as f64 * 0.3).sin();
-            perfect.add(x, x);
-        }
-        c.reset(0, &[perfect]);
-        let trusted = c.get(0, 0, 0.5);
-        assert!(trusted.sigma < 1e-6 && (trusted.beta - 1.0).abs() < 1e-9);
-        c.doubt(0, 60.0);
-        let doubted = c.get(0, 0, 0.5);
-        assert_eq!(doubted.beta, trusted.beta);
-        assert!((doubted.sigma - 0.5).abs() < 1e-12, "{doubted:?}");
-        // Live evidence of the new model comes in beside it: perfect again, sigma narrows.
-        for i in 0..600 {
-            let x = (i as f64 * 0.3).sin();
-            c.observe(0, 0, x, x);
-            c.tick();
-        }
-        let learnt = c.get(0, 0, 0.5).sigma;
-        assert!(learnt < 0.5 * 0.5, "{learnt}");
-        // A later swap (a model fitted when the sea had settled) is trusted again.
-        c.reset(0, &[perfect]);
-        assert!(c.get(0, 0, 0.5).sigma < 1e-6);
     }
 }

@@ -253,11 +253,6 @@ impl Engine {
         self.live_variance(d).sqrt()
     }
 
-    /// Whether DOF `d` detected a change of its sea within the detector's memory.
-    fn changing(&self, d: usize) -> bool {
-        self.change_seen_at[d].is_some_and(|at| at + CHANGE_MEMORY as u64 >= self.values)
-    }
-
     /// The larger of the slow and the fast mean square: when the sea grows, the bound and a
     /// no-skill sigma follow within half a minute; when it calms, the slow one keeps them wide
     /// until the evidence has caught up (the safe side).
@@ -278,9 +273,6 @@ impl Engine {
             // The change detector keeps running: a new model is fitted mostly on the old sea,
             // so a change under way must not be forgotten at a swap.
             self.calib.reset(d, prior);
-            if self.changing(d) {
-                self.calib.doubt(d, KEPT_AFTER_CHANGE);
-            }
         }
         // A DOF without a model of its own (`ModelSet::absent`) is delivered as no skill, as a
         // failed one is.
