@@ -177,10 +177,17 @@ impl Decider {
     /// against what happened (`actual`, filled by [`Self::fill_tracks`] from the recorded
     /// values at its steps): its errors join the ensemble. The live deck's path
     /// ([`outcomes`]); replay hands the same errors over through [`Self::add_verified`].
-    pub fn verify(&mut self, predicted: &Tracks, actual: &Tracks) {
+    /// Returns the steps of its standardised errors ([`Self::verified_errors`]).
+    pub fn verify(&mut self, predicted: &Tracks, actual: &Tracks) -> usize {
         let steps = standardised_errors(predicted, actual, &mut self.u);
         standardised_means(predicted, &mut self.z);
         self.ensemble.offer(&self.u, &self.z, steps);
+        steps
+    }
+
+    /// The standardised errors of the forecast [`Self::verify`] verified last.
+    pub fn verified_errors(&self) -> &[[f64; MAX_STEPS]; NUM_QUANTITIES] {
+        &self.u
     }
 
     /// The tracks of the recorded values in `actual.mean` (its sigma unused), as this

@@ -7,10 +7,10 @@
 //! Buffers are sized once ([`Outcomes::new`]); pushing samples and decisions and verifying
 //! them do not allocate.
 
-use super::{standardised_errors, Decider, ErrorCorrelation, Tracks, NUM_QUANTITIES};
+use super::{Decider, ErrorCorrelation, Tracks, NUM_QUANTITIES};
 use crate::observed::{MotionHistory, ObservedMotion};
 use crate::transport::counters::SeqCheck;
-use shipcast_wire::payload::{Forecast, MotionSample, MAX_STEPS};
+use shipcast_wire::payload::{Forecast, MotionSample};
 use std::collections::VecDeque;
 
 /// A decision waiting for its horizon to happen: the forecast's time and its tracks (which
@@ -61,8 +61,6 @@ pub struct Outcomes {
     /// The step-to-step correlation of the verified errors, which the decider's Gaussian
     /// model uses as replay's does (review: the live deck kept the configured one for good).
     correlation: ErrorCorrelation,
-    /// A verified forecast's standardised errors (work buffer).
-    u: Box<[[f64; MAX_STEPS]; NUM_QUANTITIES]>,
     pub counts: OutcomeCounts,
 }
 
@@ -99,7 +97,6 @@ impl Outcomes {
             actual_tracks: Box::default(),
             judged_tracks: Box::default(),
             correlation: ErrorCorrelation::new(error_correlation),
-            u: Box::new([[f64::NAN; MAX_STEPS]; NUM_QUANTITIES]),
             counts: OutcomeCounts::default(),
         }
     }
@@ -179,9 +176,8 @@ impl Outcomes {
                     &mut self.actual_tracks,
                     &mut self.judged_tracks,
                 );
-                decider.verify(&w.predicted, &self.actual_tracks);
-                let steps = standardised_errors(&w.predicted, &self.actual_tracks, &mut self.u);
-                for (q, u) in self.u.iter().enumerate() {
+                let steps = decider.verify(&w.predicted, &self.actual_tracks);
+                for (q, u) in decider.verified_errors().iter().enumerate() {
                     self.correlation.add(q, &u[..steps]);
                 }
                 decider.set_error_correlation(self.correlation.rho());
@@ -261,6 +257,12 @@ mod tests {
         }
     }
 
+    /// Outcomes of 8 Hz motion, a 25 s horizon and forecasts at 2 Hz, with the default deck's
+    /// configured error correlation.
+    fn outcomes_8_hz() -> Outcomes {
+        Outcomes::new(8.0, 25.0, 2.0, DeckConfig::default().error_correlation)
+    }
+
     /// The live path (samples in, outcomes found by time) teaches the decider exactly what
     /// the replay path (errors from the record, handed over once the horizon passed) does.
     #[test]
@@ -271,12 +273,7 @@ mod tests {
         };
         let mut live = Decider::new(&config);
         let mut replay = Decider::new(&config);
-        let mut outcomes = Outcomes::new(
-            8.0,
-            25.0,
-            2.0,
-            crate::config::DeckConfig::default().error_correlation,
-        );
+        let mut outcomes = outcomes_8_hz();
         // As replay's scorer estimates the errors' correlation (decision/score.rs).
         let mut correlation = ErrorCorrelation::new(config.error_correlation);
         type Paths = Box<[[f64; MAX_STEPS]; 4]>;
@@ -338,12 +335,7 @@ mod tests {
     fn decisions_waiting_at_a_thaw_are_not_evidence() {
         let mut decider = Decider::new(&DeckConfig::default());
         decider.set_present_dofs(&[Dof::Roll]);
-        let mut outcomes = Outcomes::new(
-            8.0,
-            25.0,
-            2.0,
-            crate::config::DeckConfig::default().error_correlation,
-        );
+        let mut outcomes = outcomes_8_hz();
         // Roll moves, repeats one value from 60 s, moves again from 120 s.
         let roll = |t: f64| {
             if (60.0..120.0).contains(&t) {
@@ -385,12 +377,7 @@ mod tests {
     #[test]
     fn a_gap_in_the_motion_makes_a_decision_unverifiable() {
         let mut decider = Decider::new(&DeckConfig::default());
-        let mut outcomes = Outcomes::new(
-            8.0,
-            25.0,
-            2.0,
-            crate::config::DeckConfig::default().error_correlation,
-        );
+        let mut outcomes = outcomes_8_hz();
         let f = forecast_at(0.0);
         decider.decide(&f);
         outcomes.push_decision(&f, &decider);
@@ -425,12 +412,7 @@ mod tests {
     #[test]
     fn a_forecast_with_a_non_finite_time_is_dropped_not_kept_forever() {
         let mut decider = Decider::new(&DeckConfig::default());
-        let mut outcomes = Outcomes::new(
-            8.0,
-            25.0,
-            2.0,
-            crate::config::DeckConfig::default().error_correlation,
-        );
+        let mut outcomes = outcomes_8_hz();
         let mut f = forecast_at(0.0);
         f.time_s = f64::NAN;
         outcomes.push_decision(&f, &decider);
@@ -445,12 +427,7 @@ mod tests {
     #[test]
     fn a_new_producer_run_drops_the_old_decisions_and_verifies_the_new_ones() {
         let mut decider = Decider::new(&DeckConfig::default());
-        let mut outcomes = Outcomes::new(
-            8.0,
-            25.0,
-            2.0,
-            crate::config::DeckConfig::default().error_correlation,
-        );
+        let mut outcomes = outcomes_8_hz();
         let f = forecast_at(20.0);
         decider.decide(&f);
         outcomes.push_decision(&f, &decider);
