@@ -40,22 +40,16 @@ pub fn create_new(path: &Path, secret: bool) -> anyhow::Result<std::fs::File> {
 /// previous log bounds what a restart loop can fill. A symlink at the name is not kept (it
 /// is replaced, as by `create_new`): renaming moves the link, never its target.
 pub fn create_log(path: &Path) -> anyhow::Result<(std::fs::File, Option<PathBuf>)> {
-    let kept = keep_previous(path)?;
-    Ok((create_new(path, false)?, kept))
-}
-
-/// Keep a regular file at `path` as `<path>.1` (replacing an older one), before `path` is
-/// written anew; returns the name it was kept under, if any (see [`create_log`]).
-pub fn keep_previous(path: &Path) -> anyhow::Result<Option<PathBuf>> {
-    if !path.symlink_metadata().is_ok_and(|m| m.is_file()) {
-        return Ok(None);
+    let mut kept = None;
+    if path.symlink_metadata().is_ok_and(|m| m.is_file()) {
+        let mut previous = path.as_os_str().to_owned();
+        previous.push(".1");
+        let previous = PathBuf::from(previous);
+        std::fs::rename(path, &previous)
+            .with_context(|| format!("keeping {} as {}", path.display(), previous.display()))?;
+        kept = Some(previous);
     }
-    let mut previous = path.as_os_str().to_owned();
-    previous.push(".1");
-    let previous = PathBuf::from(previous);
-    std::fs::rename(path, &previous)
-        .with_context(|| format!("keeping {} as {}", path.display(), previous.display()))?;
-    Ok(Some(previous))
+    Ok((create_new(path, false)?, kept))
 }
 
 /// A new directory `<temp dir>/<prefix>-<pid>-<suffix>` that only this user can enter. Made
