@@ -155,6 +155,8 @@ pub struct Engine {
     sea_since: Option<u64>,
     /// Value index of each DOF's latest detected change.
     change_seen_at: [Option<u64>; NUM_DOF],
+    /// Per DOF, the value index of its last "larger than claimed" detection.
+    rougher_seen_at: [Option<u64>; NUM_DOF],
     retrain_due: Option<&'static str>,
     prepared_for: Option<(u64, u32)>,
     last_time_s: f64,
@@ -200,6 +202,7 @@ impl Engine {
             changed_at: None,
             sea_since: None,
             change_seen_at: [None; NUM_DOF],
+            rougher_seen_at: [None; NUM_DOF],
             retrain_due: None,
             prepared_for: None,
             last_time_s: f64::NAN,
@@ -253,6 +256,13 @@ impl Engine {
         self.live_variance(d).sqrt()
     }
 
+    /// Whether DOF `d` found its errors larger than claimed within the change detector's
+    /// memory. Not after "much smaller than claimed": the old model's sigma was too wide
+    /// then, and carried over it would be found too wide again, in a loop of swaps.
+    fn rougher(&self, d: usize) -> bool {
+        self.rougher_seen_at[d].is_some_and(|at| at + CHANGE_MEMORY as u64 >= self.values)
+    }
+
     /// The larger of the slow and the fast mean square: when the sea grows, the bound and a
     /// no-skill sigma follow within half a minute; when it calms, the slow one keeps them wide
     /// until the evidence has caught up (the safe side).
@@ -271,8 +281,14 @@ impl Engine {
         for d in 0..NUM_DOF {
             let prior = set.held_out.get(d).map_or(&[][..], Vec::as_slice);
             // The change detector keeps running: a new model is fitted mostly on the old sea,
-            // so a change under way must not be forgotten at a swap.
-            self.calib.reset(d, prior);
+            // so a change under way must not be forgotten at a swap; nor the errors it brought.
+            if self.rougher(d) {
+                let variance = self.live_variance(d);
+                self.calib
+                    .reset_carrying(d, prior, variance, KEPT_AFTER_CHANGE);
+            } else {
+                self.calib.reset(d, prior);
+            }
         }
         // A DOF without a model of its own (`ModelSet::absent`) is delivered as no skill, as a
         // failed one is.
@@ -526,6 +542,9 @@ impl Engine {
                 self.shape.discount(d, KEPT_AFTER_CHANGE);
                 self.retrain_due.get_or_insert("sea changed");
                 self.change_seen_at[d] = Some(self.values);
+                if c == Change::Rougher {
+                    self.rougher_seen_at[d] = Some(self.values);
+                }
                 self.note_change_of_sea();
             }
         }
