@@ -4,7 +4,7 @@
 use crate::progress::Bar;
 use anyhow::Context;
 use shipcast_paper::{self as paper, Plan};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 #[derive(clap::Args, Debug)]
 pub struct Args {
@@ -66,6 +66,9 @@ impl TryFrom<Args> for Config {
         if args.out.exists() && !args.out.is_dir() {
             anyhow::bail!("--out {} is a file, not a directory", args.out.display());
         }
+        if let Some(record) = &args.measured {
+            written_by_paper(record, &args.out)?;
+        }
         let measured = args
             .measured
             .as_deref()
@@ -82,6 +85,32 @@ impl TryFrom<Args> for Config {
             sections,
         })
     }
+}
+
+/// Refuses a `--measured` record that the study would write over: a report (`.md`) or a
+/// figure (`.svg`) in `--out` (regression, review: `--measured DIR/measured.md` was replaced
+/// by the section made from it).
+fn written_by_paper(record: &Path, out: &Path) -> anyhow::Result<()> {
+    let in_out = match (record.parent(), out.canonicalize()) {
+        (Some(parent), Ok(out)) => {
+            let parent = if parent.as_os_str().is_empty() {
+                Path::new(".")
+            } else {
+                parent
+            };
+            parent.canonicalize().is_ok_and(|p| p == out)
+        }
+        _ => false,
+    };
+    let written = record.extension().is_some_and(|e| e == "md" || e == "svg");
+    if in_out && written {
+        anyhow::bail!(
+            "--measured {} is in --out {}, where the study writes its reports (.md) and figures (.svg): writing them would destroy the record; move it or give another --out",
+            record.display(),
+            out.display()
+        );
+    }
+    Ok(())
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
@@ -171,5 +200,31 @@ mod tests {
             refused(&["--out", file]),
             format!("--out {file} is a file, not a directory")
         );
+    }
+
+    #[test]
+    fn a_measured_record_the_study_would_write_over_is_refused() {
+        // Regression (review): `--out DIR --measured DIR/measured.md` replaced the record by
+        // the section made from it. A record in --out under another name is read as it is.
+        let dir = tempfile::tempdir().unwrap();
+        let out = dir.path().to_str().unwrap();
+        for name in ["measured.md", "fig3_heave.svg"] {
+            let record = dir.path().join(name);
+            std::fs::write(&record, "time_s,heave_m\n0,1\n").unwrap();
+            let record = record.to_str().unwrap();
+            let e = refused(&["--out", out, "--measured", record, "--measured-only"]);
+            assert!(
+                e.starts_with(&format!("--measured {record} is in --out")),
+                "{e}"
+            );
+        }
+        let kept = dir.path().join("m.csv");
+        let rows: String = (0..4000)
+            .map(|i| format!("{},{}\n", i as f64 * 0.5, (i as f64 * 0.4).sin()))
+            .collect();
+        std::fs::write(&kept, format!("time_s,heave_m\n{rows}")).unwrap();
+        let args = ["--out", out, "--measured", kept.to_str().unwrap()];
+        let c = Config::try_from(crate::parse_args::<Args>(&args));
+        assert!(c.is_ok(), "{:#}", c.err().unwrap());
     }
 }

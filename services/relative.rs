@@ -112,6 +112,14 @@ impl TryFrom<Args> for Config {
                 if let Some(csv) = &args.calls_csv {
                     crate::output_not_input("--calls-csv", csv, "--crane-record", &crane_record)?;
                     crate::output_not_input("--calls-csv", csv, "--target-record", &target_record)?;
+                    // Regression (review): the configuration and the model it names were
+                    // written over as well.
+                    if let Some(file) = &args.common.config {
+                        crate::output_not_input("--calls-csv", csv, "--config", file)?;
+                    }
+                    if let Some(model) = &pipeline.predictor.model {
+                        crate::output_not_input("--calls-csv", csv, "predictor.model", model)?;
+                    }
                     // Written at the end of a long study: a path that cannot be written is
                     // refused now (review: a directory was found only after the study).
                     crate::output_in_existing_dir("--calls-csv", csv)?;

@@ -728,6 +728,32 @@ fn an_output_that_is_the_input_file_is_refused_and_the_input_kept() {
         assert_one_line_error(&shipcast(args), reason);
         assert_eq!(std::fs::read(&record).unwrap(), before, "{args:?}");
     }
+    // Nor the configuration, or the model it names (review: both were written over).
+    let model = dir.path().join("m.json");
+    std::fs::write(&model, "{}").unwrap();
+    let config = dir.path().join("c.toml");
+    let config_text = format!("[predictor]\nmodel = {:?}\n", model.to_str().unwrap());
+    std::fs::write(&config, &config_text).unwrap();
+    let config = config.to_str().unwrap();
+    for (calls, reason) in [
+        (config, "is the --config file"),
+        (model.to_str().unwrap(), "is the predictor.model file"),
+    ] {
+        let args = [
+            "relative",
+            "--crane-record",
+            record_str,
+            "--target-record",
+            hard,
+            "--config",
+            config,
+            "--calls-csv",
+            calls,
+        ];
+        assert_one_line_error(&shipcast(&args), reason);
+        assert_eq!(std::fs::read_to_string(config).unwrap(), config_text);
+        assert_eq!(std::fs::read_to_string(&model).unwrap(), "{}");
+    }
 }
 
 /// Regressions (review): `relative --calls-csv` emptied the file as the study began, so a
