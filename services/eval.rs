@@ -79,7 +79,7 @@ impl PredictorArgs {
             order: checked(limits::count("--order", order, 1, MAX_COUNT))?,
             horizon: checked(limits::count("--horizon", self.horizon, 1, MAX_COUNT))?,
             mca_shift: checked(limits::count("--shift", self.shift, 1, MAX_COUNT))?,
-            mca_energy: checked(limits::positive("--energy", self.energy, 1.0))?,
+            mca_energy: checked(limits::fraction_below_one("--energy", self.energy))?,
             mca_ridge: checked(limits::non_negative("--ridge", self.ridge, MAX_RIDGE))?,
             mca_validate_energy: self.validate_energy,
             mca_weighting: self.mca_weighting,
@@ -406,8 +406,15 @@ mod tests {
         );
         assert_eq!(
             refused(&["--energy", "2"]),
-            "--energy must be a number in (0, 1], got 2"
+            "--energy must be a number in [0, 1), got 2"
         );
+        // Regression (review): 1 passed and every MCA fit failed; 0, which the method
+        // takes, was refused.
+        assert_eq!(
+            refused(&["--energy", "1"]),
+            "--energy must be a number in [0, 1), got 1"
+        );
+        assert!(crate::validated::<Args, Config>(&["--input", "x.csv", "--energy", "0"]).is_ok());
         assert_eq!(
             refused(&["--lms-gain", "1000"]),
             format!("--lms-gain must be a number in (0, {MAX_GAIN}], got 1000")

@@ -61,6 +61,14 @@ impl TryFrom<Args> for Config {
     fn try_from(args: Args) -> anyhow::Result<Self> {
         let method: Method = args.method.parse().map_err(anyhow::Error::msg)?;
         let config = args.predictor.config(args.seed, &service_defaults())?;
+        // Regression (review): `--horizon 129` trained a model that no service can load (a
+        // forecast carries at most MAX_STEPS steps); `eval` alone takes longer horizons.
+        crate::checked(shipcast_pipeline::limits::count(
+            "--horizon",
+            config.horizon,
+            1,
+            shipcast_wire::payload::MAX_STEPS,
+        ))?;
         // Both parts must hold data: the fit and the sigma measurement.
         if !(args.holdout > 0.0 && args.holdout < 1.0) {
             anyhow::bail!(
@@ -185,6 +193,12 @@ mod tests {
                 "--order must be 1..={}, got 0",
                 shipcast_pipeline::config::MAX_ORDER
             )
+        );
+        // Regression (review): a horizon beyond what a forecast carries made a model file
+        // that nothing could load.
+        assert_eq!(
+            refused(&["--input", "m.csv", "--out", "m.json", "--horizon", "129"]),
+            "--horizon must be 1..=128, got 129"
         );
         let d = dir.path().to_str().unwrap();
         assert_eq!(

@@ -54,6 +54,19 @@ pub fn positive(name: &str, v: f64, max: f64) -> Result<f64, String> {
     }
 }
 
+/// `v` must be in `[0, 1)`: a fraction that must leave something (the MCA's energy
+/// threshold: at 1 no direction is left as the minor space).
+pub fn fraction_below_one(name: &str, v: f64) -> Result<f64, String> {
+    if (0.0..1.0).contains(&v) {
+        Ok(v)
+    } else {
+        Err(format!(
+            "{name} must be a number in [0, 1), got {}",
+            shown(v)
+        ))
+    }
+}
+
 /// `v` must be finite and in `[min, max]`.
 pub fn in_range(name: &str, v: f64, min: f64, max: f64) -> Result<f64, String> {
     if v.is_finite() && (min..=max).contains(&v) {

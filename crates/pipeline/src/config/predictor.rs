@@ -256,7 +256,7 @@ impl PredictorServiceConfig {
         use crate::limits::{self, MAX_EPOCHS, MAX_GAIN, MAX_HIDDEN, MAX_RIDGE};
         if let Some(m) = &self.mca {
             limits::count("predictor.mca.shift", m.shift, 1, super::MAX_ORDER)?;
-            limits::positive("predictor.mca.energy", m.energy, 1.0)?;
+            limits::fraction_below_one("predictor.mca.energy", m.energy)?;
             limits::non_negative("predictor.mca.ridge", m.ridge, MAX_RIDGE)?;
         }
         if let Some(a) = &self.ar {

@@ -334,6 +334,11 @@ fn method_settings_out_of_range_are_refused() {
             "[predictor]\nmethod = \"mca\"\n[predictor.mca]\nenergy = 2.0\n",
             "predictor.mca.energy",
         ),
+        // Regression (review): 1 passed the check and failed every fit ("must be in [0, 1)").
+        (
+            "[predictor]\nmethod = \"mca\"\n[predictor.mca]\nenergy = 1.0\n",
+            "predictor.mca.energy must be a number in [0, 1)",
+        ),
         (
             "[predictor]\nmethod = \"mca\"\n[predictor.mca]\nshift = 0\n",
             "predictor.mca.shift",
