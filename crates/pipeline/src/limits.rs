@@ -12,7 +12,7 @@ pub const MAX_SECONDS: f64 = 365.0 * 86_400.0;
 
 /// Largest record time stamp a command takes as a time in the record (`--skip-s`) [s]: a
 /// record may be stamped in Unix epoch seconds (1.7e9 today), so this is far beyond a year.
-pub const MAX_RECORD_TIME_S: f64 = 1e12;
+pub const MAX_RECORD_TIME_S: f64 = shipcast_series::motion_csv::MAX_ABS_TIME_S;
 
 /// Highest sample, send or forecast rate any command accepts [Hz].
 pub const MAX_RATE_HZ: f64 = 100_000.0;

@@ -13,6 +13,10 @@
 
 use shipcast_wire::dof::Dof;
 use shipcast_wire::payload::MAX_ABS_MOTION;
+
+/// Largest time stamp a record may carry [s]: Unix epoch seconds (1.7e9 today) with room to
+/// spare; beyond it a stamp is corrupt, and the gap before it has no sample count.
+pub const MAX_ABS_TIME_S: f64 = 1e12;
 use std::fs::File;
 use std::io::{self, BufWriter, Read, Write};
 use std::path::Path;
@@ -63,6 +67,8 @@ pub enum MotionCsvError {
         column: String,
         text: String,
     },
+    #[error("line {line}, column '{TIME_COLUMN}': time '{text}' is beyond +-{MAX_ABS_TIME_S:e} s, more than 30000 years even from the Unix epoch: a corrupt stamp?")]
+    TimeOutOfRange { line: u64, text: String },
     #[error("line {line}, column '{column}': missing value")]
     Missing { line: u64, column: String },
     #[error("line {line}, column '{column}': not UTF-8 text (a number is ASCII)")]
@@ -212,6 +218,14 @@ impl MotionData {
                 } else {
                     parse_value(text, line, &names[i])?
                 };
+                // Regression (review): a stamp of 1e300 was read, and the gap before it
+                // counted as 2^64 - 2 missing samples.
+                if i == time_index && value.abs() > MAX_ABS_TIME_S {
+                    return Err(MotionCsvError::TimeOutOfRange {
+                        line,
+                        text: shown_field(text),
+                    });
+                }
                 if i != time_index && value.abs() > MAX_ABS_MOTION {
                     return Err(MotionCsvError::OutOfRange {
                         line,
@@ -822,8 +836,18 @@ mod tests {
                 "line 3, column 'time_s'",
             ),
             (
-                "time_s,heave_m,pitch_rad\n1e300,1,2\n0.5,1,2\n",
-                "time 0.5 does not increase (previous row: 1e300)",
+                "time_s,heave_m,pitch_rad\n1e11,1,2\n0.5,1,2\n",
+                "time 0.5 does not increase (previous row: 100000000000)",
+            ),
+            // Regression (review): a corrupt last stamp of 1e300 was read, and the gap before
+            // it counted as 2^64 - 2 missing samples.
+            (
+                "time_s,heave_m,pitch_rad\n0,1,2\n0.5,1,2\n1e300,1,2\n",
+                "line 4, column 'time_s': time '1e300' is beyond +-1e12 s",
+            ),
+            (
+                "time_s,heave_m,pitch_rad\n-1e13,1,2\n0.5,1,2\n",
+                "line 2, column 'time_s': time '-1e13' is beyond",
             ),
             // Regression: epoch time stamps (1.7e9 s) came out as 1.7330000005e9, hard to
             // find in the file: they print as written.
