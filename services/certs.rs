@@ -74,6 +74,9 @@ fn fleet_keys(names: &Names) -> String {
 pub struct Config {
     /// Output directory; it holds no ca.pem yet.
     pub out: PathBuf,
+    /// Where the files are written first: `out` until [`run`] stages them in a directory of
+    /// their own inside it ([`Staging`]).
+    pub stage: PathBuf,
     /// The names of each vessel (one unless a fleet), all different.
     pub vessels: Vec<Names>,
     /// The predictor's listen endpoint and its host.
@@ -190,6 +193,7 @@ impl TryFrom<Args> for Config {
             None => None,
         };
         Ok(Config {
+            stage: args.out.clone(),
             out: args.out,
             vessels,
             listen: args.listen,
@@ -204,20 +208,92 @@ impl TryFrom<Args> for Config {
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let setup = Config::try_from(args)?;
+    let mut setup = Config::try_from(args)?;
     std::fs::create_dir_all(&setup.out)
         .with_context(|| format!("create {}", setup.out.display()))?;
+    // Regression (review): files were written straight into --out, replacing a shipcast.toml
+    // or a key of another setup there, and a run that failed half-way left a mix behind. They
+    // are written beside it first and moved in only if none is there yet.
+    let staging = Staging::new(&setup.out)?;
+    setup.stage = staging.dir.clone();
+    let done = write_setup(&setup)?;
+    staging.publish(&setup.out)?;
+    let _ = writeln!(std::io::stdout(), "{done}");
+    Ok(())
+}
 
+/// A private directory inside `--out` that the files are written into before any is moved to
+/// `--out`; removed with whatever is left in it.
+struct Staging {
+    dir: PathBuf,
+}
+
+impl Staging {
+    fn new(out: &Path) -> anyhow::Result<Self> {
+        use std::os::unix::fs::DirBuilderExt;
+        let dir = out.join(format!(".shipcast-certs-{}", std::process::id()));
+        std::fs::DirBuilder::new()
+            .mode(0o700)
+            .create(&dir)
+            .with_context(|| format!("create {}", dir.display()))?;
+        Ok(Self { dir })
+    }
+
+    /// Move every staged file into `out`, ca.pem last (it marks a setup as complete), after
+    /// checking that none of their names is taken there; on a failure half-way the files
+    /// already moved are taken back out.
+    fn publish(&self, out: &Path) -> anyhow::Result<()> {
+        let mut names = Vec::new();
+        for entry in std::fs::read_dir(&self.dir)? {
+            names.push(entry?.file_name());
+        }
+        names.sort_by(|a, b| (a == "ca.pem", a).cmp(&(b == "ca.pem", b)));
+        let taken: Vec<String> = names
+            .iter()
+            .filter(|n| out.join(n).symlink_metadata().is_ok())
+            .map(|n| n.to_string_lossy().into_owned())
+            .collect();
+        if !taken.is_empty() {
+            anyhow::bail!(
+                "{} already holds {}: nothing was written; choose an empty --out (or move those files away)",
+                out.display(),
+                taken.join(", ")
+            );
+        }
+        let mut moved = Vec::new();
+        for name in &names {
+            // A hard link never replaces a file that appeared since the check.
+            if let Err(e) = std::fs::hard_link(self.dir.join(name), out.join(name)) {
+                for m in &moved {
+                    let _ = std::fs::remove_file(out.join(m));
+                }
+                return Err(e).with_context(|| {
+                    format!("move {} into {}", name.to_string_lossy(), out.display())
+                });
+            }
+            moved.push(name);
+        }
+        Ok(())
+    }
+}
+
+impl Drop for Staging {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.dir);
+    }
+}
+
+/// Write the whole setup into `setup.stage`; returns what to tell the user once it is in
+/// `setup.out`.
+fn write_setup(setup: &Config) -> anyhow::Result<String> {
     let validity = Validity::days_from_now(setup.days);
     let ca = CertAuthority::new(
         &format!("shipcast {} CA", setup.vessel_names().join(" ")),
         validity,
     )?;
-    let (out, vessels, host) = (&setup.out, &setup.vessels, setup.listen_host.as_str());
-    // ca.pem is written last: it is what keeps a later run from replacing the setup, so a run
-    // that fails half-way (an unwritable file) must leave none, or the retry is refused.
+    let (out, vessels, host) = (&setup.stage, &setup.vessels, setup.listen_host.as_str());
     let Some((router, router_host)) = &setup.router else {
-        return single_vessel(&setup, &vessels[0], host, &ca, validity);
+        return single_vessel(setup, &vessels[0], host, &ca, validity);
     };
     let router_id = ca.issue(
         ROUTER_NAME,
@@ -299,17 +375,15 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             false,
         )?;
     }
-    write_stations(&setup, &vessels[0], router, &ca, validity)?;
+    write_stations(setup, &vessels[0], router, &ca, validity)?;
     write(out, "ca.pem", &ca.certificate_pem(), false)?;
-    let _ = writeln!(
-        std::io::stdout(),
+    Ok(format!(
         "wrote a new CA and certificates for the router, {} vessel(s) and {} station(s) into {}; start the router with: shipcast router --config {}",
         vessels.len(),
         setup.stations.len(),
-        out.display(),
-        out.join("router.toml").display()
-    );
-    Ok(())
+        setup.out.display(),
+        setup.out.join("router.toml").display()
+    ))
 }
 
 /// One vessel whose consumers connect to its predictor.
@@ -319,8 +393,8 @@ fn single_vessel(
     host: &str,
     ca: &CertAuthority,
     validity: Validity,
-) -> anyhow::Result<()> {
-    let out = &setup.out;
+) -> anyhow::Result<String> {
+    let out = &setup.stage;
     let pipeline = pipeline_name(names.vessel());
     let pipeline_id = ca.issue(&pipeline, &server_names(host, &setup.hosts), validity)?;
     write(out, "pipeline.pem", &pipeline_id.certificate_pem, false)?;
@@ -359,14 +433,12 @@ fn single_vessel(
     )?;
     write_stations(setup, names, &setup.station_connect, ca, validity)?;
     write(out, "ca.pem", &ca.certificate_pem(), false)?;
-    let _ = writeln!(
-        std::io::stdout(),
+    Ok(format!(
         "wrote a new CA and certificates for '{pipeline}' and {} station(s) into {}; start the pipeline with: shipcast run --config {}",
         setup.stations.len(),
-        out.display(),
-        out.join("shipcast.toml").display()
-    );
-    Ok(())
+        setup.out.display(),
+        setup.out.join("shipcast.toml").display()
+    ))
 }
 
 /// An unspecified IP address (0.0.0.0, ::): a listener's wildcard, no one's name.
@@ -409,7 +481,7 @@ fn write_stations(
     ca: &CertAuthority,
     validity: Validity,
 ) -> anyhow::Result<()> {
-    let out = &setup.out;
+    let out = &setup.stage;
     for station in &setup.stations {
         let id = ca.issue(station, &[], validity)?;
         let zenoh = ZenohConfig {
@@ -614,25 +686,44 @@ mod tests {
         assert!(refused(&["--router", "tls/0.0.0.0:7447"]).contains("not a wildcard"));
     }
 
-    /// Regression: ca.pem was written first, so a run that failed on a later file left it,
-    /// and the retry was refused as if a setup were there.
+    /// Regressions: ca.pem was written first, so a run that failed on a later file left it,
+    /// and the retry was refused as if a setup were there; then (review) the files before the
+    /// failing one were left, and a shipcast.toml of another setup in --out was replaced.
     #[test]
-    fn a_run_that_fails_half_way_can_be_retried() {
+    fn a_refused_run_writes_nothing_replaces_nothing_and_can_be_retried() {
         let (_dir, out) = fresh_out();
-        std::fs::create_dir_all(Path::new(&out).join("pipeline.key")).unwrap();
-        let e = run(crate::parse_args::<Args>(&[
-            "--out", &out, "--listen", LISTEN,
-        ]))
-        .unwrap_err()
-        .to_string();
-        assert!(e.contains("pipeline.key"), "{e}");
-        assert!(!Path::new(&out).join("ca.pem").exists());
-        std::fs::remove_dir(Path::new(&out).join("pipeline.key")).unwrap();
-        run(crate::parse_args::<Args>(&[
-            "--out", &out, "--listen", LISTEN,
-        ]))
-        .unwrap();
-        assert!(Path::new(&out).join("ca.pem").exists());
+        let out_dir = Path::new(&out);
+        std::fs::create_dir_all(out_dir.join("pipeline.key")).unwrap();
+        std::fs::write(out_dir.join("shipcast.toml"), "precious").unwrap();
+        let argv = ["--out", &out, "--listen", LISTEN, "--station", "ops"];
+        let e = format!("{:#}", run(crate::parse_args::<Args>(&argv)).unwrap_err());
+        assert!(
+            e.contains("already holds pipeline.key, shipcast.toml: nothing was written"),
+            "{e}"
+        );
+        let mut left: Vec<_> = std::fs::read_dir(out_dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().into_string().unwrap())
+            .collect();
+        left.sort();
+        assert_eq!(left, ["pipeline.key", "shipcast.toml"]);
+        assert_eq!(
+            std::fs::read_to_string(out_dir.join("shipcast.toml")).unwrap(),
+            "precious"
+        );
+        std::fs::remove_dir(out_dir.join("pipeline.key")).unwrap();
+        std::fs::remove_file(out_dir.join("shipcast.toml")).unwrap();
+        run(crate::parse_args::<Args>(&argv)).unwrap();
+        for name in [
+            "ca.pem",
+            "pipeline.key",
+            "shipcast.toml",
+            "ops.json5",
+            "ops.toml",
+        ] {
+            assert!(out_dir.join(name).is_file(), "{name}");
+        }
+        assert_eq!(std::fs::read_dir(out_dir).unwrap().count(), 6);
     }
 
     #[test]
