@@ -12,6 +12,7 @@ use serde::{Deserialize, Serialize};
 use shipcast_predict::{AnyPredictor, Method, PredictError, Predictor, PredictorConfig};
 use shipcast_series::motion_csv::{MotionCsvError, MotionData};
 use shipcast_wire::dof::Dof;
+use shipcast_wire::payload::MAX_ABS_MOTION;
 use std::path::{Path, PathBuf};
 
 /// Version of the model file format this build reads and writes.
@@ -406,7 +407,7 @@ impl ModelFile {
                     m.dof
                 ));
             }
-            check_forecasts(m)?;
+            check_forecasts(m, self.sample_rate)?;
         }
         // The file's own method must be buildable from its configuration (a negative LMS
         // gain, a hidden layer of 0 units, an MCA window shift of 0); after the models, whose
@@ -420,10 +421,16 @@ impl ModelFile {
 /// enough that the trial forecast below cannot exhaust memory.
 const MAX_MODEL_SIZE: usize = 1_000_000;
 
+/// Period of the trial motion [s]: a wave.
+const TRIAL_PERIOD_S: f64 = 10.0;
+
 /// A model that loads must forecast: order and horizon of at least 1 (a hand-edited 0 would
 /// make a baseline or AR predictor index out of bounds), fitted (an empty MLP or Wiener
-/// predictor would fail only at the service's first forecast), and finite on a quiet sea.
-fn check_forecasts(m: &DofModel) -> Result<(), String> {
+/// predictor would fail only at the service's first forecast), finite on a quiet sea, and
+/// within what any motion reaches (`MAX_ABS_MOTION`) from a wave of amplitude 1 sampled at
+/// `sample_rate` (regression, review: coefficients edited to 1e300 forecast 0 from a quiet
+/// sea and loaded; in service every forecast was then taken for a jump of the level).
+fn check_forecasts(m: &DofModel, sample_rate: f64) -> Result<(), String> {
     let (order, horizon) = (m.predictor.order(), m.predictor.horizon());
     if !(1..=MAX_MODEL_SIZE).contains(&order) || !(1..=MAX_MODEL_SIZE).contains(&horizon) {
         return Err(format!(
@@ -443,6 +450,24 @@ fn check_forecasts(m: &DofModel) -> Result<(), String> {
     if out.iter().any(|v| !v.is_finite()) {
         return Err(format!(
             "{}: the {} model forecasts a non-finite value",
+            m.dof,
+            m.predictor.method()
+        ));
+    }
+    let step = std::f64::consts::TAU / (TRIAL_PERIOD_S * sample_rate);
+    let wave: Vec<f64> = (0..order).map(|i| (i as f64 * step).sin()).collect();
+    let mut trial = m.predictor.clone();
+    trial.forecast(&wave, &mut out).map_err(|e| {
+        format!(
+            "{}: the {} model cannot forecast: {e}",
+            m.dof,
+            m.predictor.method()
+        )
+    })?;
+    let largest = out.iter().map(|v| v.abs()).fold(0.0, f64::max);
+    if !(largest <= MAX_ABS_MOTION) {
+        return Err(format!(
+            "{}: the {} model forecasts {largest:e} from a wave of amplitude 1 (beyond +-{MAX_ABS_MOTION:e}, which no motion reaches): its coefficients are corrupt",
             m.dof,
             m.predictor.method()
         ));
@@ -654,6 +679,30 @@ mod tests {
             "{err}"
         );
         assert!(err.contains("\"x\""), "{err}");
+    }
+
+    /// Regression (review): coefficients edited to 1e300 forecast 0 from the quiet sea the
+    /// load check tried, so the file loaded, and in service every forecast was taken for a
+    /// jump of the level. A trained model of each method passes the same trial.
+    #[test]
+    fn a_model_that_blows_a_wave_up_beyond_any_motion_is_refused() {
+        for method in [Method::Wiener, Method::Mca, Method::Ar] {
+            let err = load_error(method, |v| {
+                let p = &mut v["dofs"][0]["predictor"];
+                let coef = match method {
+                    Method::Wiener => &mut p["coefficients"]["coef"],
+                    Method::Mca => &mut p["model"]["prediction"]["coef"],
+                    _ => &mut p["weights"],
+                };
+                for c in coef.as_array_mut().unwrap() {
+                    *c = 1e300.into();
+                }
+            });
+            assert!(
+                err.contains("heave: the") && err.contains("from a wave of amplitude 1"),
+                "{method:?}: {err}"
+            );
+        }
     }
 
     #[test]
