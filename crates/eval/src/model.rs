@@ -464,8 +464,12 @@ fn check_forecasts(m: &DofModel, sample_rate: f64) -> Result<(), String> {
             m.predictor.method()
         )
     })?;
-    let largest = out.iter().map(|v| v.abs()).fold(0.0, f64::max);
-    if !(largest <= MAX_ABS_MOTION) {
+    // NaN as infinity: `f64::max` would pass it over.
+    let largest = out
+        .iter()
+        .map(|v| if v.is_nan() { f64::INFINITY } else { v.abs() })
+        .fold(0.0, f64::max);
+    if largest > MAX_ABS_MOTION {
         return Err(format!(
             "{}: the {} model forecasts {largest:e} from a wave of amplitude 1 (beyond +-{MAX_ABS_MOTION:e}, which no motion reaches): its coefficients are corrupt",
             m.dof,
