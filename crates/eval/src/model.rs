@@ -104,6 +104,8 @@ pub enum ModelError {
     },
     #[error("no DOF to train")]
     NoDof,
+    #[error("every DOF to train is all zeros (dead channels): there is no motion to fit")]
+    AllZero,
 }
 
 /// How `train_models` fits and measures.
@@ -138,6 +140,16 @@ pub fn train_models(
     let mut models = Vec::with_capacity(dofs.len());
     for &dof in dofs {
         let series = data.dof(dof)?;
+        // Regression (review): one dead channel (all zeros) failed the whole file with "no
+        // power". It gets no model: the service forecasts a DOF without one as no skill, and
+        // takes a model of it from live data once it moves.
+        if series.iter().all(|&v| v == 0.0) {
+            tracing::warn!(
+                %dof,
+                "train: {dof} is all zeros (a dead channel?): no model for it; the service forecasts it as no skill until it moves"
+            );
+            continue;
+        }
         let split = ((1.0 - holdout) * series.len() as f64).floor() as usize;
         let eval_err = |error| ModelError::Eval { dof, error };
         let predict_err = |error| ModelError::Predict { dof, error };
@@ -188,6 +200,9 @@ pub fn train_models(
             sigma_origins,
             predictor,
         });
+    }
+    if models.is_empty() {
+        return Err(ModelError::AllZero);
     }
     Ok(ModelFile {
         format_version: MODEL_FORMAT_VERSION,
@@ -606,6 +621,23 @@ mod tests {
                 roll.sigma
             );
         }
+    }
+
+    /// Regression (review): one dead channel (all zeros) failed the whole file with "no
+    /// power"; it is left out, and only a record of nothing but dead channels is refused.
+    #[test]
+    fn a_dead_channel_gets_no_model_and_the_others_still_train() {
+        let mut data = record(600);
+        data.columns[1].values.iter_mut().for_each(|v| *v = 0.0);
+        let model =
+            train_models(&data, &[Dof::Heave, Dof::Roll], &options(Method::Wiener)).unwrap();
+        assert!(model.dof(Dof::Heave).is_some());
+        assert!(model.dof(Dof::Roll).is_none());
+        // What is written loads again.
+        let text = serde_json::to_string(&model).unwrap();
+        ModelFile::from_json(&text, Path::new("m.json")).unwrap();
+        let e = train_models(&data, &[Dof::Roll], &options(Method::Wiener)).unwrap_err();
+        assert!(matches!(e, ModelError::AllZero), "{e}");
     }
 
     #[test]
