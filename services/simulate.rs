@@ -207,9 +207,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
 }
 
 /// The output file, row count and per-channel sums of squares of a record being written.
+/// Dropped before [`Self::finish`] (an error on the way), a regular file is removed: a record
+/// cut short must not be taken for a whole one.
 pub(crate) struct RecordOut {
-    writer: MotionCsvWriter<BufWriter<File>>,
+    writer: Option<MotionCsvWriter<BufWriter<File>>>,
     path: PathBuf,
+    /// Whether `path` is a regular file (not a pipe or a device, which is never removed).
+    regular: bool,
     values: [f64; 7],
     sum_sq: [f64; 7],
     pub(crate) rows: u64,
@@ -221,8 +225,9 @@ impl RecordOut {
         let writer = MotionCsvWriter::create(path, &columns)
             .with_context(|| format!("cannot write {}", path.display()))?;
         Ok(RecordOut {
-            writer,
+            writer: Some(writer),
             path: path.to_path_buf(),
+            regular: path.metadata().is_ok_and(|m| m.is_file()),
             values: [0.0; 7],
             sum_sq: [0.0; 7],
             rows: 0,
@@ -236,7 +241,10 @@ impl RecordOut {
             *s += v * v;
         }
         self.rows += 1;
-        self.writer
+        let Some(writer) = self.writer.as_mut() else {
+            anyhow::bail!("{}: written after it was finished", self.path.display());
+        };
+        writer
             .write_row(p.time_s, &self.values)
             .with_context(|| format!("writing {}", self.path.display()))?;
         Ok(())
@@ -246,11 +254,21 @@ impl RecordOut {
         (self.sum_sq[ch.index()] / self.rows.max(1) as f64).sqrt()
     }
 
-    pub(crate) fn finish(self) -> anyhow::Result<()> {
-        self.writer
-            .finish()
-            .with_context(|| format!("writing {}", self.path.display()))?;
+    pub(crate) fn finish(mut self) -> anyhow::Result<()> {
+        if let Some(writer) = self.writer.take() {
+            writer
+                .finish()
+                .with_context(|| format!("writing {}", self.path.display()))?;
+        }
         Ok(())
+    }
+}
+
+impl Drop for RecordOut {
+    fn drop(&mut self) {
+        if self.writer.take().is_some() && self.regular {
+            let _ = std::fs::remove_file(&self.path);
+        }
     }
 }
 

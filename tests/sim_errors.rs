@@ -160,7 +160,7 @@ fn an_unreadable_rao_table_names_the_file_and_prints_the_os_error_once() {
     );
     assert_eq!(e.matches(&io).count(), 1, "{e}");
 
-    // A directory opens but does not read: the CSV reader's I/O error is the cause.
+    // A directory opens but does not read: the I/O error is the cause.
     let dir = tempfile::tempdir().unwrap();
     let eisdir = std::fs::read(dir.path()).unwrap_err().to_string();
     let cfg = SimConfig {
@@ -174,7 +174,7 @@ fn an_unreadable_rao_table_names_the_file_and_prints_the_os_error_once() {
     let e = printed(ShipMotion::new(&cfg).unwrap_err());
     assert_eq!(
         e,
-        format!("RAO table: {}: header: {eisdir}", dir.path().display())
+        format!("RAO table: {}: reading: {eisdir}", dir.path().display())
     );
     assert_eq!(e.matches(&eisdir).count(), 1, "{e}");
 }

@@ -156,9 +156,9 @@ pub(super) fn run_measured(
         );
     }
     if written == 0 {
-        // Regression (review): a header-only file was left to be taken for a record.
+        // Regression (review): a header-only file was left to be taken for a record. Dropped
+        // unfinished, a regular file is removed (a pipe or a device is left alone).
         drop(out);
-        let _ = std::fs::remove_file(&config.out);
         anyhow::bail!(
             "{}: no segment is longer than twice --edge-s {} s ({} segments, {} skipped)",
             path.display(),

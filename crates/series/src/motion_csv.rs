@@ -111,6 +111,13 @@ pub enum MotionCsvError {
         column: String,
         value: f64,
     },
+    #[error("row {row}: value {} in column '{column}' is beyond +-{limit:e}, which no reader takes back", shown_number(*.value))]
+    WriteOutOfRange {
+        row: u64,
+        column: String,
+        value: f64,
+        limit: f64,
+    },
     #[error("row {row}: time {} does not increase (previous row: {})", shown_number(*.time), shown_number(*.previous))]
     WriteTimeNotIncreasing { row: u64, time: f64, previous: f64 },
 }
@@ -639,6 +646,20 @@ impl<W: Write> MotionCsvWriter<W> {
                 value: values[bad],
             });
         }
+        // Regression (review): the simulator wrote heave of 8.8e201 (an RAO table of 1e200)
+        // into a file that every reader then refused.
+        let beyond = |v: f64, limit: f64, column: &str| MotionCsvError::WriteOutOfRange {
+            row,
+            column: column.to_string(),
+            value: v,
+            limit,
+        };
+        if time.abs() > MAX_ABS_TIME_S {
+            return Err(beyond(time, MAX_ABS_TIME_S, TIME_COLUMN));
+        }
+        if let Some(bad) = values.iter().position(|v| v.abs() > MAX_ABS_MOTION) {
+            return Err(beyond(values[bad], MAX_ABS_MOTION, &self.columns[bad]));
+        }
         if let Some(previous) = self.previous_time {
             if time <= previous {
                 return Err(MotionCsvError::WriteTimeNotIncreasing {
@@ -1002,6 +1023,16 @@ mod tests {
         assert!(matches!(
             w.write_row(0.0, &[1.0]),
             Err(MotionCsvError::WriteTimeNotIncreasing { .. })
+        ));
+        // Regression (review): values beyond what the reader takes back were written.
+        let e = w.write_row(1.0, &[-8.8e201]).unwrap_err().to_string();
+        assert_eq!(
+            e,
+            "row 2: value -8.8e201 in column 'heave_m' is beyond +-1e6, which no reader takes back"
+        );
+        assert!(matches!(
+            w.write_row(1e300, &[1.0]),
+            Err(MotionCsvError::WriteOutOfRange { .. })
         ));
         w.write_row(0.5, &[-1.0]).unwrap();
         let bytes = w.finish().unwrap();

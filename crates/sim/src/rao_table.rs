@@ -45,6 +45,10 @@ pub struct RaoTable {
     values: Vec<Response>,
 }
 
+/// Largest response amplitude a table may hold [m/m, rad/m]: ships' RAOs peak at about 1-2
+/// m/m, and roll at resonance of a lightly damped hull at a few rad/m.
+const MAX_RAO_AMPLITUDE: f64 = 100.0;
+
 fn sorted_unique(mut v: Vec<f64>) -> Vec<f64> {
     v.sort_by(f64::total_cmp);
     v.dedup();
@@ -105,7 +109,20 @@ pub(crate) fn csv_with_columns<R: Read, const N: usize>(
 impl RaoTable {
     /// Loads a table from a CSV file.
     pub fn load(path: &Path) -> Result<Self, SimError> {
-        Self::from_reader(open_table(path)?, &path.display().to_string())
+        let source = path.display().to_string();
+        let mut bytes = Vec::new();
+        open_table(path)?
+            .read_to_end(&mut bytes)
+            .map_err(|e| SimError::table(&source, format!("reading: {e}")))?;
+        // Regression (review): a table cut inside its last number loaded, with that number
+        // cut short (as a motion CSV would not).
+        if !matches!(bytes.last(), Some(b'\n' | b'\r') | None) {
+            return Err(SimError::table(
+                &source,
+                "the last row does not end with a line break, so the file may have been cut off inside it (if the file is complete, end it with a line break)".into(),
+            ));
+        }
+        Self::from_reader(&bytes[..], &source)
     }
 
     /// Parses a table; `source` names it in error messages.
@@ -139,6 +156,12 @@ impl RaoTable {
             if speed < 0.0 || omega <= 0.0 || amp < 0.0 {
                 return Err(err(format!(
                     "line {line}: speed and amplitude must be >= 0 and omega > 0"
+                )));
+            }
+            // Regression (review): an amplitude of 1e200 simulated heave of 8.8e201 m.
+            if amp > MAX_RAO_AMPLITUDE {
+                return Err(err(format!(
+                    "line {line}, column amplitude: {amp:e} per metre of wave amplitude is beyond {MAX_RAO_AMPLITUDE}, which no hull reaches (m/m for translations, rad/m for rotations: a unit error?)"
                 )));
             }
             let dof_text = rec.get(idx[3]).unwrap_or("");
@@ -480,5 +503,31 @@ mod tests {
         assert!(e.contains("incomplete grid"), "{e}");
         let bad_dof = tiny().replacen("surge", "bob", 1);
         assert!(RaoTable::from_reader(bad_dof.as_bytes(), "x").is_err());
+    }
+
+    /// Regressions (review): an amplitude of 1e200 simulated heave of 8.8e201 m, and a file
+    /// cut inside its last number loaded with that number cut short.
+    #[test]
+    fn absurd_amplitudes_and_a_table_cut_short_are_refused() {
+        let huge = tiny();
+        let row = huge.lines().find(|l| l.contains(",heave,")).unwrap();
+        let fields: Vec<&str> = row.split(',').collect();
+        let edited = format!(
+            "{},{},{},{},1e200,{}",
+            fields[0], fields[1], fields[2], fields[3], fields[5]
+        );
+        let e = RaoTable::from_reader(huge.replacen(row, &edited, 1).as_bytes(), "x")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("column amplitude: 1e200 per metre"), "{e}");
+        let dir = tempfile::tempdir().unwrap();
+        let whole = dir.path().join("whole.csv");
+        std::fs::write(&whole, tiny()).unwrap();
+        assert!(RaoTable::load(&whole).is_ok());
+        let cut = dir.path().join("cut.csv");
+        let text = tiny();
+        std::fs::write(&cut, &text[..text.trim_end().len() - 1]).unwrap();
+        let e = RaoTable::load(&cut).unwrap_err().to_string();
+        assert!(e.contains("does not end with a line break"), "{e}");
     }
 }
