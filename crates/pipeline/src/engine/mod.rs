@@ -18,6 +18,7 @@
 //!    `plausible_rms_factor` times the live RMS of the motion about it): that DOF falls back
 //!    to "no skill" (the level, sigma = RMS), and the event is counted and logged.
 
+pub mod burst;
 pub mod calibrate;
 pub mod change;
 mod failures;
@@ -35,6 +36,7 @@ pub mod verify;
 
 use crate::config::PredictorServiceConfig;
 use crate::transport::{monotonic_ns, Counters};
+use burst::Burst;
 use calibrate::Calibrator;
 use change::{Change, ChangeDetector};
 use failures::{failure_gap, next_streak, FailedModels, REASON_MODEL_FAILED};
@@ -118,6 +120,7 @@ pub struct Engine {
     calib: Calibrator,
     /// Scale on the calibrator's RMS sigma that matches the errors' +-1 and +-2 sigma coverage.
     shape: SigmaShape,
+    burst: Burst,
     verifier: Verifier,
     change: ChangeDetector,
     /// Exponentially weighted mean square of each DOF about its level (`level.rs`), over
@@ -185,6 +188,7 @@ impl Engine {
             log: ForecastLog::default(),
             calib: Calibrator::new(window.max(1), PRIOR_VALUES),
             shape: SigmaShape::new(window.max(1)),
+            burst: Burst::default(),
             verifier: Verifier::new(window.max(1)),
             change: ChangeDetector::new(CHANGE_MEMORY, config.change_ratio, CHANGE_REFRACTORY),
             mean_square: [0.0; NUM_DOF],
@@ -514,7 +518,9 @@ impl Engine {
                         z2[d] += z2_against(s);
                         let now = self.calib.get(d, k, variance_now[d]).sigma;
                         let s_now = if now.is_finite() && now > 0.0 { now } else { s };
-                        z2_now[d] += z2_against(s_now);
+                        let z2_step = z2_against(s_now);
+                        self.burst.observe(d, k, z2_step);
+                        z2_now[d] += z2_step;
                         n[d] += 1;
                     }
                 }
@@ -642,7 +648,8 @@ impl Engine {
                 entry.raw[d][k] = if raw.is_finite() { raw } else { 0.0 };
                 entry.mean[d][k] = level + deviation;
                 entry.sigma_calibrated[d][k] = sigma;
-                entry.sigma[d][k] = (sigma * inflate).hypot(label_miss) * self.shape.factor(d, k);
+                let widen = inflate.max(self.burst.factor(d, k));
+                entry.sigma[d][k] = (sigma * widen).hypot(label_miss) * self.shape.factor(d, k);
                 plausible &= deviation.is_finite() && deviation.abs() <= bound;
             }
             // The sigma floor of a forecast delivered as no skill, if it is one.
