@@ -76,7 +76,7 @@ pub enum ModelError {
         /// The text around the error's line and column.
         near: String,
     },
-    #[error("{path}: not a shipcast model file (no 'format_version')")]
+    #[error("{path}: not a shipcast model file (a JSON object with a 'format_version')")]
     NoVersion { path: PathBuf },
     #[error(
         "{path}: model format version {found}, this shipcast reads version {MODEL_FORMAT_VERSION}"
@@ -348,6 +348,13 @@ impl ModelFile {
                 })
             }
         };
+        // Regression (review): a file wrapped in [ ... ] passed as a sequence, its first
+        // element taken for the version, and the error quoted the whole model.
+        if !text.trim_start().starts_with('{') {
+            return Err(ModelError::NoVersion {
+                path: path.to_path_buf(),
+            });
+        }
         match probe.format_version {
             None => {
                 return Err(ModelError::NoVersion {
@@ -357,10 +364,18 @@ impl ModelFile {
             Some(v) if v.as_u64() == Some(u64::from(MODEL_FORMAT_VERSION)) => {}
             // Shown as written: a quoted "1" was reported as version 0.
             Some(found) => {
+                let mut found = found.to_string();
+                if found.len() > 40 {
+                    let end = (0..=37)
+                        .rev()
+                        .find(|&i| found.is_char_boundary(i))
+                        .unwrap_or(0);
+                    found = format!("{}...", &found[..end]);
+                }
                 return Err(ModelError::Version {
                     path: path.to_path_buf(),
-                    found: found.to_string(),
-                })
+                    found,
+                });
             }
         }
         let model: ModelFile = parse_locating(text, path)?;
@@ -961,7 +976,19 @@ mod tests {
         );
         let mut v = good.clone();
         v.as_object_mut().unwrap().remove("format_version");
-        assert!(load(&v).contains("no 'format_version'"));
+        assert!(load(&v).ends_with(
+            "m.json: not a shipcast model file (a JSON object with a 'format_version')"
+        ));
+        // Regression (review): wrapped in [ ... ], the whole model was quoted as its version.
+        let wrapped = serde_json::json!([good.clone()]);
+        assert_eq!(
+            load(&wrapped),
+            "m.json: not a shipcast model file (a JSON object with a 'format_version')"
+        );
+        let mut v = good.clone();
+        v["format_version"] = serde_json::json!({"a": "x".repeat(1000)});
+        let e = load(&v);
+        assert!(e.len() < 120 && e.contains("...,"), "{e}");
         let mut v = good.clone();
         v["colour"] = "red".into();
         assert!(load(&v).contains("unknown field `colour`"), "{}", load(&v));
