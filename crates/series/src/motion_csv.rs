@@ -526,11 +526,7 @@ fn shown_name(name: &str) -> String {
 /// A number as an error shows it: in scientific notation when very large or small, so that a
 /// time of 1e300 is not three hundred digits in a one-line message.
 fn shown_number(x: f64) -> String {
-    if x != 0.0 && x.is_finite() && !(1e-6..1e15).contains(&x.abs()) {
-        format!("{x:e}")
-    } else {
-        format!("{x}")
-    }
+    shipcast_wire::shown::number(x)
 }
 
 /// A field as an error shows it: on one line, and cut short. A stray quote makes the CSV

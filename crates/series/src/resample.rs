@@ -30,6 +30,8 @@ pub enum ResampleError {
     ZeroFactor,
     #[error("decimation factor {0} is too large (at most {max})", max = super::decimator::MAX_FACTOR)]
     FactorTooLarge(usize),
+    #[error("the record's sample rate, {} Hz, is more than {max} times the target {} Hz: time_s is in seconds (stamps in another unit?)", shipcast_wire::shown::number(*.input), shipcast_wire::shown::number(*.target), max = super::decimator::MAX_FACTOR)]
+    RateTooHigh { input: f64, target: f64 },
     #[error("need at least two samples to estimate the sample rate, got {0}")]
     TooFewForRate(usize),
     #[error("irregular sampling: time step {index} (after t = {after_s} s) is {step} s, the typical step is {median} s")]
@@ -449,8 +451,10 @@ pub fn resample_motion(data: &MotionData, target: f64) -> Result<MotionData, Res
     if factor == 1 {
         return Ok(data.clone());
     }
+    // Regression (review): a record of sub-normal time steps was "decimation factor
+    // 18446744073709551615 is too large", the factor saturated and the rate not named.
     if factor > super::decimator::MAX_FACTOR {
-        return Err(ResampleError::FactorTooLarge(factor));
+        return Err(ResampleError::RateTooHigh { input, target });
     }
     let needed = 4 * factor + 1;
     if data.len() < needed {
@@ -787,10 +791,12 @@ mod tests {
             time: vec![0.0, 1.0, 2.0],
             columns: vec![],
         };
-        assert!(matches!(
-            resample_motion(&tiny, 1e-300),
-            Err(ResampleError::FactorTooLarge(_))
-        ));
+        let e = resample_motion(&tiny, 1e-300).unwrap_err();
+        assert!(matches!(e, ResampleError::RateTooHigh { .. }), "{e}");
+        assert_eq!(
+            e.to_string(),
+            "the record's sample rate, 1 Hz, is more than 65536 times the target 1e-300 Hz: time_s is in seconds (stamps in another unit?)"
+        );
     }
 
     #[test]

@@ -24,6 +24,7 @@ use super::motion::{point, CHANNELS, WAVE_CHANNEL};
 use super::rao::{signed_encounter_omega, Response};
 use super::{MotionPoint, ShipMotion, SimConfig, SimError, G};
 use faer::c64;
+use shipcast_wire::shown::number;
 use std::f64::consts::FRAC_PI_2;
 
 /// A turn of the ship at a given record time.
@@ -53,12 +54,14 @@ pub struct SeaChange {
 fn check_time(what: &str, at_s: f64, span_s: f64) -> Result<(), SimError> {
     if !(at_s.is_finite() && at_s >= 0.0) {
         return Err(SimError::Config(format!(
-            "{what} time must be >= 0 s, got {at_s}"
+            "{what} time must be >= 0 s, got {}",
+            number(at_s)
         )));
     }
     if !(span_s.is_finite() && span_s >= 0.0) {
         return Err(SimError::Config(format!(
-            "{what} duration must be >= 0 s, got {span_s}"
+            "{what} duration must be >= 0 s, got {}",
+            number(span_s)
         )));
     }
     Ok(())

@@ -2,6 +2,7 @@
 
 use super::SimError;
 use serde::{Deserialize, Serialize};
+use shipcast_wire::shown::number;
 use std::f64::consts::PI;
 
 /// Hull lengths accepted [m], from a model-basin hull to the largest ships afloat.
@@ -82,7 +83,8 @@ impl Hull {
     pub fn scaled_to_length(&self, lpp_m: f64) -> Result<Self, SimError> {
         if !(lpp_m.is_finite() && (MIN_LENGTH_M..=MAX_LENGTH_M).contains(&lpp_m)) {
             return Err(SimError::Config(format!(
-                "hull length must be in [{MIN_LENGTH_M}, {MAX_LENGTH_M}] m, got {lpp_m} m"
+                "hull length must be in [{MIN_LENGTH_M}, {MAX_LENGTH_M}] m, got {} m",
+                number(lpp_m)
             )));
         }
         let f = lpp_m / self.lpp_m;

@@ -8,6 +8,7 @@
 
 use super::{Hull, SimError, SpectrumKind, Spreading};
 use serde::{Deserialize, Serialize};
+use shipcast_wire::shown::number;
 use std::path::PathBuf;
 
 /// Metres per second in one knot.
@@ -153,19 +154,19 @@ impl SimConfig {
         if !(self.speed_kn.is_finite() && (0.0..=MAX_SPEED_KN).contains(&self.speed_kn)) {
             return Err(SimError::Config(format!(
                 "speed must be in [0, {MAX_SPEED_KN}] kn, got {}",
-                self.speed_kn
+                number(self.speed_kn)
             )));
         }
         if !(self.hs_m.is_finite() && self.hs_m > 0.0 && self.hs_m <= MAX_HS_M) {
             return Err(SimError::Config(format!(
                 "significant wave height must be in (0, {MAX_HS_M}] m, got {}",
-                self.hs_m
+                number(self.hs_m)
             )));
         }
         if !(self.tp_s.is_finite() && (MIN_TP_S..=MAX_TP_S).contains(&self.tp_s)) {
             return Err(SimError::Config(format!(
                 "peak period must be in [{MIN_TP_S}, {MAX_TP_S}] s, got {}",
-                self.tp_s
+                number(self.tp_s)
             )));
         }
         let steepness = 2.0 * std::f64::consts::PI * self.hs_m / (super::G * self.tp_s * self.tp_s);
@@ -214,5 +215,19 @@ mod tests {
         let e = "ss9".parse::<Scenario>().unwrap_err().to_string();
         assert!(e.contains("unknown scenario 'ss9'"), "{e}");
         assert!((SimConfig::default().speed_mps() - 5.659).abs() < 0.001);
+    }
+
+    /// Regression (review): a refused 1e300 was shown as 301 digits.
+    #[test]
+    fn a_refused_huge_value_is_shown_in_exponent_form() {
+        let c = SimConfig {
+            hs_m: 1e300,
+            ..SimConfig::default()
+        };
+        let e = c.validate().unwrap_err().to_string();
+        assert!(
+            e.ends_with("significant wave height must be in (0, 30] m, got 1e300"),
+            "{e}"
+        );
     }
 }

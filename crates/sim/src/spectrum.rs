@@ -7,6 +7,7 @@
 
 use super::SimError;
 use serde::{Deserialize, Serialize};
+use shipcast_wire::shown::number;
 use std::f64::consts::PI;
 
 /// Which spectral shape.
@@ -63,12 +64,14 @@ impl Spectrum {
     ) -> Result<Self, SimError> {
         if !(hs_m.is_finite() && hs_m > 0.0) {
             return Err(SimError::Config(format!(
-                "significant wave height must be positive, got {hs_m} m"
+                "significant wave height must be positive, got {} m",
+                number(hs_m)
             )));
         }
         if !(tp_s.is_finite() && tp_s > 0.0) {
             return Err(SimError::Config(format!(
-                "peak period must be positive, got {tp_s} s"
+                "peak period must be positive, got {} s",
+                number(tp_s)
             )));
         }
         let gamma = match kind {
@@ -77,7 +80,8 @@ impl Spectrum {
         };
         if !(gamma.is_finite() && (1.0..=10.0).contains(&gamma)) {
             return Err(SimError::Config(format!(
-                "JONSWAP gamma must lie in [1, 10], got {gamma}"
+                "JONSWAP gamma must lie in [1, 10], got {}",
+                number(gamma)
             )));
         }
         Ok(Spectrum {

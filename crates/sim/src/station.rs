@@ -22,6 +22,7 @@
 use super::rao::signed_encounter_omega;
 use super::{SimError, WaveComponent, G};
 use serde::{Deserialize, Serialize};
+use shipcast_wire::shown::number;
 
 /// Farthest a second vessel may sit from the reference vessel, along either axis [m].
 pub const MAX_STATION_OFFSET_M: f64 = 10_000.0;
@@ -61,7 +62,8 @@ impl Station {
         {
             return Err(SimError::Config(format!(
                 "the vessel's position must be within +-{MAX_STATION_OFFSET_M} m of the reference vessel, got ({}, {}) m",
-                self.x_m, self.y_m
+                number(self.x_m),
+                number(self.y_m)
             )));
         }
         Ok(())

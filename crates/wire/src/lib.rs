@@ -7,10 +7,12 @@
 //!   and the owned JSON form of a forecast (docs/contracts.md section 2).
 //! - [`payload_json`]: the allocation-free forecast JSON encoder used on the zenoh path.
 //! - [`forecast_rows`]: the allocation-free parse of a received forecast's rows.
+//! - [`shown`]: numbers as one-line messages show them.
 
 pub mod dof;
 pub mod forecast_rows;
 pub mod payload;
 pub mod payload_json;
+pub mod shown;
 
 pub use dof::Dof;
