@@ -240,7 +240,7 @@ impl TryFrom<Args> for Config {
 pub fn load_resampled(path: &Path, sample_rate: f64) -> anyhow::Result<MotionData> {
     let data =
         MotionData::read_path(path).with_context(|| format!("reading {}", path.display()))?;
-    warn_of_spikes(path, &data);
+    warn_of_spikes(path, &data, "eval and train take them as they are");
     let resampled = signal::resample_motion(&data, sample_rate)
         .with_context(|| format!("resampling {}", path.display()))?;
     tracing::debug!(
@@ -257,7 +257,8 @@ pub fn load_resampled(path: &Path, sample_rate: f64) -> anyhow::Result<MotionDat
 /// (`shipcast_series::spikes`): where the column is evaluated, the forecasts are scored
 /// against them and the models fitted on them as they are, so the user should know (and
 /// repair the record).
-fn warn_of_spikes(path: &Path, data: &MotionData) {
+/// `taken` says what the command does with them.
+pub(crate) fn warn_of_spikes(path: &Path, data: &MotionData, taken: &str) {
     let Ok(rate) = shipcast_series::median_rate(&data.time) else {
         return;
     };
@@ -270,11 +271,11 @@ fn warn_of_spikes(path: &Path, data: &MotionData) {
                 input = %path.display(),
                 column = %column.name,
                 count,
-                "{}: {count} sample(s) of {} lie more than {} robust scales from their minute's median (spikes, or a quantisation far coarser than the motion), the first at t = {} s: eval and train take them as they are; repair or remove them",
+                "{}: {count} sample(s) of {} lie more than {} robust scales from their minute's median (spikes, or a quantisation far coarser than the motion), the first at t = {} s: {taken}; repair or remove them",
                 path.display(),
                 column.name,
                 shipcast_series::spikes::SPIKE_SCALES,
-                data.time[first]
+                shipcast_wire::shown::number(data.time[first])
             );
         }
     }

@@ -346,6 +346,33 @@ fn a_gap_in_the_record_becomes_a_time_jump_in_the_motion() {
     );
     // The speed (default 11 kn) is stated as an approximation.
     assert!(log.contains("encounter frequency"), "{log}");
+    // A clean record has no spike to warn of.
+    assert!(!log.contains("robust scales"), "{log}");
+}
+
+/// Regression (review): a 500 m spike in a 0.74 m sea was simulated without a word, as waves the
+/// ship answered; `eval` and `train` warn of the same.
+#[test]
+fn a_spike_in_the_elevation_record_is_warned_of() {
+    let dir = tempfile::tempdir().unwrap();
+    let (elev, out) = (dir.path().join("e.csv"), dir.path().join("m.csv"));
+    write_elevation(&elev, 1500, |i| {
+        let t = i as f64 * 0.4;
+        Some(if i == 700 { 30.0 } else { (0.6 * t).sin() })
+    });
+    let o = simulate(&[
+        "--elevation",
+        elev.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let log = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{log}");
+    assert!(
+        log.contains("1 sample(s) of wave_m lie more than 12 robust scales")
+            && log.contains("the first at t = 280 s"),
+        "{log}"
+    );
 }
 
 #[test]

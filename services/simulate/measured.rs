@@ -34,6 +34,12 @@ pub(super) fn run_measured(
     // (regression, review).
     shipcast_series::median_rate(&data.time).with_context(|| path.display().to_string())?;
     check_wave_height(path, wave)?;
+    // Regression (review): a 500 m spike in a 0.74 m sea was simulated without a word.
+    crate::eval::warn_of_spikes(
+        path,
+        &data,
+        "the simulation takes them as waves and the ship answers them",
+    );
     let segments = split_segments(&data.time, wave).with_context(|| path.display().to_string())?;
     let rao = build_rao(&cfg.rao)?;
     let (beta, speed) = (cfg.heading_deg.to_radians(), cfg.speed_mps());
