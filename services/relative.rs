@@ -101,10 +101,12 @@ impl TryFrom<Args> for Config {
         crate::checked(pipeline.check_mot_fits_horizon("relative.mot_s", pipeline.relative.mot_s))?;
         let mode = match (args.crane_record, args.target_record) {
             (Some(crane_record), Some(target_record)) => {
+                // As replay's: a record may be stamped before 0 (review: refused here only).
                 if let Some(skip_s) = args.skip_s {
-                    crate::checked(limits::non_negative(
+                    crate::checked(limits::in_range(
                         "--skip-s",
                         skip_s,
+                        -limits::MAX_RECORD_TIME_S,
                         limits::MAX_RECORD_TIME_S,
                     ))?;
                 }
@@ -694,8 +696,10 @@ mod tests {
                 limit: Some(Duration::from_secs(2))
             }
         );
-        let e = crate::refused::<Args, Config>(&study_args(&["--skip-s", "-5"]));
+        let e = crate::refused::<Args, Config>(&study_args(&["--skip-s", "-1e13"]));
         assert!(e.starts_with("--skip-s"), "{e}");
+        let c = crate::validated::<Args, Config>(&study_args(&["--skip-s", "-5"])).unwrap();
+        assert!(matches!(c.mode, Mode::Study { skip_s: Some(s), .. } if s == -5.0));
         // Regression: epoch-stamped records could not be skipped into (the bound was a year),
         // and without --skip-s the default is taken from the records' own start when read.
         let c = crate::validated::<Args, Config>(&study_args(&["--skip-s", "1764860600"])).unwrap();
