@@ -67,8 +67,13 @@ pub enum MotionCsvError {
         column: String,
         text: String,
     },
-    #[error("line {line}, column '{TIME_COLUMN}': time '{text}' is beyond +-{MAX_ABS_TIME_S:e} s, more than 30000 years even from the Unix epoch: a corrupt stamp?")]
-    TimeOutOfRange { line: u64, text: String },
+    #[error("line {line}, column '{TIME_COLUMN}': time '{text}' is beyond +-{MAX_ABS_TIME_S:e} s, more than 30000 years even from the Unix epoch: {hint}")]
+    TimeOutOfRange {
+        line: u64,
+        text: String,
+        /// Epoch time in which unit the stamp looks like, or a corrupt stamp.
+        hint: String,
+    },
     #[error("line {line}, column '{column}': missing value")]
     Missing { line: u64, column: String },
     #[error("line {line}, column '{column}': not UTF-8 text (a number is ASCII)")]
@@ -231,6 +236,7 @@ impl MotionData {
                     return Err(MotionCsvError::TimeOutOfRange {
                         line,
                         text: shown_field(text),
+                        hint: time_unit_hint(value),
                     });
                 }
                 if i != time_index && value.abs() > MAX_ABS_MOTION {
@@ -521,6 +527,22 @@ fn shown_name(name: &str) -> String {
         (head, None) => head,
         (head, Some(_)) => format!("{head}..."),
     }
+}
+
+/// What a stamp beyond [`MAX_ABS_TIME_S`] looks like: today's epoch time in milliseconds,
+/// microseconds or nanoseconds (as many loggers write it; the size tells the unit), or a
+/// corrupt stamp (review: epoch milliseconds were called corrupt without the hint).
+fn time_unit_hint(t: f64) -> String {
+    [
+        (1e3, "milliseconds"),
+        (1e6, "microseconds"),
+        (1e9, "nanoseconds"),
+    ]
+    .into_iter()
+    .find(|&(per_s, _)| (1e8..1e10).contains(&(t.abs() / per_s)))
+    .map_or("a corrupt stamp?".to_string(), |(per_s, unit)| {
+        format!("epoch time in {unit}? time_s is in seconds: divide the column by {per_s:.0}")
+    })
 }
 
 /// A number as an error shows it: in scientific notation when very large or small, so that a
@@ -860,11 +882,20 @@ mod tests {
             // it counted as 2^64 - 2 missing samples.
             (
                 "time_s,heave_m,pitch_rad\n0,1,2\n0.5,1,2\n1e300,1,2\n",
-                "line 4, column 'time_s': time '1e300' is beyond +-1e12 s",
+                "line 4, column 'time_s': time '1e300' is beyond +-1e12 s, more than 30000 years even from the Unix epoch: a corrupt stamp?",
             ),
             (
                 "time_s,heave_m,pitch_rad\n-1e13,1,2\n0.5,1,2\n",
                 "line 2, column 'time_s': time '-1e13' is beyond",
+            ),
+            // Regression (review): today's epoch milliseconds were called a corrupt stamp.
+            (
+                "time_s,heave_m,pitch_rad\n1700000000000.0,1,2\n1700000000125.0,1,2\n",
+                "epoch time in milliseconds? time_s is in seconds: divide the column by 1000",
+            ),
+            (
+                "time_s,heave_m,pitch_rad\n1.7e18,1,2\n1.7000000001e18,1,2\n",
+                "epoch time in nanoseconds? time_s is in seconds: divide the column by 1000000000",
             ),
             // Regression: epoch time stamps (1.7e9 s) came out as 1.7330000005e9, hard to
             // find in the file: they print as written.

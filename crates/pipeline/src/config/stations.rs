@@ -5,11 +5,25 @@ use crate::limits;
 use crate::transport::naming::Names;
 use serde::{Deserialize, Serialize};
 
+/// A fixed-size array that must be given whole: serde's own takes the first N values of a
+/// longer one and drops the rest (review: `point_m = [1.0, 2.0, 3.0, 4.0]` was accepted).
+fn exact_array<'de, D, const N: usize>(d: D) -> Result<[f64; N], D::Error>
+where
+    D: serde::Deserializer<'de>,
+{
+    let values = Vec::<f64>::deserialize(d)?;
+    let got = values.len();
+    values.try_into().map_err(|_| {
+        serde::de::Error::invalid_length(got, &format!("an array of length {N}").as_str())
+    })
+}
+
 /// Helideck landing advisory.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct DeckConfig {
     /// Helideck point from the centre of gravity [m], ship axes x forward, y starboard, z down.
+    #[serde(deserialize_with = "exact_array")]
     pub point_m: [f64; 3],
     pub roll_limit_deg: f64,
     pub pitch_limit_deg: f64,
@@ -26,6 +40,7 @@ pub struct DeckConfig {
     /// Correlation of the standardised forecast errors between neighbouring steps, used before
     /// enough verified forecasts estimate it (roll, pitch, deck vertical displacement, deck
     /// vertical velocity); docs/decisions.md says where the defaults come from.
+    #[serde(deserialize_with = "exact_array")]
     pub error_correlation: [f64; 4],
     /// Go (now or a next window) only once the probability comes from verified forecast
     /// errors (the error ensemble, docs/decisions.md); before that the Gaussian model's
@@ -64,6 +79,7 @@ impl Default for DeckConfig {
 #[serde(default, deny_unknown_fields)]
 pub struct CraneConfig {
     /// Crane tip from the centre of gravity [m], ship axes x forward, y starboard, z down.
+    #[serde(deserialize_with = "exact_array")]
     pub tip_m: [f64; 3],
     /// Print one line every this many forecasts (10: one each 5 s at 2 Hz; at every forecast a
     /// service's log grew by 30 MB a day, soak review).
@@ -102,11 +118,13 @@ pub struct RelativeConfig {
     /// The vessel the load goes to.
     pub target_vessel: String,
     /// The target's centre of gravity forward and to starboard of the crane vessel's [m].
+    #[serde(deserialize_with = "exact_array")]
     pub target_position_m: [f64; 2],
     /// The target's bow turned this far to starboard of the crane vessel's heading [deg].
     pub target_heading_offset_deg: f64,
     /// Landing spot from the target's centre of gravity [m], its axes x forward, y starboard,
     /// z down.
+    #[serde(deserialize_with = "exact_array")]
     pub landing_spot_m: [f64; 3],
     /// Limits of the tip's motion relative to the spot [m]: vertical, and each horizontal axis.
     pub vertical_limit_m: f64,

@@ -100,6 +100,41 @@ fn a_wrong_type_or_a_duplicate_key_names_its_line() {
 }
 
 #[test]
+fn a_point_of_the_wrong_length_is_refused_whichever_way_it_is_wrong() {
+    // Regression (review): too few values were refused, too many were taken and the rest
+    // dropped silently.
+    for (text, line) in [
+        (
+            "[deck]\npoint_m = [1.0, 2.0, 3.0, 4.0]\n",
+            "line 2 (`point_m",
+        ),
+        ("[deck]\npoint_m = [1.0, 2.0]\n", "line 2 (`point_m"),
+        (
+            "[relative]\ntarget_position_m = [50.0, 30.0, 0.0]\n",
+            "line 2 (`target_position_m",
+        ),
+        ("[crane]\ntip_m = [1.0, 2.0, 3.0, 4.0]\n", "line 2 (`tip_m"),
+        (
+            "[deck]\nerror_correlation = [0.9, 0.9, 0.9, 0.9, 0.9]\n",
+            "line 2 (`error_correlation",
+        ),
+    ] {
+        let err = PipelineConfig::from_toml(text, Path::new("p.toml"))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains(line)
+                && err.contains("invalid length")
+                && err.contains("an array of length"),
+            "{text}: {err}"
+        );
+    }
+    let c = PipelineConfig::from_toml("[deck]\npoint_m = [1.0, -2.0, 3.5]\n", Path::new("p.toml"))
+        .unwrap();
+    assert_eq!(c.deck.point_m, [1.0, -2.0, 3.5]);
+}
+
+#[test]
 fn toml_round_trip() {
     let mut c = PipelineConfig {
         instance: Some("abc".into()),
