@@ -231,12 +231,27 @@ struct Staging {
 impl Staging {
     fn new(out: &Path) -> anyhow::Result<Self> {
         use std::os::unix::fs::DirBuilderExt;
-        let dir = out.join(format!(".shipcast-certs-{}", std::process::id()));
-        std::fs::DirBuilder::new()
-            .mode(0o700)
-            .create(&dir)
-            .with_context(|| format!("create {}", dir.display()))?;
-        Ok(Self { dir })
+        // A name of its own each time: a directory left by an interrupted run (the same
+        // process id, PID 1 in a container) blocked every later run (review).
+        let salt = std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map_or(0, |d| d.subsec_nanos());
+        let mut attempt = 0;
+        loop {
+            let dir = out.join(format!(
+                ".shipcast-certs-{}-{salt:x}-{attempt}",
+                std::process::id()
+            ));
+            match std::fs::DirBuilder::new().mode(0o700).create(&dir) {
+                Ok(()) => return Ok(Self { dir }),
+                Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists && attempt < 100 => {
+                    attempt += 1;
+                }
+                Err(e) => {
+                    return Err(e).with_context(|| format!("create {}", dir.display()));
+                }
+            }
+        }
     }
 
     /// Move every staged file into `out`, ca.pem last (it marks a setup as complete), after
@@ -262,8 +277,21 @@ impl Staging {
         }
         let mut moved = Vec::new();
         for name in &names {
-            // A hard link never replaces a file that appeared since the check.
-            if let Err(e) = std::fs::hard_link(self.dir.join(name), out.join(name)) {
+            // A hard link never replaces a file that appeared since the check; where the
+            // file system has none (FAT, many network shares: review), a rename after
+            // checking again.
+            let (from, to) = (self.dir.join(name), out.join(name));
+            let moved_in = match std::fs::hard_link(&from, &to) {
+                Err(e) if e.kind() != std::io::ErrorKind::AlreadyExists => {
+                    if to.symlink_metadata().is_ok() {
+                        Err(std::io::Error::from(std::io::ErrorKind::AlreadyExists))
+                    } else {
+                        std::fs::rename(&from, &to)
+                    }
+                }
+                linked => linked,
+            };
+            if let Err(e) = moved_in {
                 for m in &moved {
                     let _ = std::fs::remove_file(out.join(m));
                 }

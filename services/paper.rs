@@ -87,28 +87,25 @@ impl TryFrom<Args> for Config {
     }
 }
 
-/// Refuses a `--measured` record that the study would write over: a report (`.md`) or a
-/// figure (`.svg`) in `--out` (regression, review: `--measured DIR/measured.md` was replaced
-/// by the section made from it).
+/// Refuses a `--measured` record that the study could write over: the same file (by any
+/// name, a symbolic or a hard link) as a report (`.md`) or a figure (`.svg`) in `--out`
+/// (regression, review: `--measured DIR/measured.md` was replaced by the section made from
+/// it, and then a link `DIR/measured.md` to the record was written through).
 fn written_by_paper(record: &Path, out: &Path) -> anyhow::Result<()> {
-    let in_out = match (record.parent(), out.canonicalize()) {
-        (Some(parent), Ok(out)) => {
-            let parent = if parent.as_os_str().is_empty() {
-                Path::new(".")
-            } else {
-                parent
-            };
-            parent.canonicalize().is_ok_and(|p| p == out)
-        }
-        _ => false,
+    let Ok(entries) = std::fs::read_dir(out) else {
+        // No directory yet: nothing in it is the record.
+        return Ok(());
     };
-    let written = record.extension().is_some_and(|e| e == "md" || e == "svg");
-    if in_out && written {
-        anyhow::bail!(
-            "--measured {} is in --out {}, where the study writes its reports (.md) and figures (.svg): writing them would destroy the record; move it or give another --out",
-            record.display(),
-            out.display()
-        );
+    for entry in entries.flatten() {
+        let name = entry.path();
+        let written = name.extension().is_some_and(|e| e == "md" || e == "svg");
+        if written && crate::same_file(&name, record) {
+            anyhow::bail!(
+                "--measured {} is {} in --out, and the study writes its reports (.md) and figures (.svg) there: writing them could destroy the record; move it or give another --out",
+                record.display(),
+                name.display()
+            );
+        }
     }
     Ok(())
 }
@@ -213,11 +210,19 @@ mod tests {
             std::fs::write(&record, "time_s,heave_m\n0,1\n").unwrap();
             let record = record.to_str().unwrap();
             let e = refused(&["--out", out, "--measured", record, "--measured-only"]);
-            assert!(
-                e.starts_with(&format!("--measured {record} is in --out")),
-                "{e}"
-            );
+            assert!(e.starts_with(&format!("--measured {record} is ")), "{e}");
+            assert!(e.contains("in --out, and the study writes"), "{e}");
+            std::fs::remove_file(record).unwrap();
         }
+        // Nor through a link in --out to a record elsewhere (review).
+        let elsewhere = tempfile::tempdir().unwrap();
+        let linked = elsewhere.path().join("rec.csv");
+        std::fs::write(&linked, "time_s,heave_m\n0,1\n").unwrap();
+        std::os::unix::fs::symlink(&linked, dir.path().join("measured.md")).unwrap();
+        let linked = linked.to_str().unwrap();
+        let e = refused(&["--out", out, "--measured", linked, "--measured-only"]);
+        assert!(e.contains("in --out, and the study writes"), "{e}");
+        std::fs::remove_file(dir.path().join("measured.md")).unwrap();
         let kept = dir.path().join("m.csv");
         let rows: String = (0..4000)
             .map(|i| format!("{},{}\n", i as f64 * 0.5, (i as f64 * 0.4).sin()))

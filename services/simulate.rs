@@ -227,7 +227,9 @@ impl RecordOut {
         Ok(RecordOut {
             writer: Some(writer),
             path: path.to_path_buf(),
-            regular: path.metadata().is_ok_and(|m| m.is_file()),
+            // The path itself, not what a symbolic link names: a link (`/dev/stdout`, or one a
+            // user made to a file) is never removed (review: both were unlinked).
+            regular: path.symlink_metadata().is_ok_and(|m| m.is_file()),
             values: [0.0; 7],
             sum_sq: [0.0; 7],
             rows: 0,
@@ -256,18 +258,27 @@ impl RecordOut {
 
     pub(crate) fn finish(mut self) -> anyhow::Result<()> {
         if let Some(writer) = self.writer.take() {
-            writer
-                .finish()
-                .with_context(|| format!("writing {}", self.path.display()))?;
+            // The last flush can fail too (a full disk): the file is then cut short as well
+            // (review: it was left).
+            if let Err(e) = writer.finish() {
+                self.remove();
+                return Err(e).with_context(|| format!("writing {}", self.path.display()));
+            }
         }
         Ok(())
+    }
+
+    fn remove(&self) {
+        if self.regular {
+            let _ = std::fs::remove_file(&self.path);
+        }
     }
 }
 
 impl Drop for RecordOut {
     fn drop(&mut self) {
-        if self.writer.take().is_some() && self.regular {
-            let _ = std::fs::remove_file(&self.path);
+        if self.writer.take().is_some() {
+            self.remove();
         }
     }
 }
@@ -432,4 +443,44 @@ fn run_changing(
         );
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn point(time_s: f64, heave: f64) -> MotionPoint {
+        MotionPoint {
+            time_s,
+            dof: [0.0, 0.0, heave, 0.0, 0.0, 0.0],
+            wave_m: 0.0,
+        }
+    }
+
+    /// Regressions (review): a record cut short by an error was left to be taken for a whole
+    /// one; then the removal unlinked a symbolic link given as --out (`/dev/stdout` as root).
+    #[test]
+    fn a_record_cut_short_is_removed_but_never_through_a_link() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("m.csv");
+        let mut out = RecordOut::create(&path).unwrap();
+        out.write(&point(0.0, 1.0)).unwrap();
+        assert!(out.write(&point(0.5, 1e200)).is_err());
+        drop(out);
+        assert!(!path.exists());
+
+        let target = dir.path().join("target.csv");
+        std::fs::write(&target, "").unwrap();
+        let link = dir.path().join("link.csv");
+        std::os::unix::fs::symlink(&target, &link).unwrap();
+        let out = RecordOut::create(&link).unwrap();
+        drop(out);
+        assert!(link.symlink_metadata().unwrap().file_type().is_symlink());
+
+        let whole = dir.path().join("whole.csv");
+        let mut out = RecordOut::create(&whole).unwrap();
+        out.write(&point(0.0, 1.0)).unwrap();
+        out.finish().unwrap();
+        assert_eq!(std::fs::read_to_string(&whole).unwrap().lines().count(), 2);
+    }
 }

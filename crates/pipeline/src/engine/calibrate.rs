@@ -137,6 +137,10 @@ pub struct Calibrator {
     /// of sea replaced, as (weight, weight x mean square): a floor under the new model's sigma
     /// until the new model's own verified pairs outweigh it ([`Self::reset_carrying`]).
     carried: Vec<[[f64; 2]; MAX_STEPS]>,
+    /// Per DOF and step, the new model's own verified pairs since the carry: counted apart
+    /// from the window, which a change discounts and its length caps (review: the carry then
+    /// never faded, or came back at the next change).
+    carried_own: Vec<[f64; MAX_STEPS]>,
 }
 
 /// After how many times its weight in the new model's own verified pairs a carried error is
@@ -152,6 +156,7 @@ impl Calibrator {
             no_skill_weight: [prior_cap; NUM_DOF],
             prior_cap,
             carried: vec![[[0.0; 2]; MAX_STEPS]; NUM_DOF],
+            carried_own: vec![[0.0; MAX_STEPS]; NUM_DOF],
         }
     }
 
@@ -159,7 +164,7 @@ impl Calibrator {
     /// entry per step; steps beyond it, and an empty prior, start from "no skill").
     pub fn reset(&mut self, d: usize, prior: &[PairSums]) {
         self.window.clear(d);
-        self.carried[d] = [[0.0; 2]; MAX_STEPS];
+        self.drop_carry(d);
         self.no_skill_weight[d] = self.prior_cap;
         for (k, p) in self.prior[d].iter_mut().enumerate() {
             // Held-out values without variance (a DOF that stood still while the model was
@@ -200,10 +205,24 @@ impl Calibrator {
         }
     }
 
+    /// Forget what [`Self::reset_carrying`] carried for DOF `d` (a plain swap, or errors
+    /// found much smaller than claimed).
+    pub fn drop_carry(&mut self, d: usize) {
+        self.carried[d] = [[0.0; 2]; MAX_STEPS];
+        self.carried_own[d] = [0.0; MAX_STEPS];
+    }
+
     /// The raw forecast `m` of step index `k` turned out to be `x`.
     #[inline]
     pub fn observe(&mut self, d: usize, k: usize, m: f64, x: f64) {
         self.window.add(d, k, [1.0, x * x, m * m, m * x]);
+        let weight = self.carried[d][k][0];
+        if weight > 0.0 {
+            self.carried_own[d][k] += 1.0;
+            if self.carried_own[d][k] >= CARRY_FADE * weight {
+                self.carried[d][k] = [0.0; 2];
+            }
+        }
     }
 
     /// One new record value was scored.
@@ -248,7 +267,7 @@ impl Calibrator {
         let mut mse = s.mse(beta);
         let [weight, sum] = self.carried[d][k];
         if weight > 0.0 {
-            let own = self.window.get(d, k)[N];
+            let own = self.carried_own[d][k];
             let left = (1.0 - own / (CARRY_FADE * weight)).max(0.0);
             if left > 0.0 {
                 let n = s.count();
@@ -306,6 +325,32 @@ mod tests {
         // A plain reset (a swap on a settled sea) carries nothing.
         c.reset_carrying(0, &[perfect(480)], 0.5, 60.0);
         c.reset(0, &[perfect(480)]);
+        assert!(c.get(0, 0, 0.5).sigma < 1e-6);
+    }
+
+    #[test]
+    fn a_carried_error_once_faded_stays_gone_whatever_the_window_does() {
+        // Regressions (review): the fading counted the window's pairs, which a later change
+        // discounts (the carry came back) and a short window caps (it never went).
+        for window in [2400, 120] {
+            let mut c = Calibrator::new(window, 240.0);
+            c.reset(0, &[]);
+            c.reset_carrying(0, &[perfect(480)], 0.5, 60.0);
+            for i in 0..300 {
+                let x = (i as f64 * 0.3).sin();
+                c.observe(0, 0, x, x);
+                c.tick();
+            }
+            assert!(c.get(0, 0, 0.5).sigma < 1e-6, "window {window}");
+            c.discount(0, 60.0);
+            assert!(c.get(0, 0, 0.5).sigma < 1e-6, "window {window}");
+        }
+        // Errors found much smaller than claimed drop it at once.
+        let mut c = Calibrator::new(2400, 240.0);
+        c.reset(0, &[]);
+        c.reset_carrying(0, &[perfect(480)], 0.5, 60.0);
+        assert!(c.get(0, 0, 0.5).sigma > 0.4);
+        c.drop_carry(0);
         assert!(c.get(0, 0, 0.5).sigma < 1e-6);
     }
 

@@ -82,6 +82,10 @@ pub const MIN_VALUES_TO_PUBLISH: u64 = 60;
 /// wave group, whose passing must not count as a change of sea.
 const CHANGE_MEMORY: f64 = 240.0;
 const CHANGE_REFRACTORY: u64 = 240;
+/// Values after a break of the record, beyond the history the models read, in which a
+/// detected change is taken for the refill's (`Engine::rougher`): the change detector's memory
+/// twice over.
+const RESTART_GRACE: u64 = 2 * CHANGE_MEMORY as u64;
 
 /// Record time between refits after a change of sea, until the new sea fills three held-out
 /// parts [s] (`schedule_retrain`).
@@ -160,6 +164,8 @@ pub struct Engine {
     change_seen_at: [Option<u64>; NUM_DOF],
     /// Per DOF, the value index of its last "larger than claimed" detection.
     rougher_seen_at: [Option<u64>; NUM_DOF],
+    /// Value index at which the record last broke (0: the start).
+    restarted_at: u64,
     retrain_due: Option<&'static str>,
     prepared_for: Option<(u64, u32)>,
     last_time_s: f64,
@@ -207,6 +213,7 @@ impl Engine {
             sea_since: None,
             change_seen_at: [None; NUM_DOF],
             rougher_seen_at: [None; NUM_DOF],
+            restarted_at: 0,
             retrain_due: None,
             prepared_for: None,
             last_time_s: f64::NAN,
@@ -262,9 +269,16 @@ impl Engine {
 
     /// Whether DOF `d` found its errors larger than claimed within the change detector's
     /// memory. Not after "much smaller than claimed": the old model's sigma was too wide
-    /// then, and carried over it would be found too wide again, in a loop of swaps.
+    /// then, and carried over it would be found too wide again, in a loop of swaps. Nor in
+    /// the first `order` + [`RESTART_GRACE`] values after the record broke: the forecasts made while the
+    /// history refills are the level, scored against the model's sigma, and the old sigma
+    /// they leave is no skill (review: carried, it held the first step's sigma 60-100 times
+    /// its error for two minutes after a gap).
     fn rougher(&self, d: usize) -> bool {
-        self.rougher_seen_at[d].is_some_and(|at| at + CHANGE_MEMORY as u64 >= self.values)
+        self.rougher_seen_at[d].is_some_and(|at| {
+            let refilled = self.restarted_at + self.config.order as u64 + RESTART_GRACE;
+            at + CHANGE_MEMORY as u64 >= self.values && at >= refilled
+        })
     }
 
     /// The larger of the slow and the fast mean square: when the sea grows, the bound and a
@@ -322,6 +336,7 @@ impl Engine {
             self.last_fit_at = None;
             self.changed_at = None;
             self.sea_since = None;
+            self.restarted_at = self.values;
         }
         self.last_time_s = v.time_s;
         let index = self.values;
@@ -548,8 +563,10 @@ impl Engine {
                 self.shape.discount(d, KEPT_AFTER_CHANGE);
                 self.retrain_due.get_or_insert("sea changed");
                 self.change_seen_at[d] = Some(self.values);
-                if c == Change::Rougher {
-                    self.rougher_seen_at[d] = Some(self.values);
+                match c {
+                    Change::Rougher => self.rougher_seen_at[d] = Some(self.values),
+                    // A carried error is then too wide as well (review: it came back).
+                    Change::Calmer => self.calib.drop_carry(d),
                 }
                 self.note_change_of_sea();
             }
