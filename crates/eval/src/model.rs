@@ -468,15 +468,18 @@ fn check_forecasts(m: &DofModel, sample_rate: f64) -> Result<(), String> {
             m.dof
         ));
     }
-    let mut trial = m.predictor.clone();
+    // Each trial on a fresh copy: a predictor that adapts must not carry one into the next.
+    let trial = |input: &[f64], out: &mut [f64]| {
+        m.predictor.clone().forecast(input, out).map_err(|e| {
+            format!(
+                "{}: the {} model cannot forecast: {e}",
+                m.dof,
+                m.predictor.method()
+            )
+        })
+    };
     let mut out = vec![0.0; horizon];
-    trial.forecast(&vec![0.0; order], &mut out).map_err(|e| {
-        format!(
-            "{}: the {} model cannot forecast: {e}",
-            m.dof,
-            m.predictor.method()
-        )
-    })?;
+    trial(&vec![0.0; order], &mut out)?;
     if out.iter().any(|v| !v.is_finite()) {
         return Err(format!(
             "{}: the {} model forecasts a non-finite value",
@@ -486,14 +489,7 @@ fn check_forecasts(m: &DofModel, sample_rate: f64) -> Result<(), String> {
     }
     let step = std::f64::consts::TAU / (TRIAL_PERIOD_S * sample_rate);
     let wave: Vec<f64> = (0..order).map(|i| (i as f64 * step).sin()).collect();
-    let mut trial = m.predictor.clone();
-    trial.forecast(&wave, &mut out).map_err(|e| {
-        format!(
-            "{}: the {} model cannot forecast: {e}",
-            m.dof,
-            m.predictor.method()
-        )
-    })?;
+    trial(&wave, &mut out)?;
     // NaN as infinity: `f64::max` would pass it over.
     let largest = out
         .iter()

@@ -533,14 +533,8 @@ fn shown_name(name: &str) -> String {
 /// microseconds or nanoseconds (as many loggers write it; the size tells the unit), or a
 /// corrupt stamp (review: epoch milliseconds were called corrupt without the hint).
 fn time_unit_hint(t: f64) -> String {
-    [
-        (1e3, "milliseconds"),
-        (1e6, "microseconds"),
-        (1e9, "nanoseconds"),
-    ]
-    .into_iter()
-    .find(|&(per_s, _)| (1e8..1e10).contains(&(t.abs() / per_s)))
-    .map_or("a corrupt stamp?".to_string(), |(per_s, unit)| {
+    // Beyond the bound no stamp is epoch seconds: a unit found is one of the smaller ones.
+    crate::resample::epoch_unit(t).map_or("a corrupt stamp?".to_string(), |(per_s, unit)| {
         format!("epoch time in {unit}? time_s is in seconds: divide the column by {per_s:.0}")
     })
 }

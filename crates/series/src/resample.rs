@@ -340,15 +340,20 @@ const EPOCH_S: std::ops::Range<f64> = 1e8..1e10;
 /// The shortest typical step [s] a motion record has (1 kHz).
 const MIN_STEP_S: f64 = 1e-3;
 
+/// The unit (how many make a second, and its name) in which `t` is epoch time, if any.
+pub(crate) fn epoch_unit(t: f64) -> Option<(f64, &'static str)> {
+    TIME_UNITS
+        .into_iter()
+        .find(|&(per_s, _)| EPOCH_S.contains(&(t.abs() / per_s)))
+}
+
 /// Refuses stamps that are not seconds, saying which unit they look like: a first stamp that is
 /// epoch time in milliseconds, microseconds or nanoseconds (its size tells the unit), or a
 /// typical step longer than [`MAX_STEP_S`]. A record stamped in nanoseconds read as 0 Hz, one in
 /// milliseconds as 0.008 Hz (review); epoch milliseconds at 1 kHz passed as a 1 Hz record.
 fn check_step_in_seconds(time: &[f64], median: f64) -> Result<(), ResampleError> {
     let first = time.first().map_or(0.0, |t| t.abs());
-    let epoch = TIME_UNITS
-        .into_iter()
-        .find(|&(per_s, _)| EPOCH_S.contains(&(first / per_s)));
+    let epoch = epoch_unit(first);
     if let Some((per_s, unit)) = epoch.filter(|&(per_s, _)| per_s > 1.0) {
         return Err(ResampleError::EpochUnit { first, unit, per_s });
     }

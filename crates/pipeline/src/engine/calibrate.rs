@@ -194,15 +194,20 @@ impl Calibrator {
             sigma * sigma
         });
         self.reset(d, prior);
-        for p in self.prior[d].iter_mut().flatten() {
-            *p = p.capped(keep);
-        }
-        self.no_skill_weight[d] = self.no_skill_weight[d].min(keep);
+        self.cap_prior(d, keep);
         for (carried, mse) in self.carried[d].iter_mut().zip(before) {
             if mse.is_finite() {
                 *carried = [keep, keep * mse];
             }
         }
+    }
+
+    /// The prior of DOF `d`, held-out evidence or "no skill", counts as `keep` values at most.
+    fn cap_prior(&mut self, d: usize, keep: f64) {
+        for p in self.prior[d].iter_mut().flatten() {
+            *p = p.capped(keep);
+        }
+        self.no_skill_weight[d] = self.no_skill_weight[d].min(keep);
     }
 
     /// Forget what [`Self::reset_carrying`] carried for DOF `d` (a plain swap, or errors
@@ -232,10 +237,7 @@ impl Calibrator {
 
     /// The sea changed for DOF `d`: what is known counts as `keep` values at most.
     pub fn discount(&mut self, d: usize, keep: f64) {
-        for p in self.prior[d].iter_mut().flatten() {
-            *p = p.capped(keep);
-        }
-        self.no_skill_weight[d] = self.no_skill_weight[d].min(keep);
+        self.cap_prior(d, keep);
         for c in self.carried[d].iter_mut() {
             if c[0] > keep {
                 *c = c.map(|v| v * keep / c[0]);
@@ -284,6 +286,8 @@ impl Calibrator {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
 
     /// Held-out evidence of perfect forecasts (error 0) of a sine.
     fn perfect(n: usize) -> PairSums {
@@ -293,6 +297,15 @@ mod tests {
             s.add(x, x);
         }
         s
+    }
+
+    /// `n` verified pairs of DOF 0, step 0, each a perfect forecast of the same sine.
+    fn observe_perfect(c: &mut Calibrator, n: usize) {
+        for i in 0..n {
+            let x = (i as f64 * 0.3).sin();
+            c.observe(0, 0, x, x);
+            c.tick();
+        }
     }
 
     #[test]
@@ -309,18 +322,11 @@ mod tests {
         assert!((carried.sigma - 0.5).abs() < 1e-12, "{carried:?}");
         // The new model's own pairs come in, perfect: the carried error fades with them,
         // half gone after twice its weight, gone after four times.
-        let observe = |c: &mut Calibrator, n: usize| {
-            for i in 0..n {
-                let x = (i as f64 * 0.3).sin();
-                c.observe(0, 0, x, x);
-                c.tick();
-            }
-        };
-        observe(&mut c, 120);
+        observe_perfect(&mut c, 120);
         let fading = c.get(0, 0, 0.5).sigma;
         // (30 x 0.5) / (60 + 120 + 30).
         assert!((fading - (15.0f64 / 210.0).sqrt()).abs() < 1e-9, "{fading}");
-        observe(&mut c, 120);
+        observe_perfect(&mut c, 120);
         assert!(c.get(0, 0, 0.5).sigma < 1e-6);
         // A plain reset (a swap on a settled sea) carries nothing.
         c.reset_carrying(0, &[perfect(480)], 0.5, 60.0);
@@ -336,11 +342,7 @@ mod tests {
             let mut c = Calibrator::new(window, 240.0);
             c.reset(0, &[]);
             c.reset_carrying(0, &[perfect(480)], 0.5, 60.0);
-            for i in 0..300 {
-                let x = (i as f64 * 0.3).sin();
-                c.observe(0, 0, x, x);
-                c.tick();
-            }
+            observe_perfect(&mut c, 300);
             assert!(c.get(0, 0, 0.5).sigma < 1e-6, "window {window}");
             c.discount(0, 60.0);
             assert!(c.get(0, 0, 0.5).sigma < 1e-6, "window {window}");
@@ -367,8 +369,6 @@ mod tests {
         c.reset_carrying(0, &[], 0.5, 60.0);
         assert!((c.get(0, 0, 0.5).sigma - 0.5f64.sqrt()).abs() < 1e-12);
     }
-    use rand::{Rng, SeedableRng};
-    use rand_chacha::ChaCha8Rng;
 
     #[test]
     fn shrinkage_never_raises_the_error_of_a_well_fitted_model() {
@@ -490,12 +490,7 @@ mod tests {
             assert_eq!(cal.beta, 0.0);
             assert!((cal.sigma - 0.5).abs() < 1e-12, "{cal:?}");
         }
-        let mut moving = PairSums::default();
-        for i in 0..240 {
-            let x = (i as f64 * 0.3).sin();
-            moving.add(x, x);
-        }
-        c.reset(0, &[moving]);
+        c.reset(0, &[perfect(240)]);
         assert!(c.get(0, 0, 0.25).sigma < 1e-6);
     }
 }
