@@ -133,9 +133,10 @@ def main():
         later = replay(path, 1200.0)
         print(f"\n## {name}\n")
         print("| dof | NRMSE 5/10/20 s | max NRMSE, any lead | max error / RMS | "
+              "largest error / sigma (at s, lead s) | beyond 3 sigma | "
               "1 sigma 5/10/20 s (after 20 min) | 2 sigma 5/10/20 s | implausible | recovery [min] | "
               "the motion's own [min] |")
-        print("|---|---|---|---|---|---|---|---|---|")
+        print("|---|---|---|---|---|---|---|---|---|---|---|")
         for d, l in zip(first, later):
             k = [int(round(t / 0.5)) - 1 for t in LEADS]
             fmt = lambda xs: " / ".join(f"{x:.3f}" for x in xs)
@@ -144,7 +145,9 @@ def main():
             # settle by it (wave groups alone move a 3-minute RMS by about 20 %).
             own = recovery_minutes(d["zero_rms_10s_by_minute"], change_s) if change_s else None
             print(f"| {d['dof']} | {fmt(d['nrmse'][j] for j in k)} | {max(d['nrmse']):.4f} | "
-                  f"{d['max_abs_error'] / d['std']:.2f} | {fmt(l['coverage_1sigma'][j] for j in k)} | "
+                  f"{d['max_abs_error'] / d['std']:.2f} | "
+                  f"{d['max_abs_z']:.1f} ({d['max_abs_z_time_s']:g}, {d['max_abs_z_lead_s']:g}) | "
+                  f"{d['beyond_3sigma']:.4f} | {fmt(l['coverage_1sigma'][j] for j in k)} | "
                   f"{fmt(l['coverage_2sigma'][j] for j in k)} | {d['implausible']} | "
                   f"{'-' if rec is None else f'{rec:.0f}'} | {'-' if own is None else f'{own:.0f}'} |")
 

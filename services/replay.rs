@@ -224,6 +224,14 @@ fn table(r: &ReplayReport) -> String {
             d.std,
             d.implausible
         ));
+        s.push_str(&format!(
+            "{:<7} largest error {:.1} sigma (issued at {} s, {} s ahead); {:.4} of all steps beyond 3 sigma (Gaussian 0.0027)\n",
+            d.dof,
+            d.max_abs_z,
+            limits::shown(d.max_abs_z_time_s),
+            limits::shown(d.max_abs_z_lead_s),
+            d.beyond_3sigma
+        ));
     }
     let horizon_s = r.dofs.first().map_or(0.0, |d| d.rms.len() as f64 * r.dt_s);
     for d in &r.decisions {

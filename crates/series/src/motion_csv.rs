@@ -92,6 +92,8 @@ pub enum MotionCsvError {
     },
     #[error("line {line}, column '{TIME_COLUMN}': time {} does not increase (previous row: {})", shown_number(*.time), shown_number(*.previous))]
     TimeNotIncreasing { line: u64, time: f64, previous: f64 },
+    #[error("line {line}, column '{column}': a quoted field holds what look like rows of the file, which would be lost in it (an unclosed quote?)")]
+    FieldOverLines { line: u64, column: String },
     #[error("line {line}: malformed CSV: {message}")]
     Malformed { line: u64, message: String },
     #[error("no motion column: none of surge_m, sway_m, heave_m, roll_rad, pitch_rad, yaw_rad (columns: {columns})")]
@@ -190,6 +192,12 @@ impl MotionData {
             .iter()
             .map(|name| String::from_utf8_lossy(name).into_owned())
             .collect();
+        if let Some(i) = record.iter().position(|f| holds_rows(f, record.len())) {
+            return Err(MotionCsvError::FieldOverLines {
+                line: 1,
+                column: shown_name(&names[i]),
+            });
+        }
         let time_index = check_header(&names)?;
 
         let mut time = Vec::new();
@@ -219,6 +227,15 @@ impl MotionData {
             }
             for (i, bytes) in record.iter().enumerate() {
                 if !read[i] {
+                    // A stray quote in a note made the reader take thousands of rows as one
+                    // ignored field, and they were lost without a word (review). In a column
+                    // that is read, the field is not a number, and its error shows it.
+                    if holds_rows(bytes, names.len()) {
+                        return Err(MotionCsvError::FieldOverLines {
+                            line,
+                            column: shown_name(&names[i]),
+                        });
+                    }
                     continue;
                 }
                 let text = std::str::from_utf8(bytes).map_err(|_| MotionCsvError::NotText {
@@ -485,6 +502,17 @@ fn record_line<R: Read>(reader: &mut csv::Reader<LastByte<R>>, record: &csv::Byt
     record
         .position()
         .map_or(0, |p| reader.get_mut().line_at(p.byte()))
+}
+
+/// Whether a field holds what looks like rows of the file: a line after its first with as
+/// many commas as a row of `columns` fields has. A quoted note may span lines in CSV, but one
+/// that holds rows is a quote left open, and the rows in it would be lost.
+fn holds_rows(field: &[u8], columns: usize) -> bool {
+    let needed = columns.saturating_sub(1).max(1);
+    field
+        .split(|&b| b == b'\n' || b == b'\r')
+        .skip(1)
+        .any(|line| line.iter().filter(|&&b| b == b',').count() >= needed)
 }
 
 /// Validate the header; returns the index of the time column.
@@ -987,6 +1015,27 @@ mod tests {
             "{message}"
         );
         assert!(message.contains("an unclosed quote?"), "{message}");
+        // Regression: in a column that is not read (a note), the rows after a stray quote were
+        // taken as part of the note and lost without a word; in the header, the error said
+        // there were no data rows.
+        let mut noted = String::from("time_s,heave_m,note\n0,1,ok\n0.5,2,\"sensor reset\n");
+        for i in 2..1200 {
+            noted.push_str(&format!("{},1,ok\n", f64::from(i) * 0.5));
+        }
+        let message = err(&noted);
+        assert_eq!(
+            message,
+            "line 3, column 'note': a quoted field holds what look like rows of the file, which would be lost in it (an unclosed quote?)"
+        );
+        let message = err("time_s,heave_m,\"note\n0,1,ok\n0.5,2,ok\n");
+        assert!(
+            message.starts_with("line 1, column 'note\\n0,1,ok"),
+            "{message}"
+        );
+        assert!(message.contains("(an unclosed quote?)"), "{message}");
+        // A quoted note on one line is still just ignored.
+        let data = read_str("time_s,heave_m,note\n0,1,\"a, b\"\n0.5,2,ok\n").unwrap();
+        assert_eq!(data.dof(Dof::Heave).unwrap(), &[1.0, 2.0]);
     }
 
     #[test]

@@ -41,6 +41,16 @@ pub struct DofReplay {
     pub coverage_1sigma: Vec<f64>,
     pub coverage_2sigma: Vec<f64>,
     pub max_abs_error: f64,
+    /// The largest error in sigmas, |error| / sigma, of any scored step with sigma > 0: the
+    /// failure that matters most, a forecast far off while it claims a small sigma (Gaussian
+    /// errors over some 10^5 steps reach about 4.5).
+    pub max_abs_z: f64,
+    /// Issue time of the forecast and lead [s] of the step where `max_abs_z` was reached
+    /// (NaN if nothing was scored).
+    pub max_abs_z_time_s: f64,
+    pub max_abs_z_lead_s: f64,
+    /// Fraction of scored steps with |error| > 3 sigma, over all steps (Gaussian: 0.0027).
+    pub beyond_3sigma: f64,
     /// RMS error of the 10 s step per minute of record time (by issue time; NaN where nothing
     /// was scored): how the error evolves, e.g. how fast it recovers after a change of sea.
     pub rms_10s_by_minute: Vec<f64>,
@@ -92,6 +102,25 @@ struct StepSums {
     sigma: f64,
     in1: f64,
     in2: f64,
+    in3: f64,
+}
+
+/// The largest error in sigmas of one DOF: (|e| / sigma, issue time, lead).
+#[derive(Debug, Clone, Copy)]
+struct WorstZ {
+    z: f64,
+    time_s: f64,
+    lead_s: f64,
+}
+
+impl Default for WorstZ {
+    fn default() -> Self {
+        Self {
+            z: 0.0,
+            time_s: f64::NAN,
+            lead_s: f64::NAN,
+        }
+    }
 }
 
 /// Index of the sample at time `t`, if one was recorded there: the sample within half a step
@@ -235,6 +264,7 @@ pub fn replay_scored(
     };
     let mut sums = vec![[StepSums::default(); MAX_STEPS]; NUM_DOF];
     let mut max_abs = [0.0f64; NUM_DOF];
+    let mut worst = [WorstZ::default(); NUM_DOF];
     let trace_k = ((TRACE_LEAD_S / dt).round() as usize).max(1) - 1;
     let t0 = data.time.first().copied().unwrap_or(0.0);
     let minutes = trace_minutes(t0, data.time.last().copied().unwrap_or(t0), data.time.len());
@@ -331,7 +361,15 @@ pub fn replay_scored(
                 acc.sigma += s;
                 acc.in1 += f64::from(u8::from(e.abs() <= s));
                 acc.in2 += f64::from(u8::from(e.abs() <= 2.0 * s));
+                acc.in3 += f64::from(u8::from(e.abs() <= 3.0 * s));
                 max_abs[d] = max_abs[d].max(e.abs());
+                if s > 0.0 && e.abs() / s > worst[d].z {
+                    worst[d] = WorstZ {
+                        z: e.abs() / s,
+                        time_s: f.time_s,
+                        lead_s: (k + 1) as f64 * dt,
+                    };
+                }
                 if k == trace_k && minutes > 0 {
                     let minute =
                         (((f.time_s - t0) / 60.0).floor().max(0.0) as usize).min(minutes - 1);
@@ -356,9 +394,9 @@ pub fn replay_scored(
             let root = |a: f64, n: f64| if n > 0.0 { (a / n).sqrt() } else { f64::NAN };
             let rms = per(&|a| root(a.ee, a.n));
             let zero_rms = per(&|a| root(a.xx, a.n));
-            let (xx, n) = s
-                .iter()
-                .fold((0.0, 0.0), |acc, a| (acc.0 + a.xx, acc.1 + a.n));
+            let (xx, n, in3) = s.iter().fold((0.0, 0.0, 0.0), |acc, a| {
+                (acc.0 + a.xx, acc.1 + a.n, acc.2 + a.in3)
+            });
             DofReplay {
                 dof: dof.name(),
                 forecasts: counts.forecasts,
@@ -376,6 +414,10 @@ pub fn replay_scored(
                 coverage_1sigma: per(&|a| if a.n > 0.0 { a.in1 / a.n } else { f64::NAN }),
                 coverage_2sigma: per(&|a| if a.n > 0.0 { a.in2 / a.n } else { f64::NAN }),
                 max_abs_error: max_abs[d],
+                max_abs_z: worst[d].z,
+                max_abs_z_time_s: worst[d].time_s,
+                max_abs_z_lead_s: worst[d].lead_s,
+                beyond_3sigma: if n > 0.0 { 1.0 - in3 / n } else { f64::NAN },
                 rms_10s_by_minute: by_minute(&trace[d], |t| t.0),
                 zero_rms_10s_by_minute: by_minute(&trace[d], |t| t.1),
             }

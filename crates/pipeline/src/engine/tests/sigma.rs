@@ -21,6 +21,54 @@ fn a_stationary_ar2_process_gets_nominal_coverage() {
     }
     assert!(d.nrmse[0] < 0.5, "{}", d.nrmse[0]);
     assert!(d.retrains >= 1 && d.swaps >= 1);
+    // The tails too: Gaussian errors leave 0.27 % of the steps beyond 3 sigma, and a step
+    // beyond 6.5 sigma has a chance of 1e-10 (here some 10^6 steps).
+    assert!(d.beyond_3sigma < 0.0054, "{}", d.beyond_3sigma);
+    assert!(
+        d.max_abs_z < 6.5,
+        "{} at {} s, {} s ahead",
+        d.max_abs_z,
+        d.max_abs_z_time_s,
+        d.max_abs_z_lead_s
+    );
+}
+
+#[test]
+fn replay_reports_the_largest_error_in_sigmas_where_it_happened() {
+    // Recomputed here from the delivered forecasts and the record: the largest |error| /
+    // sigma, its forecast and lead, and the share of steps beyond 3 sigma.
+    let x = ar2(2 * 1800, 4, |t| if t > 2400 { 3.0 } else { 1.0 });
+    let data = record(x.clone(), 2.0);
+    let config = PredictorServiceConfig::default();
+    let skip_s = 600.0;
+    let (report, forecasts) = replay(&data, &config, None, skip_s, true, &|_| {}).unwrap();
+    let d = &report.dofs[0];
+    let (mut worst, mut at, mut lead) = (0.0f64, f64::NAN, f64::NAN);
+    let (mut beyond, mut n) = (0usize, 0usize);
+    for f in forecasts.iter().filter(|f| f.time_s >= skip_s) {
+        let first = (f.time_s * 2.0).round() as usize;
+        let steps = f.steps as usize;
+        if first + steps >= x.len() {
+            continue;
+        }
+        for k in 0..steps {
+            let e = x[first + k + 1] - f64::from(f.mean[2][k]);
+            let s = f64::from(f.sigma[2][k]);
+            n += 1;
+            beyond += usize::from(e.abs() > 3.0 * s);
+            if s > 0.0 && e.abs() / s > worst {
+                (worst, at, lead) = (e.abs() / s, f.time_s, (k + 1) as f64 * 0.5);
+            }
+        }
+    }
+    assert_eq!(n as u64, d.scored * 50);
+    // The variance change makes errors beyond 3 sigma before sigma follows it.
+    assert!(worst > 3.0 && beyond > 0, "{worst} {beyond}");
+    assert_eq!(
+        (d.max_abs_z, d.max_abs_z_time_s, d.max_abs_z_lead_s),
+        (worst, at, lead)
+    );
+    assert!((d.beyond_3sigma - beyond as f64 / n as f64).abs() < 1e-12);
 }
 
 #[test]
