@@ -155,7 +155,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if report.input.lost > 0 {
         tracing::warn!(
             missing = report.input.lost,
-            "replay: {} samples missing from {} (gaps in time): runs of up to {} were bridged by holding the last value, longer gaps restarted the history",
+            "replay: {} samples missing from {} (gaps in time): runs of up to {} were bridged by a straight line between the samples on either side, longer gaps restarted the history",
             report.input.lost,
             input.display(),
             shipcast_pipeline::engine::MAX_FILL

@@ -72,7 +72,7 @@ pub struct ReplayReport {
     pub delay_s: f64,
     pub counts: EngineCounts,
     /// The record's samples as the engine took them: received, missing (gaps in time; runs
-    /// of up to `MAX_FILL` bridged by holding the last value, longer ones restart the
+    /// of up to `MAX_FILL` bridged by a straight line, longer ones restart the
     /// history) and rejected.
     pub input: Counters,
     /// Times the history started again at a gap or a run of bad samples too long to bridge
