@@ -120,9 +120,15 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let model = train_models(&data, &dofs, &options).map_err(|e| {
         // "train N" in the protocol's message is the record less its held-out share here.
         let text = e.to_string();
+        let holdout = shipcast_wire::shown::number(holdout);
         if text.contains("is too short: train") {
             anyhow::anyhow!(
                 "{text} (train: the record less --holdout {holdout} of it, so the held-out part must hold order + horizon values; a longer record, a lower --order or --horizon, or a larger --holdout help)"
+            )
+        } else if text.contains("training series too short") {
+            // Regression (review): no word that --holdout had taken the rest.
+            anyhow::anyhow!(
+                "{text} (the training part is the record less --holdout {holdout} of it; a longer record, a lower --order or a smaller --holdout help)"
             )
         } else {
             anyhow::Error::from(e)

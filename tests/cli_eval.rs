@@ -388,6 +388,12 @@ fn train_writes_a_loadable_model_for_every_dof_present() {
         "{}",
         String::from_utf8_lossy(&larger.stderr)
     );
+    // Regression (review): a tiny --holdout was written out in 300 digits, and a held-out
+    // share that left too little to train on said nothing of --holdout.
+    let tiny = train("1e-300");
+    assert_one_line_error(&tiny, "--holdout 1e-300 of it");
+    assert!(String::from_utf8_lossy(&tiny.stderr).len() < 400);
+    assert_one_line_error(&train("0.9"), "or a smaller --holdout help");
 }
 
 /// Regression (review): `train` on a record with only some DOF columns wrote a model file that

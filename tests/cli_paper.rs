@@ -312,6 +312,29 @@ fn measured_record_gets_its_averaged_rows_and_a_bad_one_is_a_one_line_error() {
         .output()
         .unwrap();
     assert_one_line_error(&output, "are too few for the study: it needs at least 600");
+
+    // Regression (review): a dead heave channel gave a report of NaN and inf rows with 100 %
+    // coverage, and exit 0. 20 minutes of motion held at one value after its first 5.
+    let frozen = dir.path().join("frozen.csv");
+    let mut text = String::from("time_s,heave_m\n");
+    for i in 0..9600 {
+        let t = i as f64 / 8.0;
+        let h = if i < 2400 { (0.6 * t).sin() } else { 0.5 };
+        text.push_str(&format!("{t},{h}\n"));
+    }
+    std::fs::write(&frozen, text).unwrap();
+    let output = shipcast()
+        .args(["paper", "--quick", "--measured-only", "--measured"])
+        .arg(&frozen)
+        .arg("--out")
+        .arg(dir.path().join("frozen"))
+        .output()
+        .unwrap();
+    assert_one_line_error(
+        &output,
+        "heave_m does not move in the second half of the record",
+    );
+    assert!(!dir.path().join("frozen").join("measured.md").exists());
 }
 
 /// `--measured-only` writes the measured-sea section alone, as measured.md, and needs

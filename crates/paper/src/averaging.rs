@@ -50,6 +50,23 @@ impl MeasuredSeries {
                 MIN_MEASURED_VALUES as f64 / STUDY_RATE_HZ / 60.0
             );
         }
+        // Regression (review): a dead heave channel (all 0, or held at one value) gave a
+        // report of NaN and inf rows, 100 % coverage, and exit 0. The study trains on the
+        // first half and scores on the second: each must move.
+        let (first, second) = heave.split_at(heave.len() / 2);
+        for (half, part) in [("first", first), ("second", second)] {
+            let (lo, hi) = part
+                .iter()
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &x| {
+                    (lo.min(x), hi.max(x))
+                });
+            if hi - lo <= 1e-9 * hi.abs().max(lo.abs()).max(1e-12) {
+                anyhow::bail!(
+                    "measured record {}: heave_m does not move in the {half} half of the record (a dead or frozen sensor?): there is no motion to study",
+                    path.display()
+                );
+            }
+        }
         let title = path.file_name().map_or_else(
             || path.display().to_string(),
             |n| n.to_string_lossy().into_owned(),

@@ -32,14 +32,11 @@ pub const MAX_RIDGE: f64 = 1e6;
 pub const MAX_CORES: usize = libc::CPU_SETSIZE as usize;
 
 /// `v` as a message shows it: in exponent form when plain digits would be long (`1e300`, not
-/// 301 digits), so a refused value keeps the message on one short line.
+/// 301 digits), so a refused value keeps the message on one short line. The one rule of every
+/// crate (`shipcast_wire::shown::number`): this one's own, by the length of the digits, wrote
+/// a delay of a third of a second as `3.333333333333333e-1` (review).
 pub fn shown(v: f64) -> String {
-    let plain = v.to_string();
-    if plain.len() > 12 && v.is_finite() {
-        format!("{v:e}")
-    } else {
-        plain
-    }
+    shipcast_wire::shown::number(v)
 }
 
 /// `v` must be finite and in `(0, max]`.

@@ -55,6 +55,9 @@ pub struct MlpPredictor {
 
 serde_validated!(MlpPredictor);
 
+/// Most weights an MLP may have (80 MB per copy of them).
+pub const MAX_MLP_PARAMETERS: usize = 10_000_000;
+
 impl MlpPredictor {
     /// What a model file must satisfy (see `serde_validated!`): once fitted, as many finite
     /// parameters as the shape needs and a positive finite scale.
@@ -103,9 +106,13 @@ impl MlpPredictor {
             hidden: config.mlp_hidden,
             outputs: config.horizon,
         };
-        if shape.checked_len().is_none() {
+        // Training keeps about five vectors of this size (parameters, gradient, Rprop's
+        // steps and previous gradient, the best so far): beyond the budget, options each
+        // within their own limits aborted the process on a failed allocation (review:
+        // --order 10000 --hidden 10000).
+        if shape.checked_len().is_none_or(|n| n > MAX_MLP_PARAMETERS) {
             return Err(PredictError::Infeasible(format!(
-                "MLP with {} inputs, {} hidden units and {} outputs is too large",
+                "MLP with {} inputs, {} hidden units and {} outputs is too large: at most {MAX_MLP_PARAMETERS} weights (hidden x (inputs + outputs + 1) + outputs); lower the order or the hidden units",
                 shape.inputs, shape.hidden, shape.outputs
             )));
         }

@@ -320,8 +320,20 @@ impl PipelineConfig {
         // (review: 405 asked, then 480 needed).
         let first_fit_values = (q.first_fit_s * q.sample_rate_hz).round();
         if q.retrain_every_s > 0.0 && first_fit_values > q.history_values() as f64 {
+            // Advice that can be followed: beyond the window's own limit, only first_fit_s
+            // can move (review: "raise retrain_window to at least 1200000", then refused).
+            let remedy = if first_fit_values <= MAX_RETRAIN_WINDOW as f64 {
+                format!(
+                    "lower first_fit_s or raise retrain_window to at least {first_fit_values:.0}"
+                )
+            } else {
+                format!(
+                    "lower first_fit_s to at most {} s (retrain_window is at most {MAX_RETRAIN_WINDOW})",
+                    limits::shown(MAX_RETRAIN_WINDOW as f64 / q.sample_rate_hz)
+                )
+            };
             return Err(format!(
-                "predictor.first_fit_s = {} s is {first_fit_values:.0} values at {} Hz, more than the history holds (predictor.retrain_window = {}): the first fit would never come; lower first_fit_s or raise retrain_window to at least {first_fit_values:.0}",
+                "predictor.first_fit_s = {} s is {first_fit_values:.0} values at {} Hz, more than the history holds (predictor.retrain_window = {}): the first fit would never come; {remedy}",
                 q.first_fit_s, q.sample_rate_hz, q.retrain_window
             ));
         }

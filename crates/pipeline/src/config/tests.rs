@@ -326,6 +326,12 @@ fn impossible_values_are_refused() {
             "[predictor]\nretrain_window = 404",
             "predictor.first_fit_s = 240 s is 480 values at 2 Hz, more than the history holds (predictor.retrain_window = 404): the first fit would never come; lower first_fit_s or raise retrain_window to at least 480",
         ),
+        // Regression (review): beyond the window's own limit the advice to raise it was
+        // refused in turn; only first_fit_s can move.
+        (
+            "[predictor]\nfirst_fit_s = 600000.0\nretrain_window = 1000000",
+            "the first fit would never come; lower first_fit_s to at most 500000 s (retrain_window is at most 1000000)",
+        ),
         // The training part left beside it must hold four values per order.
         (
             "[predictor]\norder = 400\ncandidate_orders = [400]\nretrain_window = 1530\nfirst_fit_s = 100.0",

@@ -169,3 +169,21 @@ fn a_model_file_with_wrong_parameters_is_refused() {
         assert!(err.to_string().contains(field), "{err}");
     }
 }
+
+/// Regression (review): an order and hidden units each within their own limits made a network
+/// of 10^8 weights, and training aborted the process on a failed allocation. Refused at
+/// construction, with the budget; the largest network within it is built.
+#[test]
+fn a_network_beyond_the_weight_budget_is_refused_before_anything_is_allocated() {
+    let config = |order, hidden| PredictorConfig {
+        order,
+        horizon: 50,
+        mlp_hidden: hidden,
+        ..PredictorConfig::default()
+    };
+    let e = MlpPredictor::new(&config(10_000, 10_000)).err().unwrap();
+    assert!(e.to_string().contains("at most 10000000 weights"), "{e}");
+    // 1000 x (9949 + 50 + 1) + 50 = 10^7 + 50: just beyond; one input fewer per unit is within.
+    assert!(MlpPredictor::new(&config(9_949, 1_000)).is_err());
+    assert!(MlpPredictor::new(&config(9_948, 1_000)).is_ok());
+}
