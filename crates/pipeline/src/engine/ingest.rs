@@ -93,36 +93,9 @@ pub struct NewValue {
     /// Decimated values the same sample completed before this one, from the slots of a gap
     /// it bridged: they are in the history, and the engine counts them so that its value
     /// index stays the history's (one value of a bridged gap went uncounted, and every
-    /// forecast after it was verified half a second off: review).
+    /// forecast after it was stamped and verified half a step off: review).
     pub skipped: u64,
 }
-
-/// The values filtered from bridged input, and how the input was bridged.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct BridgeSpan {
-    first: u64,
-    last: u64,
-    /// Longest bridge [s]: from the last sample before it to the first after.
-    pub span_s: f64,
-    /// Whether any of them held the last value (non-finite samples, whose next value is not
-    /// known yet) rather than drew a straight line to the next.
-    pub held: bool,
-}
-
-#[cfg(test)]
-impl BridgeSpan {
-    pub fn new_for_test(span_s: f64, held: bool) -> Self {
-        Self {
-            first: 0,
-            last: 0,
-            span_s,
-            held,
-        }
-    }
-}
-
-/// Values after which a bridge is forgotten: beyond any model's input.
-const BRIDGE_MEMORY: u64 = 2048;
 
 /// Record time between two log lines about gaps too long to bridge [s].
 const GAP_LOG_EVERY_S: f64 = 10.0;
@@ -150,17 +123,6 @@ pub struct Ingest {
     /// non-finite sample): the input at the label is a recorded sample once it exceeds the
     /// decimator's delay.
     recorded_run: usize,
-    /// Inputs taken since the last bridged one (None: none bridged since the record began).
-    since_bridge: Option<usize>,
-    /// The decimation filter's length in inputs.
-    taps: usize,
-    /// Decimated values pushed since the history (re)started.
-    pushed: u64,
-    /// First and last (by `pushed`) of the values filtered from bridged input, spanning every
-    /// bridge still near enough to be in a model's input, and the longest of those bridges.
-    bridge: Option<BridgeSpan>,
-    /// The bridge being fed or just fed ([s], held), or the longest of those still in memory.
-    fill: (f64, bool),
     /// The decimator's delay in inputs.
     delay_samples: usize,
     tracker: SeqTracker,
@@ -172,7 +134,8 @@ pub struct Ingest {
     /// Incremented whenever the history restarts (forecasts pending before it never verify).
     generation: u64,
     delay_s: f64,
-    /// Longest run of missing/rejected samples bridged (by a straight line / the last value); a longer
+    /// Longest run of missing/rejected samples bridged (a gap by a straight line to the next
+    /// sample, rejected ones by holding the last value); a longer
     /// gap breaks the record and the history starts again.
     max_fill: u64,
     /// Non-finite samples bridged in a row: held to `max_fill` like a gap, so a sensor that
@@ -203,7 +166,6 @@ impl Ingest {
         let decimator = Decimator::with_phase(factor, phase)?;
         let delay_s = decimator.delay_s(input_rate_hz);
         let delay_samples = decimator.delay_samples();
-        let taps = decimator.taps();
         Ok(Self {
             decimators: vec![decimator; NUM_DOF],
             history: vec![Ring::new(capacity); NUM_DOF],
@@ -211,11 +173,6 @@ impl Ingest {
             newest: [0.0; NUM_DOF],
             at_label: [0.0; NUM_DOF],
             recorded_run: 0,
-            since_bridge: None,
-            taps,
-            pushed: 0,
-            bridge: None,
-            fill: (0.0, false),
             delay_samples,
             tracker: SeqTracker::new(),
             last_good: None,
@@ -256,12 +213,6 @@ impl Ingest {
     /// the input there, or one after it, was bridged). It differs from the decimated value by what the filter
     /// removes and by the minimum-phase filter's timing error, 10-40 ms: a forecast is scored
     /// against the recorded motion, so that difference belongs in its sigma.
-    /// Whether the newest decimated value was filtered from bridged input: a bridged sample
-    /// lies within the filter's span of it (the newest `taps` inputs).
-    pub fn filtered_over_bridge(&self) -> bool {
-        self.since_bridge.is_some_and(|n| n < self.taps)
-    }
-
     pub fn recorded_at_label(&self, d: usize) -> Option<f64> {
         (self.recorded_run > self.delay_samples).then_some(self.at_label[d])
     }
@@ -303,9 +254,6 @@ impl Ingest {
         self.history.iter_mut().for_each(Ring::clear);
         self.last_good = None;
         self.recorded_run = 0;
-        self.since_bridge = None;
-        self.bridge = None;
-        self.fill = (0.0, false);
         self.rate_check = None;
     }
 
@@ -316,11 +264,6 @@ impl Ingest {
             0
         } else {
             self.recorded_run.saturating_add(1)
-        };
-        self.since_bridge = if bridged {
-            Some(0)
-        } else {
-            self.since_bridge.map(|n| n.saturating_add(1))
         };
         let mut produced = false;
         for (d, (dec, hist)) in self
@@ -336,51 +279,7 @@ impl Ingest {
                 produced = true;
             }
         }
-        if produced {
-            if self.filtered_over_bridge() {
-                let at = self.pushed;
-                let (span_s, held) = self.fill;
-                self.bridge = Some(match self.bridge {
-                    Some(b) if at - b.last <= BRIDGE_MEMORY => BridgeSpan {
-                        last: at,
-                        span_s,
-                        held,
-                        ..b
-                    },
-                    _ => BridgeSpan {
-                        first: at,
-                        last: at,
-                        span_s,
-                        held,
-                    },
-                });
-            }
-            self.pushed += 1;
-        }
         produced
-    }
-
-    /// A bridge of `slots` input slots (by a straight line, or `held`) is about to be fed.
-    fn note_bridge(&mut self, slots: u64, held: bool) {
-        let span_s = (slots + 1) as f64 / self.input_rate_hz;
-        let remembered = self
-            .bridge
-            .is_some_and(|b| self.pushed.saturating_sub(b.last) <= BRIDGE_MEMORY);
-        self.fill = if remembered {
-            (self.fill.0.max(span_s), self.fill.1 | held)
-        } else {
-            (span_s, held)
-        };
-    }
-
-    /// Where values filtered from bridged input lie among the newest `n` (offsets from the
-    /// newest, 0 = newest: `(nearest, farthest)`), with how they were bridged.
-    pub fn bridged_within(&self, n: usize) -> Option<(usize, usize, BridgeSpan)> {
-        let b = self.bridge?;
-        let newest = self.pushed.checked_sub(1)?;
-        let nearest = usize::try_from(newest - b.last).ok()?;
-        let farthest = usize::try_from(newest - b.first).unwrap_or(usize::MAX);
-        (nearest < n).then(|| (nearest, farthest.min(n - 1), b))
     }
 
     /// Account for one received sample and feed it on; returns the new decimated value it
@@ -392,7 +291,7 @@ impl Ingest {
         let mut produced = false;
         // What this sample's time gap adds to `lost` beyond its seq gap.
         let mut lost_by_time_only = 0;
-        // Slots before this sample filled with held values.
+        // Slots before this sample bridged.
         let mut bridged = 0;
         // Decimated values the bridged slots completed, and the time of the newest of them.
         let (mut made, mut newest_at) = (0u64, sample.time_s);
@@ -414,7 +313,6 @@ impl Ingest {
                     self.restart();
                 }
                 if let Some(held) = self.last_good {
-                    self.note_bridge(self.held_run, true);
                     produced = self.push_values(&held, true);
                 }
                 return produced.then(|| self.new_value(sample, sample.time_s, 0));
@@ -441,11 +339,11 @@ impl Ingest {
                 match self.last_good {
                     Some(held) if lost <= self.max_fill => {
                         // A straight line from the last value to this one: held flat, a
-                        // dropout of 0.75 s put a step into the filter, and verified against
-                        // it the forecasts looked so wrong that every DOF's sea "changed"
-                        // (review: 12 changes and retrains on a stationary record).
+                        // dropout put a step into the filter and the models' input (review:
+                        // on the paper sea, 6 samples lost took the forecasts 30-70 sigmas
+                        // off; the models fitted on a sea without sensor noise amplify what
+                        // the bridge misses, and a line misses far less).
                         let from = self.last_time.unwrap_or(sample.time_s);
-                        self.note_bridge(lost, false);
                         for j in 1..=lost {
                             let u = j as f64 / (lost + 1) as f64;
                             let filled: [f64; NUM_DOF] =

@@ -18,7 +18,6 @@
 //!    `plausible_rms_factor` times the live RMS of the motion about it): that DOF falls back
 //!    to "no skill" (the level, sigma = RMS), and the event is counted and logged.
 
-pub mod bridge;
 pub mod burst;
 pub mod calibrate;
 pub mod change;
@@ -53,8 +52,8 @@ use shipcast_wire::Dof;
 use verify::{ForecastLog, VerificationReport, Verifier};
 
 /// Longest run of lost or rejected input samples bridged (a gap by a straight line to the
-/// next sample, rejected ones by holding the last value; 1 s at
-/// 8 Hz); longer gaps restart the history.
+/// next sample, rejected ones by holding the last value; 1 s at 8 Hz); longer gaps restart
+/// the history.
 pub const MAX_FILL: u64 = 8;
 
 /// Weight, in values, of a prior in the calibration (a model's held-out evidence, or the "no
@@ -148,10 +147,6 @@ pub struct Engine {
     last_deviation: [[f64; 2]; NUM_DOF],
     forecast: Box<Forecast>,
     raw: [[f64; MAX_STEPS]; NUM_DOF],
-    /// Per DOF and step, how far the forecast moves with the bridged values in its input
-    /// moved by their likely error (`bridge.rs`; 0 without them).
-    bridge_spread: [[f64; MAX_STEPS]; NUM_DOF],
-    bridge: bridge::BridgeSpread,
     pub counters: Counters,
     pub counts: EngineCounts,
     /// Decimated values so far (the index of the newest is `values - 1`).
@@ -210,8 +205,6 @@ impl Engine {
             last_deviation: [[0.0; 2]; NUM_DOF],
             forecast: Box::default(),
             raw: [[0.0; MAX_STEPS]; NUM_DOF],
-            bridge_spread: [[0.0; MAX_STEPS]; NUM_DOF],
-            bridge: bridge::BridgeSpread::new(config.order),
             counters: Counters::default(),
             counts: EngineCounts::default(),
             values: 0,
@@ -507,14 +500,7 @@ impl Engine {
                 }
             }
         }
-        // A value the decimation filter made partly from bridged input is not the motion:
-        // its forecasts are not verified against it (review: a dropout of 0.75 s, verified
-        // against, looked like a change of sea).
-        let bridged = self.ingest.filtered_over_bridge();
         for (f, k) in self.log.due(index) {
-            if bridged {
-                continue;
-            }
             for d in 0..NUM_DOF {
                 self.verifier
                     .observe(d, k, f.mean[d][k], f.sigma[d][k], f.last[d], recorded[d]);
@@ -523,12 +509,6 @@ impl Engine {
                 // against the model's sigma its errors pushed the factor to its top for the
                 // model's forecasts after it (review).
                 let s = f.sigma_calibrated[d][k].hypot(f.label_miss[d]);
-                // Errors of a forecast made from bridged input are the bridge's as much as
-                // the model's (`bridge.rs`): they teach neither the sigma of forecasts from
-                // clean input nor the change detector.
-                if f.bridged_input[d] {
-                    continue;
-                }
                 if s > 0.0 && !f.no_skill[d] {
                     self.shape
                         .observe(d, k, (recorded[d] - f.mean[d][k]).abs() / s);
@@ -642,11 +622,9 @@ impl Engine {
         for (d, no_input) in no_input.iter_mut().enumerate() {
             let raw = &mut self.raw[d][..horizon];
             raw.fill(0.0);
-            self.bridge_spread[d][..horizon].fill(0.0);
             if let Some(m) = self.models.as_mut().filter(|_| !self.failed.dof[d]) {
                 let p = &mut m.predictors[d];
                 *no_input = self.ingest.len() < p.order();
-                let spread = &mut self.bridge_spread[d][..horizon];
                 if let Some(past) = self.ingest.last(d, p.order()) {
                     if let Err(e) = p.forecast(past, raw) {
                         raw.fill(0.0);
@@ -656,14 +634,6 @@ impl Engine {
                             &e,
                             &mut self.counts.model_failures,
                         );
-                    } else if let Some((nearest, farthest, span)) =
-                        self.ingest.bridged_within(p.order())
-                    {
-                        let sizing = self.ingest.last(d, self.ingest.len()).unwrap_or(past);
-                        let error =
-                            bridge::fill_error(sizing, 1.0 / self.config.sample_rate_hz, &span);
-                        self.bridge
-                            .measure(p, past, raw, (nearest, farthest), error, spread);
                     }
                 }
             }
@@ -685,7 +655,6 @@ impl Engine {
             entry.label_miss[d] = label_miss;
             let input = self.models.as_ref().map_or(0, |m| m.predictors[d].order());
             let jump_held = self.jumps.holds(d, index, input);
-            entry.bridged_input[d] = self.ingest.bridged_within(input).is_some();
             let held = jump_held || no_input[d];
             entry.held[d] = held;
             // A failed model's DOF is delivered as no skill, like an implausible forecast.
@@ -699,17 +668,8 @@ impl Engine {
                 entry.mean[d][k] = level + deviation;
                 entry.sigma_calibrated[d][k] = sigma;
                 let widen = inflate.max(self.burst.factor(d, k));
-                let bridged = c.beta * self.bridge_spread[d][k];
-                entry.sigma[d][k] =
-                    (sigma * widen).hypot(label_miss).hypot(bridged) * self.shape.factor(d, k);
+                entry.sigma[d][k] = (sigma * widen).hypot(label_miss) * self.shape.factor(d, k);
                 plausible &= deviation.is_finite() && deviation.abs() <= bound;
-                // A step the bridged input leaves with less skill than the level's is
-                // delivered as the level (review: sigma 1.4 times the motion's RMS 20 s ahead
-                // for the 100 s a dropout stayed in the input).
-                if bridged > 0.0 && entry.sigma[d][k] >= rms.hypot(label_miss) {
-                    entry.mean[d][k] = level;
-                    entry.sigma[d][k] = rms.hypot(label_miss);
-                }
             }
             // The sigma floor of a forecast delivered as no skill, if it is one.
             let no_skill_floor = if held {

@@ -5,7 +5,8 @@
 //!
 //! Step k of a forecast is scored against the record's value at `time_s + k * dt_s` (the
 //! recorded sample, not the filtered one). Only forecasts issued at record time >= `skip_s`
-//! whose every step falls on a recorded sample are scored.
+//! whose every step lies inside the record are scored, each at the steps that fall on a
+//! recorded sample.
 
 use super::retrain::Retrainer;
 use super::{Engine, EngineCounts};
@@ -80,10 +81,13 @@ pub struct ReplayReport {
     pub history_restarts: u64,
     /// The longest history held between restarts [s].
     pub longest_history_s: f64,
-    /// Forecasts whose every step has a sample in the record, scored or not (before
+    /// Forecasts whose every step lies inside the record's span, scored or not (before
     /// `--skip-s`), and the issue time of the last of them.
     pub complete_forecasts: u64,
     pub last_complete_s: Option<f64>,
+    /// Scored forecasts some of whose steps fell on samples missing from the record: scored
+    /// at the steps that have one (the deck's decisions only from whole forecasts).
+    pub partly_scored: u64,
     pub dofs: Vec<DofReplay>,
     /// Deck decisions scored against the record (one per MOT; empty unless asked).
     pub decisions: Vec<DecisionReport>,
@@ -272,8 +276,11 @@ pub fn replay_scored(
     let mut scored = 0u64;
     let mut kept = Vec::new();
     let mut unreported = 0u64;
-    // Record index of each step of the forecast being scored (reused: one per forecast).
-    let mut idx: Vec<usize> = Vec::with_capacity(MAX_STEPS);
+    // Record index of each step of the forecast being scored, None where the record misses
+    // that sample (reused: one per forecast).
+    let mut idx: Vec<Option<usize>> = Vec::with_capacity(MAX_STEPS);
+    let mut partly_scored = 0u64;
+    let end_s = data.time.last().copied().unwrap_or(f64::NEG_INFINITY);
     let mut longest_history = 0usize;
     let (mut complete_forecasts, mut last_complete_s) = (0u64, None);
     for (i, &t) in data.time.iter().enumerate() {
@@ -300,15 +307,18 @@ pub fn replay_scored(
         // Before `skip_s` a forecast is not scored, but the deck still learns from it.
         let counted = f.time_s >= skip_s;
         let steps = f.steps as usize;
-        // The record's sample at every step, or skip the forecast (a step outside the record).
-        idx.clear();
-        for k in 1..=steps {
-            match sample_at(&data.time, f.time_s + k as f64 * dt, step_in) {
-                Some(j) => idx.push(j),
-                None => break,
-            }
+        // The record's sample at every step. A forecast whose horizon runs past the record's
+        // end is not scored; one whose steps fall on samples missing from the record (a lost
+        // sample bridged, or a gap) is scored at the steps that have one. Regression (review):
+        // any missing step dropped the whole forecast, and with 5 % of the samples lost 220
+        // of 2337 forecasts were scored, without a word.
+        if f.time_s + steps as f64 * dt > end_s + 0.5 * step_in {
+            continue;
         }
-        if idx.len() < steps {
+        idx.clear();
+        idx.extend((1..=steps).map(|k| sample_at(&data.time, f.time_s + k as f64 * dt, step_in)));
+        let whole = idx.iter().all(Option::is_some);
+        if idx.iter().all(Option::is_none) {
             continue;
         }
         complete_forecasts += 1;
@@ -318,13 +328,17 @@ pub fn replay_scored(
         }
         // The newest sample the forecast used is persistence's forecast.
         let last = sample_at(&data.time, f.time_s + delay, step_in).unwrap_or(i);
-        if let Some(scorer) = scorer.as_mut() {
+        // The deck's windows are judged on every step, so only from a whole forecast.
+        if let Some(scorer) = scorer.as_mut().filter(|_| whole) {
             actual.time_s = f.time_s;
             actual.dt_s = f.dt_s;
             actual.steps = f.steps;
             for (d, column) in columns.iter().enumerate() {
                 for (k, &j) in idx.iter().enumerate() {
-                    actual.mean[d][k] = column.map_or(0.0, |c| c[j] as f32);
+                    actual.mean[d][k] = match (column, j) {
+                        (Some(c), Some(j)) => c[j] as f32,
+                        _ => 0.0,
+                    };
                 }
             }
             // At the precision of the steps' values (f32), for the velocity's differences.
@@ -344,10 +358,12 @@ pub fn replay_scored(
             continue;
         }
         scored += 1;
+        partly_scored += u64::from(!whole);
         for &dof in &present {
             let d = dof.index();
             let Some(col) = columns[d] else { continue };
-            for (k, &j) in idx.iter().enumerate() {
+            for (k, j) in idx.iter().enumerate() {
+                let Some(&j) = j.as_ref() else { continue };
                 let x = col[j];
                 let m = f64::from(f.mean[d][k]);
                 let s = f64::from(f.sigma[d][k]);
@@ -437,6 +453,7 @@ pub fn replay_scored(
             longest_history_s: longest_history as f64 * dt,
             complete_forecasts,
             last_complete_s,
+            partly_scored,
             dofs,
             decisions: scorer.map_or_else(Vec::new, DecisionScorer::finish),
         },

@@ -46,9 +46,6 @@ pub struct Issued {
     /// Per DOF, whether it was held at no skill after a jump of its level (`jump.rs`): its
     /// model's output then is about the jump, not the sea.
     pub held: [bool; NUM_DOF],
-    /// Per DOF, whether bridged values were in the model's input (`bridge.rs`): its errors
-    /// are the bridge's as much as the model's.
-    pub bridged_input: [bool; NUM_DOF],
 }
 
 impl Default for Issued {
@@ -63,7 +60,6 @@ impl Default for Issued {
             mean: [[0.0; MAX_STEPS]; NUM_DOF],
             sigma: [[0.0; MAX_STEPS]; NUM_DOF],
             held: [false; NUM_DOF],
-            bridged_input: [false; NUM_DOF],
             label_miss: [0.0; NUM_DOF],
             no_skill: [false; NUM_DOF],
             sigma_calibrated: [[0.0; MAX_STEPS]; NUM_DOF],
