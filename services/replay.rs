@@ -192,6 +192,17 @@ fn table(r: &ReplayReport) -> String {
         r.input.rejected_nonfinite + r.input.rejected_order,
         r.counts.model_failures
     ));
+    let scored = r.dofs.first().map_or(0, |d| d.scored);
+    s.push_str(&format!(
+        "scored: {scored} forecasts issued after --skip-s with every step inside the record"
+    ));
+    if r.partly_scored > 0 {
+        s.push_str(&format!(
+            ", {} of them partly scored (steps on samples missing from the record are not scored; the deck is judged on whole forecasts only)",
+            r.partly_scored
+        ));
+    }
+    s.push('\n');
     s.push_str(&format!(
         "leads from the forecast's time_s; its newest sample is {} s later\n",
         limits::shown(r.delay_s)
@@ -238,6 +249,8 @@ fn table(r: &ReplayReport) -> String {
         if d.calls == 0 {
             let why = if d.mot_s > horizon_s + 1e-9 {
                 "the horizon is shorter than the MOT"
+            } else if r.partly_scored > 0 {
+                "no probability was stated in the scored part of the record: the deck is judged on whole forecasts only, and samples missing from the record left few or none whole; it states nothing before it has verified errors, about 5 minutes"
             } else {
                 "no probability was stated in the scored part of the record: the deck states none before it has verified errors, about 5 minutes"
             };
