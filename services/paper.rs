@@ -124,18 +124,30 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     // only when the first figure was drawn, after the whole study.
     shipcast_series::atomic_file::check_writable_beside(&out.join("report.md"))
         .with_context(|| format!("the output directory {} takes no file", out.display()))?;
+    // Regression (review): a report name taken by a directory failed only after the whole
+    // study (up to 15 minutes).
+    for name in ["report.md", "averaging.md", "measured.md"] {
+        let path = out.join(name);
+        if path.is_dir() {
+            anyhow::bail!(
+                "{} is a directory: the report cannot be written there",
+                path.display()
+            );
+        }
+    }
     match (sections, measured.as_ref()) {
         (Sections::AveragingOnly, measured) => {
             let section = paper::averaging::run_alone(&plan, measured)?;
             let path = out.join("averaging.md");
-            std::fs::write(&path, section)
+            // Written whole: a failed write cut the previous good section (review).
+            shipcast_series::atomic_file::write_atomically(&path, section.as_bytes())
                 .with_context(|| format!("writing {}", path.display()))?;
             tracing::info!(report = %path.display(), "averaged-forecast section written");
         }
         (Sections::MeasuredOnly, Some(record)) => {
             let section = paper::measured::run_alone(&plan, record);
             let path = out.join("measured.md");
-            std::fs::write(&path, section)
+            shipcast_series::atomic_file::write_atomically(&path, section.as_bytes())
                 .with_context(|| format!("writing {}", path.display()))?;
             tracing::info!(report = %path.display(), "measured-sea section written");
         }

@@ -335,6 +335,16 @@ fn measured_record_gets_its_averaged_rows_and_a_bad_one_is_a_one_line_error() {
         "heave_m does not move in the second half of the record",
     );
     assert!(!dir.path().join("frozen").join("measured.md").exists());
+
+    // Regression (review): a report name taken by a directory failed only after the study.
+    let taken = dir.path().join("taken");
+    std::fs::create_dir_all(taken.join("report.md")).unwrap();
+    let output = shipcast()
+        .args(["paper", "--quick", "--out"])
+        .arg(&taken)
+        .output()
+        .unwrap();
+    assert_one_line_error(&output, "report.md is a directory");
 }
 
 /// `--measured-only` writes the measured-sea section alone, as measured.md, and needs

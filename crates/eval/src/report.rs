@@ -12,12 +12,25 @@ pub fn skill(rms: f64, persistence_rms: f64) -> f64 {
     1.0 - (rms / persistence_rms).powi(2)
 }
 
-/// Steps (1-based) of the table's lead times at `sample_rate`, with their leads, within `horizon`.
+/// Steps (1-based) nearest the table's lead times at `sample_rate`, within `horizon`, each
+/// once and labelled with its own lead (step / rate); the first and last step where none of
+/// them fits. Regression (review): at 1 Hz the "0.5 s" column showed the 1 s step, at 0.1 Hz
+/// the "5 s" and "10 s" columns both the 10 s step, and at 8 Hz with a horizon of 3 the table
+/// had no error column at all.
 fn lead_steps(sample_rate: f64, horizon: usize) -> Vec<(f64, usize)> {
-    TABLE_LEADS_S
+    let mut steps: Vec<usize> = TABLE_LEADS_S
         .iter()
-        .map(|&lead| (lead, (lead * sample_rate).round() as usize))
-        .filter(|&(_, step)| step >= 1 && step <= horizon)
+        .map(|&lead| ((lead * sample_rate).round() as usize).max(1))
+        .filter(|&step| step <= horizon)
+        .collect();
+    steps.dedup();
+    if steps.is_empty() && horizon >= 1 {
+        steps = vec![1, horizon];
+        steps.dedup();
+    }
+    steps
+        .into_iter()
+        .map(|step| (step as f64 / sample_rate, step))
         .collect()
 }
 
@@ -95,6 +108,24 @@ mod tests {
     use super::*;
     use shipcast_predict::{Averaging, Method};
     use shipcast_wire::Dof;
+
+    /// Regression (review): columns named by the nominal lead showed another step at rates
+    /// other than 2 Hz, twice the same step, or none at all.
+    #[test]
+    fn each_column_is_a_step_of_its_own_labelled_with_its_own_lead() {
+        // 2 Hz, the protocol's rate: the nominal leads are steps 1, 10, 20, 40.
+        assert_eq!(
+            lead_steps(2.0, 50),
+            [(0.5, 1), (5.0, 10), (10.0, 20), (20.0, 40)]
+        );
+        // 1 Hz: 0.5 s is no step; the nearest is 1 s, and the column says so.
+        assert_eq!(lead_steps(1.0, 10), [(1.0, 1), (5.0, 5), (10.0, 10)]);
+        // 0.1 Hz: 0.5 s, 5 s and 10 s all round to the first step, shown once.
+        assert_eq!(lead_steps(0.1, 5), [(10.0, 1), (20.0, 2)]);
+        // 8 Hz with a horizon of 3 steps: no nominal lead fits; the first and last steps.
+        assert_eq!(lead_steps(8.0, 3), [(0.125, 1), (0.375, 3)]);
+        assert_eq!(lead_steps(8.0, 1), [(0.125, 1)]);
+    }
 
     #[test]
     fn table_shows_leads_within_horizon_and_failures() {

@@ -114,8 +114,11 @@ fn extent(series: &[Series]) -> Option<((f64, f64), (f64, f64))> {
 pub fn line_chart(path: &Path, chart: &Chart<'_>) -> anyhow::Result<()> {
     let ((x0, x1), (y0, y1)) = extent(chart.series)
         .ok_or_else(|| anyhow!("figure '{}' has no finite points", chart.title))?;
-    let draw = || -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
-        let root = SVGBackend::new(path, (900, 500)).into_drawing_area();
+    // Drawn in memory and written whole: drawn into the file, a failed write (a full disk)
+    // left a figure cut inside an element in place of the previous good one (review).
+    let mut svg = String::new();
+    let mut draw = || -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
+        let root = SVGBackend::with_string(&mut svg, (900, 500)).into_drawing_area();
         root.fill(&WHITE)?;
         let mut ctx = ChartBuilder::on(&root)
             .caption(chart.title, ("sans-serif", 20))
@@ -155,7 +158,9 @@ pub fn line_chart(path: &Path, chart: &Chart<'_>) -> anyhow::Result<()> {
     };
     draw()
         .map_err(|e| anyhow!("{e}"))
-        .with_context(|| format!("drawing {}", path.display()))
+        .with_context(|| format!("drawing {}", path.display()))?;
+    shipcast_series::atomic_file::write_atomically(path, svg.as_bytes())
+        .with_context(|| format!("writing {}", path.display()))
 }
 
 #[cfg(test)]

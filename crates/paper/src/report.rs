@@ -624,7 +624,7 @@ pub fn write(study: &Study, dir: &std::path::Path) -> anyhow::Result<std::path::
     std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
     let figures = super::plots::write_all(study, dir)?;
     let path = dir.join("report.md");
-    std::fs::write(&path, render(study, &figures))
+    shipcast_series::atomic_file::write_atomically(&path, render(study, &figures).as_bytes())
         .with_context(|| format!("writing {}", path.display()))?;
     Ok(path)
 }
