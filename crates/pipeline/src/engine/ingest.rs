@@ -288,7 +288,6 @@ impl Ingest {
         let verdict = self.tracker.check(sample);
         counters.count(verdict);
         let by_time = self.missing_by_time(sample.time_s);
-        let mut produced = false;
         // What this sample's time gap adds to `lost` beyond its seq gap.
         let mut lost_by_time_only = 0;
         // Slots before this sample bridged.
@@ -312,9 +311,9 @@ impl Ingest {
                     );
                     self.restart();
                 }
-                if let Some(held) = self.last_good {
-                    produced = self.push_values(&held, true);
-                }
+                let produced = self
+                    .last_good
+                    .is_some_and(|held| self.push_values(&held, true));
                 return produced.then(|| self.new_value(sample, sample.time_s, 0));
             }
             SeqCheck::NewRun => {
