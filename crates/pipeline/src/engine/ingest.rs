@@ -134,12 +134,12 @@ pub struct Ingest {
     /// Incremented whenever the history restarts (forecasts pending before it never verify).
     generation: u64,
     delay_s: f64,
-    /// Longest run of missing/rejected samples bridged (a gap by a straight line to the next
-    /// sample, rejected ones by holding the last value); a longer
-    /// gap breaks the record and the history starts again.
+    /// Longest run of missing or rejected samples bridged, by a straight line from the last
+    /// good sample to the next; a longer run breaks the record and the history starts again.
     max_fill: u64,
-    /// Non-finite samples bridged in a row: held to `max_fill` like a gap, so a sensor that
-    /// only sends NaN never feeds the predictors a frozen motion.
+    /// Non-finite samples in a row since the last good one: their slots wait for the next good
+    /// sample and are bridged with it like a gap, up to `max_fill` (so a sensor that only sends
+    /// NaN never feeds the predictors a frozen motion).
     held_run: u64,
     /// What the newest accepted sample's time gap added to `lost` beyond its seq gap; taken
     /// back if that sample turns out to be a glitch the stream resynchronises away from.
@@ -297,8 +297,10 @@ impl Ingest {
         match verdict {
             SeqCheck::OutOfOrder => return None,
             SeqCheck::BadValue => {
-                // Keep the fixed-rate grid: bridge the bad sample with the last good values,
-                // and count its slot as filled so the next good sample is no gap in time.
+                // Keep the fixed-rate grid: count the bad sample's slot as filled, so the next
+                // good sample is no gap in time, and leave it to be bridged with that sample
+                // by the straight line a gap gets. (Held flat at once, a run of 6 NaN samples
+                // put a step into the models' input that they amplified like a dropout's.)
                 self.last_time = self.last_time.map(|t| t + 1.0 / self.input_rate_hz);
                 if let Some((_, slots, _)) = self.rate_check.as_mut() {
                     *slots += 1;
@@ -311,10 +313,7 @@ impl Ingest {
                     );
                     self.restart();
                 }
-                let produced = self
-                    .last_good
-                    .is_some_and(|held| self.push_values(&held, true));
-                return produced.then(|| self.new_value(sample, sample.time_s, 0));
+                return None;
             }
             SeqCheck::NewRun => {
                 if let Some(by_seq) = self.tracker.take_abandoned() {
@@ -329,22 +328,30 @@ impl Ingest {
                 );
                 self.restart();
             }
-            SeqCheck::Accepted { lost: by_seq } if by_seq.max(by_time) > 0 => {
+            SeqCheck::Accepted { lost: by_seq }
+                if by_seq.max(by_time) > 0 || (self.held_run > 0 && self.last_good.is_some()) =>
+            {
                 let lost = by_seq.max(by_time);
                 // A hole in time that seq does not show (a record with a gap, sent with
                 // consecutive seq) is lost data too: counted, not only bridged.
                 lost_by_time_only = lost - by_seq;
                 counters.lost = counters.lost.saturating_add(lost_by_time_only);
+                // The slots to bridge: the rejected samples' (counted as filled already) and
+                // then the lost ones'.
+                let slots = self.held_run + lost;
                 match self.last_good {
-                    Some(held) if lost <= self.max_fill => {
+                    Some(held) if slots <= self.max_fill => {
                         // A straight line from the last value to this one: held flat, a
                         // dropout put a step into the filter and the models' input (review:
                         // on the paper sea, 6 samples lost took the forecasts 30-70 sigmas
                         // off; the models fitted on a sea without sensor noise amplify what
                         // the bridge misses, and a line misses far less).
-                        let from = self.last_time.unwrap_or(sample.time_s);
-                        for j in 1..=lost {
-                            let u = j as f64 / (lost + 1) as f64;
+                        // The last good sample's time: the rejected slots after it moved
+                        // `last_time` on.
+                        let from = self.last_time.unwrap_or(sample.time_s)
+                            - self.held_run as f64 / self.input_rate_hz;
+                        for j in 1..=slots {
+                            let u = j as f64 / (slots + 1) as f64;
                             let filled: [f64; NUM_DOF] =
                                 std::array::from_fn(|d| held[d] + u * (sample.dof[d] - held[d]));
                             if self.push_values(&filled, true) {
@@ -352,6 +359,7 @@ impl Ingest {
                                 newest_at = from + j as f64 / self.input_rate_hz;
                             }
                         }
+                        // The rate check counted the rejected slots as they came.
                         bridged = lost;
                     }
                     _ => {
@@ -730,8 +738,10 @@ mod tests {
             assert_eq!(c.rejected_nonfinite, nan_run as u64);
             (ingest.generation(), len_after_run, ingest.len())
         };
-        // max_fill (8) in a row are bridged: one record, the grid kept.
-        assert_eq!(run(8), (0, (108 - 17) / 4 + 1, (300 - 17) / 4 + 1));
+        // max_fill (8) in a row are bridged: one record, the grid kept. Their slots wait for
+        // the good sample after them (the bridge is a line to it), so none is made during the
+        // run.
+        assert_eq!(run(8), (0, (100 - 17) / 4 + 1, (300 - 17) / 4 + 1));
         // One more restarts the history once, and the NaN samples after that add nothing.
         let (generation, len_after_run, _) = run(40);
         assert_eq!(generation, 1);

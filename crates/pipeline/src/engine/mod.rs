@@ -51,9 +51,8 @@ use shipcast_wire::payload::{Forecast, MotionSample, MAX_STEPS, NUM_DOF};
 use shipcast_wire::Dof;
 use verify::{ForecastLog, VerificationReport, Verifier};
 
-/// Longest run of lost or rejected input samples bridged (a gap by a straight line to the
-/// next sample, rejected ones by holding the last value; 1 s at 8 Hz); longer gaps restart
-/// the history.
+/// Longest run of lost or rejected input samples bridged, by a straight line from the last good
+/// sample to the next (1 s at 8 Hz); longer runs restart the history.
 pub const MAX_FILL: u64 = 8;
 
 /// Weight, in values, of a prior in the calibration (a model's held-out evidence, or the "no

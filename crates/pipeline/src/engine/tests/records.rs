@@ -101,13 +101,7 @@ fn a_record_taken_within_the_rate_tolerance_is_scored_at_every_lead() {
 #[test]
 fn a_short_dropout_keeps_the_forecasts_on_their_grid() {
     let rate = 8.0;
-    let motion = shipcast_sim::ShipMotion::new(&shipcast_sim::SimConfig::default()).unwrap();
-    let heave: Vec<f64> = motion
-        .stream(rate, 0.0)
-        .unwrap()
-        .take((1800.0 * rate) as usize)
-        .map(|p| p.dof[2])
-        .collect();
+    let heave = paper_sea_heave(rate, 1800.0);
     let clean = record(heave, rate);
     let mut dropped = clean.clone();
     let at = (rate * 900.0) as usize;
@@ -133,4 +127,43 @@ fn a_short_dropout_keeps_the_forecasts_on_their_grid() {
     // without the dropout (verified half a step off, they were several times worse).
     let (x, y) = (a.dofs[0].rms[0], b.dofs[0].rms[0]);
     assert!(y < 1.5 * x, "0.5 s RMS {y} against {x} without the dropout");
+}
+
+/// Regression (review): a run of non-finite samples was held flat at the last good value as it
+/// came, which put a step into the models' input; the models fitted on the noise-free paper
+/// sea amplify such a step many times over, as they did a dropout held flat. The run is now
+/// bridged like a dropout, by a straight line once the next good sample arrives.
+#[test]
+fn a_short_run_of_non_finite_samples_is_bridged_like_a_dropout() {
+    let rate = 8.0;
+    let heave = paper_sea_heave(rate, 1800.0);
+    let at = (rate * 900.0) as usize;
+    let mut dropped = record(heave.clone(), rate);
+    dropped.time.drain(at..at + 6);
+    dropped.columns[0].values.drain(at..at + 6);
+    let mut nan = record(heave, rate);
+    nan.columns[0].values[at..at + 6].fill(f64::NAN);
+    let config = PredictorServiceConfig::default();
+    let (a, a_forecasts) = replay(&dropped, &config, None, 60.0, true, &|_| {}).unwrap();
+    let (b, b_forecasts) = replay(&nan, &config, None, 60.0, true, &|_| {}).unwrap();
+    assert_eq!((a.input.lost, b.input.rejected_nonfinite), (6, 6));
+    assert_eq!(b.history_restarts, 0);
+    // The same values reach the models either way, so the same forecasts come out.
+    assert_eq!(a_forecasts.len(), b_forecasts.len());
+    for (x, y) in a_forecasts.iter().zip(&b_forecasts) {
+        assert_eq!(x.time_s.to_bits(), y.time_s.to_bits());
+        assert_eq!(x.mean[2][..], y.mean[2][..], "at {}", x.time_s);
+    }
+    assert_eq!(a.dofs[0].max_abs_z.to_bits(), b.dofs[0].max_abs_z.to_bits());
+}
+
+/// The first `seconds` of the default simulator's heave at `rate` Hz.
+fn paper_sea_heave(rate: f64, seconds: f64) -> Vec<f64> {
+    let motion = shipcast_sim::ShipMotion::new(&shipcast_sim::SimConfig::default()).unwrap();
+    motion
+        .stream(rate, 0.0)
+        .unwrap()
+        .take((seconds * rate) as usize)
+        .map(|p| p.dof[2])
+        .collect()
 }
