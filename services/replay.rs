@@ -307,12 +307,30 @@ fn nothing_scored(
     skip_s: f64,
     (start_s, end_s): (f64, f64),
 ) -> String {
-    let first_s =
-        shipcast_pipeline::engine::MIN_VALUES_TO_PUBLISH as f64 / predictor.sample_rate_hz;
+    // The first forecast comes with the input that completes the decimated values it needs,
+    // and is stamped the decimation filter's delay before that input (review: the message said
+    // "issued 30 s into it" where a 55.5 s record was refused and a 56 s one taken).
+    let factor = (report.input_rate_hz / predictor.sample_rate_hz)
+        .round()
+        .max(1.0) as usize;
+    let inputs = shipcast_series::decimation_inputs_for(
+        shipcast_pipeline::engine::MIN_VALUES_TO_PUBLISH as usize,
+        factor,
+    );
+    let first_s = (inputs - 1) as f64 / report.input_rate_hz;
     let horizon_s = predictor.horizon as f64 / predictor.sample_rate_hz;
+    let least_s = first_s - report.delay_s + horizon_s;
     let file = input.display();
+    let stamped = if report.delay_s > 0.0 {
+        format!(
+            " and stamped {:.1} s before that (the decimation filter's delay)",
+            report.delay_s
+        )
+    } else {
+        String::new()
+    };
     let needs = format!(
-        "a forecast is scored only if all {horizon_s:.1} s of its steps lie inside the record, and the first is issued {first_s:.0} s into it"
+        "a forecast is scored only if all {horizon_s:.1} s of its steps lie inside the record: the first is issued {first_s:.1} s into an unbroken record{stamped}, so at least {least_s:.1} s are needed"
     );
     match report.last_complete_s {
         Some(last) => format!(

@@ -681,18 +681,33 @@ fn replay_of_a_record_whose_gaps_restart_the_history_names_them_not_skip_s() {
         .unwrap_or_else(|| panic!("{stdout}"));
     assert!(all > 0 && partly == all, "{scored}");
     assert!(scored.contains("of them partly scored"), "{scored}");
-    // 45 s without holes: too short, and no --skip-s was given, so none is named.
-    let short = dir.path().join("short.csv").to_str().unwrap().to_string();
-    assert!(shipcast(&["simulate", "--duration", "45", "--out", &short])
+    // Too short, and no --skip-s was given, so none is named. The length the message asks
+    // for is the real boundary (review: it said the first forecast comes 30 s in, and a
+    // 55.5 s record was refused): 60 values at 2 Hz after the filter's 17 inputs at 8 Hz come
+    // with the input at 31.5 s, stamped 0.5 s before it, and 25 s of steps follow.
+    let long = dir.path().join("long.csv").to_str().unwrap().to_string();
+    assert!(shipcast(&["simulate", "--duration", "60", "--out", &long])
         .status
         .success());
-    let e = error(&["replay", "--input", &short]);
+    let text = std::fs::read_to_string(&long).unwrap();
+    let first_rows = |n: usize| -> String {
+        let path = dir.path().join(format!("first{n}.csv"));
+        let rows: Vec<&str> = text.lines().take(1 + n).collect();
+        std::fs::write(&path, rows.join("\n") + "\n").unwrap();
+        path.to_str().unwrap().to_string()
+    };
+    // 0 to 55.5 s at 8 Hz.
+    let e = error(&["replay", "--input", &first_rows(445)]);
     assert!(
-        e.contains("the first is issued 30 s into it")
+        e.contains("runs from 0.0 to 55.5 s")
+            && e.contains("the first is issued 31.5 s into an unbroken record")
+            && e.contains("at least 56.0 s are needed")
             && !e.contains("--skip-s")
             && !e.contains("restarted"),
         "{e}"
     );
+    let taken = shipcast(&["replay", "--input", &first_rows(449), "--json"]);
+    assert!(taken.status.success(), "{taken:?}");
     // Without holes and long enough, but --skip-s past the last whole forecast: --skip-s
     // is the cause, and the message says so (review: it blamed the gaps of a gappy record).
     let e = error(&["replay", "--input", &csv, "--skip-s", "190"]);

@@ -264,9 +264,12 @@ pub fn fit_weights(
     // inside the training segment (o + H <= len).
     let first = order + k - 1;
     if train.len() < first + horizon + k {
-        return Err(PredictError::TooShort {
+        // Regression (review): this was the method's own "too short", which a user could only
+        // read as the method needing more than it does.
+        return Err(PredictError::TooShortToWeigh {
             method: predictor.method(),
             order,
+            k,
             needed: first + horizon + k,
             got: train.len(),
         });

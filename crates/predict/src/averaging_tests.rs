@@ -158,8 +158,21 @@ fn fitting_needs_enough_training_values() {
         gain: 0.0,
     };
     let ramp: Vec<f64> = (0..15).map(|i| i as f64).collect();
+    // 5 + 3 - 1 origins to have three forecasts, their 6 steps, and 3 to weigh them: 16.
     let e = fit_weights(&mut p, &ramp, 3).unwrap_err();
-    assert!(matches!(e, PredictError::TooShort { .. }), "{e}");
+    assert!(
+        matches!(
+            e,
+            PredictError::TooShortToWeigh {
+                k: 3,
+                needed: 16,
+                got: 15,
+                ..
+            }
+        ),
+        "{e}"
+    );
+    assert!(fit_weights(&mut p, &(0..16).map(f64::from).collect::<Vec<_>>(), 3).is_ok());
 }
 
 #[test]

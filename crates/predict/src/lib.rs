@@ -100,6 +100,16 @@ pub enum PredictError {
         needed: usize,
         got: usize,
     },
+    /// The training series is too short to fit the weights of K averaged forecasts, although
+    /// the method itself could be fitted on it.
+    #[error("training series too short to fit the weights of {k} averaged forecasts: {method} with order {order} needs at least {needed} values for them, got {got} (average fewer forecasts, average uniformly, or train on more)")]
+    TooShortToWeigh {
+        method: Method,
+        order: usize,
+        k: usize,
+        needed: usize,
+        got: usize,
+    },
     /// A buffer passed to `forecast`/`update` has the wrong length.
     #[error("buffer length: {0}")]
     Length(String),
