@@ -228,7 +228,7 @@ fn table(r: &ReplayReport) -> String {
             ));
         }
         s.push_str(&format!(
-            "{:<7} max |error| {:.4} ({:.2} x the motion's RMS {:.4}); {} implausible forecasts replaced\n",
+            "{:<7} max |error| {:.4} ({:.2} x the motion's std {:.4}); {} implausible forecasts replaced\n",
             d.dof,
             d.max_abs_error,
             d.max_abs_error / d.std,
@@ -338,7 +338,7 @@ fn nothing_scored(
             report.complete_forecasts
         ),
         None if report.history_restarts > 0 => format!(
-            "no forecast could be scored in {file}: gaps in time or runs of bad values longer than {} samples restarted the history {} times, and {needs}; the longest history between them was {:.1} s",
+            "no forecast could be scored in {file}: gaps in time longer than {} samples restarted the history {} times, and {needs}; the longest history between them was {:.1} s",
             shipcast_pipeline::engine::MAX_FILL,
             report.history_restarts,
             report.longest_history_s,

@@ -2,7 +2,8 @@
 //! predictor service.
 
 use crate::eval::{load_resampled, sample_rate, PredictorArgs};
-use shipcast_eval::model::{train_models, TrainOptions};
+use shipcast_eval::model::{train_models, ModelError, TrainOptions};
+use shipcast_eval::EvalError;
 use shipcast_pipeline::config::{PredictorServiceConfig, WienerSettings};
 use shipcast_predict::{Method, PredictorConfig};
 use shipcast_wire::Dof;
@@ -117,18 +118,39 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         );
     }
     let holdout = options.holdout_fraction;
+    let rate = options.sample_rate;
     let model = train_models(&data, &dofs, &options).map_err(|e| {
-        // "train N" in the protocol's message is the record less its held-out share here.
         let text = e.to_string();
-        let holdout = shipcast_wire::shown::number(holdout);
-        if text.contains("is too short: train") {
+        let shown = shipcast_wire::shown::number(holdout);
+        if let ModelError::Eval {
+            dof,
+            error:
+                EvalError::TooShort {
+                    len,
+                    order,
+                    horizon,
+                    ..
+                },
+        } = &e
+        {
+            // Regression (review): this was the protocol's "train N + order + horizon = M
+            // samples are needed", N the record less its held-out share: given M samples, it
+            // asked for M + 7, and so on.
+            let needed = match least_record_for(order + horizon, holdout) {
+                Some(least) => format!(
+                    "at least {least} samples ({} s) are needed",
+                    shipcast_wire::shown::number((least as f64 / rate).ceil())
+                ),
+                None => "no record of any practical length is enough".to_string(),
+            };
             anyhow::anyhow!(
-                "{text} (train: the record less --holdout {holdout} of it, so the held-out part must hold order + horizon values; a longer record, a lower --order or --horizon, or a larger --holdout help)"
+                "{dof}: the record's {len} samples at {} Hz are too short: its held-out part, --holdout {shown} of it, must hold order {order} + horizon {horizon} values for one forecast, so {needed}; a longer record, a lower --order or --horizon, or a larger --holdout help",
+                shipcast_wire::shown::number(rate)
             )
         } else if text.contains("training series too short") {
             // Regression (review): no word that --holdout had taken the rest.
             anyhow::anyhow!(
-                "{text} (the training part is the record less --holdout {holdout} of it; a longer record, a lower --order or a smaller --holdout help)"
+                "{text} (the training part is the record less --holdout {shown} of it; a longer record, a lower --order or a smaller --holdout help)"
             )
         } else {
             anyhow::Error::from(e)
@@ -150,12 +172,46 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// The fewest samples whose held-out end, as `train_models` splits them (the last
+/// `len - floor((1 - holdout) * len)`), holds `values`; None beyond 1e12 samples (a tiny
+/// `holdout`), where the count would overflow.
+fn least_record_for(values: usize, holdout: f64) -> Option<usize> {
+    if !(holdout > 0.0 && values as f64 / holdout <= 1e12) {
+        return None;
+    }
+    let held = |len: usize| len - ((1.0 - holdout) * len as f64).floor() as usize;
+    // The held-out part is about holdout * len: the answer lies just above values / holdout.
+    // Start where that part holds at most values - 1, clear of rounding.
+    let mut len = ((values.saturating_sub(1) as f64 / holdout).floor() as usize)
+        .saturating_sub(2)
+        .max(values);
+    while held(len) < values {
+        len += 1;
+    }
+    Some(len)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
 
     fn refused(argv: &[&str]) -> String {
         crate::refused::<Args, Config>(argv)
+    }
+
+    #[test]
+    fn the_least_record_is_the_shortest_whose_held_out_part_holds_the_values() {
+        let held = |len: usize, h: f64| len - ((1.0 - h) * len as f64).floor() as usize;
+        for values in [1, 7, 66, 250, 1001] {
+            for h in [0.1, 0.2, 0.25, 0.3, 0.5, 0.9, 1e-3] {
+                let least = least_record_for(values, h).unwrap();
+                assert!(held(least, h) >= values, "{values} {h}: {least}");
+                assert!(held(least - 1, h) < values, "{values} {h}: {least}");
+            }
+        }
+        // The shipped defaults: order 200 + horizon 50 at --holdout 0.2.
+        assert_eq!(least_record_for(250, 0.2), Some(1246));
+        assert_eq!(least_record_for(66, 1e-300), None);
     }
 
     #[test]

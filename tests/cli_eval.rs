@@ -366,7 +366,7 @@ fn train_writes_a_loadable_model_for_every_dof_present() {
 
     // Regression (review): "too short" advised a lower --holdout, which makes it worse: the
     // held-out share must hold order + horizon values (50 of 500 cannot hold 60 + 6).
-    let train = |holdout: &str| {
+    let train_on = |input: &std::path::Path, holdout: &str| {
         shipcast(&[
             "train",
             "--input",
@@ -381,7 +381,24 @@ fn train_writes_a_loadable_model_for_every_dof_present() {
             holdout,
         ])
     };
+    let train = |holdout: &str| train_on(&input, holdout);
     assert_one_line_error(&train("0.1"), "or a larger --holdout help");
+    // It names the length that is enough: 651 samples (the last 66 held out), and 650 not.
+    let short = train("0.1");
+    let e = String::from_utf8_lossy(&short.stderr).to_string();
+    assert!(
+        e.contains("500 samples at 2 Hz are too short") && e.contains("at least 651 samples"),
+        "{e}"
+    );
+    let text = std::fs::read_to_string(sea_csv(dir.path(), "long.csv", 2.0, 700)).unwrap();
+    let rows = |n: usize| {
+        let path = dir.path().join(format!("first{n}.csv"));
+        let lines: Vec<&str> = text.lines().take(1 + n).collect();
+        std::fs::write(&path, lines.join("\n") + "\n").unwrap();
+        path
+    };
+    assert!(train_on(&rows(651), "0.1").status.success());
+    assert_one_line_error(&train_on(&rows(650), "0.1"), "at least 651 samples");
     let larger = train("0.2");
     assert!(
         larger.status.success(),
@@ -681,6 +698,19 @@ fn replay_of_a_record_whose_gaps_restart_the_history_names_them_not_skip_s() {
         .unwrap_or_else(|| panic!("{stdout}"));
     assert!(all > 0 && partly == all, "{scored}");
     assert!(scored.contains("of them partly scored"), "{scored}");
+    // The JSON says as much on every DOF's line (review: it had no `partly_scored`, which
+    // the docs promised).
+    let json = shipcast(&["replay", "--input", &holes, "--json"]);
+    let lines: Vec<serde_json::Value> = String::from_utf8_lossy(&json.stdout)
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .filter(|v: &serde_json::Value| v.get("dof").is_some())
+        .collect();
+    assert_eq!(lines.len(), 6);
+    for v in &lines {
+        assert_eq!(v["scored"].as_u64(), Some(all), "{v}");
+        assert_eq!(v["partly_scored"].as_u64(), Some(partly), "{v}");
+    }
     // Too short, and no --skip-s was given, so none is named. The length the message asks
     // for is the real boundary (review: it said the first forecast comes 30 s in, and a
     // 55.5 s record was refused): 60 values at 2 Hz after the filter's 17 inputs at 8 Hz come

@@ -289,7 +289,8 @@ fn nan_and_out_of_order_samples_are_rejected_counted_and_survived() {
     assert_eq!(c("rejected_order"), 34, "{last}");
     assert_eq!(c("lost"), 0, "{last}");
     // Bridged NaN samples keep the 2 Hz grid: as many forecasts as from a clean record (from
-    // the 60th value on, the engine's MIN_VALUES_TO_PUBLISH).
+    // the 60th value on, the engine's MIN_VALUES_TO_PUBLISH), as each is alone. (A run of 4 or
+    // more completes several values with the good sample after it, forecast from once.)
     assert_eq!(c("published"), (2400 - 17) / 4 + 1 - 59, "{last}");
     assert_eq!(status_u64(&last, &["forecasts"]), c("published"), "{last}");
     assert!(predictor.terminate().success());

@@ -119,14 +119,15 @@ pub struct Ingest {
     newest: [f64; NUM_DOF],
     /// Per DOF, the input the newest decimated value is labelled with (`time_s`).
     at_label: [f64; NUM_DOF],
-    /// Inputs pushed since the last bridged one (a held value standing in for a missing or
+    /// Inputs pushed since the last bridged one (a value standing in for a missing or
     /// non-finite sample): the input at the label is a recorded sample once it exceeds the
     /// decimator's delay.
     recorded_run: usize,
     /// The decimator's delay in inputs.
     delay_samples: usize,
     tracker: SeqTracker,
-    last_good: Option<[f64; NUM_DOF]>,
+    /// The last good sample's values and record time: where a bridge starts.
+    last_good: Option<([f64; NUM_DOF], f64)>,
     /// Record time of the last accepted sample: a jump in time is a gap even when seq has none
     /// (a CSV record with a hole in it).
     last_time: Option<f64>,
@@ -257,7 +258,7 @@ impl Ingest {
         self.rate_check = None;
     }
 
-    /// Push six values through the decimators (`bridged`: held values standing in for a
+    /// Push six values through the decimators (`bridged`: values standing in for a
     /// missing or bad sample); true if a new decimated value came out.
     fn push_values(&mut self, dof: &[f64; NUM_DOF], bridged: bool) -> bool {
         self.recorded_run = if bridged {
@@ -340,16 +341,12 @@ impl Ingest {
                 // then the lost ones'.
                 let slots = self.held_run + lost;
                 match self.last_good {
-                    Some(held) if slots <= self.max_fill => {
+                    Some((held, from)) if slots <= self.max_fill => {
                         // A straight line from the last value to this one: held flat, a
                         // dropout put a step into the filter and the models' input (review:
                         // on the paper sea, 6 samples lost took the forecasts 30-70 sigmas
                         // off; the models fitted on a sea without sensor noise amplify what
                         // the bridge misses, and a line misses far less).
-                        // The last good sample's time: the rejected slots after it moved
-                        // `last_time` on.
-                        let from = self.last_time.unwrap_or(sample.time_s)
-                            - self.held_run as f64 / self.input_rate_hz;
                         for j in 1..=slots {
                             let u = j as f64 / (slots + 1) as f64;
                             let filled: [f64; NUM_DOF] =
@@ -371,8 +368,12 @@ impl Ingest {
                         if due {
                             tracing::warn!(
                                 lost,
+                                non_finite = self.held_run,
                                 gaps = self.gaps_unlogged,
-                                "predictor: gap too long to bridge: history restarts ({} such gaps since the last line)",
+                                "predictor: gap too long to bridge ({} samples missing and {} non-finite in a row, more than {}): history restarts ({} such gaps since the last line)",
+                                lost,
+                                self.held_run,
+                                self.max_fill,
                                 self.gaps_unlogged
                             );
                             self.gaps_unlogged = 0;
@@ -385,13 +386,20 @@ impl Ingest {
             SeqCheck::Accepted { .. } => {}
         }
         self.last_lost_by_time = lost_by_time_only;
+        let generation = self.generation;
         self.check_rate(sample.time_s, bridged, counters);
+        if self.generation != generation {
+            // The rate check restarted the history: the values the bridge made are gone with
+            // it, and the new history starts with this sample (review: a bridged value the
+            // restart had cleared was handed to the engine).
+            made = 0;
+        }
         if self.push_values(&sample.dof, false) {
             made += 1;
             newest_at = sample.time_s;
         }
         self.held_run = 0;
-        self.last_good = Some(sample.dof);
+        self.last_good = Some((sample.dof, sample.time_s));
         self.last_time = Some(sample.time_s);
         (made > 0).then(|| self.new_value(sample, newest_at, made - 1))
     }
@@ -594,6 +602,38 @@ mod tests {
         let (len, c) = ingested(&slow);
         assert_eq!((len, c.rate_mismatches), (on_rate, 0), "{c:?}");
         assert_eq!(c.lost, n as u64 / 2 - 1);
+    }
+
+    /// Regression (review): a bridge completed values, then the rate check at the same sample
+    /// restarted the history, and the value handed to the engine was one the restart had
+    /// cleared.
+    #[test]
+    fn a_value_handed_on_is_in_the_history_when_the_rate_check_restarts_it() {
+        // 7 Hz read as 8 Hz: the check at slot 64 restarts; a run of 4 NaN (59-62) or 4 lost
+        // samples just before it makes the bridge there.
+        let nan: Vec<MotionSample> = stamped(200, |i| i as f64 / 7.0)
+            .into_iter()
+            .enumerate()
+            .map(|(i, mut s)| {
+                if (59..63).contains(&i) {
+                    s.dof[2] = f64::NAN;
+                }
+                s
+            })
+            .collect();
+        let mut lost = stamped(200, |i| i as f64 / 7.0);
+        lost.drain(59..63);
+        for input in [nan, lost] {
+            let mut ingest =
+                Ingest::new(4, 8.0, 1000, 8, shipcast_series::FilterPhase::Linear).unwrap();
+            let mut c = Counters::default();
+            for s in &input {
+                if ingest.push(s, &mut c).is_some() {
+                    assert!(!ingest.is_empty(), "seq {}: {c:?}", s.seq);
+                }
+            }
+            assert!(c.rate_mismatches > 0, "{c:?}");
+        }
     }
 
     #[test]

@@ -26,13 +26,17 @@ pub struct DofReplay {
     pub dof: &'static str,
     pub forecasts: u64,
     pub scored: u64,
+    /// Of `scored`, those with a step on a sample missing from the record, scored at the others.
+    pub partly_scored: u64,
     pub retrains: u64,
     pub swaps: u64,
     pub implausible: u64,
     /// Jumps of the level a forecast's first steps missed, each held at no skill until it
     /// had left the model's input (`jump.rs`).
     pub jumps: u64,
-    /// RMS of the record's values at the scored steps (what predicting zero scores).
+    /// Standard deviation about their mean of the record's values at the scored steps: what
+    /// predicting the motion's mean scores. (Until 2026-12-08 their RMS about zero: a record
+    /// with an offset, a list of the ship, looked like strong skill; review.)
     pub std: f64,
     pub rms: Vec<f64>,
     pub zero_rms: Vec<f64>,
@@ -102,6 +106,10 @@ struct StepSums {
     n: f64,
     ee: f64,
     xx: f64,
+    /// Sums of the values and their squares less the DOF's first value in the record, for
+    /// the standard deviation about the mean without cancelling a large offset away.
+    dx: f64,
+    dxx: f64,
     pp: f64,
     sigma: f64,
     in1: f64,
@@ -252,6 +260,14 @@ pub fn replay_scored(
     )?;
     let present: Vec<Dof> = data.dofs();
     let columns: Vec<Option<&[f64]>> = Dof::ALL.iter().map(|&d| data.dof(d).ok()).collect();
+    // Each DOF's first finite value: what `StepSums::dx` is counted from.
+    let shifts: Vec<f64> = columns
+        .iter()
+        .map(|c| {
+            c.and_then(|c| c.iter().copied().find(|v| v.is_finite()))
+                .unwrap_or(0.0)
+        })
+        .collect();
     let step_in = 1.0 / rate;
     let delay = engine.delay_s();
     let mut scorer = deck.map(|d| DecisionScorer::new("deck", d, &DECISION_MOTS_S, delay));
@@ -365,6 +381,11 @@ pub fn replay_scored(
             for (k, j) in idx.iter().enumerate() {
                 let Some(&j) = j.as_ref() else { continue };
                 let x = col[j];
+                // A record read from CSV has no non-finite value; one built in memory may.
+                if !x.is_finite() {
+                    continue;
+                }
+                let dx = x - shifts[d];
                 let m = f64::from(f.mean[d][k]);
                 let s = f64::from(f.sigma[d][k]);
                 let e = x - m;
@@ -373,6 +394,8 @@ pub fn replay_scored(
                 acc.n += 1.0;
                 acc.ee += e * e;
                 acc.xx += x * x;
+                acc.dx += dx;
+                acc.dxx += dx * dx;
                 acc.pp += p * p;
                 acc.sigma += s;
                 acc.in1 += f64::from(u8::from(e.abs() <= s));
@@ -410,19 +433,29 @@ pub fn replay_scored(
             let root = |a: f64, n: f64| if n > 0.0 { (a / n).sqrt() } else { f64::NAN };
             let rms = per(&|a| root(a.ee, a.n));
             let zero_rms = per(&|a| root(a.xx, a.n));
-            let (xx, n, in3) = s.iter().fold((0.0, 0.0, 0.0), |acc, a| {
-                (acc.0 + a.xx, acc.1 + a.n, acc.2 + a.in3)
+            // Standard deviation about the mean from shifted sums (`StepSums::dx`).
+            let std_of = |dx: f64, dxx: f64, n: f64| {
+                if n > 0.0 {
+                    (dxx / n - (dx / n).powi(2)).max(0.0).sqrt()
+                } else {
+                    f64::NAN
+                }
+            };
+            let step_std = per(&|a| std_of(a.dx, a.dxx, a.n));
+            let (dx, dxx, n, in3) = s.iter().fold((0.0, 0.0, 0.0, 0.0), |acc, a| {
+                (acc.0 + a.dx, acc.1 + a.dxx, acc.2 + a.n, acc.3 + a.in3)
             });
             DofReplay {
                 dof: dof.name(),
                 forecasts: counts.forecasts,
                 scored,
+                partly_scored,
                 retrains: counts.retrains,
                 swaps: counts.swaps,
                 implausible: counts.implausible[d],
                 jumps: counts.jumps[d],
-                std: root(xx, n),
-                nrmse: rms.iter().zip(&zero_rms).map(|(a, b)| a / b).collect(),
+                std: std_of(dx, dxx, n),
+                nrmse: rms.iter().zip(&step_std).map(|(a, b)| a / b).collect(),
                 rms,
                 zero_rms,
                 persistence_rms: per(&|a| root(a.pp, a.n)),

@@ -155,6 +155,12 @@ fn a_short_run_of_non_finite_samples_is_bridged_like_a_dropout() {
         assert_eq!(x.mean[2][..], y.mean[2][..], "at {}", x.time_s);
     }
     assert_eq!(a.dofs[0].max_abs_z.to_bits(), b.dofs[0].max_abs_z.to_bits());
+    // Scored at the steps with a finite value only.
+    assert!(
+        b.dofs[0].rms.iter().all(|r| r.is_finite()),
+        "{:?}",
+        b.dofs[0].rms
+    );
 }
 
 /// The first `seconds` of the default simulator's heave at `rate` Hz.

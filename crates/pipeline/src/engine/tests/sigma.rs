@@ -482,3 +482,29 @@ fn a_model_without_its_input_after_a_restart_says_no_skill() {
     }
     assert!(checked > 10, "{checked}");
 }
+
+/// Regression (review): replay's `std` and `nrmse` were about zero, so a record with an offset
+/// (a list of the ship) made forecasts without skill look excellent: at a 5 m offset, NRMSE
+/// 0.075 for the flat forecast that predicting the mean scores 1.
+#[test]
+fn an_offset_record_is_scored_against_its_spread_about_the_mean() {
+    let config = PredictorServiceConfig {
+        retrain_every_s: 0.0,
+        ..PredictorServiceConfig::default()
+    };
+    // The AR(2) motion's std is about 6: an offset of 10 std.
+    let motion = ar2(2 * 1800, 2, |_| 1.0);
+    let mut listed = motion.clone();
+    listed.iter_mut().for_each(|x| *x += 60.0);
+    let (a, _) = replay(&record(motion, 2.0), &config, None, 600.0, false, &|_| {}).unwrap();
+    let (b, _) = replay(&record(listed, 2.0), &config, None, 600.0, false, &|_| {}).unwrap();
+    let (a, b) = (&a.dofs[0], &b.dofs[0]);
+    // The offset moves neither the spread nor how the flat forecast at the level scores.
+    assert!((b.std / a.std - 1.0).abs() < 1e-6, "{} {}", b.std, a.std);
+    for k in 0..50 {
+        assert!((b.nrmse[k] - 1.0).abs() < 0.02, "step {k}: {}", b.nrmse[k]);
+        assert!((b.nrmse[k] - a.nrmse[k]).abs() < 1e-3, "step {k}");
+    }
+    // Predicting zero is what the offset spoils, and zero_rms says so.
+    assert!(b.zero_rms[0] > 9.0 * b.std, "{} {}", b.zero_rms[0], b.std);
+}
