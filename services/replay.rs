@@ -180,6 +180,16 @@ pub fn run(args: Args) -> anyhow::Result<()> {
 /// Leads shown in the table [s].
 const TABLE_LEADS: [f64; 4] = [5.0, 10.0, 15.0, 20.0];
 
+/// `v` with `decimals` decimals, or "-" where it is not a number (a ratio over nothing: no go
+/// call, a DOF that never moved, nothing scored), which the table showed as NaN (review).
+fn fixed(v: f64, decimals: usize) -> String {
+    if v.is_finite() {
+        format!("{v:.decimals$}")
+    } else {
+        "-".to_string()
+    }
+}
+
 fn table(r: &ReplayReport) -> String {
     let mut s = format!(
         "replay: {} forecasts, {} retrains ({} failed), {} swaps ({} kept the running model), {} sea changes; input {} Hz\n",
@@ -216,32 +226,32 @@ fn table(r: &ReplayReport) -> String {
             }
             let i = k - 1;
             s.push_str(&format!(
-                "{:<7} {:>4.0}s {:<8.4} {:<6.3} {:<8.4} {:<8.4} {:<6.3} {:<6.3}\n",
+                "{:<7} {:>4.0}s {:<8} {:<6} {:<8} {:<8} {:<6} {:<6}\n",
                 d.dof,
                 lead,
-                d.rms[i],
-                d.nrmse[i],
-                d.persistence_rms[i],
-                d.mean_sigma[i],
-                d.coverage_1sigma[i],
-                d.coverage_2sigma[i]
+                fixed(d.rms[i], 4),
+                fixed(d.nrmse[i], 3),
+                fixed(d.persistence_rms[i], 4),
+                fixed(d.mean_sigma[i], 4),
+                fixed(d.coverage_1sigma[i], 3),
+                fixed(d.coverage_2sigma[i], 3)
             ));
         }
         s.push_str(&format!(
-            "{:<7} max |error| {:.4} ({:.2} x the motion's std {:.4}); {} implausible forecasts replaced\n",
+            "{:<7} max |error| {} ({} x the motion's std {}); {} implausible forecasts replaced\n",
             d.dof,
-            d.max_abs_error,
-            d.max_abs_error / d.std,
-            d.std,
+            fixed(d.max_abs_error, 4),
+            fixed(d.max_abs_error / d.std, 2),
+            fixed(d.std, 4),
             d.implausible
         ));
         s.push_str(&format!(
-            "{:<7} largest error {:.1} sigma (issued at {} s, {} s ahead); {:.4} of all steps beyond 3 sigma (Gaussian 0.0027)\n",
+            "{:<7} largest error {} sigma (issued at {} s, {} s ahead); {} of all steps beyond 3 sigma (Gaussian 0.0027)\n",
             d.dof,
-            d.max_abs_z,
-            limits::shown(d.max_abs_z_time_s),
-            limits::shown(d.max_abs_z_lead_s),
-            d.beyond_3sigma
+            fixed(d.max_abs_z, 1),
+            fixed(d.max_abs_z_time_s, 1),
+            fixed(d.max_abs_z_lead_s, 1),
+            fixed(d.beyond_3sigma, 4)
         ));
     }
     let horizon_s = r.dofs.first().map_or(0.0, |d| d.rms.len() as f64 * r.dt_s);
@@ -261,33 +271,34 @@ fn table(r: &ReplayReport) -> String {
             continue;
         }
         s.push_str(&format!(
-            "{} MOT {:.0}s: {} calls, {} go at p >= {:.2}, false go {:.3}, hit rate {:.3} of {} quiet periods, Brier {:.4} (base rate {:.4})\n",
-            d.station, d.mot_s, d.calls, d.go_calls, d.go_probability, d.false_go_rate,
-            d.hit_rate, d.quiet_periods, d.brier, d.brier_climatology
+            "{} MOT {:.0}s: {} calls, {} go at p >= {:.2}, false go {}, hit rate {} of {} quiet periods, Brier {} (base rate {})\n",
+            d.station, d.mot_s, d.calls, d.go_calls, d.go_probability, fixed(d.false_go_rate, 3),
+            fixed(d.hit_rate, 3), d.quiet_periods, fixed(d.brier, 4), fixed(d.brier_climatology, 4)
         ));
         s.push_str(&format!(
             "  threshold  go calls  false go  hit rate announced {:?} s ahead\n",
             d.hit_leads_s
         ));
         for c in &d.curve {
-            let hits: Vec<String> = c
-                .hit_rate_by_lead
-                .iter()
-                .map(|h| format!("{h:.3}"))
-                .collect();
+            let hits: Vec<String> = c.hit_rate_by_lead.iter().map(|&h| fixed(h, 3)).collect();
             s.push_str(&format!(
-                "  {:.2}  {:>8}  {:>8.3}  {}\n",
+                "  {:.2}  {:>8}  {:>8}  {}\n",
                 c.threshold,
                 c.go_calls,
-                c.false_go_rate,
+                fixed(c.false_go_rate, 3),
                 hits.join(" ")
             ));
         }
         s.push_str("  p bin      calls  episodes  stated  observed\n");
         for b in d.reliability.iter().filter(|b| b.count > 0) {
             s.push_str(&format!(
-                "  {:.1}-{:.1}  {:>7}  {:>8}  {:.3}   {:.3}\n",
-                b.p_lo, b.p_hi, b.count, b.episodes, b.stated, b.observed
+                "  {:.1}-{:.1}  {:>7}  {:>8}  {}   {}\n",
+                b.p_lo,
+                b.p_hi,
+                b.count,
+                b.episodes,
+                fixed(b.stated, 3),
+                fixed(b.observed, 3)
             ));
         }
     }

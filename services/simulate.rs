@@ -89,7 +89,7 @@ pub struct Args {
     /// Length of the record [s].
     #[arg(long, default_value_t = 3600.0, allow_negative_numbers = true)]
     pub duration: f64,
-    /// Sample rate [Hz].
+    /// Sample rate [Hz], at least 0.2 (a step of at most 5 s, the longest eval and replay take)
     #[arg(long, default_value_t = 8.0, allow_negative_numbers = true)]
     pub rate: f64,
     /// Output motion CSV.

@@ -1080,3 +1080,45 @@ fn replay_takes_a_10_hz_record_stamped_in_epoch_seconds() {
         .expect("a heave line");
     assert!(heave["scored"].as_u64().unwrap() > 500, "{heave}");
 }
+
+/// Regression (review): ratios over nothing (a DOF that never moves, no go call) were printed
+/// as NaN in replay's table; they are "-".
+#[test]
+fn replay_table_shows_a_dash_where_a_ratio_has_nothing_to_divide_by() {
+    let dir = tempfile::tempdir().unwrap();
+    let csv = dir.path().join("sim.csv");
+    assert!(shipcast(&[
+        "simulate",
+        "--duration",
+        "400",
+        "--out",
+        csv.to_str().unwrap()
+    ])
+    .status
+    .success());
+    // The heave column held at 0: a dead sensor.
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let mut lines = text.lines();
+    let header = lines.next().unwrap();
+    let heave = header.split(',').position(|c| c == "heave_m").unwrap();
+    let mut frozen = format!("{header}\n");
+    for line in lines {
+        let mut fields: Vec<&str> = line.split(',').collect();
+        fields[heave] = "0";
+        frozen.push_str(&fields.join(","));
+        frozen.push('\n');
+    }
+    let path = dir.path().join("frozen.csv");
+    std::fs::write(&path, frozen).unwrap();
+    let output = shipcast(&["replay", "--input", path.to_str().unwrap()]);
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    assert!(output.status.success(), "{output:?}");
+    assert!(
+        !stdout.contains("NaN") && !stdout.contains("inf"),
+        "{stdout}"
+    );
+    assert!(
+        stdout.contains("heave   max |error| 0.0000 (- x the motion's std 0.0000)"),
+        "{stdout}"
+    );
+}

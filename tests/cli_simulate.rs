@@ -134,7 +134,7 @@ fn bad_input_exits_with_one_clear_line() {
     let missing = dir.path().join("missing.csv");
     let missing = missing.to_str().unwrap();
     let cannot_open = format!("cannot open {missing}");
-    let cases: [(&[&str], &str); 6] = [
+    let cases: [(&[&str], &str); 7] = [
         (&["--scenario", "ss9"], "unknown scenario 'ss9'"),
         (
             &["--hs", "-1"],
@@ -142,6 +142,8 @@ fn bad_input_exits_with_one_clear_line() {
         ),
         (&["--spreading", "cos3"], "unknown spreading 'cos3'"),
         (&["--rate", "0"], "--rate must be a number in"),
+        // Slower than any reader takes (a step of at most 5 s).
+        (&["--rate", "0.1"], "--rate must be a number in [0.2, "),
         (&["--rao-table", missing], &cannot_open),
         (
             &["--rao-table", bad_table.to_str().unwrap()],

@@ -79,7 +79,15 @@ impl TryFrom<Args> for Config {
         if args.gamma.is_some() && args.spectrum.trim().eq_ignore_ascii_case("ittc") {
             anyhow::bail!("--gamma applies to --spectrum jonswap only");
         }
-        let rate_hz = checked(limits::rate("--rate", args.rate, MAX_PRODUCER_RATE_HZ))?;
+        // Regression (review): --rate 0.01 wrote a record every reader refuses (eval and replay
+        // take no step longer than MAX_STEP_S, and replay said the 100 s step looked like
+        // milliseconds).
+        let rate_hz = checked(limits::in_range(
+            "--rate",
+            args.rate,
+            1.0 / shipcast_series::resample::MAX_STEP_S,
+            MAX_PRODUCER_RATE_HZ,
+        ))?;
         let record = match &args.elevation {
             Some(elevation) => Record::Measured {
                 elevation: {

@@ -70,8 +70,15 @@ pub fn table(entries: &[Entry], sample_rate: f64, horizon: usize) -> String {
                 );
                 for &(_, step) in &leads {
                     let rms = r.rms[step - 1];
+                    // Against a persistence that never errs (a constant series) there is no
+                    // skill to state: "-", where the table said -inf or NaN (review).
                     let s = skill(rms, r.persistence_rms[step - 1]);
-                    let _ = write!(out, " {:>10.4} {:>6.3}", rms, s);
+                    let s = if s.is_finite() {
+                        format!("{s:.3}")
+                    } else {
+                        "-".to_string()
+                    };
+                    let _ = write!(out, " {:>10.4} {:>6}", rms, s);
                 }
                 let mc = r
                     .minor_components
@@ -127,12 +134,11 @@ mod tests {
         assert_eq!(lead_steps(8.0, 1), [(0.125, 1)]);
     }
 
-    #[test]
-    fn table_shows_leads_within_horizon_and_failures() {
-        let horizon = 12; // 6 s at 2 Hz: 0.5 s and 5 s only
-        let result = EvalResult {
+    /// A heave result at 2 Hz with `horizon` steps, its errors left at zero.
+    fn heave_result(method: Method, horizon: usize) -> EvalResult {
+        EvalResult {
             dof: Dof::Heave,
-            method: Method::Mca,
+            method,
             order: 40,
             horizon,
             train: 100,
@@ -141,21 +147,30 @@ mod tests {
             noise_pct: 0.0,
             seed: 1,
             origins: 77,
-            rms: (1..=horizon).map(|h| h as f64 * 0.01).collect(),
+            rms: vec![0.0; horizon],
             nrmse: vec![0.0; horizon],
-            persistence_rms: vec![0.2; horizon],
+            persistence_rms: vec![0.0; horizon],
             rms_clean: None,
             test_std: 1.0,
             train_seconds: 0.5,
             predict_seconds: 2e-6,
             update_seconds: 0.0,
-            minor_components: Some(13),
+            minor_components: None,
             energy: None,
             ridge: None,
             mca_weighting: None,
             average: Averaging::NONE,
             average_weights: None,
-        };
+        }
+    }
+
+    #[test]
+    fn table_shows_leads_within_horizon_and_failures() {
+        let horizon = 12; // 6 s at 2 Hz: 0.5 s and 5 s only
+        let mut result = heave_result(Method::Mca, horizon);
+        result.rms = (1..=horizon).map(|h| h as f64 * 0.01).collect();
+        result.persistence_rms = vec![0.2; horizon];
+        result.minor_components = Some(13);
         let failure = EvalFailure {
             dof: Dof::Heave,
             method: Method::Mlp,
@@ -169,5 +184,25 @@ mod tests {
         assert!(text.contains("0.1000  0.750"), "{text}");
         assert!(text.contains("   13\n"), "{text}");
         assert!(text.contains("mlp          error: infeasible configuration: x"));
+    }
+
+    #[test]
+    fn skill_over_a_persistence_that_never_errs_is_shown_as_a_dash() {
+        let result = |rms: f64| EvalResult {
+            rms: vec![rms],
+            persistence_rms: vec![0.0],
+            test_std: 0.0,
+            ..heave_result(Method::Wiener, 1)
+        };
+        let text = table(
+            &[Entry::Done(result(0.0)), Entry::Done(result(0.5))],
+            2.0,
+            1,
+        );
+        assert!(!text.contains("inf") && !text.contains("NaN"), "{text}");
+        assert!(
+            text.contains("0.0000      -") && text.contains("0.5000      -"),
+            "{text}"
+        );
     }
 }
