@@ -924,12 +924,25 @@ mod tests {
         let mut v =
             serde_json::to_value(train_models(&data, &[Dof::Heave], &options(Method::Ar)).unwrap())
                 .unwrap();
+        let good = v.clone();
         v["config"]["lms_gain"] = (-1.0).into();
         assert!(
             load(&v).contains("config: ") && load(&v).contains("LMS gain"),
             "{}",
             load(&v)
         );
+        // Regression (review): the AR's own gain of 1e300 loaded, as eval and the configuration
+        // refuse it; one at the bound still loads.
+        let mut v = good.clone();
+        v["dofs"][0]["predictor"]["gain"] = 1e300.into();
+        assert!(
+            load(&v).contains("AR gain must be in (0, 100], got 1e300"),
+            "{}",
+            load(&v)
+        );
+        let mut v = good;
+        v["dofs"][0]["predictor"]["gain"] = 100.0.into();
+        assert_eq!(load(&v), "loaded");
     }
 
     /// Regression (review): a model was written in place, so a retrain whose write failed

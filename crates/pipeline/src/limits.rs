@@ -25,7 +25,7 @@ pub const MAX_HIDDEN: usize = 10_000;
 pub const MAX_EPOCHS: usize = 1_000_000;
 
 /// Largest LMS step size and relative ridge accepted (far beyond any stable value).
-pub const MAX_GAIN: f64 = 100.0;
+pub const MAX_GAIN: f64 = shipcast_predict::ar_lms::MAX_GAIN;
 pub const MAX_RIDGE: f64 = 1e6;
 
 /// Highest core id that `sched_setaffinity`'s fixed-size set can hold, plus one.

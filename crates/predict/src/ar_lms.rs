@@ -29,6 +29,10 @@ use serde::{Deserialize, Serialize};
 /// the weights overflow, yet is far beyond what a converging filter ever predicts.
 const DIVERGENCE_FACTOR: f64 = 1e6;
 
+/// Largest LMS step size accepted, in a configuration or a model file: far beyond any stable
+/// value (the paper's is 0.005; NLMS is stable below 2).
+pub const MAX_GAIN: f64 = 100.0;
+
 /// Regularises NLMS on a (near-)zero window, relative to the scale of the data.
 const NLMS_EPS: f64 = 1e-12;
 
@@ -58,9 +62,11 @@ impl ArLmsPredictor {
     /// What a model file must satisfy (see `serde_validated!`): a positive finite gain,
     /// order x horizon finite weights, a finite peak and power.
     fn validate(&self) -> Result<(), String> {
-        if !(self.gain.is_finite() && self.gain > 0.0) {
+        // Regression (review): a gain of 1e300 loaded, and its failure was logged with
+        // 300-digit numbers.
+        if !(self.gain > 0.0 && self.gain <= MAX_GAIN) {
             return Err(format!(
-                "AR gain must be positive and finite, got {}",
+                "AR gain must be in (0, {MAX_GAIN}], got {:e}",
                 self.gain
             ));
         }
@@ -87,9 +93,9 @@ impl ArLmsPredictor {
 
     /// An unfitted predictor; fails if the gain is not a positive finite number.
     pub fn new(config: &PredictorConfig) -> Result<Self, PredictError> {
-        if !(config.lms_gain.is_finite() && config.lms_gain > 0.0) {
+        if !(config.lms_gain > 0.0 && config.lms_gain <= MAX_GAIN) {
             return Err(PredictError::Infeasible(format!(
-                "LMS gain must be positive and finite, got {}",
+                "LMS gain must be in (0, {MAX_GAIN}], got {:e}",
                 config.lms_gain
             )));
         }
