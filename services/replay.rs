@@ -257,8 +257,16 @@ fn table(r: &ReplayReport) -> String {
     let horizon_s = r.dofs.first().map_or(0.0, |d| d.rms.len() as f64 * r.dt_s);
     for d in &r.decisions {
         if d.calls == 0 {
+            let frozen;
             let why = if d.mot_s > horizon_s + 1e-9 {
                 "the horizon is shorter than the MOT"
+            } else if let (n @ 1.., Some(dof)) = (d.frozen_forecasts, d.frozen_dof) {
+                // Regression (review): a dead heave sensor was explained as the deck waiting
+                // for verified errors.
+                frozen = format!(
+                    "the {dof} sensor repeated its value, to the last bit, at {n} of the scored forecasts: the deck states no probability while a sensor behind its limits is frozen"
+                );
+                &frozen
             } else if r.partly_scored > 0 {
                 "no probability was stated in the scored part of the record: the deck is judged on whole forecasts only, and samples missing from the record left few or none whole; it states nothing before it has verified errors, about 5 minutes"
             } else {

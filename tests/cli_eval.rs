@@ -1121,4 +1121,9 @@ fn replay_table_shows_a_dash_where_a_ratio_has_nothing_to_divide_by() {
         stdout.contains("heave   max |error| 0.0000 (- x the motion's std 0.0000)"),
         "{stdout}"
     );
+    // Nor is the deck waiting for verified errors: its heave sensor is dead, and it says so.
+    assert!(
+        stdout.contains("deck MOT 10s: no call (the heave sensor repeated its value"),
+        "{stdout}"
+    );
 }

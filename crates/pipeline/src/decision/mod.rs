@@ -452,6 +452,11 @@ impl Decider {
         p
     }
 
+    /// The deck DOF whose sensor repeats its value (`still.rs`), if any.
+    pub fn frozen(&self) -> Option<Dof> {
+        self.still.frozen()
+    }
+
     /// Whether the loaded forecast's probabilities may say go: they come from verified
     /// errors, or the configuration lets the Gaussian model decide, and no sensor behind them
     /// is frozen.

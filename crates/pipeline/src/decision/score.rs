@@ -25,6 +25,7 @@ use super::{
 use crate::config::DeckConfig;
 use serde::Serialize;
 use shipcast_wire::payload::{Forecast, MAX_STEPS};
+use shipcast_wire::Dof;
 use std::collections::{BTreeMap, VecDeque};
 
 /// The thresholds of the false go against hit rate curve with the configured `go_probability`
@@ -108,6 +109,10 @@ pub struct DecisionReport {
     /// Step-to-step error correlation at the end of the replay (roll, pitch, deck vertical
     /// displacement, deck vertical velocity).
     pub error_correlation: [f64; NUM_QUANTITIES],
+    /// Scored forecasts loaded while a deck sensor repeated its value (no probability is
+    /// stated then), and the last DOF that did (null: none).
+    pub frozen_forecasts: u64,
+    pub frozen_dof: Option<&'static str>,
 }
 
 #[derive(Debug, Clone, Default)]
@@ -177,6 +182,8 @@ pub struct DecisionScorer {
     /// have announced.
     issued_s: Vec<f64>,
     horizon_steps: usize,
+    /// Scored forecasts loaded while a deck sensor repeated its value, and the last such DOF.
+    frozen: (u64, Option<Dof>),
 }
 
 impl DecisionScorer {
@@ -222,6 +229,7 @@ impl DecisionScorer {
             dt_s: f64::NAN,
             issued_s: Vec::new(),
             horizon_steps: 0,
+            frozen: (0, None),
         }
     }
 
@@ -287,6 +295,9 @@ impl DecisionScorer {
         }
         let issued = t0 + self.issue_delay_s;
         if counted {
+            if let Some(dof) = decider.frozen() {
+                self.frozen = (self.frozen.0 + 1, Some(dof));
+            }
             // Interior steps only: an end step's velocity is one-sided where the record ends.
             for (k, &held) in ok.iter().enumerate().take(steps.saturating_sub(1)).skip(1) {
                 let g = ((t0 + (k + 1) as f64 * dt) / dt).round() as i64;
@@ -458,6 +469,8 @@ impl DecisionScorer {
                     false_go_excess: false_go_excess(&m.false_go, self.dt_s),
                     curve,
                     error_correlation: rho,
+                    frozen_forecasts: self.frozen.0,
+                    frozen_dof: self.frozen.1.map(Dof::name),
                 }
             })
             .collect()
