@@ -1,6 +1,7 @@
 #!/usr/bin/env python3
 """Replay the predictor's engine over the four records of the robustness study and print what
-an operator needs to know: error relative to predicting zero at every lead, coverage of the
+an operator needs to know: error relative to predicting the motion's mean (its std) at every
+lead, coverage of the
 sigma bands, the largest error, and how fast the error recovers after a change of sea.
 
 Run from the repository root after `cargo build --release` and `python3 scripts/fetch_wafo.py`
@@ -132,7 +133,7 @@ def main():
         first = replay(path, 60.0)
         later = replay(path, 1200.0)
         print(f"\n## {name}\n")
-        print("| dof | NRMSE 5/10/20 s | max NRMSE, any lead | max error / RMS | "
+        print("| dof | NRMSE 5/10/20 s | max NRMSE, any lead | max error / std | "
               "largest error / sigma (at s, lead s) | beyond 3 sigma | "
               "1 sigma 5/10/20 s (after 20 min) | 2 sigma 5/10/20 s | implausible | recovery [min] | "
               "the motion's own [min] |")

@@ -339,17 +339,23 @@ fn nothing_scored(
     let first_s = (inputs - 1) as f64 / report.input_rate_hz;
     let horizon_s = predictor.horizon as f64 / predictor.sample_rate_hz;
     let least_s = first_s - report.delay_s + horizon_s;
+    // To the millisecond, and the least length rounded up (review: at 16 Hz "at least 55.9 s"
+    // where 55.9375 s were needed, at 4 Hz a delay of 0.25 s shown as 0.2).
+    let ms = |v: f64| shipcast_wire::shown::number((v * 1000.0).round() / 1000.0);
     let file = input.display();
     let stamped = if report.delay_s > 0.0 {
         format!(
-            " and stamped {:.1} s before that (the decimation filter's delay)",
-            report.delay_s
+            " and stamped {} s before that (the decimation filter's delay)",
+            ms(report.delay_s)
         )
     } else {
         String::new()
     };
     let needs = format!(
-        "a forecast is scored only if all {horizon_s:.1} s of its steps lie inside the record: the first is issued {first_s:.1} s into an unbroken record{stamped}, so at least {least_s:.1} s are needed"
+        "a forecast is scored only if all {} s of its steps lie inside the record: the first is issued {} s into the record{stamped}, so at least {} s are needed",
+        ms(horizon_s),
+        ms(first_s),
+        shipcast_wire::shown::number((least_s * 1000.0 - 1e-6).ceil() / 1000.0)
     );
     match report.last_complete_s {
         Some(last) => format!(
@@ -357,9 +363,10 @@ fn nothing_scored(
             report.complete_forecasts
         ),
         None if report.history_restarts > 0 => format!(
-            "no forecast could be scored in {file}: gaps in time longer than {} samples restarted the history {} times, and {needs}; the longest history between them was {:.1} s",
+            "no forecast could be scored in {file}: gaps in time longer than {} samples restarted the history {} times, and a forecast is scored only if all {} s of its steps lie inside the record; the longest history between them was {:.1} s",
             shipcast_pipeline::engine::MAX_FILL,
             report.history_restarts,
+            ms(horizon_s),
             report.longest_history_s,
         ),
         None => format!(

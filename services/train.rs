@@ -136,11 +136,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             // Regression (review): this was the protocol's "train N + order + horizon = M
             // samples are needed", N the record less its held-out share: given M samples, it
             // asked for M + 7, and so on.
+            // Samples at the training rate: an input at a higher rate also loses the
+            // decimation filter's first inputs, and the part before the held-out one must
+            // still train the method (its own "too short" says how much).
             let needed = match least_record_for(order + horizon, holdout) {
-                Some(least) => format!(
-                    "at least {least} samples ({} s) are needed",
-                    shipcast_wire::shown::number((least as f64 / rate).ceil())
-                ),
+                Some(least) => format!("at least {least} samples at that rate are needed for it"),
                 None => "no record of any practical length is enough".to_string(),
             };
             anyhow::anyhow!(
@@ -173,7 +173,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
 }
 
 /// The fewest samples whose held-out end, as `train_models` splits them (the last
-/// `len - floor((1 - holdout) * len)`), holds `values`; None beyond 1e12 samples (a tiny
+/// `len - floor((1 - holdout) * len)`), holds `values` (the rest must also train the method,
+/// which this does not count); None beyond 1e12 samples (a tiny
 /// `holdout`), where the count would overflow.
 fn least_record_for(values: usize, holdout: f64) -> Option<usize> {
     if !(holdout > 0.0 && values as f64 / holdout <= 1e12) {

@@ -387,7 +387,8 @@ fn train_writes_a_loadable_model_for_every_dof_present() {
     let short = train("0.1");
     let e = String::from_utf8_lossy(&short.stderr).to_string();
     assert!(
-        e.contains("500 samples at 2 Hz are too short") && e.contains("at least 651 samples"),
+        e.contains("500 samples at 2 Hz are too short")
+            && e.contains("at least 651 samples at that rate"),
         "{e}"
     );
     let text = std::fs::read_to_string(sea_csv(dir.path(), "long.csv", 2.0, 700)).unwrap();
@@ -607,7 +608,7 @@ fn replay_of_a_record_too_short_to_score_says_why() {
         );
         csv
     };
-    // 45 s: the first forecast comes after 30 s of history, and its 25 s of steps end
+    // 45 s: the first forecast comes 31.5 s into the record, and its 25 s of steps end
     // beyond the record.
     let short = record("short.csv", "45");
     let output = shipcast(&["replay", "--input", &short, "--skip-s", "0"]);
@@ -618,7 +619,8 @@ fn replay_of_a_record_too_short_to_score_says_why() {
     );
     let error = stderr.lines().last().unwrap_or_default();
     assert!(
-        error.starts_with("error: no forecast could be scored in") && error.contains("25.0 s"),
+        error.starts_with("error: no forecast could be scored in")
+            && error.contains("all 25 s of its steps"),
         "{stderr}"
     );
     // 2 minutes: forecasts are scored, but the deck states no probability before it has
@@ -730,8 +732,8 @@ fn replay_of_a_record_whose_gaps_restart_the_history_names_them_not_skip_s() {
     let e = error(&["replay", "--input", &first_rows(445)]);
     assert!(
         e.contains("runs from 0.0 to 55.5 s")
-            && e.contains("the first is issued 31.5 s into an unbroken record")
-            && e.contains("at least 56.0 s are needed")
+            && e.contains("the first is issued 31.5 s into the record")
+            && e.contains("at least 56 s are needed")
             && !e.contains("--skip-s")
             && !e.contains("restarted"),
         "{e}"

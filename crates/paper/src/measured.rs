@@ -109,7 +109,7 @@ pub struct EngineScores {
     pub scored: u64,
     pub retrains: u64,
     pub implausible: u64,
-    /// Largest error over the motion's RMS.
+    /// Largest error over the motion's standard deviation about its mean.
     pub max_error_over_std: f64,
 }
 
@@ -320,8 +320,8 @@ pub fn verdict(outcomes: &[MeasuredOutcome], split: &Split) -> String {
         let _ = write!(
             s,
             " The engine, which picks its order per DOF on held-out data and shrinks towards \
-             zero, delivers {} against that method; its error is {} predicting zero's at every \
-             lead.",
+             zero, delivers {} against that method; its error is {} the motion's standard \
+             deviation (what predicting its mean scores) at every lead.",
             cmp.join(", "),
             if e.nrmse.iter().all(|v| *v <= 1.0) {
                 "at or below"
@@ -346,7 +346,8 @@ pub fn section(outcomes: &[MeasuredOutcome], plan: &Plan, record: &RecordInfo, s
          predictor configuration, no start-up model, retraining on live history), and its \
          delivered forecasts issued from {skip} s of record time on (the start of the offline \
          test part) are scored against the record. Every number is error / std of the \
-         motion (for the engine, its RMS about zero): 1 is what predicting zero scores. A lead \
+         motion (for the engine too, its standard deviation about the mean): 1 is about what \
+         predicting zero scores on this zero-mean record. A lead \
          counts from the newest value each one forecasts from, the time that value represents: \
          the offline series' is its filter's delay (1 s for an 8 Hz record) before the newest sample it holds, the \
          engine's its minimum-phase filter's delay (0.5 s for an 8 Hz record); the offline methods are scored \

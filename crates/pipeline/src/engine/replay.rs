@@ -34,8 +34,8 @@ pub struct DofReplay {
     /// Jumps of the level a forecast's first steps missed, each held at no skill until it
     /// had left the model's input (`jump.rs`).
     pub jumps: u64,
-    /// Standard deviation about their mean of the record's values at the scored steps: what
-    /// predicting the motion's mean scores. (Until 2026-12-08 their RMS about zero: a record
+    /// Standard deviation about their mean of the record's values at the scored steps, all
+    /// steps together: what predicting the motion's mean scores, and what `nrmse` divides by. (Until 2026-12-08 their RMS about zero: a record
     /// with an offset, a list of the ship, looked like strong skill; review.)
     pub std: f64,
     pub rms: Vec<f64>,
@@ -441,10 +441,12 @@ pub fn replay_scored(
                     f64::NAN
                 }
             };
-            let step_std = per(&|a| std_of(a.dx, a.dxx, a.n));
             let (dx, dxx, n, in3) = s.iter().fold((0.0, 0.0, 0.0, 0.0), |acc, a| {
                 (acc.0 + a.dx, acc.1 + a.dxx, acc.2 + a.n, acc.3 + a.in3)
             });
+            // Over every step's values: each step's own, from a few forecasts, is near 0 (a
+            // single forecast's values at one step have none; review: NRMSE 449).
+            let std = std_of(dx, dxx, n);
             DofReplay {
                 dof: dof.name(),
                 forecasts: counts.forecasts,
@@ -454,8 +456,8 @@ pub fn replay_scored(
                 swaps: counts.swaps,
                 implausible: counts.implausible[d],
                 jumps: counts.jumps[d],
-                std: std_of(dx, dxx, n),
-                nrmse: rms.iter().zip(&step_std).map(|(a, b)| a / b).collect(),
+                std,
+                nrmse: rms.iter().map(|a| a / std).collect(),
                 rms,
                 zero_rms,
                 persistence_rms: per(&|a| root(a.pp, a.n)),
