@@ -190,6 +190,15 @@ fn fixed(v: f64, decimals: usize) -> String {
     }
 }
 
+/// `v` as written (`limits::shown`), or "-" where it is not a number.
+fn exact(v: f64) -> String {
+    if v.is_finite() {
+        limits::shown(v)
+    } else {
+        "-".to_string()
+    }
+}
+
 fn table(r: &ReplayReport) -> String {
     let mut s = format!(
         "replay: {} forecasts, {} retrains ({} failed), {} swaps ({} kept the running model), {} sea changes; input {} Hz\n",
@@ -249,24 +258,36 @@ fn table(r: &ReplayReport) -> String {
             "{:<7} largest error {} sigma (issued at {} s, {} s ahead); {} of all steps beyond 3 sigma (Gaussian 0.0027)\n",
             d.dof,
             fixed(d.max_abs_z, 1),
-            fixed(d.max_abs_z_time_s, 1),
-            fixed(d.max_abs_z_lead_s, 1),
+            exact(d.max_abs_z_time_s),
+            exact(d.max_abs_z_lead_s),
             fixed(d.beyond_3sigma, 4)
         ));
     }
     let horizon_s = r.dofs.first().map_or(0.0, |d| d.rms.len() as f64 * r.dt_s);
     for d in &r.decisions {
+        // Regression (review): a dead heave sensor was explained as the deck waiting for
+        // verified errors. Both can hold at once, so the sensors are named beside the reason,
+        // not instead of it, and also where calls were made around a freeze.
+        let frozen = if d.frozen_forecasts > 0 {
+            let by: Vec<String> = d
+                .frozen_by_dof
+                .iter()
+                .map(|(dof, n)| format!("{dof} {n}"))
+                .collect();
+            format!(
+                "{} MOT {:.0}s: a deck sensor repeated its value, to the last bit, at {} of {scored} scored forecasts ({}): no probability is stated while one does\n",
+                d.station,
+                d.mot_s,
+                d.frozen_forecasts,
+                by.join(", ")
+            )
+        } else {
+            String::new()
+        };
         if d.calls == 0 {
-            let frozen;
-            let why = if d.mot_s > horizon_s + 1e-9 {
+            let too_long = d.mot_s > horizon_s + 1e-9;
+            let why = if too_long {
                 "the horizon is shorter than the MOT"
-            } else if let (n @ 1.., Some(dof)) = (d.frozen_forecasts, d.frozen_dof) {
-                // Regression (review): a dead heave sensor was explained as the deck waiting
-                // for verified errors.
-                frozen = format!(
-                    "the {dof} sensor repeated its value, to the last bit, at {n} of the scored forecasts: the deck states no probability while a sensor behind its limits is frozen"
-                );
-                &frozen
             } else if r.partly_scored > 0 {
                 "no probability was stated in the scored part of the record: the deck is judged on whole forecasts only, and samples missing from the record left few or none whole; it states nothing before it has verified errors, about 5 minutes"
             } else {
@@ -276,6 +297,9 @@ fn table(r: &ReplayReport) -> String {
                 "{} MOT {:.0}s: no call ({why})\n",
                 d.station, d.mot_s
             ));
+            if !too_long {
+                s.push_str(&frozen);
+            }
             continue;
         }
         s.push_str(&format!(
@@ -283,6 +307,7 @@ fn table(r: &ReplayReport) -> String {
             d.station, d.mot_s, d.calls, d.go_calls, d.go_probability, fixed(d.false_go_rate, 3),
             fixed(d.hit_rate, 3), d.quiet_periods, fixed(d.brier, 4), fixed(d.brier_climatology, 4)
         ));
+        s.push_str(&frozen);
         s.push_str(&format!(
             "  threshold  go calls  false go  hit rate announced {:?} s ahead\n",
             d.hit_leads_s

@@ -1123,9 +1123,17 @@ fn replay_table_shows_a_dash_where_a_ratio_has_nothing_to_divide_by() {
         stdout.contains("heave   max |error| 0.0000 (- x the motion's std 0.0000)"),
         "{stdout}"
     );
-    // Nor is the deck waiting for verified errors: its heave sensor is dead, and it says so.
-    assert!(
-        stdout.contains("deck MOT 10s: no call (the heave sensor repeated its value"),
-        "{stdout}"
-    );
+    // Its heave sensor is dead, and the deck says so, counting the forecasts it affected
+    // (all but those of the first 30 s of repetition, which is when a sensor counts as frozen).
+    let frozen = stdout
+        .lines()
+        .find_map(|l| {
+            l.strip_prefix("deck MOT 10s: a deck sensor repeated its value, to the last bit, at ")
+        })
+        .unwrap_or_else(|| panic!("{stdout}"));
+    let (n, rest) = frozen.split_once(" of ").unwrap();
+    let (scored, rest) = rest.split_once(" scored forecasts (heave ").unwrap();
+    let (n, scored): (u64, u64) = (n.parse().unwrap(), scored.parse().unwrap());
+    assert!(n > scored * 9 / 10 && n < scored, "{frozen}");
+    assert!(rest.starts_with(&format!("{n})")), "{frozen}");
 }

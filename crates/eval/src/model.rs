@@ -940,6 +940,13 @@ mod tests {
             "{}",
             load(&v)
         );
+        let mut v = good.clone();
+        v["dofs"][0]["predictor"]["gain"] = 150.0.into();
+        assert!(
+            load(&v).contains("AR gain must be in (0, 100], got 150"),
+            "{}",
+            load(&v)
+        );
         let mut v = good;
         v["dofs"][0]["predictor"]["gain"] = 100.0.into();
         assert_eq!(load(&v), "loaded");

@@ -33,6 +33,15 @@ const DIVERGENCE_FACTOR: f64 = 1e6;
 /// value (the paper's is 0.005; NLMS is stable below 2).
 pub const MAX_GAIN: f64 = 100.0;
 
+/// A gain as written, in exponent form only where plain digits would run long (1e300).
+fn shown(gain: f64) -> String {
+    if gain != 0.0 && !(1e-6..1e15).contains(&gain.abs()) {
+        format!("{gain:e}")
+    } else {
+        format!("{gain}")
+    }
+}
+
 /// Regularises NLMS on a (near-)zero window, relative to the scale of the data.
 const NLMS_EPS: f64 = 1e-12;
 
@@ -66,8 +75,8 @@ impl ArLmsPredictor {
         // 300-digit numbers.
         if !(self.gain > 0.0 && self.gain <= MAX_GAIN) {
             return Err(format!(
-                "AR gain must be in (0, {MAX_GAIN}], got {:e}",
-                self.gain
+                "AR gain must be in (0, {MAX_GAIN}], got {}",
+                shown(self.gain)
             ));
         }
         if self.order.checked_mul(self.horizon) != Some(self.weights.len()) {
@@ -95,8 +104,8 @@ impl ArLmsPredictor {
     pub fn new(config: &PredictorConfig) -> Result<Self, PredictError> {
         if !(config.lms_gain > 0.0 && config.lms_gain <= MAX_GAIN) {
             return Err(PredictError::Infeasible(format!(
-                "LMS gain must be in (0, {MAX_GAIN}], got {:e}",
-                config.lms_gain
+                "LMS gain must be in (0, {MAX_GAIN}], got {}",
+                shown(config.lms_gain)
             )));
         }
         Ok(Self {

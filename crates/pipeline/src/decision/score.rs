@@ -110,9 +110,10 @@ pub struct DecisionReport {
     /// displacement, deck vertical velocity).
     pub error_correlation: [f64; NUM_QUANTITIES],
     /// Scored forecasts loaded while a deck sensor repeated its value (no probability is
-    /// stated then), and the last DOF that did (null: none).
+    /// stated then), and how many of them by DOF (each once, under the first such DOF in
+    /// heave, roll, pitch order; DOFs with none left out).
     pub frozen_forecasts: u64,
-    pub frozen_dof: Option<&'static str>,
+    pub frozen_by_dof: BTreeMap<&'static str, u64>,
 }
 
 #[derive(Debug, Clone, Default)]
@@ -182,8 +183,9 @@ pub struct DecisionScorer {
     /// have announced.
     issued_s: Vec<f64>,
     horizon_steps: usize,
-    /// Scored forecasts loaded while a deck sensor repeated its value, and the last such DOF.
-    frozen: (u64, Option<Dof>),
+    /// Per DOF, the scored forecasts loaded while its sensor repeated its value (each forecast
+    /// once, under the first such DOF in heave, roll, pitch order).
+    frozen: [u64; shipcast_wire::payload::NUM_DOF],
 }
 
 impl DecisionScorer {
@@ -229,7 +231,7 @@ impl DecisionScorer {
             dt_s: f64::NAN,
             issued_s: Vec::new(),
             horizon_steps: 0,
-            frozen: (0, None),
+            frozen: [0; shipcast_wire::payload::NUM_DOF],
         }
     }
 
@@ -296,7 +298,7 @@ impl DecisionScorer {
         let issued = t0 + self.issue_delay_s;
         if counted {
             if let Some(dof) = decider.frozen() {
-                self.frozen = (self.frozen.0 + 1, Some(dof));
+                self.frozen[dof.index()] += 1;
             }
             // Interior steps only: an end step's velocity is one-sided where the record ends.
             for (k, &held) in ok.iter().enumerate().take(steps.saturating_sub(1)).skip(1) {
@@ -469,8 +471,12 @@ impl DecisionScorer {
                     false_go_excess: false_go_excess(&m.false_go, self.dt_s),
                     curve,
                     error_correlation: rho,
-                    frozen_forecasts: self.frozen.0,
-                    frozen_dof: self.frozen.1.map(Dof::name),
+                    frozen_forecasts: self.frozen.iter().sum(),
+                    frozen_by_dof: Dof::ALL
+                        .iter()
+                        .filter(|d| self.frozen[d.index()] > 0)
+                        .map(|d| (d.name(), self.frozen[d.index()]))
+                        .collect(),
                 }
             })
             .collect()
