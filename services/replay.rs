@@ -9,6 +9,7 @@ use shipcast_pipeline::engine::replay::{replay_scored, ReplayReport};
 use shipcast_pipeline::engine::startup::initial_models;
 use shipcast_pipeline::limits;
 use shipcast_series::motion_csv::MotionData;
+use shipcast_wire::shown::fixed_or_dash;
 use shipcast_wire::Dof;
 use std::io::Write;
 use std::path::PathBuf;
@@ -180,16 +181,6 @@ pub fn run(args: Args) -> anyhow::Result<()> {
 /// Leads shown in the table [s].
 const TABLE_LEADS: [f64; 4] = [5.0, 10.0, 15.0, 20.0];
 
-/// `v` with `decimals` decimals, or "-" where it is not a number (a ratio over nothing: no go
-/// call, a DOF that never moved, nothing scored), which the table showed as NaN (review).
-fn fixed(v: f64, decimals: usize) -> String {
-    if v.is_finite() {
-        format!("{v:.decimals$}")
-    } else {
-        "-".to_string()
-    }
-}
-
 /// `v` as written (`limits::shown`), or "-" where it is not a number.
 fn exact(v: f64) -> String {
     if v.is_finite() {
@@ -238,29 +229,29 @@ fn table(r: &ReplayReport) -> String {
                 "{:<7} {:>4.0}s {:<8} {:<6} {:<8} {:<8} {:<6} {:<6}\n",
                 d.dof,
                 lead,
-                fixed(d.rms[i], 4),
-                fixed(d.nrmse[i], 3),
-                fixed(d.persistence_rms[i], 4),
-                fixed(d.mean_sigma[i], 4),
-                fixed(d.coverage_1sigma[i], 3),
-                fixed(d.coverage_2sigma[i], 3)
+                fixed_or_dash(d.rms[i], 4),
+                fixed_or_dash(d.nrmse[i], 3),
+                fixed_or_dash(d.persistence_rms[i], 4),
+                fixed_or_dash(d.mean_sigma[i], 4),
+                fixed_or_dash(d.coverage_1sigma[i], 3),
+                fixed_or_dash(d.coverage_2sigma[i], 3)
             ));
         }
         s.push_str(&format!(
             "{:<7} max |error| {} ({} x the motion's std {}); {} implausible forecasts replaced\n",
             d.dof,
-            fixed(d.max_abs_error, 4),
-            fixed(d.max_abs_error / d.std, 2),
-            fixed(d.std, 4),
+            fixed_or_dash(d.max_abs_error, 4),
+            fixed_or_dash(d.max_abs_error / d.std, 2),
+            fixed_or_dash(d.std, 4),
             d.implausible
         ));
         s.push_str(&format!(
             "{:<7} largest error {} sigma (issued at {} s, {} s ahead); {} of all steps beyond 3 sigma (Gaussian 0.0027)\n",
             d.dof,
-            fixed(d.max_abs_z, 1),
+            fixed_or_dash(d.max_abs_z, 1),
             exact(d.max_abs_z_time_s),
             exact(d.max_abs_z_lead_s),
-            fixed(d.beyond_3sigma, 4)
+            fixed_or_dash(d.beyond_3sigma, 4)
         ));
     }
     let horizon_s = r.dofs.first().map_or(0.0, |d| d.rms.len() as f64 * r.dt_s);
@@ -304,8 +295,8 @@ fn table(r: &ReplayReport) -> String {
         }
         s.push_str(&format!(
             "{} MOT {:.0}s: {} calls, {} go at p >= {:.2}, false go {}, hit rate {} of {} quiet periods, Brier {} (base rate {})\n",
-            d.station, d.mot_s, d.calls, d.go_calls, d.go_probability, fixed(d.false_go_rate, 3),
-            fixed(d.hit_rate, 3), d.quiet_periods, fixed(d.brier, 4), fixed(d.brier_climatology, 4)
+            d.station, d.mot_s, d.calls, d.go_calls, d.go_probability, fixed_or_dash(d.false_go_rate, 3),
+            fixed_or_dash(d.hit_rate, 3), d.quiet_periods, fixed_or_dash(d.brier, 4), fixed_or_dash(d.brier_climatology, 4)
         ));
         s.push_str(&frozen);
         s.push_str(&format!(
@@ -313,12 +304,16 @@ fn table(r: &ReplayReport) -> String {
             d.hit_leads_s
         ));
         for c in &d.curve {
-            let hits: Vec<String> = c.hit_rate_by_lead.iter().map(|&h| fixed(h, 3)).collect();
+            let hits: Vec<String> = c
+                .hit_rate_by_lead
+                .iter()
+                .map(|&h| fixed_or_dash(h, 3))
+                .collect();
             s.push_str(&format!(
                 "  {:.2}  {:>8}  {:>8}  {}\n",
                 c.threshold,
                 c.go_calls,
-                fixed(c.false_go_rate, 3),
+                fixed_or_dash(c.false_go_rate, 3),
                 hits.join(" ")
             ));
         }
@@ -330,8 +325,8 @@ fn table(r: &ReplayReport) -> String {
                 b.p_hi,
                 b.count,
                 b.episodes,
-                fixed(b.stated, 3),
-                fixed(b.observed, 3)
+                fixed_or_dash(b.stated, 3),
+                fixed_or_dash(b.observed, 3)
             ));
         }
     }

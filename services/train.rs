@@ -2,7 +2,7 @@
 //! predictor service.
 
 use crate::eval::{load_resampled, sample_rate, PredictorArgs};
-use shipcast_eval::model::{train_models, ModelError, TrainOptions};
+use shipcast_eval::model::{train_models, training_len, ModelError, TrainOptions};
 use shipcast_eval::EvalError;
 use shipcast_pipeline::config::{PredictorServiceConfig, WienerSettings};
 use shipcast_predict::{Method, PredictorConfig};
@@ -172,15 +172,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// The fewest samples whose held-out end, as `train_models` splits them (the last
-/// `len - floor((1 - holdout) * len)`), holds `values` (the rest must also train the method,
-/// which this does not count); None beyond 1e12 samples (a tiny
-/// `holdout`), where the count would overflow.
+/// The fewest samples whose held-out end, as `train_models` splits them ([`training_len`]),
+/// holds `values` (the rest must also train the method, which this does not count); None
+/// beyond 1e12 samples (a tiny `holdout`), where the count would overflow.
 fn least_record_for(values: usize, holdout: f64) -> Option<usize> {
     if !(holdout > 0.0 && values as f64 / holdout <= 1e12) {
         return None;
     }
-    let held = |len: usize| len - ((1.0 - holdout) * len as f64).floor() as usize;
+    let held = |len: usize| len - training_len(len, holdout);
     // The held-out part is about holdout * len: the answer lies just above values / holdout.
     // Start where that part holds at most values - 1, clear of rounding.
     let mut len = ((values.saturating_sub(1) as f64 / holdout).floor() as usize)
@@ -202,7 +201,7 @@ mod tests {
 
     #[test]
     fn the_least_record_is_the_shortest_whose_held_out_part_holds_the_values() {
-        let held = |len: usize, h: f64| len - ((1.0 - h) * len as f64).floor() as usize;
+        let held = |len: usize, h: f64| len - training_len(len, h);
         for values in [1, 7, 66, 250, 1001] {
             for h in [0.1, 0.2, 0.25, 0.3, 0.5, 0.9, 1e-3] {
                 let least = least_record_for(values, h).unwrap();

@@ -122,6 +122,12 @@ pub struct TrainOptions {
     pub sigma_stride: usize,
 }
 
+/// Of `len` values, how many `train_models` trains on before the held-out end (`holdout` of
+/// them, rounded up): the rest are held out.
+pub fn training_len(len: usize, holdout: f64) -> usize {
+    ((1.0 - holdout) * len as f64).floor() as usize
+}
+
 /// Fit one model per DOF in `dofs`: measure sigma on the held-out end of the series with a model
 /// fitted on the rest, then refit on the whole series.
 pub fn train_models(
@@ -150,7 +156,7 @@ pub fn train_models(
             );
             continue;
         }
-        let split = ((1.0 - holdout) * series.len() as f64).floor() as usize;
+        let split = training_len(series.len(), holdout);
         let eval_err = |error| ModelError::Eval { dof, error };
         let predict_err = |error| ModelError::Predict { dof, error };
         let sigma_origins = origins(

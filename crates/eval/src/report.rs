@@ -73,12 +73,12 @@ pub fn table(entries: &[Entry], sample_rate: f64, horizon: usize) -> String {
                     // Against a persistence that never errs (a constant series) there is no
                     // skill to state: "-", where the table said -inf or NaN (review).
                     let s = skill(rms, r.persistence_rms[step - 1]);
-                    let s = if s.is_finite() {
-                        format!("{s:.3}")
-                    } else {
-                        "-".to_string()
-                    };
-                    let _ = write!(out, " {:>10.4} {:>6}", rms, s);
+                    let _ = write!(
+                        out,
+                        " {:>10.4} {:>6}",
+                        rms,
+                        shipcast_wire::shown::fixed_or_dash(s, 3)
+                    );
                 }
                 let mc = r
                     .minor_components

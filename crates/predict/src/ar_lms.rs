@@ -33,7 +33,9 @@ const DIVERGENCE_FACTOR: f64 = 1e6;
 /// value (the paper's is 0.005; NLMS is stable below 2).
 pub const MAX_GAIN: f64 = 100.0;
 
-/// A gain as written, in exponent form only where plain digits would run long (1e300).
+/// A gain as written, in exponent form only where plain digits would run long (1e300): the
+/// rule of `shipcast_wire::shown::number`, which serves every other crate's messages. This
+/// crate of algorithms does not depend on the transport's crate for it.
 fn shown(gain: f64) -> String {
     if gain != 0.0 && !(1e-6..1e15).contains(&gain.abs()) {
         format!("{gain:e}")

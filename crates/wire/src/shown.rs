@@ -11,9 +11,27 @@ pub fn number(x: f64) -> String {
     }
 }
 
+/// `x` with `decimals` decimals, for a table's column, or "-" where it is no number (a ratio
+/// over nothing: no go call, a DOF that never moves, a persistence that never errs).
+pub fn fixed_or_dash(x: f64, decimals: usize) -> String {
+    if x.is_finite() {
+        format!("{x:.decimals$}")
+    } else {
+        "-".to_string()
+    }
+}
+
 #[cfg(test)]
 mod tests {
-    use super::number;
+    use super::{fixed_or_dash, number};
+
+    #[test]
+    fn a_table_shows_a_dash_for_what_is_no_number() {
+        assert_eq!(fixed_or_dash(0.12345, 3), "0.123");
+        assert_eq!(fixed_or_dash(2.0, 0), "2");
+        assert_eq!(fixed_or_dash(f64::NAN, 3), "-");
+        assert_eq!(fixed_or_dash(f64::NEG_INFINITY, 3), "-");
+    }
 
     #[test]
     fn long_numbers_are_shown_in_exponent_form_and_others_as_written() {

@@ -35,8 +35,9 @@ pub struct DofReplay {
     /// had left the model's input (`jump.rs`).
     pub jumps: u64,
     /// Standard deviation about their mean of the record's values at the scored steps, all
-    /// steps together: what predicting the motion's mean scores, and what `nrmse` divides by. (Until 2026-12-08 their RMS about zero: a record
-    /// with an offset, a list of the ship, looked like strong skill; review.)
+    /// steps together: what predicting the motion's mean scores, and what `nrmse` divides by.
+    /// (Until 2026-12-08 their RMS about zero: a record with an offset, a list of the ship,
+    /// looked like strong skill; review.)
     pub std: f64,
     pub rms: Vec<f64>,
     pub zero_rms: Vec<f64>,
